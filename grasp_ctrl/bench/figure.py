@@ -1,0 +1,32 @@
+"""One benchmark figure and helpers to time a function."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Figure:
+    median: float
+    p99: float
+    unit: str
+
+    @classmethod
+    def single(cls, value: float, unit: str) -> "Figure":
+        return cls(value, value, unit)
+
+
+def time_ms(fn: Callable[[], object], repeats: int, warmup: int = 20) -> Figure:
+    """Median and p99 of ``fn``'s wall time in milliseconds, after warm-up."""
+    for _ in range(warmup):
+        fn()
+    samples = np.empty(repeats)
+    for i in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        samples[i] = (time.perf_counter() - t0) * 1e3
+    return Figure(float(np.median(samples)), float(np.percentile(samples, 99)), "ms")

@@ -1,0 +1,67 @@
+"""Command line: ``python launch.py COMMAND ...`` == ``grasp-ctrl COMMAND ...``.
+
+Each command lives in its own module ``grasp_ctrl/cli/cmd_<name>.py`` exposing
+``NAME``, ``HELP``, ``add_arguments(parser)`` and ``run(args) -> int``; they are
+discovered here, so adding a command touches no shared file. With no
+arguments the main job runs (``run`` with its defaults).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import pkgutil
+import sys
+from types import ModuleType
+from typing import Sequence
+
+from grasp_ctrl.errors import GraspCtrlError
+
+PROG = "grasp-ctrl"
+
+
+def _command_modules() -> list[ModuleType]:
+    mods = []
+    for info in pkgutil.iter_modules(__path__):
+        if info.name.startswith("cmd_"):
+            mods.append(importlib.import_module(f"{__name__}.{info.name}"))
+    return sorted(mods, key=lambda m: getattr(m, "ORDER", 100))
+
+
+class _OneLineErrorParser(argparse.ArgumentParser):
+    """argparse prints usage + error and exits 2; keep that, never a traceback."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _OneLineErrorParser(
+        prog=PROG,
+        description=(
+            "Tactile force-feedback lift-and-place grasping. With no command, runs the main "
+            "job: 5 lift-and-place trials per default object on the mock hand."
+        ),
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for mod in _command_modules():
+        p = sub.add_parser(mod.NAME, help=mod.HELP, description=getattr(mod, "DESCRIPTION", mod.HELP))
+        mod.add_arguments(p)
+        p.set_defaults(_run=mod.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser()
+    if not argv:
+        argv = ["run"]
+    args = parser.parse_args(argv)
+    if not getattr(args, "_run", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args._run(args) or 0)
+    except GraspCtrlError as exc:
+        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        return exc.exit_status
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,40 @@
+"""``bench``: performance figures (DESIGN.md 5.6)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+NAME = "bench"
+HELP = "measure the performance figures (DESIGN.md 5.6)"
+ORDER = 50
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--only", metavar="NAME,...", help="comma-separated figure names (default: all)")
+    p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
+    p.add_argument("--quick", action="store_true", help="fewer repetitions (a smoke test, not a measurement)")
+    p.add_argument("--list", action="store_true", help="list the figure names and exit")
+
+
+def run(args: argparse.Namespace) -> int:
+    from grasp_ctrl.bench.runner import all_figures, machine_description, run_figures
+
+    if args.list:
+        for name in all_figures():
+            print(name)
+        return 0
+    only = [n.strip() for n in args.only.split(",") if n.strip()] if args.only else None
+    results = run_figures(only, quick=args.quick)
+    print(f"{'figure':32s} {'median':>12s} {'p99':>12s}  unit")
+    for name, fig in results.items():
+        print(f"{name:32s} {fig.median:12.4g} {fig.p99:12.4g}  {fig.unit}")
+    if args.json:
+        doc = {
+            "machine": machine_description(),
+            "figures": {n: {"median": f.median, "p99": f.p99, "unit": f.unit} for n, f in results.items()},
+        }
+        with open(args.json, "w", encoding="utf-8") as fh:
+            json.dump(doc, fh, indent=2)
+            fh.write("\n")
+    return 0

@@ -1,0 +1,268 @@
+"""Hand configuration: servos, joint limits, kinematics, sensors, arm, grasp.
+
+Loaded from a TOML file under ``hand_configs/`` and validated on load. See
+``hand_configs/leap_hand.toml`` for a documented example of every key.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from grasp_ctrl.config.toml_reader import Table, read_toml
+
+SAFE_ACTIONS = ("hold", "open", "torque_off")
+ARM_KINDS = ("mock", "dynamixel", "external")
+SERIAL_MODES = ("binary", "text")
+
+
+@dataclass(frozen=True)
+class JointConfig:
+    name: str
+    servo_id: int
+    axis: tuple[float, float, float]          # unit, in the parent link frame
+    origin_xyz: tuple[float, float, float]    # m, parent link -> joint
+    origin_rpy: tuple[float, float, float]    # rad
+    lower_rad: float
+    upper_rad: float
+    open_rad: float                           # safe open posture
+    pregrasp_rad: float                       # posture used when reaching
+    offset_rad: float = 0.0                   # servo zero -> joint zero
+    sign: int = 1                             # servo direction
+    current_limit_a: float = 1.0
+
+
+@dataclass(frozen=True)
+class FingerConfig:
+    name: str
+    sensor_id: int                            # finger number on the tactile link
+    grasp: bool                               # takes part in the grasp
+    task_vector_hand: tuple[float, float, float]   # unit closing direction, hand frame
+    base_xyz: tuple[float, float, float]
+    base_rpy: tuple[float, float, float]
+    joints: tuple[JointConfig, ...]
+    tip_xyz: tuple[float, float, float]       # last link -> sensor frame
+    tip_rpy: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class DynamixelConfig:
+    port: str = "/dev/ttyUSB0"
+    baud: int = 4_000_000
+    model: str = "XC330-M288-T"
+    packet_timeout_ms: float = 8.0
+    retries: int = 2
+    profile_velocity: int = 0
+    profile_acceleration: int = 0
+
+
+@dataclass(frozen=True)
+class TactileConfig:
+    sensor_type: str = "biotac"
+    port: str = "/dev/ttyACM0"
+    baud: int = 1_000_000
+    mode: str = "binary"
+    stale_after_s: float = 0.05
+    contact_pdc_threshold: float = 10.0
+    contact_frames: int = 10
+    tare_frames: int = 50
+
+
+@dataclass(frozen=True)
+class ArmConfig:
+    kind: str = "mock"
+    max_speed_m_s: float = 0.05
+    lift_height_m: float = 0.10
+    z_min_m: float = 0.0
+    z_max_m: float = 0.6
+
+
+@dataclass(frozen=True)
+class SafetyConfig:
+    on_fault: str = "open"
+    max_fingertip_force_n: float = 8.0
+    max_joint_step_rad: float = 0.05
+
+
+@dataclass(frozen=True)
+class GraspConfig:
+    palm_above_contact_m: float = 0.11
+    release_finger: str = "index"
+
+
+@dataclass(frozen=True)
+class HandConfig:
+    name: str
+    path: str
+    rate_hz: float
+    fingers: tuple[FingerConfig, ...]
+    dynamixel: DynamixelConfig = field(default_factory=DynamixelConfig)
+    tactile: TactileConfig = field(default_factory=TactileConfig)
+    arm: ArmConfig = field(default_factory=ArmConfig)
+    safety: SafetyConfig = field(default_factory=SafetyConfig)
+    grasp: GraspConfig = field(default_factory=GraspConfig)
+
+    @property
+    def dt(self) -> float:
+        return 1.0 / self.rate_hz
+
+    @property
+    def joints(self) -> tuple[JointConfig, ...]:
+        """All joints, finger by finger: the order of every joint vector."""
+        return tuple(j for f in self.fingers for j in f.joints)
+
+    @property
+    def grasp_fingers(self) -> tuple[FingerConfig, ...]:
+        return tuple(f for f in self.fingers if f.grasp)
+
+    def finger(self, name: str) -> FingerConfig:
+        for f in self.fingers:
+            if f.name == name:
+                return f
+        raise KeyError(name)
+
+    def joint_slice(self, finger_name: str) -> slice:
+        start = 0
+        for f in self.fingers:
+            if f.name == finger_name:
+                return slice(start, start + len(f.joints))
+            start += len(f.joints)
+        raise KeyError(finger_name)
+
+
+def _joint(t: Table) -> JointConfig:
+    t.unknown_keys({
+        "name", "servo_id", "axis", "origin_xyz", "origin_rpy", "lower_rad", "upper_rad",
+        "open_rad", "pregrasp_rad", "offset_rad", "sign", "current_limit_a",
+    })
+    lower = t.float("lower_rad", lo=-6.3, hi=6.3)
+    upper = t.float("upper_rad", lo=-6.3, hi=6.3)
+    if upper <= lower:
+        raise t.fail("upper_rad", f"a value > lower_rad ({lower})")
+    open_rad = t.float("open_rad", lo=lower, hi=upper)
+    sign = t.int("sign", 1)
+    if sign not in (-1, 1):
+        raise t.fail("sign", "1 or -1")
+    return JointConfig(
+        name=t.str("name"),
+        servo_id=t.int("servo_id", lo=0, hi=252),
+        axis=t.vector("axis", 3, unit=True),  # type: ignore[arg-type]
+        origin_xyz=t.vector("origin_xyz", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
+        origin_rpy=t.vector("origin_rpy", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
+        lower_rad=lower,
+        upper_rad=upper,
+        open_rad=open_rad,
+        pregrasp_rad=t.float("pregrasp_rad", open_rad, lo=lower, hi=upper),
+        offset_rad=t.float("offset_rad", 0.0, lo=-6.3, hi=6.3),
+        sign=sign,
+        current_limit_a=t.float("current_limit_a", 1.0, lo=0.0, hi=5.0, lo_open=True),
+    )
+
+
+def _finger(t: Table) -> FingerConfig:
+    t.unknown_keys({
+        "name", "sensor_id", "grasp", "task_vector_hand", "base_xyz", "base_rpy", "joints",
+        "tip_xyz", "tip_rpy",
+    })
+    joints = tuple(_joint(j) for j in t.tables("joints", min_len=1))
+    return FingerConfig(
+        name=t.str("name"),
+        sensor_id=t.int("sensor_id", lo=0, hi=255),
+        grasp=t.bool("grasp", True),
+        task_vector_hand=t.vector("task_vector_hand", 3, unit=True),  # type: ignore[arg-type]
+        base_xyz=t.vector("base_xyz", 3),  # type: ignore[arg-type]
+        base_rpy=t.vector("base_rpy", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
+        joints=joints,
+        tip_xyz=t.vector("tip_xyz", 3),  # type: ignore[arg-type]
+        tip_rpy=t.vector("tip_rpy", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
+    )
+
+
+def load_hand(path: str | Path) -> HandConfig:
+    """Read and validate a hand file; raises ConfigError naming file and key."""
+    root = Table(path, read_toml(path))
+    root.unknown_keys({"name", "rate_hz", "fingers", "dynamixel", "tactile", "arm", "safety", "grasp"})
+    fingers = tuple(_finger(f) for f in root.tables("fingers", min_len=1))
+
+    names = [f.name for f in fingers]
+    for i, n in enumerate(names):
+        if n in names[:i]:
+            raise root.fail(f"fingers[{i}].name", f"a unique finger name ({n!r} repeats)")
+    sensor_ids = [f.sensor_id for f in fingers]
+    for i, s in enumerate(sensor_ids):
+        if s in sensor_ids[:i]:
+            raise root.fail(f"fingers[{i}].sensor_id", f"a unique sensor id ({s} repeats)")
+    servo_ids = [j.servo_id for f in fingers for j in f.joints]
+    if len(set(servo_ids)) != len(servo_ids):
+        dup = sorted({s for s in servo_ids if servo_ids.count(s) > 1})
+        raise root.fail("fingers.joints.servo_id", f"unique servo ids (repeated: {dup})")
+    if not any(f.grasp for f in fingers):
+        raise root.fail("fingers", "at least one finger with grasp = true")
+
+    d = root.table("dynamixel", {})
+    d.unknown_keys({"port", "baud", "model", "packet_timeout_ms", "retries", "profile_velocity", "profile_acceleration"})
+    dynamixel = DynamixelConfig(
+        port=d.str("port", DynamixelConfig.port),
+        baud=d.int("baud", DynamixelConfig.baud, lo=9600),
+        model=d.str("model", DynamixelConfig.model),
+        packet_timeout_ms=d.float("packet_timeout_ms", DynamixelConfig.packet_timeout_ms, lo=1.0, hi=1000.0),
+        retries=d.int("retries", DynamixelConfig.retries, lo=0, hi=10),
+        profile_velocity=d.int("profile_velocity", 0, lo=0),
+        profile_acceleration=d.int("profile_acceleration", 0, lo=0),
+    )
+
+    s = root.table("tactile", {})
+    s.unknown_keys({"sensor_type", "port", "baud", "mode", "stale_after_s", "contact_pdc_threshold", "contact_frames", "tare_frames"})
+    tactile = TactileConfig(
+        sensor_type=s.str("sensor_type", "biotac", choices=("biotac",)),
+        port=s.str("port", TactileConfig.port),
+        baud=s.int("baud", TactileConfig.baud, lo=9600),
+        mode=s.str("mode", "binary", choices=SERIAL_MODES),
+        stale_after_s=s.float("stale_after_s", 0.05, lo=0.0, hi=10.0, lo_open=True),
+        contact_pdc_threshold=s.float("contact_pdc_threshold", 10.0, lo=0.0),
+        contact_frames=s.int("contact_frames", 10, lo=1, hi=1000),
+        tare_frames=s.int("tare_frames", 50, lo=1, hi=10000),
+    )
+
+    a = root.table("arm", {})
+    a.unknown_keys({"kind", "max_speed_m_s", "lift_height_m", "z_min_m", "z_max_m"})
+    arm = ArmConfig(
+        kind=a.str("kind", "mock", choices=ARM_KINDS),
+        max_speed_m_s=a.float("max_speed_m_s", 0.05, lo=0.0, hi=1.0, lo_open=True),
+        lift_height_m=a.float("lift_height_m", 0.10, lo=0.0, hi=1.0, lo_open=True),
+        z_min_m=a.float("z_min_m", 0.0),
+        z_max_m=a.float("z_max_m", 0.6),
+    )
+    if arm.z_max_m <= arm.z_min_m:
+        raise a.fail("z_max_m", f"a value > z_min_m ({arm.z_min_m})")
+
+    sf = root.table("safety", {})
+    sf.unknown_keys({"on_fault", "max_fingertip_force_n", "max_joint_step_rad"})
+    safety = SafetyConfig(
+        on_fault=sf.str("on_fault", "open", choices=SAFE_ACTIONS),
+        max_fingertip_force_n=sf.float("max_fingertip_force_n", 8.0, lo=0.0, hi=100.0, lo_open=True),
+        max_joint_step_rad=sf.float("max_joint_step_rad", 0.05, lo=0.0, hi=1.0, lo_open=True),
+    )
+
+    g = root.table("grasp", {})
+    g.unknown_keys({"palm_above_contact_m", "release_finger"})
+    grasp = GraspConfig(
+        palm_above_contact_m=g.float("palm_above_contact_m", 0.11, lo=0.0, hi=1.0),
+        release_finger=g.str("release_finger", "index"),
+    )
+    if grasp.release_finger not in names:
+        raise g.fail("release_finger", f"one of the finger names {names}")
+    if not next(f for f in fingers if f.name == grasp.release_finger).grasp:
+        raise g.fail("release_finger", "a finger with grasp = true")
+
+    return HandConfig(
+        name=root.str("name"),
+        path=str(path),
+        rate_hz=root.float("rate_hz", 100.0, lo=1.0, hi=2000.0),
+        fingers=fingers,
+        dynamixel=dynamixel,
+        tactile=tactile,
+        arm=arm,
+        safety=safety,
+        grasp=grasp,
+    )

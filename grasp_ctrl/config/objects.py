@@ -1,0 +1,114 @@
+"""Object profiles: physical properties for the mock world and per-object
+controller thresholds (tau, release threshold and debounce).
+
+A profile file holds one ``[objects.NAME]`` table per object; see
+``hand_configs/objects.toml``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from grasp_ctrl.config.toml_reader import Table, read_toml
+
+SHAPES = ("cylinder", "box")
+
+
+@dataclass(frozen=True)
+class ObjectProfile:
+    name: str
+    shape: str                      # cylinder | box (footprint on the table)
+    size_m: tuple[float, float]     # cylinder: (diameter, diameter); box: (x, y) footprint
+    height_m: float
+    mass_kg: float
+    mu: float                       # fingertip-object friction coefficient
+    stiffness_n_per_m: float        # contact stiffness (skin + object surface)
+    deformable: bool
+    crush_force_n: float | None     # grip force that crushes a deformable object
+    grasp_height_m: float           # height of the fingertip contacts above the table
+    tip_force_n: float              # push into the table that knocks it over
+    # controller thresholds (tunable per object)
+    tau_n: float = 2.0
+    release_threshold_n: float = 0.3
+    release_debounce: int = 3
+    lift_height_m: float = 0.10
+    hold_s: float = 0.5
+
+    @property
+    def half_width_m(self) -> float:
+        return 0.5 * self.size_m[0]
+
+    def with_params(self, **params: Any) -> "ObjectProfile":
+        return replace(self, **params)
+
+
+TUNABLE = ("tau_n", "release_threshold_n", "release_debounce", "lift_height_m", "hold_s")
+
+
+def _object(name: str, t: Table) -> ObjectProfile:
+    t.unknown_keys({
+        "shape", "diameter_m", "size_m", "height_m", "mass_kg", "mu", "stiffness_n_per_m",
+        "deformable", "crush_force_n", "grasp_height_m", "tip_force_n", *TUNABLE,
+    })
+    shape = t.str("shape", choices=SHAPES)
+    if shape == "cylinder":
+        d = t.float("diameter_m", lo=0.005, hi=0.5)
+        size = (d, d)
+    else:
+        sx, sy = t.vector("size_m", 2)
+        if not (0.005 <= sx <= 0.5 and 0.005 <= sy <= 0.5):
+            raise t.fail("size_m", "two sizes between 0.005 and 0.5 m")
+        size = (sx, sy)
+    height = t.float("height_m", lo=0.01, hi=1.0)
+    mass = t.float("mass_kg", lo=0.0, hi=5.0, lo_open=True)
+    deformable = t.bool("deformable", False)
+    crush = t.float("crush_force_n", lo=0.0, lo_open=True) if deformable else None
+    if not deformable and t.has("crush_force_n"):
+        raise t.fail("crush_force_n", "absent for a rigid object (set deformable = true)")
+    grasp_h = t.float("grasp_height_m", 0.5 * height, lo=0.005, hi=height)
+    return ObjectProfile(
+        name=name,
+        shape=shape,
+        size_m=size,
+        height_m=height,
+        mass_kg=mass,
+        mu=t.float("mu", lo=0.05, hi=3.0),
+        stiffness_n_per_m=t.float("stiffness_n_per_m", lo=10.0, hi=1e6),
+        deformable=deformable,
+        crush_force_n=crush,
+        grasp_height_m=grasp_h,
+        tip_force_n=t.float("tip_force_n", 15.0, lo=0.0, lo_open=True),
+        tau_n=t.float("tau_n", 2.0, lo=0.1, hi=20.0),
+        release_threshold_n=t.float("release_threshold_n", 0.3, lo=0.0, hi=10.0),
+        release_debounce=t.int("release_debounce", 3, lo=1, hi=1000),
+        lift_height_m=t.float("lift_height_m", 0.10, lo=0.0, hi=1.0, lo_open=True),
+        hold_s=t.float("hold_s", 0.5, lo=0.0, hi=60.0),
+    )
+
+
+def load_objects(path: str | Path) -> dict[str, ObjectProfile]:
+    """Read an object-profile file into ``{name: profile}`` (file order kept)."""
+    root = Table(path, read_toml(path))
+    root.unknown_keys({"objects", "default_set"})
+    objs = root.table("objects")
+    if not objs.data:
+        raise root.fail("objects", "at least one [objects.NAME] table")
+    profiles = {name: _object(name, objs.table(name)) for name in objs.data}
+    return profiles
+
+
+def default_set(path: str | Path) -> list[str]:
+    """Names listed in ``default_set`` (all objects when absent)."""
+    root = Table(path, read_toml(path))
+    profiles = load_objects(path)
+    if not root.has("default_set"):
+        return list(profiles)
+    names = root.data["default_set"]
+    if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+        raise root.fail("default_set", "a list of object names")
+    for n in names:
+        if n not in profiles:
+            raise root.fail("default_set", f"names of [objects.*] tables (unknown: {n!r})")
+    return names

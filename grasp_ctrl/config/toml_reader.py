@@ -1,0 +1,136 @@
+"""Typed access to a parsed TOML table that reports errors as ConfigError.
+
+Every error names the file, the dotted key and what was expected, so the
+command line can print one line and exit with status 2.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Any, Sequence
+
+from grasp_ctrl.errors import ConfigError
+
+_MISSING = object()
+
+
+def read_toml(path: str | Path) -> dict[str, Any]:
+    p = Path(path)
+    try:
+        with p.open("rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise ConfigError(str(p), "<file>", "file not found") from None
+    except IsADirectoryError:
+        raise ConfigError(str(p), "<file>", "a TOML file, got a directory") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(str(p), "<file>", f"valid TOML ({exc})") from None
+    except OSError as exc:
+        raise ConfigError(str(p), "<file>", f"a readable file ({exc.strerror})") from None
+
+
+class Table:
+    """A TOML table plus where it came from, for error messages."""
+
+    def __init__(self, path: str | Path, data: dict[str, Any], prefix: str = "") -> None:
+        self.path = str(path)
+        self.data = data
+        self.prefix = prefix
+
+    def key(self, name: str) -> str:
+        return f"{self.prefix}{name}"
+
+    def fail(self, name: str, expected: str) -> ConfigError:
+        return ConfigError(self.path, self.key(name), expected)
+
+    def has(self, name: str) -> bool:
+        return name in self.data
+
+    def _get(self, name: str, default: Any) -> Any:
+        if name in self.data:
+            return self.data[name]
+        if default is _MISSING:
+            raise self.fail(name, "required key is missing")
+        return default
+
+    def table(self, name: str, default: Any = _MISSING) -> "Table":
+        value = self._get(name, {} if default is not _MISSING else _MISSING)
+        if not isinstance(value, dict):
+            raise self.fail(name, "a table")
+        return Table(self.path, value, f"{self.key(name)}.")
+
+    def tables(self, name: str, min_len: int = 0) -> list["Table"]:
+        value = self._get(name, _MISSING if min_len else [])
+        if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+            raise self.fail(name, "an array of tables")
+        if len(value) < min_len:
+            raise self.fail(name, f"at least {min_len} entries")
+        return [Table(self.path, v, f"{self.key(name)}[{i}].") for i, v in enumerate(value)]
+
+    def str(self, name: str, default: Any = _MISSING, choices: Sequence[str] | None = None) -> str:
+        value = self._get(name, default)
+        if not isinstance(value, str) or not value:
+            raise self.fail(name, "a non-empty string")
+        if choices is not None and value not in choices:
+            raise self.fail(name, f"one of {', '.join(choices)} (got {value!r})")
+        return value
+
+    def bool(self, name: str, default: Any = _MISSING) -> bool:
+        value = self._get(name, default)
+        if not isinstance(value, bool):
+            raise self.fail(name, "true or false")
+        return value
+
+    def int(self, name: str, default: Any = _MISSING, lo: int | None = None, hi: int | None = None) -> int:
+        value = self._get(name, default)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.fail(name, "an integer")
+        _check_range(self, name, value, lo, hi)
+        return value
+
+    def float(
+        self,
+        name: str,
+        default: Any = _MISSING,
+        lo: float | None = None,
+        hi: float | None = None,
+        lo_open: bool = False,
+    ) -> float:
+        value = self._get(name, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise self.fail(name, "a finite number")
+        if lo_open and lo is not None and value <= lo:
+            raise self.fail(name, f"a number > {lo} (got {value})")
+        _check_range(self, name, float(value), lo, hi)
+        return float(value)
+
+    def vector(self, name: str, n: int, default: Any = _MISSING, unit: bool = False) -> tuple[float, ...]:
+        value = self._get(name, default)
+        if (
+            not isinstance(value, (list, tuple))
+            or len(value) != n
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+        ):
+            raise self.fail(name, f"a list of {n} finite numbers")
+        vec = tuple(float(v) for v in value)
+        if unit:
+            norm = math.sqrt(sum(v * v for v in vec))
+            if norm < 1e-9:
+                raise self.fail(name, "a non-zero vector")
+            vec = tuple(v / norm for v in vec)
+        return vec
+
+    def unknown_keys(self, allowed: set[str]) -> None:
+        """Reject typos: a misspelt safety limit must not silently fall back to a default."""
+        for k in self.data:
+            if k not in allowed:
+                raise self.fail(k, f"a known key (allowed: {', '.join(sorted(allowed))})")
+
+
+def _check_range(t: Table, name: str, value: float, lo: float | None, hi: float | None) -> None:
+    if lo is not None and value < lo:
+        raise t.fail(name, f"a value >= {lo} (got {value})")
+    if hi is not None and value > hi:
+        raise t.fail(name, f"a value <= {hi} (got {value})")

@@ -1,0 +1,56 @@
+"""Exception types shared across the package.
+
+Each carries a stable snake_case ``reason`` where it can end a trial, so the
+trial runner can report it in the run summary (DESIGN.md 5.2).
+"""
+
+from __future__ import annotations
+
+
+class GraspCtrlError(Exception):
+    """Base class for errors the command line reports as one line."""
+
+    exit_status = 1
+
+
+class ConfigError(GraspCtrlError):
+    """A configuration file is missing, unreadable or invalid."""
+
+    exit_status = 2
+
+    def __init__(self, path: str, key: str, expected: str) -> None:
+        self.path = str(path)
+        self.key = key
+        self.expected = expected
+        super().__init__(f"{self.path}: {key}: {expected}")
+
+
+class UsageError(GraspCtrlError):
+    """Bad command-line input that argparse cannot catch by itself."""
+
+    exit_status = 2
+
+
+class PolicyError(GraspCtrlError):
+    """A force-estimator policy cannot be found, loaded or does not fit the sensors."""
+
+    exit_status = 2
+
+
+class FrameError(GraspCtrlError, ValueError):
+    """A raw tactile frame is malformed (length, range, NaN)."""
+
+
+class HardwareError(GraspCtrlError):
+    """The hand, arm or a sensor failed; ends a trial with ``reason``."""
+
+    def __init__(self, message: str, reason: str = "hardware_error") -> None:
+        self.reason = reason
+        super().__init__(message)
+
+
+class SensorStaleError(HardwareError):
+    """A fingertip delivered no valid frame for longer than ``stale_after_s``."""
+
+    def __init__(self, message: str) -> None:
+        super().__init__(message, reason="sensor_stale")

@@ -1,0 +1,88 @@
+"""Load a force-estimator policy by name or path.
+
+A policy is ``policies/NAME.json`` (metadata, DESIGN.md 5.5), plus
+``policies/NAME.onnx`` for network policies. The metadata's ``kind`` picks the
+loader; each loader checks the metadata against the hand's sensors.
+``oracle`` and ``oracle:scale=K`` are debugging policies of the mock world and
+are built by the trial runner, not here.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+from pathlib import Path
+from typing import Any, Callable
+
+from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.errors import PolicyError
+from grasp_ctrl.estimators.analytic import AnalyticEstimator
+from grasp_ctrl.estimators.base import ForceEstimator
+from grasp_ctrl.paths import policies_dir
+
+DEFAULT_POLICY = "analytic_mock"
+
+# kind -> "module:function" taking (meta, json_path, hand, threads) and returning an estimator.
+# Loaders are imported lazily so that e.g. onnxruntime is only loaded when used.
+LOADERS: dict[str, str] = {
+    "analytic": "grasp_ctrl.estimators.registry:load_analytic",
+    "onnx": "grasp_ctrl.estimators.onnx_estimator:load_onnx_policy",
+}
+
+
+def resolve_policy_path(spec: str) -> Path:
+    """NAME -> policies/NAME.json; PATH (.json or .onnx) -> its .json."""
+    p = Path(spec)
+    if p.suffix in (".json", ".onnx") or p.parent != Path("."):
+        json_path = p.with_suffix(".json")
+    else:
+        json_path = policies_dir() / f"{spec}.json"
+    if not json_path.is_file():
+        known = ", ".join(list_policy_names()) or "none"
+        raise PolicyError(f"policy {spec!r}: no metadata file {json_path} (known policies: {known}, oracle)")
+    return json_path
+
+
+def read_metadata(json_path: Path) -> dict[str, Any]:
+    try:
+        meta = json.loads(json_path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise PolicyError(f"{json_path}: unreadable policy metadata ({exc})") from None
+    if not isinstance(meta, dict) or "kind" not in meta:
+        raise PolicyError(f"{json_path}: kind: required key is missing")
+    return meta
+
+
+def check_sensor(meta: dict[str, Any], json_path: Path, hand: HandConfig | None) -> None:
+    if hand is None:
+        return
+    sensor = meta.get("sensor_type")
+    if sensor != hand.tactile.sensor_type:
+        raise PolicyError(
+            f"{json_path}: sensor_type: policy is for {sensor!r}, the hand {hand.name!r} has {hand.tactile.sensor_type!r}"
+        )
+
+
+def load_analytic(meta: dict[str, Any], json_path: Path, hand: HandConfig | None, threads: int) -> ForceEstimator:
+    gains = meta.get("gains_n_per_count")
+    try:
+        return AnalyticEstimator(gains, name=meta.get("name", json_path.stem))  # type: ignore[arg-type]
+    except (TypeError, ValueError) as exc:
+        raise PolicyError(f"{json_path}: gains_n_per_count: {exc}") from None
+
+
+def load_policy(spec: str, hand: HandConfig | None = None, threads: int = 1) -> ForceEstimator:
+    json_path = resolve_policy_path(spec)
+    meta = read_metadata(json_path)
+    check_sensor(meta, json_path, hand)
+    kind = meta["kind"]
+    if kind not in LOADERS:
+        raise PolicyError(f"{json_path}: kind: one of {', '.join(LOADERS)} (got {kind!r})")
+    module_name, func_name = LOADERS[kind].split(":")
+    loader: Callable[..., ForceEstimator] = getattr(importlib.import_module(module_name), func_name)
+    return loader(meta, json_path, hand, threads)
+
+
+def list_policy_names() -> list[str]:
+    d = policies_dir()
+    return sorted(p.stem for p in d.glob("*.json")) if d.is_dir() else []

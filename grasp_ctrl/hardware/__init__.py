@@ -1,0 +1,1 @@
+"""Backend interfaces (hand, arm, tactile sensors) and their implementations."""

@@ -1,0 +1,1 @@
+"""Tactile signals: frame layout, sensor geometry, taring and contact gating."""

@@ -1,0 +1,53 @@
+"""Per-fingertip taring and pdc-based contact gating (vectorised over fingertips).
+
+Tared value = raw - baseline (DESIGN.md 4): electrodes drop under contact, so a
+pressed electrode is negative and pdc is positive. Contact = tared pdc above a
+threshold for N consecutive frames (paper: 10 counts, 10 frames).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from grasp_ctrl.tactile.layout import FRAME_LEN, PDC
+
+
+class Tare:
+    """Baselines for n fingertips, from the mean of a no-contact window."""
+
+    def __init__(self, n_tips: int) -> None:
+        self.n_tips = n_tips
+        self.baseline = np.zeros((n_tips, FRAME_LEN))
+        self.ready = False
+
+    def set_baseline(self, frames: np.ndarray) -> None:
+        """``frames``: (k, n_tips, 44) raw frames recorded without contact."""
+        frames = np.asarray(frames, dtype=float)
+        if frames.ndim != 3 or frames.shape[1:] != (self.n_tips, FRAME_LEN) or frames.shape[0] < 1:
+            raise ValueError(f"tare window must have shape (k>=1, {self.n_tips}, {FRAME_LEN}), got {frames.shape}")
+        self.baseline = frames.mean(axis=0)
+        self.ready = True
+
+    def apply(self, raw: np.ndarray) -> np.ndarray:
+        """(n_tips, 44) raw -> tared (float)."""
+        return np.asarray(raw, dtype=float) - self.baseline
+
+
+class ContactGate:
+    """Debounced contact flags: tared pdc > threshold for ``frames`` consecutive frames."""
+
+    def __init__(self, n_tips: int, threshold: float = 10.0, frames: int = 10) -> None:
+        if frames < 1:
+            raise ValueError("frames must be >= 1")
+        self.threshold = float(threshold)
+        self.frames = int(frames)
+        self.count = np.zeros(n_tips, dtype=np.int64)
+
+    def reset(self) -> None:
+        self.count[:] = 0
+
+    def update(self, tared: np.ndarray) -> np.ndarray:
+        """Feed one tared frame per fingertip; returns the (n_tips,) contact flags."""
+        above = np.asarray(tared)[:, PDC] > self.threshold
+        self.count = np.where(above, self.count + 1, 0)
+        return self.count >= self.frames
