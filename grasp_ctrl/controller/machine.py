@@ -47,6 +47,27 @@ TRANSITIONS: list[tuple[str, str, str, str | None]] = [
 ]
 
 
+def build_machine(model: Any, reason_setter: Any = None, machine_cls: type = Machine, **extra: Any) -> Machine:
+    """The one definition of states and transitions (also drawn by ``diagram``)."""
+    machine = machine_cls(
+        model=model,
+        states=STATES,
+        initial="tare",
+        auto_transitions=False,
+        queued=True,
+        after_state_change="_on_enter" if reason_setter else None,
+        **extra,
+    )
+    for src, dst, guard, reason in TRANSITIONS:
+        kwargs: dict[str, Any] = {"conditions": guard}
+        if reason and reason_setter:
+            kwargs["before"] = reason_setter(reason)
+        machine.add_transition("step", src, dst, **kwargs)
+    # Faults detected outside the guards (stale sensor, hardware, over-force, abort).
+    machine.add_transition("fail", ACTIVE, "fault", before="_set_reason" if reason_setter else None)
+    return machine
+
+
 class GraspController:
     """The model of the state machine. ``tick(snapshot) -> Command``."""
 
@@ -81,21 +102,7 @@ class GraspController:
         self.snap: Snapshot | None = None
         self.history: list[tuple[float, str, str]] = []   # (t, from, to)
 
-        self.machine = Machine(
-            model=self,
-            states=STATES,
-            initial="tare",
-            auto_transitions=False,
-            queued=True,
-            after_state_change="_on_enter",
-        )
-        for src, dst, guard, reason in TRANSITIONS:
-            kwargs: dict[str, Any] = {"conditions": guard}
-            if reason:
-                kwargs["before"] = self._reason_setter(reason)
-            self.machine.add_transition("step", src, dst, **kwargs)
-        # Faults detected outside the guards (stale sensor, hardware, over-force, abort).
-        self.machine.add_transition("fail", ACTIVE, "fault", before="_set_reason")
+        self.machine = build_machine(self, self._reason_setter)
 
     # ----- helpers ----------------------------------------------------------
     @property

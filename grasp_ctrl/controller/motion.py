@@ -28,8 +28,8 @@ class FingertipMotion:
         self._q_sent = self.open_q.copy()
 
     def pad_position(self, finger: str, q_all: np.ndarray) -> np.ndarray:
-        T = self.kin.fk(finger, q_all)
-        return T[:3, :3] @ PAD_POINT_SENSOR + T[:3, 3]
+        R, p = self.kin.chains[finger].fk_rp(q_all[self.kin.slices[finger]])
+        return R @ PAD_POINT_SENSOR + p
 
     def set_posture(self, q: np.ndarray) -> None:
         self.q_goal = np.clip(np.asarray(q, dtype=float), self.lower, self.upper)

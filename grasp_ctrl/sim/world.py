@@ -112,6 +112,8 @@ class MockWorld:
         self.sensors = BioTacSensorModel(n, self.rng, p.biotac)
         self.seq = 0
         self._pad_z = np.zeros(n)
+        self._R_sensor = np.tile(np.eye(3), (n, 1, 1))
+        self._pad_heights()
         self.raw = self._sense()
 
         self.events: list[WorldEvent] = []
@@ -177,15 +179,15 @@ class MockWorld:
         for i, name in enumerate(self.fingers):
             sl = self.kin.slices[name]
             chain = self.kin.chains[name]
-            T = chain.fk(self.q_servo[sl])
-            pad_world = self.palm_world + T[:3, :3] @ PAD_POINT_SENSOR + T[:3, 3]
+            pad_hand, J = chain.point_and_jacobian(self.q_servo[sl], PAD_POINT_SENSOR)
+            pad_world = self.palm_world + pad_hand
             d0, n_out = self._penetration(pad_world)
             was = self.in_contact[i]
             if d0 <= 0.0:
                 self.normal_n[i] = 0.0
                 self.in_contact[i] = False
                 continue
-            a = chain.jacobian(self.q_servo[sl], PAD_POINT_SENSOR).T @ (-n_out)   # dd/dq
+            a = J.T @ (-n_out)   # d(penetration)/dq
             a2 = float(a @ a)
             k = self.k_contact
             if not self.torque_on or a2 < 1e-12:
@@ -212,11 +214,11 @@ class MockWorld:
         self._pad_heights()
 
     def _pad_heights(self) -> None:
-        z = np.empty(len(self.fingers))
+        """Sensor orientations and pad heights at the actual (deflected) joint angles."""
         for i, name in enumerate(self.fingers):
-            T = self.kin.chains[name].fk(self.q[self.kin.slices[name]])
-            z[i] = self.palm_world[2] + (T[:3, :3] @ PAD_POINT_SENSOR + T[:3, 3])[2]
-        self._pad_z = z
+            R, p = self.kin.chains[name].fk_rp(self.q[self.kin.slices[name]])
+            self._R_sensor[i] = R
+            self._pad_z[i] = self.palm_world[2] + (R @ PAD_POINT_SENSOR + p)[2]
 
     def _object(self) -> None:
         kt = self.params.tangential_stiffness_n_per_m
@@ -244,10 +246,9 @@ class MockWorld:
     def _sense(self) -> np.ndarray:
         n = len(self.fingers)
         f_sensor = np.zeros((n, 3))
-        for i, name in enumerate(self.fingers):
+        for i in range(n):
             if self.in_contact[i]:
-                R = self.kin.chains[name].fk(self.q[self.kin.slices[name]])[:3, :3]
-                f_sensor[i] = R.T @ self.f_world[i]
+                f_sensor[i] = self._R_sensor[i].T @ self.f_world[i]
         self.f_sensor = f_sensor
         p_contact = np.broadcast_to(PAD_POINT_SENSOR, (n, 3))
         n_out = np.broadcast_to(PAD_NORMAL_SENSOR, (n, 3))

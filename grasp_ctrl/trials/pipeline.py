@@ -84,7 +84,7 @@ class SensingPipeline:
             tared = np.zeros_like(raw)
             in_contact = np.zeros(n, dtype=bool)
         self.tared = tared
-        R = np.stack([self.kin.fk(name, joints.q)[:3, :3] for name in self.names])
+        R = np.stack([self.kin.chains[name].fk_rp(joints.q[self.kin.slices[name]])[0] for name in self.names])
         f_hand = np.einsum("nij,nj->ni", R, f_sensor)
         f_world = f_hand  # the arm translates the hand: hand axes = world axes
         # Grip = the squeeze: the force across the lift direction (world z). Along z
