@@ -27,6 +27,7 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.kinematics.batched import BatchedKinematics
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.sim.biotac_model import BioTacParams, BioTacSensorModel
 from grasp_ctrl.sim.grip import solve_object_height, tangential_forces
@@ -69,6 +70,7 @@ class MockWorld:
         self.params = p = params or WorldParams()
         self.rng = np.random.default_rng(seed)
         self.kin = HandKinematics(hand)
+        self.bkin = BatchedKinematics(self.kin)
         self.dt = hand.dt
         self.t = 0.0
         self.phase = "idle"
@@ -111,8 +113,6 @@ class MockWorld:
         self.n_out_world = np.zeros((n, 3))
         self.sensors = BioTacSensorModel(n, self.rng, p.biotac)
         self.seq = 0
-        self._pad_z = np.zeros(n)
-        self._R_sensor = np.tile(np.eye(3), (n, 1, 1))
         self._pad_heights()
         self.raw = self._sense()
 
@@ -176,18 +176,16 @@ class MockWorld:
         p = self.params
         kp = p.servo_stiffness_nm_per_rad
         q = self.q_servo.copy()
+        pads_hand, jacobians = self.bkin.points_and_jacobians(self.q_servo, PAD_POINT_SENSOR)
         for i, name in enumerate(self.fingers):
-            sl = self.kin.slices[name]
-            chain = self.kin.chains[name]
-            pad_hand, J = chain.point_and_jacobian(self.q_servo[sl], PAD_POINT_SENSOR)
-            pad_world = self.palm_world + pad_hand
-            d0, n_out = self._penetration(pad_world)
+            d0, n_out = self._penetration(self.palm_world + pads_hand[i])
             was = self.in_contact[i]
             if d0 <= 0.0:
                 self.normal_n[i] = 0.0
                 self.in_contact[i] = False
                 continue
-            a = J.T @ (-n_out)   # d(penetration)/dq
+            sl = self.kin.slices[name]
+            a = jacobians[i].T @ (-n_out)   # d(penetration)/dq
             a2 = float(a @ a)
             k = self.k_contact
             if not self.torque_on or a2 < 1e-12:
@@ -195,10 +193,11 @@ class MockWorld:
                 normal = 0.0
                 d = 0.0
             else:
+                # Servo spring (kp per joint) in series with the contact spring (k):
+                # the closed-form minimiser of 0.5*kp*|dq|^2 + 0.5*k*(d0 + a.dq)^2.
                 d = d0 * kp / (kp + k * a2)
                 normal = k * d
-                tau_peak = normal * np.abs(a)
-                over = tau_peak / np.maximum(self.tau_max[sl], 1e-9)
+                over = normal * np.abs(a) / np.maximum(self.tau_max[sl], 1e-9)
                 if over.max() > 1.0:           # current limit: the servo yields
                     normal /= over.max()
                     d = normal / k
@@ -208,17 +207,16 @@ class MockWorld:
             self.n_out_world[i] = n_out
             self.in_contact[i] = normal > 1e-6
             if self.in_contact[i] and not was:
-                self.stick_offset[i] = pad_world[2] - self.obj_z
+                self.stick_offset[i] = self.palm_world[2] + pads_hand[i][2] - self.obj_z
                 self.events.append(WorldEvent(self.t, "contact", name))
         self.q = np.clip(q, self.lower, self.upper)
         self._pad_heights()
 
     def _pad_heights(self) -> None:
         """Sensor orientations and pad heights at the actual (deflected) joint angles."""
-        for i, name in enumerate(self.fingers):
-            R, p = self.kin.chains[name].fk_rp(self.q[self.kin.slices[name]])
-            self._R_sensor[i] = R
-            self._pad_z[i] = self.palm_world[2] + (R @ PAD_POINT_SENSOR + p)[2]
+        R, p = self.bkin.sensor_frames(self.q)
+        self._R_sensor = R
+        self._pad_z = self.palm_world[2] + (R @ PAD_POINT_SENSOR + p)[:, 2]
 
     def _object(self) -> None:
         kt = self.params.tangential_stiffness_n_per_m

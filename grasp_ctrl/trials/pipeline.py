@@ -10,6 +10,7 @@ from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.errors import SensorStaleError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.hardware.base import JointState, TactileFrame
+from grasp_ctrl.kinematics.batched import BatchedKinematics
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.tactile.layout import FRAME_LEN
 from grasp_ctrl.tactile.tare import ContactGate, Tare
@@ -19,6 +20,7 @@ class SensingPipeline:
     def __init__(self, hand: HandConfig, kin: HandKinematics, estimator: ForceEstimator) -> None:
         self.hand = hand
         self.kin = kin
+        self.bkin = BatchedKinematics(kin)
         self.estimator = estimator
         self.names = [f.name for f in hand.fingers]
         self.sensor_ids = [f.sensor_id for f in hand.fingers]
@@ -84,7 +86,7 @@ class SensingPipeline:
             tared = np.zeros_like(raw)
             in_contact = np.zeros(n, dtype=bool)
         self.tared = tared
-        R = np.stack([self.kin.chains[name].fk_rp(joints.q[self.kin.slices[name]])[0] for name in self.names])
+        R, _ = self.bkin.sensor_frames(joints.q)
         f_hand = np.einsum("nij,nj->ni", R, f_sensor)
         f_world = f_hand  # the arm translates the hand: hand axes = world axes
         # Grip = the squeeze: the force across the lift direction (world z). Along z
