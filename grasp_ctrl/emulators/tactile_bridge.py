@@ -51,8 +51,11 @@ def _to_counts(frame: np.ndarray) -> np.ndarray:
 class SyntheticSource:
     """Slow presses on the pad: electrodes facing -z drop, pdc rises (as on a BioTac)."""
 
-    def __init__(self, seed: int = 0, rate_hz: float = 100.0, period_s: float = 3.0, depth_counts: float = 400.0) -> None:
+    def __init__(
+        self, seed: int = 0, rate_hz: float = 100.0, period_s: float = 3.0, depth_counts: float = 400.0, free_s: float = 1.0
+    ) -> None:
         self.rate_hz = rate_hz
+        self.free_s = free_s
         self.period_s = period_s
         self.depth = depth_counts
         self.seed = seed
@@ -62,9 +65,10 @@ class SyntheticSource:
         self._rngs: dict[int, np.random.Generator] = {}
 
     def press(self, sensor_id: int, k: int) -> float:
-        """Press depth 0..1 of fingertip ``sensor_id`` at sample ``k`` (phase-shifted per tip)."""
-        t = k / self.rate_hz + 0.37 * sensor_id
-        return max(0.0, np.sin(2 * np.pi * t / self.period_s)) ** 2
+        """Press depth 0..1 of fingertip ``sensor_id`` at sample ``k``: free for the first
+        ``free_s`` (time to tare), then a press every ``period_s``, phase-shifted per tip."""
+        t = k / self.rate_hz - self.free_s - 0.37 * (sensor_id % 8)
+        return max(0.0, np.sin(2 * np.pi * t / self.period_s)) ** 2 if t > 0 else 0.0
 
     def __call__(self, sensor_id: int, k: int) -> np.ndarray:
         rng = self._rngs.setdefault(sensor_id, np.random.default_rng((self.seed, sensor_id)))

@@ -226,6 +226,10 @@ class SerialSensors:
             then += f" (last attempt: {p.reopen_error})"
         return f"tactile port {p.port} disconnected ({p.error or 'closed'}); fingertips {fingers} have no data; {then}"
 
+    def now(self) -> float:
+        """The time on the clock that stamps ``t_recv``."""
+        return self._now()
+
     @property
     def connected(self) -> bool:
         return all(ps.connected for ps in self._ports)
