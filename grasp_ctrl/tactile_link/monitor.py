@@ -86,22 +86,18 @@ class Monitor:
         t0 = time.monotonic()
         next_tick = t0
         next_draw = t0 + self.refresh_s
-        counts0 = self.sensors.frame_counts()
-        t_counts0 = t0
+        self._rate_base = (t0, self.sensors.frame_counts())
         while not self.stop.is_set() and (seconds is None or time.monotonic() - t0 < seconds):
             self._drain()
             self.tick()
             now = time.monotonic()
             if now >= next_draw:
-                counts = self.sensors.frame_counts()
-                for tip in self.tips:
-                    tip.rate_hz = (counts[tip.sensor_id] - counts0[tip.sensor_id]) / max(now - t_counts0, 1e-9)
-                counts0, t_counts0 = counts, now
                 self.render(now - t0)
                 next_draw += self.refresh_s
             next_tick += dt
             self.stop.wait(max(0.0, next_tick - time.monotonic()))
         self._drain()
+        self.render(time.monotonic() - t0)  # the final state, however short the run
 
     # ---------------------------------------------------------------- one tick
 
@@ -139,7 +135,17 @@ class Monitor:
 
     # ---------------------------------------------------------------- display
 
+    def _update_rates(self) -> None:
+        """Frames per second per fingertip since the previous table."""
+        now, counts = time.monotonic(), self.sensors.frame_counts()
+        t_prev, prev = getattr(self, "_rate_base", (now, counts))
+        if now - t_prev > 1e-3:
+            for tip in self.tips:
+                tip.rate_hz = (counts[tip.sensor_id] - prev[tip.sensor_id]) / (now - t_prev)
+        self._rate_base = (now, counts)
+
     def render(self, t: float) -> None:
+        self._update_rates()
         lines = []
         if self.redraw:
             lines.append("\x1b[H\x1b[J")
