@@ -314,6 +314,7 @@ class SerialSensors:
                 self._close_port(ps)
                 if not self.reconnect:
                     break
+                self._stop.wait(self.reconnect_interval_s)  # a flapping device must not spin the CPU
                 continue
             if data:
                 self._deliver(ps, data, self._now())
