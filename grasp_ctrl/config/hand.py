@@ -54,6 +54,11 @@ class DynamixelConfig:
     retries: int = 2
     profile_velocity: int = 0
     profile_acceleration: int = 0
+    fast_sync_read: bool = True               # fall back to plain Sync Read if unsupported
+    latency_timer_ms: int = 1                 # USB serial latency timer set on connect
+    position_p_gain: int | None = None        # None: keep the servo's value
+    position_i_gain: int | None = None
+    position_d_gain: int | None = None
 
 
 @dataclass(frozen=True)
@@ -200,7 +205,10 @@ def load_hand(path: str | Path) -> HandConfig:
         raise root.fail("fingers", "at least one finger with grasp = true")
 
     d = root.table("dynamixel", {})
-    d.unknown_keys({"port", "baud", "model", "packet_timeout_ms", "retries", "profile_velocity", "profile_acceleration"})
+    d.unknown_keys({
+        "port", "baud", "model", "packet_timeout_ms", "retries", "profile_velocity", "profile_acceleration",
+        "fast_sync_read", "latency_timer_ms", "position_p_gain", "position_i_gain", "position_d_gain",
+    })
     dynamixel = DynamixelConfig(
         port=d.str("port", DynamixelConfig.port),
         baud=d.int("baud", DynamixelConfig.baud, lo=9600),
@@ -209,6 +217,11 @@ def load_hand(path: str | Path) -> HandConfig:
         retries=d.int("retries", DynamixelConfig.retries, lo=0, hi=10),
         profile_velocity=d.int("profile_velocity", 0, lo=0),
         profile_acceleration=d.int("profile_acceleration", 0, lo=0),
+        fast_sync_read=d.bool("fast_sync_read", True),
+        latency_timer_ms=d.int("latency_timer_ms", 1, lo=1, hi=255),
+        position_p_gain=d.int("position_p_gain", None, lo=0, hi=16383) if d.has("position_p_gain") else None,
+        position_i_gain=d.int("position_i_gain", None, lo=0, hi=16383) if d.has("position_i_gain") else None,
+        position_d_gain=d.int("position_d_gain", None, lo=0, hi=16383) if d.has("position_d_gain") else None,
     )
 
     s = root.table("tactile", {})

@@ -1,0 +1,1 @@
+"""Device emulators used by tests, benchmarks and hardware-free runs."""
