@@ -23,7 +23,10 @@ import threading
 import time
 import tty
 from collections import Counter
-from typing import Iterable
+from typing import TYPE_CHECKING, Iterable, Sequence
+
+if TYPE_CHECKING:
+    from grasp_ctrl.config.hand import HandConfig
 
 from grasp_ctrl.emulators import dxl_protocol as p
 from grasp_ctrl.emulators.dxl_servo import EmulatedServo
@@ -40,6 +43,7 @@ class DynamixelChainEmulator:
             self.servos[int(i)] = s
         self.lock = threading.RLock()
         self.missing: set[int] = set()
+        self.fast_sync_read_supported = True  # False: like old firmware, ignore FAST_SYNC_READ
         self.instructions: Counter[int] = Counter()
         self.sync_write_count = 0
         self.parser = p.PacketParser()
@@ -51,6 +55,22 @@ class DynamixelChainEmulator:
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._last_step = time.monotonic()
+
+    @classmethod
+    def for_hand(cls, hand: "HandConfig", q_rad: "Sequence[float] | None" = None) -> "DynamixelChainEmulator":
+        """A chain with the hand's servo ids and model, resting at ``q_rad`` (default: the open posture)."""
+        from grasp_ctrl.hardware.dynamixel.calibration import Calibration
+        from grasp_ctrl.hardware.dynamixel.control_table import MODELS
+
+        joints = hand.joints
+        q = [j.open_rad for j in joints] if q_rad is None else list(q_rad)
+        counts = Calibration.from_joints(joints).to_counts_float(q)
+        model = MODELS.get(hand.dynamixel.model)
+        return cls(
+            [j.servo_id for j in joints],
+            model_number=model.model_number if model else 1240,
+            initial_counts={j.servo_id: float(c) for j, c in zip(joints, counts)},
+        )
 
     # ---- lifecycle -------------------------------------------------------------
     def start(self) -> "DynamixelChainEmulator":
@@ -170,6 +190,8 @@ class DynamixelChainEmulator:
         if inst == p.INST_SYNC_WRITE:
             self.sync_write_count += 1
             return self._sync_write(prm)
+        if inst == p.INST_FAST_SYNC_READ and not self.fast_sync_read_supported:
+            return b""
         if inst in (p.INST_SYNC_READ, p.INST_FAST_SYNC_READ):
             return self._sync_read(prm, fast=inst == p.INST_FAST_SYNC_READ)
         if pkt.dxl_id == p.BROADCAST_ID:
@@ -287,8 +309,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--ids", default="0-15", help="servo ids, e.g. 0-15 or 0,1,2 (default 0-15, the LEAP Hand)")
     ap.add_argument("--model-number", type=int, default=1240, help="model number the servos report (default 1240)")
     ap.add_argument("--missing", default="", help="ids that do not answer")
+    ap.add_argument("--hand", help="hand file: use its ids and model, start at its open posture (overrides --ids)")
     args = ap.parse_args(argv)
-    emu = DynamixelChainEmulator(parse_ids(args.ids), model_number=args.model_number).start()
+    if args.hand:
+        from grasp_ctrl.config.hand import load_hand
+
+        emu = DynamixelChainEmulator.for_hand(load_hand(args.hand)).start()
+    else:
+        emu = DynamixelChainEmulator(parse_ids(args.ids), model_number=args.model_number).start()
     for i in parse_ids(args.missing):
         emu.set_missing(i)
     print(emu.port, flush=True)

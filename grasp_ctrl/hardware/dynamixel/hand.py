@@ -87,6 +87,7 @@ class DynamixelHand:
         try:
             self.latency_status = set_low_latency(self.port_name, self.cfg.latency_timer_ms)
             self.check_servos()
+            self._choose_sync_read()
             errors = self.read_hardware_errors()
             if errors:
                 raise HardwareError(
@@ -94,7 +95,6 @@ class DynamixelHand:
                     "power-cycle or run `hand-check --recover` (reboots them)"
                 )
             self.configure()
-            self._choose_sync_read()
             state = self.read()
             self.last_goal = np.clip(state.q, self.lower, self.upper)
             self._send_goal_counts(self.cal.to_counts(self.last_goal))
