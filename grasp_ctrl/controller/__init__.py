@@ -1,0 +1,1 @@
+"""The lift-and-place controller: a transitions state machine ticked once per control cycle."""

@@ -1,0 +1,278 @@
+"""The lift-and-place state machine (paper section V), built with ``transitions``.
+
+Ticked once per control cycle with a Snapshot. Guards are pure functions of
+the snapshot, the object profile and tick counters (time-outs are counted in
+ticks, no timer threads), so tests can drive it tick by tick.
+
+    tare -> reach -> close -> ramp -> lift -> hold -> lower -> release -> retreat -> done
+    any state -> fault (reason), then the configured safe action
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from transitions import Machine
+
+from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.controller.motion import FingertipMotion
+from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.snapshot import Command, Snapshot
+from grasp_ctrl.kinematics.chain import HandKinematics
+
+STATES = ["tare", "reach", "close", "ramp", "lift", "hold", "lower", "release", "retreat", "done", "fault"]
+ACTIVE = STATES[:-2]
+TERMINAL = ("done", "fault")
+
+# (source, dest, guard, reason-if-fault); checked in order on every tick.
+TRANSITIONS: list[tuple[str, str, str, str | None]] = [
+    ("tare", "reach", "tare_done", None),
+    ("reach", "close", "at_reach_pose", None),
+    ("reach", "fault", "reach_timed_out", "reach_timeout"),
+    ("close", "ramp", "all_in_contact", None),
+    ("close", "fault", "close_timed_out", "no_contact"),
+    ("ramp", "lift", "ramp_settled", None),
+    ("ramp", "fault", "ramp_timed_out", "ramp_timeout"),
+    ("lift", "fault", "grip_lost", "slipped"),
+    ("lift", "hold", "at_lift_height", None),
+    ("hold", "fault", "grip_lost", "slipped"),
+    ("hold", "lower", "hold_done", None),
+    ("lower", "release", "release_detected", None),
+    ("lower", "fault", "grip_lost", "slipped"),
+    ("lower", "fault", "lower_exhausted", "no_release"),
+    ("release", "retreat", "fingers_open", None),
+    ("retreat", "done", "retreat_done", None),
+]
+
+
+def build_machine(model: Any, reason_setter: Any = None, machine_cls: type = Machine, **extra: Any) -> Machine:
+    """The one definition of states and transitions (also drawn by ``diagram``)."""
+    machine = machine_cls(
+        model=model,
+        states=STATES,
+        initial="tare",
+        auto_transitions=False,
+        queued=True,
+        after_state_change="_on_enter" if reason_setter else None,
+        **extra,
+    )
+    for src, dst, guard, reason in TRANSITIONS:
+        kwargs: dict[str, Any] = {"conditions": guard}
+        if reason and reason_setter:
+            kwargs["before"] = reason_setter(reason)
+        machine.add_transition("step", src, dst, **kwargs)
+    # Faults detected outside the guards (stale sensor, hardware, over-force, abort).
+    machine.add_transition("fail", ACTIVE, "fault", before="_set_reason" if reason_setter else None)
+    return machine
+
+
+class GraspController:
+    """The model of the state machine. ``tick(snapshot) -> Command``."""
+
+    def __init__(
+        self,
+        hand: HandConfig,
+        obj: ObjectProfile,
+        reach_pose_world: np.ndarray,
+        settings: ControllerSettings | None = None,
+        kin: HandKinematics | None = None,
+    ) -> None:
+        self.hand = hand
+        self.obj = obj
+        self.s = settings or ControllerSettings()
+        self.dt = hand.dt
+        self.kin = kin or HandKinematics(hand)
+        self.motion = FingertipMotion(hand, self.kin)
+        self.names = [f.name for f in hand.fingers]
+        self.grasp_mask = np.array([f.grasp for f in hand.fingers])
+        self.release_idx = self.names.index(hand.grasp.release_finger)
+        self.reach_pose = np.asarray(reach_pose_world, dtype=float)
+        self.lift_top = self.reach_pose + np.array([0.0, 0.0, obj.lift_height_m])
+        self.lower_limit_z = self.reach_pose[2] - self.s.lower_overshoot_m
+        self.palm_target: np.ndarray | None = None
+        self._retreat_goal: np.ndarray | None = None
+        self.torque_on = True
+        self.failure_reason: str | None = None
+        self.ticks_in_state = 0
+        self.release_count = 0
+        self.settle_count = 0
+        self.lost_count = np.zeros(len(self.names), dtype=int)
+        self.snap: Snapshot | None = None
+        self.history: list[tuple[float, str, str]] = []   # (t, from, to)
+
+        self.machine = build_machine(self, self._reason_setter)
+
+    # ----- helpers ----------------------------------------------------------
+    @property
+    def terminal(self) -> bool:
+        return self.state in TERMINAL  # type: ignore[attr-defined]
+
+    def _reason_setter(self, reason: str):
+        def setter(*_: Any, **__: Any) -> None:
+            self.failure_reason = reason
+        return setter
+
+    def _set_reason(self, reason: str) -> None:
+        self.failure_reason = reason
+
+    def _on_enter(self, *_: Any, **__: Any) -> None:
+        prev = self.history[-1][2] if self.history else "tare"
+        t = self.snap.t if self.snap is not None else 0.0
+        self.history.append((t, prev, self.state))  # type: ignore[attr-defined]
+        self.ticks_in_state = 0
+        self.settle_count = 0
+        self.release_count = 0
+        self.lost_count[:] = 0
+
+    def _elapsed(self) -> float:
+        return self.ticks_in_state * self.dt
+
+    @property
+    def tau(self) -> float:
+        return self.obj.tau_n
+
+    # ----- guards (pure functions of the snapshot, profile and counters) -----
+    def tare_done(self) -> bool:
+        return bool(self.snap and self.snap.tare_ready)
+
+    def at_reach_pose(self) -> bool:
+        assert self.snap is not None
+        return float(np.linalg.norm(self.snap.p_palm_world - self.reach_pose)) < self.s.reach_tolerance_m
+
+    def reach_timed_out(self) -> bool:
+        return self._elapsed() > self.s.reach_timeout_s
+
+    def all_in_contact(self) -> bool:
+        assert self.snap is not None
+        return bool(np.all(self.snap.in_contact[self.grasp_mask]))
+
+    def close_timed_out(self) -> bool:
+        return self._elapsed() > self.s.close_timeout_s
+
+    def ramp_settled(self) -> bool:
+        return self.settle_count * self.dt >= self.s.ramp_settle_s
+
+    def ramp_timed_out(self) -> bool:
+        return self._elapsed() > self.s.ramp_timeout_s
+
+    def grip_lost(self) -> bool:
+        return bool(np.any(self.lost_count[self.grasp_mask] * self.dt >= self.s.contact_lost_s))
+
+    def at_lift_height(self) -> bool:
+        assert self.snap is not None
+        return abs(self.snap.p_palm_world[2] - self.lift_top[2]) < self.s.reach_tolerance_m
+
+    def hold_done(self) -> bool:
+        return self._elapsed() >= self.obj.hold_s
+
+    def release_detected(self) -> bool:
+        return self.release_count >= self.obj.release_debounce
+
+    def lower_exhausted(self) -> bool:
+        assert self.snap is not None
+        return self.snap.p_palm_world[2] <= self.lower_limit_z + 1e-4
+
+    def fingers_open(self) -> bool:
+        return self._elapsed() >= self.s.open_s
+
+    def retreat_done(self) -> bool:
+        assert self.snap is not None
+        if self._retreat_goal is None:
+            return False
+        return float(np.linalg.norm(self.snap.p_palm_world - self._retreat_goal)) < self.s.reach_tolerance_m
+
+    # ----- the tick ----------------------------------------------------------
+    def release_force_n(self, snap: Snapshot) -> float:
+        """Force of the release fingertip ON the object along the support normal (+z):
+        positive while it holds the object up, negative once the table carries it."""
+        return float(-snap.f_world[self.release_idx, 2])
+
+    def _update_counters(self, snap: Snapshot) -> None:
+        err = self.tau - snap.grip_n
+        within = np.abs(err[self.grasp_mask]) <= self.s.ramp_tolerance_n
+        self.settle_count = self.settle_count + 1 if np.all(within) else 0
+        lost = (~snap.in_contact) | (snap.grip_n < self.s.grip_lost_fraction * self.tau)
+        self.lost_count = np.where(lost, self.lost_count + 1, 0)
+        below = self.release_force_n(snap) < -self.obj.release_threshold_n
+        self.release_count = self.release_count + 1 if below else 0
+
+    def tick(self, snap: Snapshot) -> Command:
+        self.snap = snap
+        if self.palm_target is None:
+            self.palm_target = snap.p_palm_world.copy()
+            self.motion.sync(snap.q)
+        if not self.terminal:
+            self.ticks_in_state += 1
+            self._update_counters(snap)
+            if snap.fault:
+                self.fail(reason=snap.fault)
+            elif np.any(np.linalg.norm(snap.f_sensor, axis=1) > self.hand.safety.max_fingertip_force_n):
+                self.fail(reason="overforce")
+            else:
+                self.step()
+        self._act(snap)
+        return Command(q_goal=self.motion.next_goal(), p_palm_world=self.palm_target.copy(), torque_on=self.torque_on)
+
+    # ----- actions per state --------------------------------------------------
+    def _move_palm_toward(self, target: np.ndarray, speed: float) -> None:
+        assert self.palm_target is not None
+        delta = target - self.palm_target
+        dist = float(np.linalg.norm(delta))
+        step = speed * self.dt
+        self.palm_target = target.copy() if dist <= step else self.palm_target + delta * (step / dist)
+
+    def _squeeze(self, snap: Snapshot, gain: float, max_speed: float) -> None:
+        """Per-finger force control along the closing vectors toward tau."""
+        for i, name in enumerate(self.names):
+            if not self.grasp_mask[i]:
+                continue
+            speed = np.clip(gain * (self.tau - snap.grip_n[i]), -max_speed, max_speed)
+            if self.s.low_confidence_slowdown and snap.variance is not None:
+                var = float(np.max(snap.variance[i]))
+                speed /= 1.0 + var / self.s.variance_scale_n2
+            self.motion.advance(name, float(speed) * self.dt)
+
+    def _act(self, snap: Snapshot) -> None:
+        state = self.state  # type: ignore[attr-defined]
+        s = self.s
+        if state == "tare":
+            pass  # stay still in free space while the baseline is recorded
+        elif state == "reach":
+            self.motion.set_posture(self.motion.pregrasp_q)
+            self._move_palm_toward(self.reach_pose, self.hand.arm.max_speed_m_s)
+        elif state == "close":
+            for i, name in enumerate(self.names):
+                if self.grasp_mask[i] and not snap.in_contact[i]:
+                    self.motion.advance(name, s.close_speed_m_s * self.dt)
+        elif state == "ramp":
+            self._squeeze(snap, s.ramp_gain_m_s_per_n, s.ramp_max_speed_m_s)
+        elif state in ("lift", "hold"):
+            self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s)
+            if state == "lift":
+                self._move_palm_toward(self.lift_top, s.lift_speed_m_s)
+        elif state == "lower":
+            self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s)
+            bottom = self.reach_pose.copy()
+            bottom[2] = self.lower_limit_z
+            self._move_palm_toward(bottom, s.lower_speed_m_s)
+        elif state == "release":
+            self.motion.set_posture(self.motion.open_q)
+        elif state == "retreat":
+            if self._retreat_goal is None:
+                self._retreat_goal = snap.p_palm_world + np.array([0.0, 0.0, s.retreat_m])
+            self._move_palm_toward(self._retreat_goal, self.hand.arm.max_speed_m_s)
+        elif state == "fault":
+            self._safe_action(snap)
+
+    def _safe_action(self, snap: Snapshot) -> None:
+        action = self.hand.safety.on_fault
+        assert self.palm_target is not None
+        self.palm_target = snap.p_palm_world.copy()   # stop the arm where it is
+        if action == "open":
+            self.motion.set_posture(self.motion.open_q)
+        elif action == "torque_off" and self.torque_on:
+            self.motion.set_posture(snap.q)
+            self.torque_on = False
+        # "hold": keep the joint goals as they are, so the grip is maintained.

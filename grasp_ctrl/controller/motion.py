@@ -1,0 +1,55 @@
+"""Task-space fingertip motion: targets along closing vectors -> IK -> joint goals.
+
+The joint goal (not the measured angles) is integrated: under contact the
+measured finger lags its goal and the servo's position error is what squeezes.
+Every goal is clamped to the joint limits and to the per-tick step limit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.kinematics.fingertip import PAD_POINT_SENSOR
+
+
+class FingertipMotion:
+    def __init__(self, hand: HandConfig, kin: HandKinematics) -> None:
+        self.hand = hand
+        self.kin = kin
+        self.lower = np.array([j.lower_rad for j in hand.joints])
+        self.upper = np.array([j.upper_rad for j in hand.joints])
+        self.open_q = np.array([j.open_rad for j in hand.joints])
+        self.pregrasp_q = np.array([j.pregrasp_rad for j in hand.joints])
+        self.max_step = hand.safety.max_joint_step_rad
+        self.task_vectors = {f.name: np.array(f.task_vector_hand) for f in hand.fingers}
+        self.q_goal = self.open_q.copy()
+        self._q_sent = self.open_q.copy()
+
+    def pad_position(self, finger: str, q_all: np.ndarray) -> np.ndarray:
+        R, p = self.kin.chains[finger].fk_rp(q_all[self.kin.slices[finger]])
+        return R @ PAD_POINT_SENSOR + p
+
+    def set_posture(self, q: np.ndarray) -> None:
+        self.q_goal = np.clip(np.asarray(q, dtype=float), self.lower, self.upper)
+
+    def sync(self, q_measured: np.ndarray) -> None:
+        """Start from where the hand is (e.g. at trial start)."""
+        self.q_goal = np.clip(q_measured, self.lower, self.upper)
+        self._q_sent = self.q_goal.copy()
+
+    def advance(self, finger: str, distance_m: float) -> None:
+        """Move one fingertip's goal along its closing vector (negative = open)."""
+        if distance_m == 0.0:
+            return
+        sl = self.kin.slices[finger]
+        chain = self.kin.chains[finger]
+        dp = self.task_vectors[finger] * distance_m
+        self.q_goal[sl] = chain.ik_step(self.q_goal[sl], dp, PAD_POINT_SENSOR)
+
+    def next_goal(self) -> np.ndarray:
+        """The goal to send this tick: toward q_goal, at most max_step per joint."""
+        step = np.clip(self.q_goal - self._q_sent, -self.max_step, self.max_step)
+        self._q_sent = np.clip(self._q_sent + step, self.lower, self.upper)
+        return self._q_sent.copy()

@@ -1,0 +1,29 @@
+"""Controller gains, speeds and time-outs (hand-independent defaults)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class ControllerSettings:
+    close_speed_m_s: float = 0.02          # fingertip speed along the task vector while closing
+    close_timeout_s: float = 4.0
+    ramp_gain_m_s_per_n: float = 0.01     # fingertip speed per N of force error
+    ramp_max_speed_m_s: float = 0.01      # rate limit of the force ramp
+    ramp_tolerance_n: float = 0.15
+    ramp_settle_s: float = 0.1             # all fingertips within tolerance this long
+    ramp_timeout_s: float = 6.0
+    hold_gain_m_s_per_n: float = 0.005     # grip force controller during lift/hold/lower
+    hold_max_speed_m_s: float = 0.004
+    reach_tolerance_m: float = 0.001
+    reach_timeout_s: float = 10.0
+    lift_speed_m_s: float = 0.04
+    lower_speed_m_s: float = 0.015
+    lower_overshoot_m: float = 0.03        # how far below the grasp height lowering may go
+    grip_lost_fraction: float = 0.3        # grip below this fraction of tau = slipping
+    contact_lost_s: float = 0.05
+    open_s: float = 0.4                    # time to open the fingers on release
+    retreat_m: float = 0.05
+    low_confidence_slowdown: bool = False  # slow the ramp when the policy's variance is high
+    variance_scale_n2: float = 0.05        # variance at which the ramp runs at half speed

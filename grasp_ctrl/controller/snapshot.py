@@ -1,0 +1,34 @@
+"""What the controller sees each tick, and what it asks for."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """One control tick's view of the world; guards read only this and the object profile.
+
+    Per-fingertip arrays are in hand-file finger order.
+    """
+
+    t: float                      # s
+    q: np.ndarray                 # measured joint angles, rad
+    p_palm_world: np.ndarray      # m
+    tare_ready: bool
+    in_contact: np.ndarray        # (n_tips,) bool, debounced pdc gate
+    f_sensor: np.ndarray          # (n_tips, 3) N, estimated force on the skin (0 without contact)
+    f_hand: np.ndarray            # (n_tips, 3) N
+    f_world: np.ndarray           # (n_tips, 3) N
+    grip_n: np.ndarray            # (n_tips,) N, squeeze: |f_world| across the lift direction
+    variance: np.ndarray | None = None   # (n_tips, 3) N^2 when the policy provides it
+    fault: str | None = None      # a fault the runner detected (sensor_stale, hardware_error, aborted)
+
+
+@dataclass(frozen=True)
+class Command:
+    q_goal: np.ndarray            # rad
+    p_palm_world: np.ndarray      # arm target, m
+    torque_on: bool = True

@@ -1,0 +1,1 @@
+"""The mock world: simulated hand, arm, objects, table and BioTac sensors."""

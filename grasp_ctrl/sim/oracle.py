@@ -1,0 +1,43 @@
+"""Debugging policies of the mock world: the true contact force (times K)."""
+
+from __future__ import annotations
+
+import re
+from typing import Sequence
+
+import numpy as np
+
+from grasp_ctrl.errors import PolicyError
+from grasp_ctrl.estimators.base import Estimate
+from grasp_ctrl.sim.world import MockWorld
+
+_SPEC = re.compile(r"^oracle(?::scale=(?P<k>[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?))?$")
+
+
+def is_oracle(spec: str) -> bool:
+    return spec == "oracle" or spec.startswith("oracle:")
+
+
+def parse_oracle(spec: str) -> float:
+    m = _SPEC.match(spec)
+    if not m:
+        raise PolicyError(f"policy {spec!r}: expected 'oracle' or 'oracle:scale=K' with K a positive number")
+    k = float(m.group("k")) if m.group("k") else 1.0
+    if k <= 0:
+        raise PolicyError(f"policy {spec!r}: scale must be positive")
+    return k
+
+
+class OracleEstimator:
+    """Reads f_sensor from the world's ground truth (mock backend only)."""
+
+    has_variance = False
+
+    def __init__(self, world: MockWorld, scale: float = 1.0, name: str = "oracle") -> None:
+        self.world = world
+        self.scale = scale
+        self.name = name
+
+    def estimate(self, tared: np.ndarray, fingers: Sequence[str]) -> Estimate:
+        f = np.array([self.world.true_f_sensor(name) for name in fingers]).reshape(len(fingers), 3)
+        return Estimate(f_sensor=self.scale * f)

@@ -1,0 +1,1 @@
+"""Trials: run lift-and-place series, judge outcomes, write logs and summaries."""

@@ -1,0 +1,107 @@
+"""One control tick's sensing: raw frames -> tare -> contact gate -> estimator ->
+forces in sensor, hand and world frames -> Snapshot (DESIGN.md 3)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.controller.snapshot import Snapshot
+from grasp_ctrl.errors import SensorStaleError
+from grasp_ctrl.estimators.base import ForceEstimator
+from grasp_ctrl.hardware.base import JointState, TactileFrame
+from grasp_ctrl.kinematics.batched import BatchedKinematics
+from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.tactile.layout import FRAME_LEN
+from grasp_ctrl.tactile.tare import ContactGate, Tare
+
+
+class SensingPipeline:
+    def __init__(self, hand: HandConfig, kin: HandKinematics, estimator: ForceEstimator) -> None:
+        self.hand = hand
+        self.kin = kin
+        self.bkin = BatchedKinematics(kin)
+        self.estimator = estimator
+        self.names = [f.name for f in hand.fingers]
+        self.sensor_ids = [f.sensor_id for f in hand.fingers]
+        n = len(self.names)
+        self.tare = Tare(n)
+        self.gate = ContactGate(n, hand.tactile.contact_pdc_threshold, hand.tactile.contact_frames)
+        self._tare_window: list[np.ndarray] = []
+        self.raw = np.zeros((n, FRAME_LEN))
+        self.tared = np.zeros((n, FRAME_LEN))
+
+    def frames_matrix(self, frames: dict[int, TactileFrame], now: float) -> np.ndarray:
+        """(n_tips, 44) raw counts in finger order; a missing or old frame is a fault."""
+        stale_after = self.hand.tactile.stale_after_s
+        raw = np.empty((len(self.names), FRAME_LEN))
+        for i, sid in enumerate(self.sensor_ids):
+            frame = frames.get(sid)
+            if frame is None:
+                raise SensorStaleError(f"fingertip {self.names[i]!r} (sensor {sid}): no frame received")
+            age = now - frame.t_recv
+            if age > stale_after:
+                raise SensorStaleError(
+                    f"fingertip {self.names[i]!r} (sensor {sid}): last frame {age * 1000:.0f} ms old "
+                    f"(stale after {stale_after * 1000:.0f} ms)"
+                )
+            raw[i] = frame.values
+        return raw
+
+    def collect_tare(self, raw: np.ndarray) -> bool:
+        """Add one free-space frame to the tare window; True once the baseline is set."""
+        if self.tare.ready:
+            return True
+        self._tare_window.append(raw.copy())
+        if len(self._tare_window) >= self.hand.tactile.tare_frames:
+            self.tare.set_baseline(np.stack(self._tare_window))
+            self._tare_window.clear()
+            self.gate.reset()
+        return self.tare.ready
+
+    def snapshot(
+        self,
+        raw: np.ndarray,
+        joints: JointState,
+        p_palm_world: np.ndarray,
+        collecting_tare: bool,
+        fault: str | None = None,
+    ) -> Snapshot:
+        n = len(self.names)
+        self.raw = raw
+        tare_ready = self.collect_tare(raw) if collecting_tare else self.tare.ready
+        f_sensor = np.zeros((n, 3))
+        variance = None
+        if self.tare.ready:
+            tared = self.tare.apply(raw)
+            in_contact = self.gate.update(tared)
+            if in_contact.any():
+                idx = np.flatnonzero(in_contact)
+                est = self.estimator.estimate(tared[idx], [self.names[i] for i in idx])
+                f_sensor[idx] = est.f_sensor
+                if est.variance is not None:
+                    variance = np.zeros((n, 3))
+                    variance[idx] = est.variance
+        else:
+            tared = np.zeros_like(raw)
+            in_contact = np.zeros(n, dtype=bool)
+        self.tared = tared
+        R, _ = self.bkin.sensor_frames(joints.q)
+        f_hand = np.einsum("nij,nj->ni", R, f_sensor)
+        f_world = f_hand  # the arm translates the hand: hand axes = world axes
+        # Grip = the squeeze: the force across the lift direction (world z). Along z
+        # the fingertips also carry the object's weight, which must not count as grip.
+        grip = np.linalg.norm(f_world[:, :2], axis=1)
+        return Snapshot(
+            t=joints.t,
+            q=joints.q,
+            p_palm_world=p_palm_world,
+            tare_ready=tare_ready,
+            in_contact=in_contact,
+            f_sensor=f_sensor,
+            f_hand=f_hand,
+            f_world=f_world,
+            grip_n=grip,
+            variance=variance,
+            fault=fault,
+        )
