@@ -30,6 +30,7 @@ from grasp_ctrl.hardware.dynamixel import control_table as ct
 from grasp_ctrl.hardware.dynamixel.bus import DynamixelBus
 from grasp_ctrl.hardware.dynamixel.calibration import Calibration
 from grasp_ctrl.hardware.dynamixel.port import set_low_latency
+from grasp_ctrl.hardware.dynamixel.setup import configure_servos
 
 
 class MonotonicClock:
@@ -129,32 +130,8 @@ class DynamixelHand:
 
     def configure(self) -> None:
         """EEPROM settings need torque off; done servo by servo, each write checked."""
-        lo, hi = self.cal.limit_counts()
-        for k, j in enumerate(self.joints):
-            i = j.servo_id
-            self.bus.write(i, ct.ADDR_TORQUE_ENABLE, 1, 0)
-            self.bus.write(i, ct.ADDR_RETURN_DELAY_TIME, 1, 0)
-            self.bus.write(i, ct.ADDR_OPERATING_MODE, 1, ct.MODE_CURRENT_BASED_POSITION)
-            limit_units = self._current_units(j.current_limit_a)
-            self.bus.write(i, ct.ADDR_CURRENT_LIMIT, 2, limit_units)
-            self.bus.write(i, ct.ADDR_MAX_POSITION_LIMIT, 4, int(hi[k]))
-            self.bus.write(i, ct.ADDR_MIN_POSITION_LIMIT, 4, int(lo[k]))
-            self.bus.write(i, ct.ADDR_GOAL_CURRENT, 2, limit_units)
-            self.bus.write(i, ct.ADDR_PROFILE_ACCELERATION, 4, self.cfg.profile_acceleration)
-            self.bus.write(i, ct.ADDR_PROFILE_VELOCITY, 4, self.cfg.profile_velocity)
-            for addr, gain in (
-                (ct.ADDR_POSITION_P_GAIN, self.cfg.position_p_gain),
-                (ct.ADDR_POSITION_I_GAIN, self.cfg.position_i_gain),
-                (ct.ADDR_POSITION_D_GAIN, self.cfg.position_d_gain),
-            ):
-                if gain is not None:
-                    self.bus.write(i, addr, 2, gain)
+        configure_servos(self.bus, self.joints, self.model, self.cfg)
         self.torque_enabled = False
-
-    def _current_units(self, amps: float) -> int:
-        units = int(round(amps / self.amp_per_unit))
-        top = self.model.max_current_limit if self.model else 1750
-        return max(1, min(top, units))
 
     def _choose_sync_read(self) -> None:
         """Fast Sync Read needs recent firmware; fall back to Sync Read if the servos ignore it."""
