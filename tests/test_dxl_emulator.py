@@ -107,3 +107,15 @@ def test_blocked_joint_overloads_and_drops_torque(bus) -> None:
 
 def test_parse_ids() -> None:
     assert parse_ids("0-3,8") == [0, 1, 2, 3, 8]
+
+
+def test_external_physics_hook(bus) -> None:
+    emu, port, ph = bus
+    emu.external_physics = True
+    ph.write1ByteTxRx(port, 1, 64, 1)
+    ph.write4ByteTxRx(port, 1, 116, 2500)
+    assert emu.goals()[1] == (2500, True)
+    emu.set_present(1, 2222.0, velocity_counts_s=0.0, current_ma=-30.0)
+    assert ph.read4ByteTxRx(port, 1, 132)[0] == 2222
+    cur = ph.read2ByteTxRx(port, 1, 126)[0]
+    assert cur - 65536 == -30

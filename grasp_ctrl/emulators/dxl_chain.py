@@ -44,6 +44,7 @@ class DynamixelChainEmulator:
         self.lock = threading.RLock()
         self.missing: set[int] = set()
         self.fast_sync_read_supported = True  # False: like old firmware, ignore FAST_SYNC_READ
+        self.external_physics = False  # True: a simulator sets the present state (set_present)
         self.instructions: Counter[int] = Counter()
         self.sync_write_count = 0
         self.parser = p.PacketParser()
@@ -128,6 +129,19 @@ class DynamixelChainEmulator:
     def servo(self, dxl_id: int) -> EmulatedServo:
         return self.servos[dxl_id]
 
+    # ---- hardware-in-the-loop: let a simulator be the physics ------------------------
+    def goals(self) -> dict[int, tuple[int, bool]]:
+        """Goal position (counts) and torque flag of every servo, as last written by the host."""
+        with self.lock:
+            return {i: (s.get((116, 4), True), s.torque_on) for i, s in self.servos.items()}
+
+    def set_present(self, dxl_id: int, counts: float, velocity_counts_s: float = 0.0, current_ma: float = 0.0) -> None:
+        """Publish a simulated state (use with ``external_physics = True``)."""
+        with self.lock:
+            s = self.servos[dxl_id]
+            s.position_counts = float(counts)
+            s._publish(velocity_counts_s, current_ma)
+
     # ---- serving -------------------------------------------------------------------
     def _serve(self) -> None:
         while not self._stop.is_set():
@@ -158,6 +172,8 @@ class DynamixelChainEmulator:
         now = time.monotonic()
         dt = now - self._last_step
         self._last_step = now
+        if self.external_physics:
+            return
         for s in self.servos.values():
             s.step(dt)
 

@@ -235,18 +235,21 @@ class DynamixelHand:
         if not self.connected:
             return problems
         self.bus.unjam()
-        try:
-            if action == "hold":
+        if action == "hold":
+            # Servos keep holding their last goal even if this refresh fails.
+            try:
                 state = self.read()
                 self.last_goal = np.clip(state.q, self.lower, self.upper)
                 self._send_goal_counts(self.cal.to_counts(self.last_goal))
-                return problems
+            except Exception as exc:
+                problems.append(f"hold: {exc}")
+            return problems
+        try:
             if action == "open" and self.torque_enabled and self.last_goal is not None:
                 self._ramp_to(self.q_open, timeout_s)
-        except HardwareError as exc:
-            problems.append(str(exc))
-        except Exception as exc:  # keep going to torque off whatever happened
-            problems.append(f"{type(exc).__name__}: {exc}")
+        except (Exception, KeyboardInterrupt, SystemExit) as exc:
+            # whatever happened (a second Ctrl-C included), still turn the torque off
+            problems.append(f"open: {type(exc).__name__}: {exc}")
         self.bus.unjam()
         try:
             self.set_torque(False)
