@@ -206,7 +206,7 @@ def test_overload_mid_run_leads_to_a_safe_stop(emu: DynamixelChainEmulator, hand
     # recovery: reboot, reconfigure, hold, torque on
     emu.block_joint(1, None)
     hand.recover()
-    hand.check_health()
+    hand.check_health(force=True)
     assert all(emu.servo(j.servo_id).torque_on for j in hand.joints)
     assert emu.servo(1).get((ct.ADDR_OPERATING_MODE, 1)) == ct.MODE_CURRENT_BASED_POSITION
 
@@ -228,3 +228,29 @@ def test_hold_keeps_torque_and_the_present_pose(emu: DynamixelChainEmulator) -> 
     expected = cal.to_counts(q)
     last_sent = lambda: np.array([emu.servo(j.servo_id).goal_history[-1] for j in leap().joints])  # noqa: E731
     assert wait_until(lambda: np.all(np.abs(last_sent() - expected) <= 1))
+
+
+def test_health_polling_follows_the_alert_bit(emu: DynamixelChainEmulator) -> None:
+    from grasp_ctrl.emulators import dxl_protocol as p
+
+    class FrozenClock:
+        t = 0.0
+
+        def now(self) -> float:
+            return self.t
+
+    clock = FrozenClock()
+    with DynamixelHand(leap(), emu.port, clock=clock, handle_signals=False, health_poll_s=1.0) as h:
+        h.check_health()  # first call polls
+        polls = emu.instructions[p.INST_FAST_SYNC_READ]
+        for _ in range(5):
+            h.read()
+            h.check_health()  # no alert, interval not over: no extra bus traffic
+        assert emu.instructions[p.INST_FAST_SYNC_READ] == polls + 5
+        emu.inject_hardware_error(7, 0x04)
+        h.read()  # the alert bit rides on this reply ...
+        with pytest.raises(HardwareError, match=r"middle_dip \(id 7\): overheating"):
+            h.check_health()  # ... so the register is polled at once
+        clock.t = 2.0
+        with pytest.raises(HardwareError):
+            h.check_health()  # and on the interval

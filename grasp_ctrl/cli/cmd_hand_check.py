@@ -126,7 +126,7 @@ def _move_test(hand, port: str | None, step: float) -> list[str]:
             print(f"  {j.name:14s} goal {target[k]:+.3f}  reached {reached:+.3f}  back {back:+.3f}  {verdict}")
             if not ok:
                 problems.append(f"{j.name} (id {j.servo_id}): moved to {reached:.3f} rad, goal {target[k]:.3f}")
-            dxl.check_health()
+            dxl.check_health(force=True)
         dxl.safe_stop("torque_off")
     return problems
 

@@ -68,6 +68,7 @@ class DynamixelBus:
         self.port = ShortTimeoutPortHandler(port, packet_timeout_ms)
         self.ph = PacketHandler(2.0)
         self.stats = BusStats()
+        self.alert_seen = False  # a status packet carried the hardware-alert bit (reset by the reader)
         # Fast Sync Read needs SDK >= 3.8 (GroupSyncRead.fastSyncReadTxPacket) and servo firmware support.
         self.fast_sync_read = fast_sync_read and hasattr(GroupSyncRead, "fastSyncReadTxPacket")
         self._readers: dict[tuple[int, int, tuple[int, ...]], GroupSyncRead] = {}
@@ -253,6 +254,7 @@ class DynamixelBus:
 
     def _note_alert(self, dxl_id: int, error: int) -> None:
         if error & ALERT_BIT:
+            self.alert_seen = True
             self.stats.alerts[dxl_id] = self.stats.alerts.get(dxl_id, 0) + 1
 
     def _why(self, result: int) -> str:

@@ -48,6 +48,7 @@ class DynamixelHand:
         clock: Clock | None = None,
         *,
         handle_signals: bool = True,
+        health_poll_s: float = 0.1,
     ) -> None:
         self.hand = hand
         self.cfg = hand.dynamixel
@@ -71,6 +72,8 @@ class DynamixelHand:
             fast_sync_read=self.cfg.fast_sync_read,
         )
         self.handle_signals = handle_signals
+        self.health_poll_s = health_poll_s
+        self._last_health_poll = -float("inf")
         self.latency_status = ""
         self.connected = False
         self.torque_enabled = False
@@ -197,8 +200,17 @@ class DynamixelHand:
         res = self.bus.sync_read(self.ids, ct.ADDR_HARDWARE_ERROR_STATUS, 1)
         return {i: res.data[i][0] for i in self.ids if res.data[i][0]}
 
-    def check_health(self) -> None:
-        """Poll Hardware Error Status explicitly (sync reads only carry the alert bit)."""
+    def check_health(self, force: bool = False) -> None:
+        """Poll Hardware Error Status explicitly (sync reads only carry the alert bit).
+
+        Every status packet of the per-tick read carries the alert bit, so the
+        register is polled at once when a read saw it, and otherwise every
+        ``health_poll_s`` (clock time) or when ``force`` is set."""
+        now = self.clock.now()
+        if not (force or self.bus.alert_seen or now - self._last_health_poll >= self.health_poll_s):
+            return
+        self._last_health_poll = now
+        self.bus.alert_seen = False
         errors = self.read_hardware_errors()
         self.faults = errors
         if errors:
