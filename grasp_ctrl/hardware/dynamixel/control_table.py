@@ -57,11 +57,12 @@ class ServoModel:
     has_current_control: bool = True
 
 
-# Model numbers as the servos report them on PING.
+# Model numbers as the servos report them on PING (XC330-M288-T, XC330-T288-T and
+# XL330-M288-T checked against the e-manual; the others from the same tables, unverified here).
 MODELS: dict[str, ServoModel] = {
     m.name: m
     for m in (
-        ServoModel("XC330-M288-T", 1240, 0.001, 1750),
+        ServoModel("XC330-M288-T", 1240, 0.001, 2352),  # checked against the e-manual table
         ServoModel("XC330-M181-T", 1230, 0.001, 1750),
         ServoModel("XC330-T288-T", 1220, 0.001, 1750),
         ServoModel("XC330-T181-T", 1210, 0.001, 1750),

@@ -126,7 +126,7 @@ class DynamixelHand:
         if missing:
             problems.append("no reply from " + ", ".join(missing))
         if mismatched:
-            problems.append("model mismatch: " + "; ".join(mismatched))
+            problems.append("model mismatch: " + "; ".join(mismatched) + " (fix [dynamixel] model or the servos)")
         if problems:
             raise HardwareError(f"Dynamixel bus {self.port_name}: " + "; ".join(problems))
         return models
