@@ -115,7 +115,7 @@ def test_external_physics_hook(bus) -> None:
     ph.write1ByteTxRx(port, 1, 64, 1)
     ph.write4ByteTxRx(port, 1, 116, 2500)
     assert emu.goals()[1] == (2500, True)
-    emu.set_present(1, 2222.0, velocity_counts_s=0.0, current_ma=-30.0)
+    emu.set_present(1, 2222.0, velocity_counts_s=0.0, current_raw=-30.0)
     assert ph.read4ByteTxRx(port, 1, 132)[0] == 2222
     cur = ph.read2ByteTxRx(port, 1, 126)[0]
     assert cur - 65536 == -30

@@ -135,12 +135,13 @@ class DynamixelChainEmulator:
         with self.lock:
             return {i: (s.get((116, 4), True), s.torque_on) for i, s in self.servos.items()}
 
-    def set_present(self, dxl_id: int, counts: float, velocity_counts_s: float = 0.0, current_ma: float = 0.0) -> None:
-        """Publish a simulated state (use with ``external_physics = True``)."""
+    def set_present(self, dxl_id: int, counts: float, velocity_counts_s: float = 0.0, current_raw: float = 0.0) -> None:
+        """Publish a simulated state (use with ``external_physics = True``); current in
+        Present Current register units (1 mA on X330 models)."""
         with self.lock:
             s = self.servos[dxl_id]
             s.position_counts = float(counts)
-            s._publish(velocity_counts_s, current_ma)
+            s._publish(velocity_counts_s, current_raw)
 
     # ---- serving -------------------------------------------------------------------
     def _serve(self) -> None:

@@ -64,7 +64,7 @@ class EmulatedDynamixelHand:
         amp_unit = self.dxl.amp_per_unit if self.dxl else 0.001
         for k, i in enumerate(self.ids):
             s = self.cal.sign[k]
-            self.emu.set_present(i, counts[k], s * dq[k] / RAD_PER_COUNT, s * current_a[k] / amp_unit * 1e-3 / 1e-3)
+            self.emu.set_present(i, counts[k], s * dq[k] / RAD_PER_COUNT, s * current_a[k] / amp_unit)
 
     def _pull_goals(self) -> None:
         goals = self.emu.goals()
