@@ -22,18 +22,17 @@ def test_ports_without_a_latency_timer_are_skipped(tmp_path: Path) -> None:
     assert "skipped" in set_low_latency("/dev/pts/3", 1, sysfs_root=str(tmp_path))
 
 
-def test_unwritable_latency_timer_says_what_to_run(tmp_path: Path) -> None:
+def test_unwritable_latency_timer_says_what_to_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     timer = tmp_path / "ttyUSB0" / "latency_timer"
     timer.parent.mkdir()
     timer.write_text("16\n")
-    timer.chmod(0o444)
-    try:
-        msg = set_low_latency("/dev/ttyUSB0", 1, sysfs_root=str(tmp_path))
-    finally:
-        timer.chmod(0o644)
-    if timer.read_text().strip() == "1":
-        pytest.skip("running as root: the read-only file was writable anyway")
-    assert "sudo tee" in msg
+
+    def refuse(self: Path, *args: object, **kwargs: object) -> int:
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(Path, "write_text", refuse)  # what a non-root user meets in sysfs
+    msg = set_low_latency("/dev/ttyUSB0", 1, sysfs_root=str(tmp_path))
+    assert "is 16 ms" in msg and "sudo tee" in msg and str(timer) in msg
 
 
 def test_packet_timeout_is_transmission_time_plus_margin() -> None:
