@@ -11,7 +11,6 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from grasp_ctrl.emulators.dxl_chain import DynamixelChainEmulator
-from grasp_ctrl.emulators.dxl_servo import HW_OVERLOAD
 from grasp_ctrl.errors import HardwareError
 from grasp_ctrl.hardware.base import HandBackend
 from grasp_ctrl.hardware.dynamixel import DynamixelHand

@@ -8,7 +8,6 @@ at its zero; ``sign`` = -1 when the servo turns against the joint axis.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,8 +56,3 @@ class Calibration:
         c = np.rint(self.to_counts_float(q_rad)).astype(np.int64)
         return np.clip(c, lo, hi)
 
-
-def counts_span_ok(cal: Calibration) -> list[int]:
-    """Indices of joints whose limits fall outside one servo turn (0..4095 counts)."""
-    lo, hi = cal.limit_counts()
-    return [i for i in range(len(lo)) if lo[i] < 0 or hi[i] > 4095 or math.isnan(float(lo[i]))]
