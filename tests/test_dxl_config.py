@@ -28,12 +28,14 @@ def with_dynamixel_keys(tmp_path: Path, extra: str) -> Path:
 def test_shipped_leap_values() -> None:
     d = load_hand(LEAP).dynamixel
     assert d.fast_sync_read and d.latency_timer_ms == 1 and d.packet_timeout_ms == 8.0
-    assert d.position_p_gain is None
+    assert (d.position_p_gain, d.position_i_gain, d.position_d_gain) == (600, 0, 200)
 
 
 def test_gains_parse(tmp_path: Path) -> None:
-    d = load_hand(with_dynamixel_keys(tmp_path, "position_p_gain = 600\nposition_d_gain = 200")).dynamixel
-    assert (d.position_p_gain, d.position_i_gain, d.position_d_gain) == (600, None, 200)
+    path = with_dynamixel_keys(tmp_path, "position_p_gain = 700\nposition_d_gain = 100")
+    path.write_text(path.read_text().replace("position_i_gain = 0 ", "# "))
+    d = load_hand(path).dynamixel
+    assert (d.position_p_gain, d.position_i_gain, d.position_d_gain) == (700, None, 100)
 
 
 @pytest.mark.parametrize(

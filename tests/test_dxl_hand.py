@@ -253,3 +253,9 @@ def test_health_polling_follows_the_alert_bit(emu: DynamixelChainEmulator) -> No
         clock.t = 2.0
         with pytest.raises(HardwareError):
             h.check_health()  # and on the interval
+
+
+def test_gains_from_the_hand_file_are_written(emu: DynamixelChainEmulator, hand: DynamixelHand) -> None:
+    for j in hand.joints:
+        s = emu.servo(j.servo_id)
+        assert (s.get((84, 2)), s.get((82, 2)), s.get((80, 2))) == (600, 0, 200)
