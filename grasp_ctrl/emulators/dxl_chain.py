@@ -274,33 +274,34 @@ class DynamixelChainEmulator:
                 out.append(self._emit(i, p.build_status(i, err | s.error_byte_alert, data)))
             return b"".join(out)
         # Fast sync read: one status packet, ID 0xFE, per servo ERR ID DATA CRC;
-        # each servo appends its part and a CRC over the packet so far, so the
-        # last servo's CRC is the packet's CRC.
-        content = bytearray()
+        # each servo appends its part and the CRC of the packet so far, so the
+        # last servo's CRC is the packet's CRC. The chain stops at a silent servo.
+        parts: list[bytes] = []
         for i in ids:
             s = self._present(i)
             if s is None:
                 break
             err, data = s.read(addr, length)
-            if len(data) != length:
-                data = bytes(length)
-            content += bytes([err | s.error_byte_alert, i]) + data
-            content += b"\x00\x00"  # placeholder, fixed up below
-        if not content:
+            parts.append(bytes([err | s.error_byte_alert, i]) + (data if len(data) == length else bytes(length)))
+        if not parts:
             return b""
-        # Assemble with unstuffed intermediate CRCs, then frame like build_packet.
-        seg = length + 4
-        body = bytearray([p.INST_STATUS]) + content
-        for k in range(len(content) // seg):
-            end = 1 + (k + 1) * seg
-            head = p.HEADER + bytes([p.BROADCAST_ID, 0, 0])
-            crc = p.crc16(head + body[: end - 2])
-            body[end - 2], body[end - 1] = crc & 0xFF, crc >> 8
+        body = bytearray([p.INST_STATUS])
+        length_field = 1 + len(parts) * (length + 4)
+        crc = p.crc16(p.HEADER + bytes([p.BROADCAST_ID, length_field & 0xFF, length_field >> 8]))
+        crc = p.crc16(body, crc)
+        for part in parts:
+            crc = p.crc16(part, crc)
+            seg_crc = bytes([crc & 0xFF, crc >> 8])
+            body += part + seg_crc
+            crc = p.crc16(seg_crc, crc)
         stuffed = p.stuff(bytes(body[:-2]))
-        total_len = len(stuffed) + 2
-        pkt = p.HEADER + bytes([p.BROADCAST_ID, total_len & 0xFF, total_len >> 8]) + stuffed
-        crc = p.crc16(pkt)
-        reply = pkt + bytes([crc & 0xFF, crc >> 8])
+        if len(stuffed) == len(body) - 2:
+            reply = p.HEADER + bytes([p.BROADCAST_ID, length_field & 0xFF, length_field >> 8]) + bytes(body)
+        else:  # stuffing changed the length: frame and checksum again
+            total_len = len(stuffed) + 2
+            pkt = p.HEADER + bytes([p.BROADCAST_ID, total_len & 0xFF, total_len >> 8]) + stuffed
+            crc = p.crc16(pkt)
+            reply = pkt + bytes([crc & 0xFF, crc >> 8])
         return self._emit(ids[0], reply)
 
 
