@@ -12,7 +12,7 @@ import pytest
 
 from grasp_ctrl.emulators.dxl_chain import DynamixelChainEmulator
 
-from tests.dxl_helpers import REPO, leap
+from tests.dxl_helpers import REPO, leap, leap_file
 
 CHILD = r"""
 import sys, time
@@ -31,12 +31,13 @@ with DynamixelHand(hand, sys.argv[1]) as h:
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
-def test_torque_off_after_signal(sig: signal.Signals) -> None:
+def test_torque_off_after_signal(sig: signal.Signals, tmp_path) -> None:
     hand = leap()
+    hand_file = leap_file(tmp_path)
     with DynamixelChainEmulator.for_hand(hand) as emu:
         env = dict(os.environ, PYTHONPATH=str(REPO))
         child = subprocess.Popen(
-            [sys.executable, "-c", CHILD, emu.port, hand.path],
+            [sys.executable, "-c", CHILD, emu.port, str(hand_file)],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=REPO,
         )
         try:

@@ -13,6 +13,7 @@ calibration, clamping, the step limit and the bus exactly as on a real hand.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from typing import Any
 
@@ -49,7 +50,16 @@ class EmulatedDynamixelHand:
     def connect(self) -> None:
         self.emu.start()
         self._publish()
-        self.dxl = DynamixelHand(self.hand, self.emu.port, clock=_WorldClock(self.world), handle_signals=False)
+        # The emulator is a thread on a possibly busy host, not a servo answering in
+        # microseconds: give it a generous reply deadline so a trial is not aborted
+        # by the scheduler (the timing path itself is covered by the backend's tests).
+        relaxed = dataclasses.replace(
+            self.hand,
+            dynamixel=dataclasses.replace(
+                self.hand.dynamixel, packet_timeout_ms=max(50.0, self.hand.dynamixel.packet_timeout_ms), retries=5
+            ),
+        )
+        self.dxl = DynamixelHand(relaxed, self.emu.port, clock=_WorldClock(self.world), handle_signals=False)
         self.dxl.connect()
         self._pull_goals()
 
