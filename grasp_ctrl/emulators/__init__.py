@@ -1,1 +1,1 @@
-"""Device emulators used by tests, benchmarks and hardware-free runs."""
+"""Software stand-ins for hardware, for tests and for trying the tools without a robot."""
