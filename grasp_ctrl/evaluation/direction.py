@@ -95,7 +95,7 @@ def fit_rotation(dirs: np.ndarray, labels: np.ndarray) -> Fit:
     return best
 
 
-def test_angles(fit: Fit, dirs: np.ndarray, labels: np.ndarray) -> np.ndarray:
+def held_out_angles(fit: Fit, dirs: np.ndarray, labels: np.ndarray) -> np.ndarray:
     return angles_deg(fit.rotation.apply(unit(dirs)), fit.label_sign * labels)
 
 
@@ -120,7 +120,7 @@ def fit_analytic_gains(tared: np.ndarray, labels: np.ndarray) -> Fit:
     def fit_for(log_ratio: np.ndarray) -> tuple[Fit, float]:
         g = np.array([np.exp(log_ratio[0]), np.exp(log_ratio[1]), 1.0])
         f = fit_rotation(s * g, labels)
-        cost = float(np.mean(1.0 - np.cos(np.radians(test_angles(f, s * g, labels)))))
+        cost = float(np.mean(1.0 - np.cos(np.radians(held_out_angles(f, s * g, labels)))))
         return Fit(f.rotation, f.label_sign, g), cost
 
     res = minimize(lambda x: fit_for(x)[1], x0=np.zeros(2), method="Nelder-Mead",
@@ -155,7 +155,7 @@ def evaluate(name: str, samples: Sequence[ContactSamples],
             else:
                 fit = fit_rotation(dirs[tr.trial_id], tr.labels)
                 d_test = dirs[te.trial_id]
-            ang = test_angles(fit, d_test, te.labels)
+            ang = held_out_angles(fit, d_test, te.labels)
             results.append(DirectionResult(
                 name, tr.trial_id, te.trial_id, len(tr.tared), len(te.tared),
                 {p: float(np.percentile(ang, p)) for p in PERCENTILES}, fit.label_sign,

@@ -17,6 +17,8 @@ from grasp_ctrl.tactile.layout import ELECTRODES, N_ELECTRODES
 
 # The authors add this to the weight sum; kept so centroids match theirs.
 _WEIGHT_EPS = 1e-8
+# A centroid this close to the origin/axis has no defined direction (no signal).
+DEGENERATE_RADIUS_M = 1e-9
 
 
 def electrodes_of(tared: np.ndarray) -> np.ndarray:
@@ -30,8 +32,9 @@ def electrodes_of(tared: np.ndarray) -> np.ndarray:
 def contact_points(tared: np.ndarray, radius_m: float = SURFACE_RADIUS_M) -> np.ndarray:
     """(n, 44) or (n, 19) tared values -> (n, 3) contact points on the surface (m).
 
-    With no electrode signal at all the centroid is undefined; such rows get
-    the pad point (0, 0, -radius).
+    With no electrode signal the centroid is undefined (it sits within
+    ``DEGENERATE_RADIUS_M`` of the origin or the x axis); such rows get the pad
+    point (0, 0, -radius).
     """
     e = electrodes_of(tared)
     w = e * e
@@ -42,7 +45,7 @@ def contact_points(tared: np.ndarray, radius_m: float = SURFACE_RADIUS_M) -> np.
     r_sphere = np.linalg.norm(c, axis=1)
     r_cyl = np.hypot(c[:, 1], c[:, 2])
     r = np.where(on_cap, r_sphere, r_cyl)
-    degenerate = r <= 0.0
+    degenerate = r < DEGENERATE_RADIUS_M
     scale = radius_m / np.where(degenerate, 1.0, r)
     p = c.copy()
     p[:, 1:] *= scale[:, None]
