@@ -88,10 +88,17 @@ class _GraphBuilder:
         perm = [0] + [1 + 2 * i for i in range(nd)] + [2 + 2 * i for i in range(nd)] + [1 + 2 * nd]
         x = self.op("Transpose", [x], hint + "_patches", perm=perm)
         n_cells = int(np.prod([s // 2 for s in spatial]))
-        x = self.op("Reshape", [x, self.const(hint + "_rows", np.array([-1, n_cells, (2 ** nd) * c_in]), np.int64)],
+        # 2D rows (n * cells, patch) so the bias folds into one Gemm.
+        x = self.op("Reshape", [x, self.const(hint + "_rows", np.array([-1, (2 ** nd) * c_in]), np.int64)],
                     hint + "_rows")
         # TF kernel [k..., c_in, c_out] flattens in the same (k..., c_in) order as the patches.
-        return self.dense(x, w_tf.reshape(-1, w_tf.shape[-1]), b, hint)
+        y = self.gemm(x, w_tf.reshape(-1, w_tf.shape[-1]), b, hint)
+        return self.op("Reshape", [y, self.const(hint + "_cells", np.array([-1, n_cells, w_tf.shape[-1]]), np.int64)],
+                       hint + "_cells")
+
+    def gemm(self, x: str, w: np.ndarray, b: np.ndarray, hint: str) -> str:
+        """(rows, in) @ w + b as one Gemm (2D input only)."""
+        return self.op("Gemm", [x, self.const(hint + "_w", w), self.const(hint + "_b", b)], hint)
 
     def layer_norm_relu(self, x: str, gamma: np.ndarray, beta: np.ndarray, n_cells: int, hint: str) -> str:
         """TF1 contrib LayerNorm on (n, cells, C) or (n, C): statistics over all
@@ -122,20 +129,23 @@ def build_model(weights: icra19_net.Icra19Weights, masks: np.ndarray | None, doc
                            w["LayerNorm/gamma"], w["LayerNorm/beta"], 256, "ln_el")
     cp = g.layer_norm_relu(g.patch_conv(INPUT_CONTACT, GRID_SHAPE, 1, w["Conv_1/weights"], w["Conv_1/biases"], "conv_cp"),
                            w["LayerNorm_1/gamma"], w["LayerNorm_1/beta"], 256, "ln_cp")
-    x = g.op("Concat", [el, cp], "cat", axis=-1)                                               # (n, 8*8*4, 128)
-    x = g.layer_norm_relu(g.patch_conv(x, (8, 8, 4), 128, w["Conv_2/weights"], w["Conv_2/biases"], "conv2"),
-                          w["LayerNorm_2/gamma"], w["LayerNorm_2/beta"], 32, "ln2")           # (n, 4*4*2, 64)
+    # Conv_2 on concat(el, cp) along channels == Conv_2[.., :64, :] on el + Conv_2[.., 64:, :] on cp;
+    # the split form saves copying the concatenated tensor.
+    w2 = w["Conv_2/weights"]
+    x = g.op("Add", [g.patch_conv(el, (8, 8, 4), 64, w2[:, :, :, :64, :], w["Conv_2/biases"], "conv2_el"),
+                     g.patch_conv(cp, (8, 8, 4), 64, w2[:, :, :, 64:, :], np.zeros(64), "conv2_cp")], "conv2")
+    x = g.layer_norm_relu(x, w["LayerNorm_2/gamma"], w["LayerNorm_2/beta"], 32, "ln2")          # (n, 4*4*2, 64)
     x = g.layer_norm_relu(g.patch_conv(x, (4, 4, 2), 64, w["Conv_3/weights"], w["Conv_3/biases"], "conv3"),
                           w["LayerNorm_3/gamma"], w["LayerNorm_3/beta"], 4, "ln3")            # (n, 2*2*1, 64)
     # Dropping the z axis (size 1) leaves (n, 2, 2, 64); Conv_4 (2x2, stride 2) sees it as one patch.
     x = g.op("Reshape", [x, g.const("shape_flat", np.array([-1, 256]), np.int64)], "drop_z")
-    x = g.layer_norm_relu(g.dense(x, w["Conv_4/weights"].reshape(256, 128), w["Conv_4/biases"], "conv4"),
+    x = g.layer_norm_relu(g.gemm(x, w["Conv_4/weights"].reshape(256, 128), w["Conv_4/biases"], "conv4"),
                           w["LayerNorm_4/gamma"], w["LayerNorm_4/beta"], 0, "ln4")            # (n, 128)
-    x = g.layer_norm_relu(g.dense(x, w["fully_connected/weights"], w["fully_connected/biases"], "fc"),
+    x = g.layer_norm_relu(g.gemm(x, w["fully_connected/weights"], w["fully_connected/biases"], "fc"),
                           w["LayerNorm_5/gamma"], w["LayerNorm_5/beta"], 0, "ln5")
     outputs = [helper.make_tensor_value_info(OUTPUT_FORCE, TensorProto.FLOAT, [batch, 3])]
     if not w.dropout:
-        x = g.layer_norm_relu(g.dense(x, w["fully_connected_1/weights"], w["fully_connected_1/biases"], "fc1"),
+        x = g.layer_norm_relu(g.gemm(x, w["fully_connected_1/weights"], w["fully_connected_1/biases"], "fc1"),
                               w["LayerNorm_6/gamma"], w["LayerNorm_6/beta"], 0, "ln6")
         y = g.op("MatMul", [x, g.const("fc2_w", w["fully_connected_2/weights"])], "fc2")
         g.op("Add", [y, g.const("fc2_b", w["fully_connected_2/biases"])], "fc2_add", output=OUTPUT_FORCE)
