@@ -255,10 +255,10 @@ def metadata(name: str, weights: icra19_net.Icra19Weights, npz_path: Path, onnx_
         },
         "preprocessing": {
             "tare": "value - baseline",
-            "tare_note": "baseline = mean of a no-contact window; pressed electrodes are negative. "
-                         "Checked on the robotic_finger recordings: with this sign |force| tracks tared pdc "
-                         "(r = 0.41 / 0.55 on the two long trials) and the direction agrees with the plate "
-                         "normals; with the opposite sign it does not.",
+            "tare_note": "baseline = mean of a no-contact window; pressed electrodes are negative. Checked on "
+                         "real BioTac recordings (docs/tactile.md, tests/test_tactile_real_data.py): with this "
+                         "sign the predicted direction agrees with the labelled plate normals after one fixed "
+                         "rotation, with the opposite sign it agrees clearly worse.",
             "electrode_scaling": "none (raw counts)",
             "voxel_grid": "icra19",
             "voxel_grid_note": "edges = numpy.histogramdd(electrode positions in m, bins=(15,15,7)); "
