@@ -45,6 +45,7 @@ def run(args: argparse.Namespace) -> int:
         try:
             onnx_path, json_path, err = convert(path, out, name, seed=args.seed, tol=args.tol)
         except (ValueError, KeyError, OSError) as exc:
-            raise UsageError(f"{npz}: {exc}") from None
+            msg = str(exc)
+            raise UsageError(msg if msg.startswith(str(path)) else f"{npz}: {msg}") from None
         print(f"{name}: wrote {onnx_path} and {json_path} (ONNX vs numpy error {err:.2g})")
     return 0

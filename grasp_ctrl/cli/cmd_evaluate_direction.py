@@ -77,10 +77,12 @@ def run(args: argparse.Namespace) -> int:
         if len(s.tared) < 10:
             raise UsageError(f"trial {s.trial_id}: only {len(s.tared)} frames in contact")
     specs = [s.strip() for s in args.estimators.split(",") if s.strip()]
+    if not specs:
+        raise UsageError("--estimators: at least one estimator")
+    estimators = [_estimator(spec, args.threads) for spec in specs]  # fail before printing anything
     all_results = []
     print(f"{'estimator':28s} {'train -> test':44s} {'n_test':>7s} {'median':>7s} {'p75':>7s} {'p90':>7s}  deg")
-    for spec in specs:
-        name, fn = _estimator(spec, args.threads)
+    for name, fn in estimators:
         for r in evaluate(name, samples, fn):
             all_results.append(r)
             pc = r.percentiles

@@ -39,8 +39,11 @@ class Icra19Weights:
 
 
 def load_weights(npz_path: str | Path) -> Icra19Weights:
-    with np.load(npz_path) as z:
-        arrays = {k: np.asarray(z[k], dtype=np.float64) for k in z.files}
+    try:
+        with np.load(npz_path, allow_pickle=False) as z:
+            arrays = {k: np.asarray(z[k], dtype=np.float64) for k in z.files}
+    except (ValueError, OSError, AttributeError) as exc:
+        raise ValueError(f"{npz_path}: not a .npz weight file ({type(exc).__name__})") from None
     dropout = "fcn32/weights" in arrays
     needed = ["Conv/weights", "Conv_1/weights", "Conv_2/weights", "Conv_3/weights", "Conv_4/weights",
               "fully_connected/weights"]
