@@ -52,6 +52,7 @@ class VoxelGrid:
         self._el_flat = np.array(list(last.keys()), dtype=np.intp)
         self._el_src = np.array(list(last.values()), dtype=np.intp)
         self._n_cells = int(np.prod(GRID_SHAPE))
+        self._strides = np.array([GRID_SHAPE[1] * GRID_SHAPE[2], GRID_SHAPE[2], 1], dtype=np.intp)
 
     def cell_indices(self, points: np.ndarray) -> np.ndarray:
         """(n, 3) points (m) -> (n, 3) cell indices in range, per the variant."""
@@ -77,5 +78,5 @@ class VoxelGrid:
         idx = self.cell_indices(points)
         n = idx.shape[0]
         out = np.zeros((n, self._n_cells), dtype=dtype)
-        out[np.arange(n), np.ravel_multi_index(idx.T, GRID_SHAPE)] = 1.0
+        out[np.arange(n), idx @ self._strides] = 1.0
         return out.reshape((n,) + GRID_SHAPE)
