@@ -18,11 +18,21 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import HardwareError, SensorStaleError
-from grasp_ctrl.estimators.base import ForceEstimator
+from grasp_ctrl.estimators.base import Estimate, ForceEstimator
 from grasp_ctrl.tactile.layout import PDC
-from grasp_ctrl.tactile.tare import ContactGate, Tare
+from grasp_ctrl.tactile.pipeline import TactilePipeline
 from grasp_ctrl.tactile_link.recorder import FrameRecorder
 from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
+
+
+class _NoEstimate:
+    """Stands in when no policy loads: the monitor still tares and gates contact."""
+
+    name = "none"
+    has_variance = False
+
+    def estimate(self, tared: np.ndarray, fingers: list[str]) -> Estimate:
+        return Estimate(f_sensor=np.zeros((len(tared), 3)))
 
 
 @dataclass
@@ -52,10 +62,8 @@ class Monitor:
 
     def __post_init__(self) -> None:
         self.tips = [TipView(f.name, f.sensor_id) for f in self.hand.fingers]
-        n = len(self.tips)
-        self.tare = Tare(n)
-        t = self.hand.tactile
-        self.gate = ContactGate(n, t.contact_pdc_threshold, t.contact_frames)
+        # Frames from the serial link are validated by its decoder already.
+        self.pipeline = TactilePipeline.from_hand(self.hand, self.estimator or _NoEstimate(), validate=False)
 
     # ---------------------------------------------------------------- phases
 
@@ -77,8 +85,7 @@ class Monitor:
                                        + (f"; {down}" if down else ""))
             self.stop.wait(0.005)
         window = np.stack([np.stack(per_tip[t.sensor_id][-need:]) for t in self.tips], axis=1)
-        self.tare.set_baseline(window)
-        self.gate.reset()
+        self.pipeline.set_baseline(window)
 
     def run(self, seconds: float | None) -> None:
         """Monitor until ``seconds`` have passed or ``stop`` is set (Ctrl-C)."""
@@ -114,13 +121,11 @@ class Monitor:
         if len(latest) < len(self.tips):
             return
         raw = np.stack([np.asarray(latest[t.sensor_id].values, dtype=float) for t in self.tips])
-        tared = self.tare.apply(raw)
-        contact = self.gate.update(tared)
+        out = self.pipeline.step(raw)
+        tared, contact = out.tared, out.in_contact
         forces: dict[int, np.ndarray] = {}
-        if self.estimator is not None and contact.any():
-            idx = np.flatnonzero(contact)
-            est = self.estimator.estimate(tared[idx], [self.tips[i].name for i in idx])
-            forces = {int(i): est.f_sensor[k] for k, i in enumerate(idx)}
+        if self.estimator is not None:
+            forces = {int(i): out.f_sensor[i] for i in np.flatnonzero(contact)}
         for i, tip in enumerate(self.tips):
             tip.pdc_tared = float(tared[i, PDC])
             tip.contact = bool(contact[i])
