@@ -14,7 +14,6 @@ variant (force + variance) instead.
 from __future__ import annotations
 
 import time
-from typing import Callable
 
 import numpy as np
 
@@ -38,17 +37,6 @@ def _frames(rng: np.random.Generator, k: int, pressed: bool) -> np.ndarray:
     return np.rint(base)
 
 
-def _cpu_time_ms(fn: Callable[[], object], repeats: int, warmup: int) -> Figure:
-    for _ in range(warmup):
-        fn()
-    samples = np.empty(repeats)
-    for i in range(repeats):
-        t0 = time.thread_time()
-        fn()
-        samples[i] = (time.thread_time() - t0) * 1e3
-    return Figure(float(np.median(samples)), float(np.percentile(samples, 99)), "ms")
-
-
 def _measure(policy: str, quick: bool, clock: str = "wall") -> Figure:
     estimator = load_policy(policy, hand=None, threads=1)
     pipe = TactilePipeline(estimator, FINGERS)
@@ -66,8 +54,8 @@ def _measure(policy: str, quick: bool, clock: str = "wall") -> Figure:
         tick()
     if not pipe.gate.update(pipe.tare.apply(frames[0])).all():
         raise RuntimeError("estimate_4tips_ms: the synthetic presses do not pass the contact gate")
-    timer = time_ms if clock == "wall" else _cpu_time_ms
-    return timer(tick, repeats=300 if quick else 5000, warmup=50 if quick else 500)
+    timer = time.perf_counter if clock == "wall" else time.thread_time
+    return time_ms(tick, repeats=300 if quick else 5000, warmup=50 if quick else 500, timer=timer)
 
 
 def measure_estimate_4tips(quick: bool) -> Figure:
