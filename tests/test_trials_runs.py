@@ -7,6 +7,7 @@ import shutil
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from grasp_ctrl.cli import main
 from grasp_ctrl.errors import UsageError
@@ -155,3 +156,90 @@ def test_resume_refuses_flags_that_would_change_the_run(full_run, capsys):
 def test_score_without_a_run_is_one_line_error(tmp_path, capsys):
     assert main(["score", str(tmp_path / "absent")]) == 2
     assert "no such run directory" in capsys.readouterr().err
+
+
+def test_compare_prints_fig6_table_and_saves_a_chart(full_run, tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    run_dir, summary = full_run
+    png = tmp_path / "cmp.png"
+    assert main(["compare", str(run_dir), "--png", str(png)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].split() == ["success", "rate", *POLICIES]
+    assert [line.split()[0] for line in out[1:4]] == [*OBJECTS, "all"]
+    for i, p in enumerate(POLICIES):
+        e = summary["policies"][p]["overall"]
+        assert f"({e['successes']}/{e['trials']})" in out[3].split()[2 + 2 * i]
+    assert "paired trials" in out[4]
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_plot_saves_force_traces_of_a_trial(full_run, tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    run_dir, _ = full_run
+    record = record_path(run_dir, "oracle", "lego", 0)
+    png = tmp_path / "trace.png"
+    assert main(["plot", str(record), "--out", str(png), "--frame", "world"]) == 0
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    assert main(["plot", str(tmp_path / "trial_000.json")]) == 2
+    assert "no tick log" in capsys.readouterr().err
+
+
+def test_preset_paper_is_six_objects_five_trials_two_policies():
+    from grasp_ctrl.cli import build_parser
+    from grasp_ctrl.cli.cmd_run import _plan
+    from grasp_ctrl.trials.presets import PAPER_POLICIES
+
+    _, m = _plan(build_parser().parse_args(["run", "--preset", "paper"]))
+    assert (len(m.objects), m.trials, m.policies, m.preset) == (6, 5, list(PAPER_POLICIES), "paper")
+    _, m = _plan(build_parser().parse_args(["run", "--preset", "paper", "--trials", "2", "--objects", "lego"]))
+    assert (m.object_names, m.trials) == (["lego"], 2)
+
+
+def test_ctrl_c_keeps_finished_trials_and_resume_completes(tmp_path, monkeypatch, capsys):
+    """The CLI path: interrupted after one trial, then 'run --resume' finishes the plan."""
+    import grasp_ctrl.trials.runner as runner
+
+    calls = []
+
+    def fake_trial_fn(hand, policies, settings=None, threads=1):
+        def run(policy, obj, trial, seed, log_path):
+            calls.append((obj.name, trial))
+            if len(calls) == 2:
+                raise KeyboardInterrupt
+            return {"object": obj.name, "policy": policy, "trial": trial, "seed": seed,
+                    "success": trial % 2 == 0, "reason": None if trial % 2 == 0 else "slipped"}
+        return run
+
+    monkeypatch.setattr(runner, "mock_trial_fn", fake_trial_fn)
+    run_dir = tmp_path / "run"
+    assert main(["run", "--objects", "lego", "--trials", "3", "--out", str(run_dir), "--quiet"]) == 130
+    assert "1 of 3 trials are recorded" in capsys.readouterr().err
+    assert main(["run", "--resume", str(run_dir)]) == 0
+    captured = capsys.readouterr()
+    assert "resuming: 1 of 3" in captured.err and "[3/3]" in captured.err
+    assert calls == [("lego", 0), ("lego", 1), ("lego", 1), ("lego", 2)]
+    entry = _json(run_dir / "summary.json")["policies"]["linear_mock"]["objects"]["lego"]
+    assert (entry["successes"], entry["failures"]) == (2, {"slipped": 1})
+
+
+@settings(max_examples=60, deadline=None)
+@given(content=st.one_of(
+    st.binary(max_size=300),
+    st.text(max_size=300).map(str.encode),
+    st.just(b"[" * 5000),
+    st.dictionaries(st.sampled_from(["policy", "object", "trial", "seed", "success", "reason"]),
+                    st.one_of(st.none(), st.booleans(), st.integers(), st.text(max_size=8)))
+      .map(lambda d: json.dumps(d).encode()),
+))
+def test_any_record_file_content_is_loaded_or_named_never_fatal(tmp_path_factory, content):
+    run_dir = tmp_path_factory.mktemp("fuzz")
+    path = record_path(run_dir, "p", "o", 0)
+    path.parent.mkdir(parents=True)
+    path.write_bytes(content)
+    loaded = load_records(run_dir)
+    assert len(loaded.records) + len(loaded.problems) == 1
+    if loaded.problems:
+        assert loaded.problems[0][0] == path and loaded.problems[0][1]
+    else:
+        rec = loaded.records[0]
+        assert (rec["policy"], rec["object"], rec["trial"]) == ("p", "o", 0)

@@ -49,6 +49,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("tune --backend dynamixel: the real-hand trial runner is not available yet")
     if args.trials < 1:
         raise UsageError("--trials: must be at least 1")
+    if "," in args.object or args.object.strip() == "all":
+        raise UsageError("--object: one object name")
     grid = settings_grid([parse_param(s) for s in args.param])
     hand = load_hand_file(args.hand)
     (obj,) = select_objects(args.object_file, args.object)

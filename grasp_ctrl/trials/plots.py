@@ -45,11 +45,13 @@ def comparison_chart(summary: Mapping[str, Any], path: Path, policies: list[str]
     for j, p in enumerate(pols):
         xs = [i + (j - (len(pols) - 1) / 2) * width for i in range(len(groups))]
         ys = [100 * (r[j] or 0.0) for r in rows]
-        ax.bar(xs, ys, width=width * 0.95, label=p)
+        bars = ax.bar(xs, ys, width=width * 0.95, label=p)
+        # Value labels, so a 0 % bar is visibly there rather than missing.
+        ax.bar_label(bars, labels=["-" if r[j] is None else f"{100 * r[j]:.0f}" for r in rows], fontsize=7, padding=1)
     ax.set_xticks(range(len(groups)))
     ax.set_xticklabels([g.replace("_", " ") for g in groups], rotation=20, ha="right")
     ax.set_ylabel("success rate (%)")
-    ax.set_ylim(0, 105)
+    ax.set_ylim(0, 112)
     ax.axvline(len(groups) - 1.5, color="#888888", lw=0.8, ls=":")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.28), ncol=max(len(pols), 1), frameon=False)
     ax.set_title(title or f"lift-and-place success ({summary.get('backend', '')}, seed {summary.get('seed', '')})")

@@ -68,6 +68,8 @@ def read_record(path: Path) -> tuple[dict[str, Any] | None, str | None]:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:
         return None, f"not valid JSON (truncated or corrupt: {exc.msg} at line {exc.lineno})"
+    except (RecursionError, ValueError):
+        return None, "not valid JSON (nested too deeply or unparsable numbers)"
     why = check_record(doc, path)
     return (None, why) if why else (doc, None)
 

@@ -175,7 +175,7 @@ def format_sweep(rows: Sequence[SweepRow], current: dict[str, float | int] | Non
     widths = [max(len(str(x)) for x in col) for col in zip(head, *body)]
     fmt = lambda cells: "  ".join(str(c).ljust(w) if j == len(cells) - 1 else str(c).rjust(w)  # noqa: E731
                                   for j, (c, w) in enumerate(zip(cells, widths)))
-    return "\n".join([fmt(head)] + [fmt(b) for b in body]).rstrip()
+    return "\n".join(fmt(cells).rstrip() for cells in [head, *body])
 
 
 def _close(a: float | int, b: float | int | None) -> bool:
