@@ -66,6 +66,12 @@ class TactileConfig:
     contact_pdc_threshold: float = 10.0
     contact_frames: int = 10
     tare_frames: int = 50
+    # Optional per-finger ports (finger name -> port); fingers not listed use ``port``.
+    ports: tuple[tuple[str, str], ...] = ()
+    reconnect: bool = True                    # reopen an unplugged port when it comes back
+
+    def port_for(self, finger_name: str) -> str:
+        return dict(self.ports).get(finger_name, self.port)
 
 
 @dataclass(frozen=True)
@@ -212,7 +218,16 @@ def load_hand(path: str | Path) -> HandConfig:
     )
 
     s = root.table("tactile", {})
-    s.unknown_keys({"sensor_type", "port", "baud", "mode", "stale_after_s", "contact_pdc_threshold", "contact_frames", "tare_frames"})
+    s.unknown_keys({
+        "sensor_type", "port", "ports", "baud", "mode", "stale_after_s", "contact_pdc_threshold",
+        "contact_frames", "tare_frames", "reconnect",
+    })
+    port_table = s.table("ports", {})
+    ports = []
+    for finger_name in port_table.data:
+        if finger_name not in names:
+            raise port_table.fail(finger_name, f"one of the finger names {names}")
+        ports.append((finger_name, port_table.str(finger_name)))
     tactile = TactileConfig(
         sensor_type=s.str("sensor_type", "biotac", choices=("biotac",)),
         port=s.str("port", TactileConfig.port),
@@ -222,6 +237,8 @@ def load_hand(path: str | Path) -> HandConfig:
         contact_pdc_threshold=s.float("contact_pdc_threshold", 10.0, lo=0.0),
         contact_frames=s.int("contact_frames", 10, lo=1, hi=1000),
         tare_frames=s.int("tare_frames", 50, lo=1, hi=10000),
+        ports=tuple(ports),
+        reconnect=s.bool("reconnect", True),
     )
 
     a = root.table("arm", {})

@@ -256,7 +256,10 @@ class GraspController:
             self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s)
             bottom = self.reach_pose.copy()
             bottom[2] = self.lower_limit_z
-            self._move_palm_toward(bottom, s.lower_speed_m_s)
+            # The object was picked up at the reach pose: near that height the table is
+            # close, so slow down and let the release debounce cost little extra push.
+            near = snap.p_palm_world[2] - self.reach_pose[2] < s.lower_slow_zone_m
+            self._move_palm_toward(bottom, s.lower_slow_speed_m_s if near else s.lower_speed_m_s)
         elif state == "release":
             self.motion.set_posture(self.motion.open_q)
         elif state == "retreat":

@@ -39,10 +39,10 @@ GRAVITY = 9.81
 @dataclass(frozen=True)
 class WorldParams:
     servo_time_constant_s: float = 0.03
-    servo_stiffness_nm_per_rad: float = 3.0
+    servo_stiffness_nm_per_rad: float = 10.0
     servo_max_speed_rad_s: float = 6.0
     torque_per_amp_nm: float = 0.5
-    tangential_stiffness_n_per_m: float = 300.0
+    tangential_stiffness_n_per_m: float = 400.0
     placement_jitter_m: float = 0.003
     mass_jitter: float = 0.03
     friction_jitter: float = 0.03
@@ -175,6 +175,7 @@ class MockWorld:
     def _contacts(self) -> None:
         p = self.params
         kp = p.servo_stiffness_nm_per_rad
+        kt = p.tangential_stiffness_n_per_m
         q = self.q_servo.copy()
         pads_hand, jacobians = self.bkin.points_and_jacobians(self.q_servo, PAD_POINT_SENSOR)
         for i, name in enumerate(self.fingers):
@@ -185,24 +186,33 @@ class MockWorld:
                 self.in_contact[i] = False
                 continue
             sl = self.kin.slices[name]
-            a = jacobians[i].T @ (-n_out)   # d(penetration)/dq
-            a2 = float(a @ a)
+            J = jacobians[i]
+            a = J.T @ (-n_out)   # d(penetration)/dq
             k = self.k_contact
-            if not self.torque_on or a2 < 1e-12:
+            pad_z = self.palm_world[2] + pads_hand[i][2]
+            # Vertical stick spring of a contact that already sticks: it resists the pad
+            # sliding up or down the object while the finger deflects.
+            stretch = pad_z - self.stick_offset[i] - self.obj_z if was else 0.0
+            sticking = was and abs(kt * stretch) < self.mu * self.normal_n[i]
+            if not self.torque_on or float(a @ a) < 1e-12:
                 # A limp finger yields completely: no squeeze force.
+                q[sl] = self.q_servo[sl] + self._retract(a, d0)
                 normal = 0.0
-                d = 0.0
             else:
-                # Servo spring (kp per joint) in series with the contact spring (k):
-                # the closed-form minimiser of 0.5*kp*|dq|^2 + 0.5*k*(d0 + a.dq)^2.
-                d = d0 * kp / (kp + k * a2)
+                # Servo spring (kp per joint) in series with the contact springs: the
+                # minimiser of 0.5*kp*|dq|^2 + 0.5*k*(d0 + a.dq)^2 + 0.5*kt*(s0 + b.dq)^2.
+                A = np.stack([a, J[2]], axis=1) if sticking else a[:, None]
+                D = np.array([k, kt]) if sticking else np.array([k])
+                r = np.array([d0, stretch]) if sticking else np.array([d0])
+                y = np.linalg.solve(kp * np.eye(len(D)) + D[:, None] * (A.T @ A), D * r)
+                dq = -A @ y
+                d = d0 + float(a @ dq)
                 normal = k * d
                 over = normal * np.abs(a) / np.maximum(self.tau_max[sl], 1e-9)
                 if over.max() > 1.0:           # current limit: the servo yields
                     normal /= over.max()
-                    d = normal / k
-            c = (d0 - d) / a2 if a2 > 1e-12 else 0.0
-            q[sl] = self.q_servo[sl] - c * a
+                    dq = self._retract(a, d0 - normal / k)
+                q[sl] = self.q_servo[sl] + dq
             self.normal_n[i] = normal
             self.n_out_world[i] = n_out
             self.in_contact[i] = normal > 1e-6
@@ -211,6 +221,12 @@ class MockWorld:
                 self.events.append(WorldEvent(self.t, "contact", name))
         self.q = np.clip(q, self.lower, self.upper)
         self._pad_heights()
+
+    @staticmethod
+    def _retract(a: np.ndarray, depth: float) -> np.ndarray:
+        """Smallest joint motion that backs a fingertip out of the object by ``depth``."""
+        a2 = float(a @ a)
+        return -(depth / a2) * a if a2 > 1e-12 else np.zeros_like(a)
 
     def _pad_heights(self) -> None:
         """Sensor orientations and pad heights at the actual (deflected) joint angles."""
