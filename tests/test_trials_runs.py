@@ -243,3 +243,31 @@ def test_any_record_file_content_is_loaded_or_named_never_fatal(tmp_path_factory
     else:
         rec = loaded.records[0]
         assert (rec["policy"], rec["object"], rec["trial"]) == ("p", "o", 0)
+
+
+def test_without_matplotlib_compare_prints_the_table_and_plot_says_what_to_install(full_run, monkeypatch, capsys):
+    import importlib.util
+    import sys
+
+    run_dir, _ = full_run
+    real_find_spec = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "matplotlib" else real_find_spec(name, *a))
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib -> ImportError
+    assert main(["compare", str(run_dir)]) == 0
+    captured = capsys.readouterr()
+    assert "all" in captured.out and "matplotlib is not installed" in captured.err
+    assert not (run_dir / "compare.png").exists()
+    assert main(["plot", str(record_path(run_dir, "oracle", "lego", 0))]) == 2
+    assert "[plot]" in capsys.readouterr().err
+
+
+def test_plot_of_a_tick_log_cut_short_by_a_crash(full_run, tmp_path):
+    pytest.importorskip("matplotlib")
+    run_dir, _ = full_run
+    src = run_dir / "trials" / "oracle" / "lego" / "trial_000_ticks.csv"
+    cut = tmp_path / "trial_000_ticks.csv"
+    text = src.read_text()
+    cut.write_text(text[: len(text) // 3])  # ends mid-row
+    png = tmp_path / "cut.png"
+    assert main(["plot", str(cut), "--out", str(png)]) == 0
+    assert png.stat().st_size > 1000
