@@ -15,7 +15,7 @@ from grasp_ctrl.trials.manifest import read_manifest
 from grasp_ctrl.trials.records import load_records
 from grasp_ctrl.trials.runner import run_series, trial_seed
 from grasp_ctrl.trials.scoring import score_run
-from grasp_ctrl.trials.storage import record_path
+from grasp_ctrl.trials.storage import record_path, ticks_path
 
 # Two quick objects x an honest and an under-reading oracle: a mix of successes
 # and failure reasons (which ones is the mock world's business, not asserted here).
@@ -271,3 +271,20 @@ def test_plot_of_a_tick_log_cut_short_by_a_crash(full_run, tmp_path):
     png = tmp_path / "cut.png"
     assert main(["plot", str(cut), "--out", str(png)]) == 0
     assert png.stat().st_size > 1000
+
+
+def test_parallel_jobs_give_the_same_records_and_summary(full_run, tmp_path, hand, objects):
+    """Two missing trials run in two worker processes (resume + --jobs 2)."""
+    run_dir, summary = full_run
+    par = _copy(run_dir, tmp_path / "par")
+    missing = [("oracle", "lego"), ("oracle:scale=0.5", "paper_cup")]
+    for policy, obj in missing:
+        record_path(par, policy, obj, 0).unlink()
+        ticks_path(par, policy, obj, 0).unlink()
+    got = run_series(hand, [objects[o] for o in OBJECTS], POLICIES, 1, SEED, par, progress=False, jobs=2, resume=True)
+    assert {k: v for k, v in got.items() if k != "run_dir"} == {k: v for k, v in summary.items() if k != "run_dir"}
+    for policy, obj in missing:
+        a, b = _json(record_path(run_dir, policy, obj, 0)), _json(record_path(par, policy, obj, 0))
+        a.pop("wall_duration_s"), b.pop("wall_duration_s")
+        assert a == b
+        assert ticks_path(par, policy, obj, 0).read_text() == ticks_path(run_dir, policy, obj, 0).read_text()

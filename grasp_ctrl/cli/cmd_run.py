@@ -54,6 +54,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="continue an interrupted run with the parameters in RUN_DIR/run.json")
     p.add_argument("--json", default=None, metavar="FILE", help="also write the run summary JSON here")
     p.add_argument("--threads", type=int, default=1, metavar="N", help="inference threads per policy (default 1)")
+    p.add_argument("--jobs", type=int, default=1, metavar="N",
+                   help="mock trials run in N processes at once (default 1); results do not depend on it")
     p.add_argument("--no-tick-logs", action="store_true", default=None, help="skip the per-tick CSV logs (faster)")
     p.add_argument("--quiet", action="store_true", help="no per-trial progress lines")
 
@@ -147,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
             hand, manifest.objects, manifest.policies, manifest.trials, manifest.seed, run_dir,
             settings=manifest.settings, progress=not args.quiet, tick_logs=manifest.tick_logs,
             threads=args.threads, resume=bool(args.resume), manifest=manifest, trial_fn=trial_fn,
-            backend=manifest.backend,
+            backend=manifest.backend, jobs=args.jobs,
         )
     except (KeyboardInterrupt, OperatorQuit) as exc:
         done = len(load_records(run_dir).records)

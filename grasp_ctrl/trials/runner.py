@@ -14,6 +14,7 @@ exactly like an uninterrupted one.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import sys
 import time
 import zlib
@@ -251,6 +252,48 @@ def mock_trial_fn(
     return run
 
 
+# Worker-process side of ``run_series(jobs=N)``: each worker loads the policies once.
+_WORKER_TRIAL_FN: TrialFn | None = None
+
+
+def _init_worker(hand: HandConfig, policies: list[str], settings: ControllerSettings, threads: int) -> None:
+    global _WORKER_TRIAL_FN
+    _WORKER_TRIAL_FN = mock_trial_fn(hand, policies, settings, threads)
+
+
+def _worker_trial(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
+    assert _WORKER_TRIAL_FN is not None
+    return _WORKER_TRIAL_FN(policy, obj, trial, seed, log_path)
+
+
+def _run_parallel(
+    jobs: int, hand: HandConfig, plan: RunManifest, threads: int,
+    pending: list[tuple[str, ObjectProfile, int, int, Path | None]],
+    finish: Callable[[dict[str, Any]], None],
+) -> None:
+    """Trials in ``jobs`` processes; the parent writes each record as it arrives."""
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    ctx = multiprocessing.get_context("spawn")  # no inherited inference sessions or threads
+    pool = ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_init_worker,
+                               initargs=(hand, list(plan.policies), plan.settings, threads))
+    try:
+        todo = iter(pending)
+        running = set()
+        for args in itertools.islice(todo, 2 * jobs):   # a short queue: Ctrl-C loses little
+            running.add(pool.submit(_worker_trial, *args))
+        while running:
+            finished, running = wait(running, return_when=FIRST_COMPLETED)
+            for fut in finished:
+                finish(fut.result())
+                nxt = next(todo, None)
+                if nxt is not None:
+                    running.add(pool.submit(_worker_trial, *nxt))
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
 def _warn(msg: str) -> None:
     print(f"warning: {msg}", file=sys.stderr, flush=True)
 
@@ -273,12 +316,15 @@ def run_series(
     after_trial: Callable[[dict[str, Any]], None] | None = None,
     backend: str = "mock",
     warn: Callable[[str], None] = _warn,
+    jobs: int = 1,
 ) -> dict[str, Any]:
     """objects x policies x trials with shared seeds; returns the summary (DESIGN.md 5.2).
 
     ``resume``: keep the valid records already in ``run_dir`` (the run's
     parameters must match its ``run.json``) and run only the missing trials.
     ``after_trial(record)`` is called once each new record is on disk.
+    ``jobs``: mock trials in that many worker processes (records arrive out of
+    order; the summary does not depend on it).
     """
     if len(set(safe_name(p) for p in policies)) != len(policies):
         raise UsageError("--policy: two policies would share one log directory; give each once")
@@ -309,26 +355,35 @@ def run_series(
             else:
                 warn(f"ignoring {record_path(run_dir, *key)}: not a trial of this run's parameters")
 
-    run_trial = trial_fn or mock_trial_fn(hand, policies, plan.settings, threads)
+    if jobs < 1:
+        raise UsageError("--jobs: must be at least 1")
+    if jobs > 1 and trial_fn is not None:
+        raise UsageError("--jobs: trials on real hardware run one at a time")
     reporter = progress if isinstance(progress, Progress) else Progress(plan.total, enabled=bool(progress))
     reporter.resumed(canonical_order(list(done.values()), list(policies), plan.object_names))
-    records: list[dict[str, Any]] = []
+    pending = []
     for policy in policies:
         for obj in plan.objects:
             for k in range(trials):
-                key = (policy, obj.name, k)
-                if key in done:
-                    records.append(done[key])
-                    continue
-                out = record_path(run_dir, policy, obj.name, k)
-                out.parent.mkdir(parents=True, exist_ok=True)
-                log = ticks_path(run_dir, policy, obj.name, k) if plan.tick_logs else None
-                rec = run_trial(policy, obj, k, trial_seed(seed, obj.name, k), log)
-                write_json(out, rec)
-                records.append(rec)
-                reporter.trial_done(rec)
-                if after_trial:
-                    after_trial(rec)
+                if (policy, obj.name, k) not in done:
+                    record_path(run_dir, policy, obj.name, k).parent.mkdir(parents=True, exist_ok=True)
+                    log = ticks_path(run_dir, policy, obj.name, k) if plan.tick_logs else None
+                    pending.append((policy, obj, k, trial_seed(seed, obj.name, k), log))
+
+    def finish(rec: dict[str, Any]) -> None:
+        write_json(record_path(run_dir, rec["policy"], rec["object"], rec["trial"]), rec)
+        done[(rec["policy"], rec["object"], rec["trial"])] = rec
+        reporter.trial_done(rec)
+        if after_trial:
+            after_trial(rec)
+
+    run_trial = trial_fn or mock_trial_fn(hand, policies, plan.settings, threads)  # bad policies fail here
+    if jobs > 1 and len(pending) > 1:
+        _run_parallel(min(jobs, len(pending)), hand, plan, threads, pending, finish)
+    else:
+        for args in pending:
+            finish(run_trial(*args))
+    records = canonical_order(list(done.values()), list(policies), plan.object_names)
     summary = summarize(records, str(run_dir), plan.backend, plan.hand, plan.seed)
     write_json(run_dir / SUMMARY_FILE, summary)
     return summary
