@@ -13,7 +13,7 @@ from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.paths import REPO_ROOT
 from grasp_ctrl.trials.toml_edit import set_object_value, update_object_file
-from grasp_ctrl.trials.tune import SweepRow, apply_setting, format_sweep, parse_param, rank, settings_grid
+from grasp_ctrl.trials.tune import SweepRow, apply_setting, format_sweep, parse_param, rank, run_sweep, settings_grid
 
 OBJECTS_TOML = REPO_ROOT / "hand_configs" / "objects.toml"
 
@@ -52,6 +52,22 @@ def test_rank_by_success_then_gentler_grip():
     assert [r.setting["tau_n"] for r in ranked] == [1.5, 2.0, 1.0]
     table = format_sweep(ranked, {"tau_n": 2.0})
     assert table.splitlines()[2].split()[0] == "2*" and "slipped x2" in table
+
+
+def test_sweep_rows_do_not_depend_on_the_order_results_arrive(objects):
+    def fake(profile, k):
+        ok = profile.tau_n * 10 + k
+        return {"success": ok % 3 != 0, "reason": None if ok % 3 else "slipped",
+                "peak_grip_true_n": profile.tau_n + 0.1 * k, "peak_grip_est_n": profile.tau_n}
+
+    grid = settings_grid([parse_param("tau=1:2:0.5"), parse_param("release_debounce=2,3")])
+    seen = []
+    in_order = run_sweep(objects["lego"], grid, 3, fake, on_trial=lambda i, s, r: seen.append(i))
+    reverse = run_sweep(objects["lego"], grid, 3, fake,
+                        run_many=lambda tasks: reversed([(n, fake(p, k)) for n, (_, p, k) in enumerate(tasks)]))
+    assert [r.to_json() for r in in_order] == [r.to_json() for r in reverse]
+    assert seen == sorted(seen) and len(seen) == 18
+    assert [r.trials for r in in_order] == [3] * 6
 
 
 def test_edit_keeps_comments_and_other_objects():
@@ -94,7 +110,7 @@ def test_tune_command_ranks_and_writes_the_best_setting(tmp_path, capsys):
     shutil.copy(OBJECTS_TOML, objects_file)
     out = tmp_path / "sweep.json"
     status = main(["tune", "--object", "lego", "--param", "tau=1.5,2.5", "--trials", "1", "--policy", "oracle",
-                   "--object-file", str(objects_file), "--write", "--json", str(out), "--quiet"])
+                   "--object-file", str(objects_file), "--write", "--json", str(out), "--quiet", "--jobs", "2"])
     doc = json.loads(out.read_text())
     ranked = doc["ranked"]
     assert [r["trials"] for r in ranked] == [1, 1] and {r["setting"]["tau_n"] for r in ranked} == {1.5, 2.5}

@@ -34,13 +34,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backend", choices=("mock", "dynamixel"), default="mock", help="mock (default)")
     p.add_argument("--write", action="store_true", help="write the best setting into the object file")
     p.add_argument("--json", default=None, metavar="FILE", help="write the ranked sweep as JSON")
+    p.add_argument("--jobs", type=int, default=1, metavar="N", help="trials in N processes at once (default 1)")
     p.add_argument("--quiet", action="store_true", help="no per-trial progress lines")
 
 
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.trials.progress import Progress
-    from grasp_ctrl.trials.runner import mock_trial_fn, trial_seed
+    from grasp_ctrl.trials.runner import mock_trial_fn, parallel_trials, trial_seed
     from grasp_ctrl.trials.selection import load_hand_file, select_objects
     from grasp_ctrl.trials.toml_edit import update_object_file
     from grasp_ctrl.trials.tune import format_sweep, parse_param, rank, run_sweep, settings_grid
@@ -49,6 +50,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("tune --backend dynamixel: the real-hand trial runner is not available yet")
     if args.trials < 1:
         raise UsageError("--trials: must be at least 1")
+    if args.jobs < 1:
+        raise UsageError("--jobs: must be at least 1")
     if "," in args.object or args.object.strip() == "all":
         raise UsageError("--object: one object name")
     grid = settings_grid([parse_param(s) for s in args.param])
@@ -65,7 +68,11 @@ def run(args: argparse.Namespace) -> int:
         rec = dict(rec, policy=", ".join(f"{k}={v:g}" for k, v in setting.items()))
         progress.trial_done(rec)
 
-    rows = rank(run_sweep(obj, grid, args.trials, one, on_trial))
+    def many(tasks):  # type: ignore[no-untyped-def]
+        jobs = [(args.policy, profile, k, trial_seed(args.seed, obj.name, k), None) for _, profile, k in tasks]
+        return parallel_trials(min(args.jobs, len(jobs)), hand, [args.policy], None, 1, jobs)
+
+    rows = rank(run_sweep(obj, grid, args.trials, one, on_trial, many if args.jobs > 1 else None))
     current = {k: getattr(obj, k) for k in grid[0]}
     print(f"{obj.name}, policy {args.policy}, {args.trials} trials per setting, seed {args.seed} (* = current)")
     print(format_sweep(rows, current))

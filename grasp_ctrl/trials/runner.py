@@ -20,7 +20,7 @@ import time
 import zlib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 
@@ -266,30 +266,33 @@ def _worker_trial(policy: str, obj: ObjectProfile, trial: int, seed: int, log_pa
     return _WORKER_TRIAL_FN(policy, obj, trial, seed, log_path)
 
 
-def _run_parallel(
-    jobs: int, hand: HandConfig, plan: RunManifest, threads: int,
-    pending: list[tuple[str, ObjectProfile, int, int, Path | None]],
-    finish: Callable[[dict[str, Any]], None],
-) -> None:
-    """Trials in ``jobs`` processes; the parent writes each record as it arrives."""
+TrialTask = tuple[str, ObjectProfile, int, int, "Path | None"]   # policy, object, trial, seed, tick log
+
+
+def parallel_trials(
+    jobs: int, hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None,
+    threads: int, tasks: Sequence[TrialTask],
+) -> Iterator[tuple[int, dict[str, Any]]]:
+    """Mock trials in ``jobs`` processes: yields (task index, record) as each finishes."""
     import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
     ctx = multiprocessing.get_context("spawn")  # no inherited inference sessions or threads
     pool = ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_init_worker,
-                               initargs=(hand, list(plan.policies), plan.settings, threads))
+                               initargs=(hand, list(policies), settings or ControllerSettings(), threads))
     try:
-        todo = iter(pending)
-        running = set()
-        for args in itertools.islice(todo, 2 * jobs):   # a short queue: Ctrl-C loses little
-            running.add(pool.submit(_worker_trial, *args))
+        todo = iter(enumerate(tasks))
+        running: dict[Any, int] = {}
+        for i, task in itertools.islice(todo, 2 * jobs):   # a short queue: Ctrl-C loses little
+            running[pool.submit(_worker_trial, *task)] = i
         while running:
-            finished, running = wait(running, return_when=FIRST_COMPLETED)
+            finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for fut in finished:
-                finish(fut.result())
+                i = running.pop(fut)
+                yield i, fut.result()
                 nxt = next(todo, None)
                 if nxt is not None:
-                    running.add(pool.submit(_worker_trial, *nxt))
+                    running[pool.submit(_worker_trial, *nxt[1])] = nxt[0]
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
 
@@ -379,7 +382,8 @@ def run_series(
 
     run_trial = trial_fn or mock_trial_fn(hand, policies, plan.settings, threads)  # bad policies fail here
     if jobs > 1 and len(pending) > 1:
-        _run_parallel(min(jobs, len(pending)), hand, plan, threads, pending, finish)
+        for _, rec in parallel_trials(min(jobs, len(pending)), hand, policies, plan.settings, threads, pending):
+            finish(rec)
     else:
         for args in pending:
             finish(run_trial(*args))

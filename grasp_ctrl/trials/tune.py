@@ -12,7 +12,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterable, Sequence
 
 from grasp_ctrl.config.objects import TUNABLE, ObjectProfile
 from grasp_ctrl.errors import UsageError
@@ -136,24 +136,31 @@ def rank(rows: Sequence[SweepRow]) -> list[SweepRow]:
     return sorted(rows, key=lambda r: (-r.success_rate, force(r)))
 
 
+SweepTask = tuple[int, ObjectProfile, int]   # setting index, tuned profile, trial index
+
+
 def run_sweep(
     obj: ObjectProfile,
     grid: Sequence[dict[str, float | int]],
     trials: int,
     run_trial: Callable[[ObjectProfile, int], dict[str, Any]],
     on_trial: Callable[[int, dict[str, float | int], dict[str, Any]], None] | None = None,
+    run_many: Callable[[list[SweepTask]], Iterable[tuple[int, dict[str, Any]]]] | None = None,
 ) -> list[SweepRow]:
-    """``run_trial(profile, k)`` runs trial k (its seed fixed by k) and returns the record."""
-    rows = []
-    for i, setting in enumerate(grid):
-        row = SweepRow(dict(setting))
-        tuned = apply_setting(obj, setting)
-        for k in range(trials):
-            rec = run_trial(tuned, k)
-            row.add(rec)
-            if on_trial:
-                on_trial(i, setting, rec)
-        rows.append(row)
+    """``run_trial(profile, k)`` runs trial k (its seed fixed by k) and returns the record;
+    ``run_many(tasks)`` may run the tasks elsewhere (in parallel), yielding
+    (task index, record) in any order. Rows do not depend on the order."""
+    tuned = [apply_setting(obj, s) for s in grid]   # refuse a bad value before any trial
+    tasks = [(i, tuned[i], k) for i in range(len(grid)) for k in range(trials)]
+    results = run_many(tasks) if run_many else ((n, run_trial(p, k)) for n, (_, p, k) in enumerate(tasks))
+    got: dict[int, dict[str, Any]] = {}
+    for n, rec in results:
+        got[n] = rec
+        if on_trial:
+            on_trial(tasks[n][0], grid[tasks[n][0]], rec)
+    rows = [SweepRow(dict(s)) for s in grid]
+    for n, (i, _, _) in enumerate(tasks):
+        rows[i].add(got[n])
     return rows
 
 
