@@ -58,9 +58,8 @@ class FingertipMotion:
         # Track an explicit pad target, so linearisation errors of the small IK steps
         # are corrected every tick instead of accumulating into a drift off the line.
         self.targets[finger] = self.targets[finger] + self.task_vectors[finger] * distance_m
-        for _ in range(2):
-            error = self.targets[finger] - self.pad_position(finger, self.q_goal)
-            self.q_goal[sl] = chain.ik_step(self.q_goal[sl], error, PAD_POINT_SENSOR, damping=IK_DAMPING)
+        pad, J = chain.point_and_jacobian(self.q_goal[sl], PAD_POINT_SENSOR)
+        self.q_goal[sl] = chain.dls_step(self.q_goal[sl], J, self.targets[finger] - pad, IK_DAMPING)
 
     def next_goal(self) -> np.ndarray:
         """The goal to send this tick: toward q_goal, at most max_step per joint."""

@@ -109,7 +109,10 @@ class FingerChain:
         """Damped least-squares joint step for a small Cartesian displacement of a
         sensor-frame point, clamped to the joint limits. Returns the new joint angles."""
         q = np.asarray(q, dtype=float)
-        J = self.jacobian(q, p_sensor)
+        return self.dls_step(q, self.jacobian(q, p_sensor), dp_hand, damping)
+
+    def dls_step(self, q: np.ndarray, J: np.ndarray, dp_hand: np.ndarray, damping: float = 0.01) -> np.ndarray:
+        """The step of ``ik_step`` for a Jacobian the caller already has."""
         # Joints at a limit that the step would push further are frozen, so the
         # remaining joints carry the motion instead of it being clipped away.
         active = np.ones(self.n, dtype=bool)

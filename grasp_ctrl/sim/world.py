@@ -201,11 +201,18 @@ class MockWorld:
             else:
                 # Servo spring (kp per joint) in series with the contact springs: the
                 # minimiser of 0.5*kp*|dq|^2 + 0.5*k*(d0 + a.dq)^2 + 0.5*kt*(s0 + b.dq)^2.
-                A = np.stack([a, J[2]], axis=1) if sticking else a[:, None]
-                D = np.array([k, kt]) if sticking else np.array([k])
-                r = np.array([d0, stretch]) if sticking else np.array([d0])
-                y = np.linalg.solve(kp * np.eye(len(D)) + D[:, None] * (A.T @ A), D * r)
-                dq = -A @ y
+                if sticking:
+                    b = J[2]
+                    g11, g12, g22 = float(a @ a), float(a @ b), float(b @ b)
+                    # (kp I + D G) y = D r, 2x2, solved in closed form.
+                    m11, m12, m21, m22 = kp + k * g11, k * g12, kt * g12, kp + kt * g22
+                    det = m11 * m22 - m12 * m21
+                    r1, r2 = k * d0, kt * stretch
+                    y1 = (m22 * r1 - m12 * r2) / det
+                    y2 = (m11 * r2 - m21 * r1) / det
+                    dq = -(a * y1 + b * y2)
+                else:
+                    dq = -a * (k * d0 / (kp + k * float(a @ a)))
                 d = d0 + float(a @ dq)
                 normal = k * d
                 over = normal * np.abs(a) / np.maximum(self.tau_max[sl], 1e-9)
