@@ -3,69 +3,162 @@
 from __future__ import annotations
 
 import argparse
+import importlib
+import importlib.util
 import json
+import sys
 import time
 from pathlib import Path
+from typing import Any
 
 NAME = "run"
 HELP = "run lift-and-place trials and score them (the main job)"
 DESCRIPTION = (
     "Run lift-and-place trials: every policy runs the same trials (same seeds) on every object. "
-    "Writes per-trial records and tick logs under --out and prints a per-object success table."
+    "Writes RUN_DIR/run.json, one fsynced record (and tick log) per finished trial and "
+    "RUN_DIR/summary.json, and prints a per-object success table. An interrupted run loses at most "
+    "the trial in progress: continue it with 'run --resume RUN_DIR'. On --backend dynamixel the "
+    "operator labels each trial's outcome at a prompt."
 )
 ORDER = 1
+
+# The flags that define which trials a run holds (run.json stores them).
+PLAN_FLAGS = ("hand", "object_file", "backend", "objects", "policy", "trials", "seed", "preset", "no_tick_logs")
+HARDWARE_MODULE = "grasp_ctrl.trials.hardware"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     from grasp_ctrl.estimators.registry import DEFAULT_POLICY
-    from grasp_ctrl.paths import default_hand_file, default_objects_file
+    from grasp_ctrl.trials.presets import PRESETS
 
-    p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE",
+    presets = "; ".join(f"{k}: {v.description} ({', '.join(v.policies)})" for k, v in PRESETS.items())
+    p.add_argument("--hand", default=None, metavar="FILE",
                    help="hand config TOML (default: hand_configs/leap_hand.toml)")
-    p.add_argument("--object-file", default=str(default_objects_file()), metavar="FILE",
+    p.add_argument("--object-file", default=None, metavar="FILE",
                    help="object profiles TOML (default: hand_configs/objects.toml)")
-    p.add_argument("--backend", choices=("mock", "dynamixel"), default="mock",
-                   help="mock: simulated hand, sensors and objects (default); dynamixel: the real hand")
+    p.add_argument("--backend", choices=("mock", "dynamixel"), default=None,
+                   help="mock: simulated hand, sensors and objects (default); dynamixel: the real hand, "
+                        "the operator labels each trial")
     p.add_argument("--objects", default=None, metavar="a,b|all",
                    help="objects to run (default: the object file's default_set)")
     p.add_argument("--policy", nargs="+", action="extend", metavar="NAME|PATH",
                    help=f"force estimator(s): a name in policies/, a path to a policy .json/.onnx, "
                         f"or on the mock 'oracle' / 'oracle:scale=K' (default: {DEFAULT_POLICY}); repeatable")
-    p.add_argument("--trials", type=int, default=5, metavar="N", help="trials per object and policy (default 5)")
-    p.add_argument("--seed", type=int, default=0, metavar="S", help="base random seed (default 0)")
+    p.add_argument("--trials", type=int, default=None, metavar="N", help="trials per object and policy (default 5)")
+    p.add_argument("--seed", type=int, default=None, metavar="S", help="base random seed (default 0)")
+    p.add_argument("--preset", default=None, metavar="NAME",
+                   help=f"a named protocol; flags given beside it override it. {presets}")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="run directory for logs (default: runs/<date>-<time>-seed<S>)")
+    p.add_argument("--resume", default=None, metavar="RUN_DIR",
+                   help="continue an interrupted run with the parameters in RUN_DIR/run.json")
     p.add_argument("--json", default=None, metavar="FILE", help="also write the run summary JSON here")
     p.add_argument("--threads", type=int, default=1, metavar="N", help="inference threads per policy (default 1)")
-    p.add_argument("--no-tick-logs", action="store_true", help="skip the per-tick CSV logs (faster)")
+    p.add_argument("--jobs", type=int, default=1, metavar="N",
+                   help="mock trials run in N processes at once (default 1); results do not depend on it")
+    p.add_argument("--no-tick-logs", action="store_true", default=None, help="skip the per-tick CSV logs (faster)")
     p.add_argument("--quiet", action="store_true", help="no per-trial progress lines")
+
+
+def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
+    """A new run's hand and manifest from the flags (and preset)."""
+    from grasp_ctrl.errors import UsageError
+    from grasp_ctrl.estimators.registry import DEFAULT_POLICY
+    from grasp_ctrl.paths import default_hand_file, default_objects_file
+    from grasp_ctrl.trials.manifest import RunManifest, file_sha256
+    from grasp_ctrl.trials.presets import get_preset
+    from grasp_ctrl.trials.selection import load_hand_file, select_objects
+
+    preset = get_preset(args.preset) if args.preset else None
+    trials = args.trials if args.trials is not None else (preset.trials if preset else 5)
+    if trials < 1:
+        raise UsageError("--trials: must be at least 1")
+    hand_file = Path(args.hand or default_hand_file())
+    object_file = Path(args.object_file or default_objects_file())
+    hand = load_hand_file(hand_file)
+    objects_spec = args.objects if args.objects is not None else (",".join(preset.objects) if preset else None)
+    objects = select_objects(object_file, objects_spec)
+    policies = args.policy or (list(preset.policies) if preset else [DEFAULT_POLICY])
+    if len(set(policies)) != len(policies):
+        raise UsageError("--policy: each policy once")
+    manifest = RunManifest(
+        backend=args.backend or "mock", hand=hand.name, seed=args.seed if args.seed is not None else 0,
+        trials=trials, policies=policies, objects=objects, tick_logs=not args.no_tick_logs,
+        hand_file=str(hand_file.resolve()), hand_sha256=file_sha256(hand_file),
+        object_file=str(object_file.resolve()), preset=args.preset,
+    )
+    return hand, manifest
+
+
+def _resumed(args: argparse.Namespace, run_dir: Path) -> tuple[Any, Any]:
+    from grasp_ctrl.errors import UsageError
+    from grasp_ctrl.paths import default_hand_file
+    from grasp_ctrl.trials.manifest import file_sha256, read_manifest
+    from grasp_ctrl.trials.selection import load_hand_file
+
+    given = [f"--{f.replace('_', '-')}" for f in PLAN_FLAGS if getattr(args, f) is not None]
+    if given or args.out:
+        flags = ", ".join(given + (["--out"] if args.out else []))
+        raise UsageError(f"--resume continues with the parameters in {run_dir}/run.json; drop {flags}")
+    manifest = read_manifest(run_dir)
+    if manifest is None:
+        raise UsageError(f"--resume: {run_dir} has no run.json (not a run directory, or a run from an older version)")
+    # A run started through the Python API may not name its hand file: use the default one.
+    hand_file = Path(manifest.hand_file) if manifest.hand_file else default_hand_file()
+    if not hand_file.is_file():
+        raise UsageError(f"--resume: the run's hand file {hand_file} is gone")
+    hand = load_hand_file(hand_file)
+    if hand.name != manifest.hand:
+        raise UsageError(f"--resume: {hand_file} describes hand {hand.name!r}, the run used {manifest.hand!r}")
+    if manifest.hand_sha256 and file_sha256(hand_file) != manifest.hand_sha256:
+        print(f"warning: {hand_file} changed since the run started", file=sys.stderr)
+    return hand, manifest
+
+
+def _hardware_trial_fn(hand: Any, manifest: Any, threads: int) -> Any:
+    """The real-hand trial runner wrapped with the operator's labelling prompt."""
+    from grasp_ctrl.errors import UsageError
+    from grasp_ctrl.trials.labelling import OperatorLabeller, labelled
+
+    if importlib.util.find_spec(HARDWARE_MODULE) is None:
+        raise UsageError("--backend dynamixel: the real-hand trial runner is not available yet; use hand-check to test a hand")
+    module = importlib.import_module(HARDWARE_MODULE)
+    return labelled(module.hardware_trial_fn(hand, manifest.policies, manifest.settings, threads), OperatorLabeller())
 
 
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.errors import UsageError
-    from grasp_ctrl.estimators.registry import DEFAULT_POLICY
+    from grasp_ctrl.trials.labelling import OperatorQuit
+    from grasp_ctrl.trials.records import load_records
     from grasp_ctrl.trials.runner import run_series
-    from grasp_ctrl.trials.selection import load_hand_file, select_objects
     from grasp_ctrl.trials.summary import format_table
 
-    if args.trials < 1:
-        raise UsageError("--trials: must be at least 1")
     if args.threads < 1:
         raise UsageError("--threads: must be at least 1")
-    if args.backend != "mock":
-        raise UsageError("--backend dynamixel: the real-hand trial runner is not available yet; use hand-check to test a hand")
-    hand = load_hand_file(args.hand)
-    objects = select_objects(args.object_file, args.objects)
-    policies = args.policy or [DEFAULT_POLICY]
-    if len(set(policies)) != len(policies):
-        raise UsageError("--policy: each policy once")
-    run_dir = Path(args.out) if args.out else Path("runs") / f"{time.strftime('%Y%m%d-%H%M%S')}-seed{args.seed}"
-    summary = run_series(
-        hand, objects, policies, args.trials, args.seed, run_dir,
-        progress=not args.quiet, tick_logs=not args.no_tick_logs, threads=args.threads,
-    )
+    if args.resume:
+        run_dir = Path(args.resume)
+        hand, manifest = _resumed(args, run_dir)
+    else:
+        hand, manifest = _plan(args)
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        tag = f"-{manifest.preset}" if manifest.preset else ""
+        run_dir = Path(args.out) if args.out else Path("runs") / f"{stamp}{tag}-seed{manifest.seed}"
+    trial_fn = _hardware_trial_fn(hand, manifest, args.threads) if manifest.backend == "dynamixel" else None
+    try:
+        summary = run_series(
+            hand, manifest.objects, manifest.policies, manifest.trials, manifest.seed, run_dir,
+            settings=manifest.settings, progress=not args.quiet, tick_logs=manifest.tick_logs,
+            threads=args.threads, resume=bool(args.resume), manifest=manifest, trial_fn=trial_fn,
+            backend=manifest.backend, jobs=args.jobs,
+        )
+    except (KeyboardInterrupt, OperatorQuit) as exc:
+        done = len(load_records(run_dir).records)
+        why = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc)
+        print(f"{why}: {done} of {manifest.total} trials are recorded in {run_dir}; "
+              f"continue with: grasp-ctrl run --resume {run_dir}", file=sys.stderr)
+        return 130
     print(format_table(summary))
-    print(f"logs: {run_dir}")
+    print(f"logs: {run_dir}  (compare: grasp-ctrl compare {run_dir})")
     if args.json:
         Path(args.json).write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
         print(f"summary: {args.json}")

@@ -3,18 +3,24 @@
 One trial: tare in free space, then the controller runs until done or fault,
 then the world settles for a moment under the safe action so consequences
 (a dropped object) are seen; the outcome comes from the world's ground truth.
+
+A series writes ``run.json`` first, then one fsynced record per finished trial,
+so an interrupted series loses at most the trial in progress and
+``run_series(..., resume=True)`` continues it: every trial's seed depends only
+on the base seed, the object and the trial index, so the resumed run scores
+exactly like an uninterrupted one.
 """
 
 from __future__ import annotations
 
-import json
-import os
+import dataclasses
+import itertools
 import sys
 import time
 import zlib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 
@@ -22,20 +28,25 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.settings import ControllerSettings
-from grasp_ctrl.errors import HardwareError
+from grasp_ctrl.errors import HardwareError, UsageError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
 from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
 from grasp_ctrl.sim.world import MockWorld, WorldParams
+from grasp_ctrl.trials.manifest import RunManifest, read_manifest, write_manifest
 from grasp_ctrl.trials.outcome import judge
 from grasp_ctrl.trials.pipeline import SensingPipeline
+from grasp_ctrl.trials.progress import Progress
+from grasp_ctrl.trials.records import canonical_order, load_records, record_files
+from grasp_ctrl.trials.storage import SUMMARY_FILE, record_path, safe_name, ticks_path, write_json
 from grasp_ctrl.trials.summary import summarize
 from grasp_ctrl.trials.ticklog import TickLog
 
 MAX_TRIAL_S = 60.0
 SETTLE_S = 0.5
+RECORD_FORMAT = 1
 
 
 @dataclass
@@ -55,6 +66,13 @@ class TrialResult:
     transitions: list[tuple[float, str, str]] = field(default_factory=list)
     events: list[dict[str, Any]] = field(default_factory=list)
     settings: dict[str, Any] = field(default_factory=dict)
+    backend: str = "mock"
+    judged_by: str = "world"            # world (mock ground truth) | operator (label at the prompt)
+    note: str = ""                      # the operator's note
+    controller: dict[str, Any] = field(default_factory=dict)    # the controller's own view
+    timings: dict[str, Any] = field(default_factory=dict)
+    peak_forces: dict[str, dict[str, float]] = field(default_factory=dict)
+    format: int = RECORD_FORMAT
 
     def to_json(self) -> dict[str, Any]:
         return asdict(self)
@@ -76,6 +94,44 @@ def estimator_factory(spec: str, hand: HandConfig, threads: int = 1) -> Estimato
         return lambda world: OracleEstimator(world, scale, name=spec)
     est = load_policy(spec, hand, threads)
     return lambda world: est
+
+
+def state_timings(transitions: Sequence[tuple[float, str, str]], end_t: float) -> dict[str, Any]:
+    """Seconds spent in each state, and the time from first contact to the object set down."""
+    spans: dict[str, float] = {}
+    state, since = "tare", 0.0
+    entered: dict[str, float] = {}
+    for t, _src, dst in transitions:
+        spans[state] = round(spans.get(state, 0.0) + t - since, 4)
+        state, since = dst, t
+        entered.setdefault(dst, t)
+    spans[state] = round(spans.get(state, 0.0) + max(end_t - since, 0.0), 4)
+    out: dict[str, Any] = {"state_s": spans}
+    if "ramp" in entered and "release" in entered:
+        out["grasp_to_release_s"] = round(entered["release"] - entered["ramp"], 4)
+    return out
+
+
+def controller_view(ctrl: GraspController) -> dict[str, Any]:
+    """What the controller itself concluded (no ground truth): kept beside any label."""
+    return {
+        "final_state": ctrl.state,  # type: ignore[attr-defined]
+        "success": ctrl.state == "done",  # type: ignore[attr-defined]
+        "reason": ctrl.failure_reason,
+    }
+
+
+def trial_settings(hand: HandConfig, obj: ObjectProfile, settings: ControllerSettings | None) -> dict[str, Any]:
+    return {
+        "tau_n": obj.tau_n,
+        "release_threshold_n": obj.release_threshold_n,
+        "release_debounce": obj.release_debounce,
+        "lift_height_m": obj.lift_height_m,
+        "hold_s": obj.hold_s,
+        "on_fault": hand.safety.on_fault,
+        "max_fingertip_force_n": hand.safety.max_fingertip_force_n,
+        "controller": dataclasses.asdict(settings or ControllerSettings()),
+    }
 
 
 def run_mock_trial(
@@ -105,6 +161,10 @@ def run_mock_trial(
     grasp = np.array([f.grasp for f in hand.fingers])
     log = TickLog(log_path, names, len(hand.joints), truth=True) if log_path else None
     peak_est = peak_true = 0.0
+    n = len(names)
+    tip_force = np.zeros(n)
+    tip_grip = np.zeros(n)
+    tip_true = np.zeros(n)
     settle_ticks = int(round(SETTLE_S / hand.dt))
     try:
         while world.t < MAX_TRIAL_S:
@@ -125,8 +185,12 @@ def run_mock_trial(
             arm.command(cmd.p_palm_world)
             peak_est = max(peak_est, float(np.max(snap.grip_n[grasp], initial=0.0)))
             peak_true = max(peak_true, float(np.max(world.normal_n[grasp], initial=0.0)))
+            np.maximum(tip_force, np.linalg.norm(snap.f_sensor, axis=1), out=tip_force)
+            np.maximum(tip_grip, snap.grip_n, out=tip_grip)
+            np.maximum(tip_true, world.normal_n, out=tip_true)
             if log:
-                log.append(ctrl.state, snap, cmd, pipeline.tared, world.f_sensor, world.obj_z, world.table_n)  # type: ignore[attr-defined]
+                log.append(ctrl.state, snap, cmd, pipeline.tared, world.f_sensor, world.obj_z, world.table_n,  # type: ignore[attr-defined]
+                           raw=raw, grip_target_n=ctrl.tau)
             if on_tick:
                 on_tick(world, ctrl)
             if ctrl.terminal:
@@ -143,6 +207,8 @@ def run_mock_trial(
         arm.close()
         sensors.close()
     success, reason = judge(world, ctrl)
+    wall = time.perf_counter() - wall0
+    timings = state_timings(ctrl.history, world.t)
     return TrialResult(
         object=obj.name,
         policy=policy_name,
@@ -152,31 +218,87 @@ def run_mock_trial(
         reason=reason,
         final_state=ctrl.state,  # type: ignore[attr-defined]
         sim_duration_s=round(world.t, 4),
-        wall_duration_s=round(time.perf_counter() - wall0, 4),
+        wall_duration_s=round(wall, 4),
         peak_grip_est_n=round(peak_est, 4),
         peak_grip_true_n=round(peak_true, 4),
         max_object_z_m=round(world.max_obj_z, 5),
         transitions=[(round(t, 3), a, b) for t, a, b in ctrl.history],
         events=[{"t": round(e.t, 3), "kind": e.kind, "detail": e.detail} for e in world.events],
-        settings={
-            "tau_n": obj.tau_n,
-            "release_threshold_n": obj.release_threshold_n,
-            "release_debounce": obj.release_debounce,
-            "lift_height_m": obj.lift_height_m,
-            "on_fault": hand.safety.on_fault,
+        settings=trial_settings(hand, obj, settings),
+        controller=controller_view(ctrl),
+        timings=timings,
+        peak_forces={
+            name: {"force_est_n": round(float(tip_force[i]), 4), "grip_est_n": round(float(tip_grip[i]), 4),
+                   "normal_true_n": round(float(tip_true[i]), 4)}
+            for i, name in enumerate(names)
         },
     )
 
 
-def _write_json(path: Path, doc: Any) -> None:
-    """Write atomically and fsync: a crash loses at most the trial in progress."""
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    with tmp.open("w", encoding="utf-8") as fh:
-        json.dump(doc, fh, indent=2)
-        fh.write("\n")
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+# A trial runner for one (policy, object, trial index, seed): returns the JSON record.
+TrialFn = Callable[[str, ObjectProfile, int, int, "Path | None"], dict[str, Any]]
+
+
+def mock_trial_fn(
+    hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None = None, threads: int = 1
+) -> TrialFn:
+    """Policies are loaded up front, so a bad one fails before the first trial."""
+    factories = {p: estimator_factory(p, hand, threads) for p in policies}
+    kin = HandKinematics(hand)
+
+    def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
+        return run_mock_trial(hand, obj, factories[policy], seed, policy, trial, settings, log_path=log_path, kin=kin).to_json()
+
+    return run
+
+
+# Worker-process side of ``run_series(jobs=N)``: each worker loads the policies once.
+_WORKER_TRIAL_FN: TrialFn | None = None
+
+
+def _init_worker(hand: HandConfig, policies: list[str], settings: ControllerSettings, threads: int) -> None:
+    global _WORKER_TRIAL_FN
+    _WORKER_TRIAL_FN = mock_trial_fn(hand, policies, settings, threads)
+
+
+def _worker_trial(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
+    assert _WORKER_TRIAL_FN is not None
+    return _WORKER_TRIAL_FN(policy, obj, trial, seed, log_path)
+
+
+TrialTask = tuple[str, ObjectProfile, int, int, "Path | None"]   # policy, object, trial, seed, tick log
+
+
+def parallel_trials(
+    jobs: int, hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None,
+    threads: int, tasks: Sequence[TrialTask],
+) -> Iterator[tuple[int, dict[str, Any]]]:
+    """Mock trials in ``jobs`` processes: yields (task index, record) as each finishes."""
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    ctx = multiprocessing.get_context("spawn")  # no inherited inference sessions or threads
+    pool = ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_init_worker,
+                               initargs=(hand, list(policies), settings or ControllerSettings(), threads))
+    try:
+        todo = iter(enumerate(tasks))
+        running: dict[Any, int] = {}
+        for i, task in itertools.islice(todo, 2 * jobs):   # a short queue: Ctrl-C loses little
+            running[pool.submit(_worker_trial, *task)] = i
+        while running:
+            finished, _ = wait(running, return_when=FIRST_COMPLETED)
+            for fut in finished:
+                i = running.pop(fut)
+                yield i, fut.result()
+                nxt = next(todo, None)
+                if nxt is not None:
+                    running[pool.submit(_worker_trial, *nxt[1])] = nxt[0]
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _warn(msg: str) -> None:
+    print(f"warning: {msg}", file=sys.stderr, flush=True)
 
 
 def run_series(
@@ -187,38 +309,85 @@ def run_series(
     seed: int,
     run_dir: Path,
     settings: ControllerSettings | None = None,
-    progress: bool = True,
+    progress: bool | Progress = True,
     tick_logs: bool = True,
     threads: int = 1,
+    *,
+    resume: bool = False,
+    manifest: RunManifest | None = None,
+    trial_fn: TrialFn | None = None,
+    after_trial: Callable[[dict[str, Any]], None] | None = None,
+    backend: str = "mock",
+    warn: Callable[[str], None] = _warn,
+    jobs: int = 1,
 ) -> dict[str, Any]:
-    """objects x policies x trials on the mock world with shared seeds; returns the summary."""
-    run_dir.mkdir(parents=True, exist_ok=True)
-    factories = {p: estimator_factory(p, hand, threads) for p in policies}
-    kin = HandKinematics(hand)
-    records: list[dict[str, Any]] = []
-    total = len(objects) * len(policies) * trials
-    done = 0
+    """objects x policies x trials with shared seeds; returns the summary (DESIGN.md 5.2).
+
+    ``resume``: keep the valid records already in ``run_dir`` (the run's
+    parameters must match its ``run.json``) and run only the missing trials.
+    ``after_trial(record)`` is called once each new record is on disk.
+    ``jobs``: mock trials in that many worker processes (records arrive out of
+    order; the summary does not depend on it).
+    """
+    if len(set(safe_name(p) for p in policies)) != len(policies):
+        raise UsageError("--policy: two policies would share one log directory; give each once")
+    plan = manifest or RunManifest(
+        backend=backend, hand=hand.name, seed=seed, trials=trials, policies=list(policies),
+        objects=list(objects), tick_logs=tick_logs, settings=settings or ControllerSettings(),
+    )
+    existing = read_manifest(run_dir)
+    if existing is not None and not resume:
+        raise UsageError(f"{run_dir} already holds a run; continue it with 'run --resume {run_dir}' or choose another --out")
+    if existing is None and record_files(run_dir):
+        raise UsageError(f"{run_dir} holds trial records but no run.json; choose another --out")
+    if existing is not None and not existing.same_plan(plan):
+        raise UsageError(f"{run_dir}/run.json describes other trials than these parameters; resume with its own parameters")
+    if existing is None:
+        write_manifest(run_dir, plan)
+
+    done: dict[tuple[str, str, int], dict[str, Any]] = {}
+    if resume:
+        loaded = load_records(run_dir)
+        for path, why in loaded.problems:
+            warn(f"skipping {path}: {why}; that trial will run again")
+        for rec in loaded.records:
+            key = (rec["policy"], rec["object"], rec["trial"])
+            if rec["policy"] in policies and rec["object"] in plan.object_names and rec["trial"] < trials \
+                    and rec["seed"] == trial_seed(seed, rec["object"], rec["trial"]):
+                done[key] = rec
+            else:
+                warn(f"ignoring {record_path(run_dir, *key)}: not a trial of this run's parameters")
+
+    if jobs < 1:
+        raise UsageError("--jobs: must be at least 1")
+    if jobs > 1 and trial_fn is not None:
+        raise UsageError("--jobs: trials on real hardware run one at a time")
+    reporter = progress if isinstance(progress, Progress) else Progress(plan.total, enabled=bool(progress))
+    reporter.resumed(canonical_order(list(done.values()), list(policies), plan.object_names))
+    pending = []
     for policy in policies:
-        for obj in objects:
-            out = run_dir / "trials" / _safe(policy) / obj.name
-            out.mkdir(parents=True, exist_ok=True)
+        for obj in plan.objects:
             for k in range(trials):
-                s = trial_seed(seed, obj.name, k)
-                result = run_mock_trial(
-                    hand, obj, factories[policy], s, policy, k, settings,
-                    log_path=out / f"trial_{k:03d}_ticks.csv" if tick_logs else None, kin=kin,
-                )
-                rec = result.to_json()
-                _write_json(out / f"trial_{k:03d}.json", rec)
-                records.append(rec)
-                done += 1
-                if progress:
-                    mark = "ok" if result.success else result.reason
-                    print(f"[{done}/{total}] {policy} {obj.name} trial {k}: {mark}", file=sys.stderr, flush=True)
-    summary = summarize(records, str(run_dir), "mock", hand.name, seed)
-    _write_json(run_dir / "summary.json", summary)
+                if (policy, obj.name, k) not in done:
+                    record_path(run_dir, policy, obj.name, k).parent.mkdir(parents=True, exist_ok=True)
+                    log = ticks_path(run_dir, policy, obj.name, k) if plan.tick_logs else None
+                    pending.append((policy, obj, k, trial_seed(seed, obj.name, k), log))
+
+    def finish(rec: dict[str, Any]) -> None:
+        write_json(record_path(run_dir, rec["policy"], rec["object"], rec["trial"]), rec)
+        done[(rec["policy"], rec["object"], rec["trial"])] = rec
+        reporter.trial_done(rec)
+        if after_trial:
+            after_trial(rec)
+
+    run_trial = trial_fn or mock_trial_fn(hand, policies, plan.settings, threads)  # bad policies fail here
+    if jobs > 1 and len(pending) > 1:
+        for _, rec in parallel_trials(min(jobs, len(pending)), hand, policies, plan.settings, threads, pending):
+            finish(rec)
+    else:
+        for args in pending:
+            finish(run_trial(*args))
+    records = canonical_order(list(done.values()), list(policies), plan.object_names)
+    summary = summarize(records, str(run_dir), plan.backend, plan.hand, plan.seed)
+    write_json(run_dir / SUMMARY_FILE, summary)
     return summary
-
-
-def _safe(name: str) -> str:
-    return "".join(c if c.isalnum() or c in "-_." else "_" for c in name)

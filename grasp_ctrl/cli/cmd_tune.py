@@ -1,0 +1,91 @@
+"""``tune``: sweep an object's controller thresholds on the mock and rank them."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+NAME = "tune"
+HELP = "sweep an object's thresholds (tau, release threshold, ...) on the mock and rank them"
+DESCRIPTION = (
+    "Run the same seeded trials for every combination of the --param values on one object and "
+    "rank the settings by success rate, then by mean peak true grip force (lower first). With "
+    "--write the best setting goes into the object file (only those lines change; the diff is shown)."
+)
+ORDER = 5
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    from grasp_ctrl.config.objects import TUNABLE
+    from grasp_ctrl.estimators.registry import DEFAULT_POLICY
+    from grasp_ctrl.paths import default_hand_file, default_objects_file
+
+    p.add_argument("--object", required=True, metavar="NAME", help="the object to tune")
+    p.add_argument("--param", required=True, action="append", metavar="NAME=START:STOP:STEP",
+                   help=f"a threshold and its values (START:STOP:STEP with STOP included, A,B,C, or one value); "
+                        f"repeat for a grid. Tunable: {', '.join(TUNABLE)} (tau and release_threshold also accepted)")
+    p.add_argument("--trials", type=int, default=3, metavar="N", help="trials per setting (default 3)")
+    p.add_argument("--policy", default=DEFAULT_POLICY, metavar="NAME|PATH", help=f"force estimator (default {DEFAULT_POLICY})")
+    p.add_argument("--seed", type=int, default=0, metavar="S", help="base random seed (default 0)")
+    p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE", help="hand config TOML")
+    p.add_argument("--object-file", default=str(default_objects_file()), metavar="FILE", help="object profiles TOML")
+    p.add_argument("--backend", choices=("mock", "dynamixel"), default="mock", help="mock (default)")
+    p.add_argument("--write", action="store_true", help="write the best setting into the object file")
+    p.add_argument("--json", default=None, metavar="FILE", help="write the ranked sweep as JSON")
+    p.add_argument("--jobs", type=int, default=1, metavar="N", help="trials in N processes at once (default 1)")
+    p.add_argument("--quiet", action="store_true", help="no per-trial progress lines")
+
+
+def run(args: argparse.Namespace) -> int:
+    from grasp_ctrl.errors import UsageError
+    from grasp_ctrl.trials.progress import Progress
+    from grasp_ctrl.trials.runner import mock_trial_fn, parallel_trials, trial_seed
+    from grasp_ctrl.trials.selection import load_hand_file, select_objects
+    from grasp_ctrl.trials.toml_edit import update_object_file
+    from grasp_ctrl.trials.tune import format_sweep, parse_param, rank, run_sweep, settings_grid
+
+    if args.backend != "mock":
+        raise UsageError("tune --backend dynamixel: the real-hand trial runner is not available yet")
+    if args.trials < 1:
+        raise UsageError("--trials: must be at least 1")
+    if args.jobs < 1:
+        raise UsageError("--jobs: must be at least 1")
+    if "," in args.object or args.object.strip() == "all":
+        raise UsageError("--object: one object name")
+    grid = settings_grid([parse_param(s) for s in args.param])
+    hand = load_hand_file(args.hand)
+    (obj,) = select_objects(args.object_file, args.object)
+    run_trial_fn = mock_trial_fn(hand, [args.policy])
+
+    def one(profile, k):  # type: ignore[no-untyped-def]
+        return run_trial_fn(args.policy, profile, k, trial_seed(args.seed, obj.name, k), None)
+
+    progress = Progress(len(grid) * args.trials, enabled=not args.quiet)
+
+    def on_trial(i, setting, rec):  # type: ignore[no-untyped-def]
+        rec = dict(rec, policy=", ".join(f"{k}={v:g}" for k, v in setting.items()))
+        progress.trial_done(rec)
+
+    def many(tasks):  # type: ignore[no-untyped-def]
+        jobs = [(args.policy, profile, k, trial_seed(args.seed, obj.name, k), None) for _, profile, k in tasks]
+        return parallel_trials(min(args.jobs, len(jobs)), hand, [args.policy], None, 1, jobs)
+
+    rows = rank(run_sweep(obj, grid, args.trials, one, on_trial, many if args.jobs > 1 else None))
+    current = {k: getattr(obj, k) for k in grid[0]}
+    print(f"{obj.name}, policy {args.policy}, {args.trials} trials per setting, seed {args.seed} (* = current)")
+    print(format_sweep(rows, current))
+    best = rows[0]
+    if args.json:
+        doc = {"object": obj.name, "policy": args.policy, "seed": args.seed, "trials": args.trials,
+               "current": current, "ranked": [r.to_json() for r in rows]}
+        Path(args.json).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    if not args.write:
+        return 0
+    if best.successes == 0:
+        print(f"no setting succeeded; {args.object_file} left unchanged", file=sys.stderr)
+        return 1
+    diff = update_object_file(Path(args.object_file), obj.name, best.setting)
+    print(diff.rstrip() if diff else f"{args.object_file}: the best setting is already there; unchanged")
+    return 0
