@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import importlib
-import importlib.util
 import json
 import sys
 import time
@@ -24,7 +22,6 @@ ORDER = 1
 
 # The flags that define which trials a run holds (run.json stores them).
 PLAN_FLAGS = ("hand", "object_file", "backend", "objects", "policy", "trials", "seed", "preset", "no_tick_logs")
-HARDWARE_MODULE = "grasp_ctrl.trials.hardware"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -58,6 +55,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="mock trials run in N processes at once (default 1); results do not depend on it")
     p.add_argument("--no-tick-logs", action="store_true", default=None, help="skip the per-tick CSV logs (faster)")
     p.add_argument("--quiet", action="store_true", help="no per-trial progress lines")
+    p.add_argument("--port", default=None, metavar="PORT",
+                   help="dynamixel: the servo bus port (default: the hand file's [dynamixel] port)")
+    p.add_argument("--sensor-port", default=None, metavar="PORT",
+                   help="dynamixel: one serial port for all fingertip sensors (default: the hand file's [tactile])")
 
 
 def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
@@ -115,15 +116,16 @@ def _resumed(args: argparse.Namespace, run_dir: Path) -> tuple[Any, Any]:
     return hand, manifest
 
 
-def _hardware_trial_fn(hand: Any, manifest: Any, threads: int) -> Any:
+def _hardware_trial_fn(hand: Any, manifest: Any, threads: int, port: str | None, sensor_port: str | None) -> Any:
     """The real-hand trial runner wrapped with the operator's labelling prompt."""
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.trials.labelling import OperatorLabeller, labelled
 
-    if importlib.util.find_spec(HARDWARE_MODULE) is None:
-        raise UsageError("--backend dynamixel: the real-hand trial runner is not available yet; use hand-check to test a hand")
-    module = importlib.import_module(HARDWARE_MODULE)
-    return labelled(module.hardware_trial_fn(hand, manifest.policies, manifest.settings, threads), OperatorLabeller())
+    from grasp_ctrl.trials.hardware import hardware_trial_fn
+
+    trial_fn = hardware_trial_fn(hand, manifest.policies, manifest.settings, threads,
+                                 port=port, sensor_port=sensor_port)
+    return labelled(trial_fn, OperatorLabeller())
 
 
 def run(args: argparse.Namespace) -> int:
@@ -143,7 +145,8 @@ def run(args: argparse.Namespace) -> int:
         stamp = time.strftime("%Y%m%d-%H%M%S")
         tag = f"-{manifest.preset}" if manifest.preset else ""
         run_dir = Path(args.out) if args.out else Path("runs") / f"{stamp}{tag}-seed{manifest.seed}"
-    trial_fn = _hardware_trial_fn(hand, manifest, args.threads) if manifest.backend == "dynamixel" else None
+    trial_fn = (_hardware_trial_fn(hand, manifest, args.threads, args.port, args.sensor_port)
+                if manifest.backend == "dynamixel" else None)
     try:
         summary = run_series(
             hand, manifest.objects, manifest.policies, manifest.trials, manifest.seed, run_dir,

@@ -28,7 +28,7 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.settings import ControllerSettings
-from grasp_ctrl.errors import HardwareError, UsageError
+from grasp_ctrl.errors import UsageError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
@@ -38,6 +38,7 @@ from grasp_ctrl.sim.world import MockWorld, WorldParams
 from grasp_ctrl.trials.manifest import RunManifest, read_manifest, write_manifest
 from grasp_ctrl.trials.outcome import judge
 from grasp_ctrl.trials.pipeline import SensingPipeline
+from grasp_ctrl.trials.tick import control_tick
 from grasp_ctrl.trials.progress import Progress
 from grasp_ctrl.trials.records import canonical_order, load_records, record_files
 from grasp_ctrl.trials.storage import SUMMARY_FILE, record_path, safe_name, ticks_path, write_json
@@ -170,19 +171,7 @@ def run_mock_trial(
         while world.t < MAX_TRIAL_S:
             world.step()
             world.set_phase(ctrl.state)  # type: ignore[attr-defined]
-            fault = None
-            try:
-                hand_backend.check_health()
-                raw = pipeline.frames_matrix(sensors.read_latest(), world.t)
-            except HardwareError as exc:
-                fault = exc.reason
-                raw = pipeline.raw
-            snap = pipeline.snapshot(raw, hand_backend.read(), arm.position(), ctrl.state == "tare", fault)  # type: ignore[attr-defined]
-            cmd = ctrl.tick(snap)
-            if not cmd.torque_on:
-                hand_backend.set_torque(False)
-            hand_backend.write_goals(cmd.q_goal)
-            arm.command(cmd.p_palm_world)
+            snap, cmd, raw = control_tick(hand_backend, arm, sensors, pipeline, ctrl, world.t)
             peak_est = max(peak_est, float(np.max(snap.grip_n[grasp], initial=0.0)))
             peak_true = max(peak_true, float(np.max(world.normal_n[grasp], initial=0.0)))
             np.maximum(tip_force, np.linalg.norm(snap.f_sensor, axis=1), out=tip_force)

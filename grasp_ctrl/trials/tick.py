@@ -1,0 +1,44 @@
+"""One control tick over any backends (mock or real), DESIGN.md 3.
+
+read health and sensors -> snapshot (tare, gate, estimate, frames) -> controller
+-> one goal write and one arm command. Faults of the hardware become the
+snapshot's ``fault``, so the state machine decides and stops safely.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from grasp_ctrl.controller.machine import GraspController
+from grasp_ctrl.controller.snapshot import Command, Snapshot
+from grasp_ctrl.errors import HardwareError
+from grasp_ctrl.hardware.base import ArmBackend, HandBackend, SensorBackend
+from grasp_ctrl.trials.pipeline import SensingPipeline
+
+
+def control_tick(
+    hand: HandBackend,
+    arm: ArmBackend,
+    sensors: SensorBackend,
+    pipeline: SensingPipeline,
+    ctrl: GraspController,
+    now: float,
+    fault: str | None = None,
+) -> tuple[Snapshot, Command, np.ndarray]:
+    """Returns the snapshot, the command sent and the raw frames used."""
+    raw = pipeline.raw
+    try:
+        hand.check_health()
+        check_stale = getattr(sensors, "check_stale", None)
+        if check_stale is not None:   # the serial backend can also tell an unplugged port
+            check_stale(now)
+        raw = pipeline.frames_matrix(sensors.read_latest(), now)
+    except HardwareError as exc:
+        fault = fault or exc.reason
+    snap = pipeline.snapshot(raw, hand.read(), arm.position(), ctrl.state == "tare", fault)  # type: ignore[attr-defined]
+    cmd = ctrl.tick(snap)
+    if not cmd.torque_on:
+        hand.set_torque(False)
+    hand.write_goals(cmd.q_goal)
+    arm.command(cmd.p_palm_world)
+    return snap, cmd, raw
