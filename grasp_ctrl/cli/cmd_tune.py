@@ -1,4 +1,4 @@
-"""``tune``: sweep an object's controller thresholds on the mock and rank them."""
+"""``tune``: sweep an object's controller thresholds and rank them (mock, or real hand with labels)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 NAME = "tune"
-HELP = "sweep an object's thresholds (tau, release threshold, ...) on the mock and rank them"
+HELP = "sweep an object's thresholds (tau, release threshold, ...) on the mock or the real hand and rank them"
 DESCRIPTION = (
     "Run the same seeded trials for every combination of the --param values on one object and "
     "rank the settings by success rate, then by mean peak true grip force (lower first). With "
@@ -31,7 +31,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0, metavar="S", help="base random seed (default 0)")
     p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE", help="hand config TOML")
     p.add_argument("--object-file", default=str(default_objects_file()), metavar="FILE", help="object profiles TOML")
-    p.add_argument("--backend", choices=("mock", "dynamixel"), default="mock", help="mock (default)")
+    p.add_argument("--backend", choices=("mock", "dynamixel"), default="mock",
+                   help="mock (default); dynamixel: the real hand, each trial labelled by the operator")
+    p.add_argument("--port", default=None, metavar="PORT", help="dynamixel: the servo bus port")
+    p.add_argument("--sensor-port", default=None, metavar="PORT", help="dynamixel: the fingertip sensors' port")
     p.add_argument("--write", action="store_true", help="write the best setting into the object file")
     p.add_argument("--json", default=None, metavar="FILE", help="write the ranked sweep as JSON")
     p.add_argument("--jobs", type=int, default=1, metavar="N", help="trials in N processes at once (default 1)")
@@ -46,8 +49,8 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.trials.toml_edit import update_object_file
     from grasp_ctrl.trials.tune import format_sweep, parse_param, rank, run_sweep, settings_grid
 
-    if args.backend != "mock":
-        raise UsageError("tune --backend dynamixel: the real-hand trial runner is not available yet")
+    if args.backend != "mock" and args.jobs != 1:
+        raise UsageError("--jobs: the real hand runs one trial at a time")
     if args.trials < 1:
         raise UsageError("--trials: must be at least 1")
     if args.jobs < 1:
@@ -57,7 +60,17 @@ def run(args: argparse.Namespace) -> int:
     grid = settings_grid([parse_param(s) for s in args.param])
     hand = load_hand_file(args.hand)
     (obj,) = select_objects(args.object_file, args.object)
-    run_trial_fn = mock_trial_fn(hand, [args.policy])
+    if args.backend == "dynamixel":
+        # No ground truth on the real hand: the operator labels every trial.
+        from grasp_ctrl.trials.hardware import hardware_trial_fn
+        from grasp_ctrl.trials.labelling import OperatorLabeller, labelled
+
+        run_trial_fn = labelled(
+            hardware_trial_fn(hand, [args.policy], None, 1, port=args.port, sensor_port=args.sensor_port),
+            OperatorLabeller(),
+        )
+    else:
+        run_trial_fn = mock_trial_fn(hand, [args.policy])
 
     def one(profile, k):  # type: ignore[no-untyped-def]
         return run_trial_fn(args.policy, profile, k, trial_seed(args.seed, obj.name, k), None)

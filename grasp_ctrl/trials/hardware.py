@@ -71,6 +71,8 @@ def run_hardware_trial(
     overruns = 0
     settle_ticks = int(round(SETTLE_S / dt))
     peak = np.zeros(len(pipeline.names))
+    grasp = np.array([f.grasp for f in hand.fingers])
+    peak_grip = 0.0
     interrupted: KeyboardInterrupt | None = None
     try:
         while True:
@@ -78,6 +80,7 @@ def run_hardware_trial(
                 now = rig.clock.now()
                 snap, cmd, raw = control_tick(rig.hand, rig.arm, rig.sensors, pipeline, ctrl, now)
                 np.maximum(peak, np.linalg.norm(snap.f_sensor, axis=1), out=peak)
+                peak_grip = max(peak_grip, float(np.max(snap.grip_n[grasp], initial=0.0)))
                 if log:
                     log.append(ctrl.state, snap, cmd, pipeline.tared, raw=raw, grip_target_n=ctrl.tau)  # type: ignore[attr-defined]
                 if ctrl.terminal:
@@ -112,6 +115,7 @@ def run_hardware_trial(
         "reason": ctrl.failure_reason if ctrl.state != "done" else None,  # type: ignore[attr-defined]
         "wall_duration_s": round(end, 4),
         "tick_overruns": overruns,
+        "peak_grip_est_n": round(peak_grip, 4),
         "transitions": [(round(t - t0, 3), a, b) for t, a, b in ctrl.history],
         "timings": state_timings([(t - t0, a, b) for t, a, b in ctrl.history], end),
         "peak_forces": {n: {"force_est_n": round(float(peak[i]), 4)} for i, n in enumerate(pipeline.names)},
