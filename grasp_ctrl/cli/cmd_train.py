@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
         if args.experiment == "fig3+fig4":
             models.update(FIG4_MODELS)
         doc = run_experiment(ds, split, models, Path(args.out_dir), args.epochs, args.seed, data_info,
-                             threads=args.threads, progress=progress)
+                             threads=args.threads, progress=progress, lr0=args.lr, patience=args.patience)
         print((Path(args.out_dir) / "results.md").read_text())
         print(f"results: {Path(args.out_dir) / 'results.json'}; checkpoints in {args.out_dir}")
         return 0 if doc else 1

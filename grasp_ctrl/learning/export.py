@@ -13,6 +13,7 @@ import base64
 import io
 import json
 import tempfile
+import warnings
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -80,8 +81,11 @@ def export_onnx(model: torch.nn.Module, arch: str, onnx_path: Path) -> float:
     dyn = {n: {0: "n"} for n in names + outputs}
     with tempfile.TemporaryDirectory() as tmp:
         raw_path = Path(tmp) / "model.onnx"
-        torch.onnx.export(model, args, str(raw_path), input_names=names, output_names=outputs,
-                          dynamic_axes=dyn, opset_version=17, dynamo=False)
+        # the TorchScript exporter: the newer one needs onnxscript, which the train extra does not pull in
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)
+            torch.onnx.export(model, args, str(raw_path), input_names=names, output_names=outputs,
+                              dynamic_axes=dyn, opset_version=17, dynamo=False)
         proto = onnx.load(str(raw_path))
     for key, value in ((STATE_DICT_KEY, base64.b64encode(state_dict_bytes(model)).decode("ascii")), (ARCH_KEY, arch)):
         entry = proto.metadata_props.add()

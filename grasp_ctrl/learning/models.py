@@ -24,6 +24,7 @@ from torch import nn
 GRID = (16, 16, 8)
 E_SCALE = 1.0 / 1000.0        # counts -> O(1), for the fully connected input layers
 SC_SCALE = 1.0 / 5.5e-3       # metres on the sensor surface -> O(1)
+VOXEL_INPUT_SCALE = 0.01      # counts -> first voxel convolution (see VoxelTrunk)
 
 
 class SampleLayerNorm(nn.Module):
@@ -69,10 +70,16 @@ class PatchConv(nn.Module):
 
 
 class VoxelTrunk(nn.Module):
-    """Voxel grids (n, 16, 16, 8) x 2 -> the 128-vector that enters the first FC layer."""
+    """Voxel grids (n, 16, 16, 8) x 2 -> the 128-vector that enters the first FC layer.
 
-    def __init__(self) -> None:
+    ``input_scale`` multiplies the tared counts before the first convolution. The authors'
+    network uses raw counts (scale 1); the layer norm after the first convolution then makes
+    the branch almost scale invariant (the bias is negligible next to counts in the
+    hundreds), which hides the force magnitude, so our trained models use 1/100 (a buffer, saved with the weights)."""
+
+    def __init__(self, input_scale: float = 1.0) -> None:
         super().__init__()
+        self.register_buffer("input_scale", torch.tensor(float(input_scale)))
         self.conv_e = PatchConv(1, 64, 3)
         self.ln_e = SampleLayerNorm(64)
         self.conv_c = PatchConv(1, 64, 3)
@@ -85,7 +92,7 @@ class VoxelTrunk(nn.Module):
         self.ln4 = SampleLayerNorm(128)
 
     def forward(self, electrode_voxels: torch.Tensor, contact_voxels: torch.Tensor) -> torch.Tensor:
-        e = torch.relu(self.ln_e(self.conv_e(electrode_voxels.unsqueeze(-1))))   # (n, 8, 8, 4, 64)
+        e = torch.relu(self.ln_e(self.conv_e(electrode_voxels.unsqueeze(-1) * self.input_scale)))   # (n, 8, 8, 4, 64)
         c = torch.relu(self.ln_c(self.conv_c(contact_voxels.unsqueeze(-1))))
         x = torch.relu(self.ln2(self.conv2(torch.cat([e, c], dim=-1))))          # (n, 4, 4, 2, 64)
         x = torch.relu(self.ln3(self.conv3(x)))                                  # (n, 2, 2, 1, 64)
@@ -138,7 +145,7 @@ class SparseVoxelTrunk:
         w1c, b1c = t.conv_c.linear.weight, t.conv_c.linear.bias
         # electrode branch: the k patches holding electrodes
         x = electrodes.new_zeros(n, self.k, 8)
-        x[:, self.e_patch, self.e_sub] = electrodes
+        x[:, self.e_patch, self.e_sub] = electrodes * t.input_scale
         y_e = x @ w1e.T + b1e                                           # (n, k, 64)
         z_e, bg_e, _ = self._ln_background(y_e, b1e, n_patches - self.k, t.ln_e)
         # contact branch: one patch with a single 1 at its sub-position
@@ -193,7 +200,7 @@ class ForceNet(nn.Module):
     def __init__(self, arch: str) -> None:
         super().__init__()
         self.arch = arch
-        self.trunk = VoxelTrunk() if arch == "voxel" else FeatureTrunk()
+        self.trunk = VoxelTrunk(VOXEL_INPUT_SCALE) if arch == "voxel" else FeatureTrunk()
         self.input_names = ARCHS[arch]["inputs"]
         self.fc1 = _fc(128, 64)
         self.fc2 = _fc(64, 32)
@@ -217,7 +224,7 @@ class MultiHeadDropoutNet(nn.Module):
         super().__init__()
         self.arch = "voxel-dropout"
         self.input_names = ARCHS["voxel-dropout"]["inputs"]
-        self.trunk = VoxelTrunk()
+        self.trunk = VoxelTrunk(VOXEL_INPUT_SCALE)
         self.fc1 = _fc(128, 64)
         self.drop = nn.Dropout(1.0 - keep_prob)
         self.fc32 = nn.Linear(64, 32)

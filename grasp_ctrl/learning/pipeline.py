@@ -110,6 +110,7 @@ def metrics_table(results: dict[str, dict[str, dict[str, Any]]], test_source: st
 def run_experiment(
     ds: Dataset, split: Split, models: dict[str, tuple[str, float | None]], out_dir: Path, epochs: int, seed: int,
     data_info: dict[str, Any], threads: int = 1, progress: Callable[[str], None] = print,
+    lr0: float = 1e-4, patience: int | None = None,
 ) -> dict[str, Any]:
     """Every model on every training-source combination; checkpoints, JSON and tables in out_dir."""
     from grasp_ctrl.learning.train import save_checkpoint
@@ -120,7 +121,8 @@ def run_experiment(
         results[combo] = {}
         for model_name, (arch, beta) in models.items():
             progress(f"== {model_name} on {combo}")
-            info = train_one(ds, split, sources, arch, beta, epochs, seed, threads=threads, progress=progress)
+            info = train_one(ds, split, sources, arch, beta, epochs, seed, threads=threads, progress=progress,
+                             lr0=lr0, patience=patience)
             stem = f"{combo}__{model_name.replace('+', '_')}"
             if arch == "analytic":
                 from grasp_ctrl.learning.export import analytic_policy
@@ -138,7 +140,7 @@ def run_experiment(
             progress(f"   -> angle {m['angle_deg']['median']:.1f} deg, magnitude {m['magnitude_error_n']['median']:.3f} N "
                      f"(median on the mixed test set), {info['seconds']:.0f} s")
             results[combo][model_name] = info
-    doc = {"data": data_info, "epochs": epochs, "seed": seed, "results": results}
+    doc = {"data": data_info, "epochs": epochs, "seed": seed, "lr0": lr0, "patience": patience, "results": results}
     (out_dir / "results.json").write_text(json.dumps(doc, indent=2, default=float) + "\n")
     tables = ["## Test set: all sources (mixed)", metrics_table(results, "mixed")]
     for s in SOURCES:

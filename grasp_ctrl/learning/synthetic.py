@@ -108,8 +108,8 @@ def _tangent_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _press_profile(rng: np.random.Generator, peak: float) -> np.ndarray:
-    """A press: ramp up, hold with wobble, release; 1-3 s at 100 Hz."""
-    n = int(rng.uniform(1.0, 3.0) * RATE_HZ)
+    """A press: ramp up, hold with wobble, release; 0.6-1.5 s at 100 Hz."""
+    n = int(rng.uniform(0.6, 1.5) * RATE_HZ)
     u = np.linspace(0, 1, n)
     shape = np.sin(np.pi * u) ** rng.uniform(0.5, 1.5)
     wobble = 1 + 0.1 * np.sin(2 * np.pi * rng.uniform(0.5, 2.0) * u * n / RATE_HZ + rng.uniform(0, 6.3))
@@ -127,30 +127,33 @@ def _random_rotation(rng: np.random.Generator, sigma_rad: float) -> np.ndarray:
 
 
 def _ft_trial(forward: ForwardModel, rng: np.random.Generator, source: str, rule: GateRule):
+    mags_peak = rng.uniform(1.0, 12.0) if source == "rigid-ft" else rng.uniform(0.5, 8.0)
+    mags = _press_profile(rng, mags_peak)
+    n = len(mags)
     if source == "rigid-ft":
-        point = _pad_point(rng, (-0.012, 0.002), np.deg2rad(35))
-        peak = rng.uniform(1.0, 12.0)
-        tangential = rng.uniform(0.0, 0.2)          # mostly normal presses
+        # a human presses objects on the pad: the contact wanders a little, mostly normal force
+        ends = [_pad_point(rng, (-0.012, 0.002), np.deg2rad(35)) for _ in range(2)]
+        tangential = rng.uniform(0.0, 0.2)
         label_rotation = np.eye(3)                   # the mount is rigid and known
     else:
-        point = _any_point(rng)
-        peak = rng.uniform(0.5, 8.0)
+        # the hand rolls the fingertip over the ball: contacts all over the sensor
+        p0 = _any_point(rng)
+        ends = [p0, p0 + rng.normal(0.0, 2.5e-3, 3)]
         tangential = rng.uniform(0.0, 0.8)
         label_rotation = _random_rotation(rng, np.deg2rad(3.0))   # tracked sensor orientation error
-    _, n_out = surface_point_and_normal(point[None])
-    n_out = n_out[0]
-    t1, t2 = _tangent_basis(n_out)
-    mags = _press_profile(rng, peak)
-    phase = rng.uniform(0, 2 * np.pi) + np.linspace(0, rng.uniform(-1.5, 1.5), len(mags))
-    direction = -n_out[None, :] + tangential * (np.cos(phase)[:, None] * t1 + np.sin(phase)[:, None] * t2)
+    u = np.linspace(0.0, 1.0, n)[:, None]
+    points, n_out = surface_point_and_normal((1 - u) * ends[0] + u * ends[1])
+    t1, t2 = zip(*(_tangent_basis(v) for v in n_out))
+    t1, t2 = np.array(t1), np.array(t2)
+    phase = rng.uniform(0, 2 * np.pi) + np.linspace(0, rng.uniform(-1.5, 1.5), n)
+    direction = -n_out + tangential * (np.cos(phase)[:, None] * t1 + np.sin(phase)[:, None] * t2)
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
     f_true = mags[:, None] * direction
-    p = np.repeat(point[None], len(mags), axis=0)
-    tared, gate = _sensor_trial(forward, p, f_true, rng, rule)
+    tared, gate = _sensor_trial(forward, points, f_true, rng, rule)
     sigma = rng.uniform(0.01, 0.1)
     label = f_true @ label_rotation.T + sigma * rng.standard_normal(f_true.shape)
-    return tared, label, gate & (np.linalg.norm(label, axis=1) > 0), np.zeros(len(mags), bool), \
-        np.repeat(np.eye(3)[None], len(mags), axis=0)
+    return tared, label, gate & (np.linalg.norm(label, axis=1) > 0), np.zeros(n, bool), \
+        np.repeat(np.eye(3)[None], n, axis=0)
 
 
 def _rotation_aligning(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -1,0 +1,81 @@
+"""A tiny train -> evaluate -> export -> fine-tune run through the command line (seconds)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+ort = pytest.importorskip("onnxruntime")
+
+from grasp_ctrl.cli import main  # noqa: E402
+
+
+def test_train_evaluate_export_finetune(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys) -> None:
+    monkeypatch.setenv("GRASP_CTRL_POLICIES", str(tmp_path / "policies"))
+    ckpt = tmp_path / "tiny.pt"
+    common = ["--synthetic", "250", "--seed", "4", "--test-per-source", "100"]
+    assert main(["train", *common, "--arch", "voxel", "--epochs", "2", "--out", str(ckpt), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "mixed" in out and ckpt.is_file()
+
+    assert main(["export", str(ckpt), "--name", "tiny_voxel"]) == 0
+    onnx_path = tmp_path / "policies" / "tiny_voxel.onnx"
+    meta = json.loads((tmp_path / "policies" / "tiny_voxel.json").read_text())
+    assert meta["kind"] == "onnx" and meta["sensor_type"] == "biotac" and meta["output_frame"] == "sensor"
+    assert meta["onnx_parity_max_abs_n"] <= 1e-5 and not meta["has_variance"]
+    assert [i["name"] for i in meta["inputs"]] == ["electrode_voxels", "contact_voxels"]
+    assert "mixed" in meta["metrics"] and meta["training"]["data"]["synthetic_per_source"] == 250
+    assert main(["export", str(ckpt), "--name", "tiny_voxel"]) == 2          # no silent overwrite
+
+    # the exported policy and the checkpoint give the same test metrics
+    js = tmp_path / "m.json"
+    assert main(["evaluate", "tiny_voxel", str(ckpt), *common, "--json", str(js)]) == 0
+    doc = json.loads(js.read_text())
+    a, b = doc["tiny_voxel"]["mixed"], doc[str(ckpt)]["mixed"]
+    assert a["angle_deg"]["median"] == pytest.approx(b["angle_deg"]["median"], abs=1e-3)
+
+    # fine-tune from the policy's weights on one source
+    ckpt2 = tmp_path / "ft.pt"
+    assert main(["train", *common, "--sources", "rigid-ft", "--arch", "voxel", "--epochs", "1",
+                 "--init-from", "tiny_voxel", "--out", str(ckpt2), "--quiet"]) == 0
+    assert torch.load(ckpt2, weights_only=False)["init_from"] == "tiny_voxel"
+    assert main(["train", *common, "--arch", "su", "--epochs", "1", "--init-from", "tiny_voxel", "--quiet"]) == 2
+    assert "is a 'voxel' model" in capsys.readouterr().err
+
+
+def test_dropout_export_has_variance_and_analytic_policy_loads(tmp_path: Path, monkeypatch, capsys) -> None:
+    monkeypatch.setenv("GRASP_CTRL_POLICIES", str(tmp_path))
+    common = ["--synthetic", "200", "--seed", "5", "--test-per-source", "100", "--quiet"]
+    ckpt = tmp_path / "d.pt"
+    assert main(["train", *common, "--arch", "voxel-dropout", "--epochs", "1", "--out", str(ckpt)]) == 0
+    assert main(["export", str(ckpt), "--name", "drop"]) == 0
+    meta = json.loads((tmp_path / "drop.json").read_text())
+    assert meta["has_variance"] and [o["name"] for o in meta["outputs"]] == ["f_sensor", "variance"]
+    sess = ort.InferenceSession(str(tmp_path / "drop.onnx"))
+    grid = np.zeros((3, 16, 16, 8), np.float32)
+    grid[:, 5, 5, 2] = -300
+    f, var = sess.run(None, {"electrode_voxels": grid, "contact_voxels": (grid != 0).astype(np.float32)})
+    assert f.shape == (3, 3) and var.shape == (3, 3) and np.all(var >= 0)
+
+    an = tmp_path / "an.json"
+    assert main(["train", *common, "--arch", "analytic", "--out", str(an)]) == 0
+    assert main(["export", str(an), "--name", "an_policy"]) == 0
+    from grasp_ctrl.estimators.registry import load_policy
+
+    est = load_policy("an_policy")
+    tared = np.zeros((1, 44))
+    tared[0, 16:19] = -500.0                                  # pad electrodes pressed
+    assert est.estimate(tared, ["index"]).f_sensor[0, 2] > 0  # pushes into the pad: +z
+
+
+def test_bad_input_is_one_line(tmp_path: Path, capsys) -> None:
+    assert main(["train", "--arch", "voxel"]) == 2
+    assert "either --data" in capsys.readouterr().err
+    assert main(["train", "--data", str(tmp_path / "nope.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "nope.csv" in err and "Traceback" not in err
+    assert main(["export", str(tmp_path / "nope.pt"), "--name", "x"]) == 2
