@@ -54,6 +54,11 @@ class DynamixelConfig:
     retries: int = 2
     profile_velocity: int = 0
     profile_acceleration: int = 0
+    fast_sync_read: bool = True               # fall back to plain Sync Read if unsupported
+    latency_timer_ms: int = 1                 # USB serial latency timer set on connect
+    position_p_gain: int | None = None        # None: keep the servo's value
+    position_i_gain: int | None = None
+    position_d_gain: int | None = None
 
 
 @dataclass(frozen=True)
@@ -66,6 +71,12 @@ class TactileConfig:
     contact_pdc_threshold: float = 10.0
     contact_frames: int = 10
     tare_frames: int = 50
+    # Optional per-finger ports (finger name -> port); fingers not listed use ``port``.
+    ports: tuple[tuple[str, str], ...] = ()
+    reconnect: bool = True                    # reopen an unplugged port when it comes back
+
+    def port_for(self, finger_name: str) -> str:
+        return dict(self.ports).get(finger_name, self.port)
 
 
 @dataclass(frozen=True)
@@ -75,6 +86,19 @@ class ArmConfig:
     lift_height_m: float = 0.10
     z_min_m: float = 0.0
     z_max_m: float = 0.6
+    # kind = "dynamixel": a serial chain from base (world frame) to the palm (tool)
+    port: str = "/dev/ttyUSB1"
+    baud: int = 4_000_000
+    model: str = "XM430-W350-T"
+    joints: tuple[JointConfig, ...] = ()
+    base_xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    base_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    tool_xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    tool_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    line_xy: tuple[float, float] | None = None   # vertical line; None: where the palm is at connect
+    tolerance_m: float = 0.002                    # IK accuracy / "arrived" distance
+    # kind = "external": ask for a confirmation every time the target moved this far
+    confirm_step_m: float = 0.02
 
 
 @dataclass(frozen=True)
@@ -200,7 +224,10 @@ def load_hand(path: str | Path) -> HandConfig:
         raise root.fail("fingers", "at least one finger with grasp = true")
 
     d = root.table("dynamixel", {})
-    d.unknown_keys({"port", "baud", "model", "packet_timeout_ms", "retries", "profile_velocity", "profile_acceleration"})
+    d.unknown_keys({
+        "port", "baud", "model", "packet_timeout_ms", "retries", "profile_velocity", "profile_acceleration",
+        "fast_sync_read", "latency_timer_ms", "position_p_gain", "position_i_gain", "position_d_gain",
+    })
     dynamixel = DynamixelConfig(
         port=d.str("port", DynamixelConfig.port),
         baud=d.int("baud", DynamixelConfig.baud, lo=9600),
@@ -209,10 +236,24 @@ def load_hand(path: str | Path) -> HandConfig:
         retries=d.int("retries", DynamixelConfig.retries, lo=0, hi=10),
         profile_velocity=d.int("profile_velocity", 0, lo=0),
         profile_acceleration=d.int("profile_acceleration", 0, lo=0),
+        fast_sync_read=d.bool("fast_sync_read", True),
+        latency_timer_ms=d.int("latency_timer_ms", 1, lo=1, hi=255),
+        position_p_gain=d.int("position_p_gain", None, lo=0, hi=16383) if d.has("position_p_gain") else None,
+        position_i_gain=d.int("position_i_gain", None, lo=0, hi=16383) if d.has("position_i_gain") else None,
+        position_d_gain=d.int("position_d_gain", None, lo=0, hi=16383) if d.has("position_d_gain") else None,
     )
 
     s = root.table("tactile", {})
-    s.unknown_keys({"sensor_type", "port", "baud", "mode", "stale_after_s", "contact_pdc_threshold", "contact_frames", "tare_frames"})
+    s.unknown_keys({
+        "sensor_type", "port", "ports", "baud", "mode", "stale_after_s", "contact_pdc_threshold",
+        "contact_frames", "tare_frames", "reconnect",
+    })
+    port_table = s.table("ports", {})
+    ports = []
+    for finger_name in port_table.data:
+        if finger_name not in names:
+            raise port_table.fail(finger_name, f"one of the finger names {names}")
+        ports.append((finger_name, port_table.str(finger_name)))
     tactile = TactileConfig(
         sensor_type=s.str("sensor_type", "biotac", choices=("biotac",)),
         port=s.str("port", TactileConfig.port),
@@ -222,19 +263,41 @@ def load_hand(path: str | Path) -> HandConfig:
         contact_pdc_threshold=s.float("contact_pdc_threshold", 10.0, lo=0.0),
         contact_frames=s.int("contact_frames", 10, lo=1, hi=1000),
         tare_frames=s.int("tare_frames", 50, lo=1, hi=10000),
+        ports=tuple(ports),
+        reconnect=s.bool("reconnect", True),
     )
 
     a = root.table("arm", {})
-    a.unknown_keys({"kind", "max_speed_m_s", "lift_height_m", "z_min_m", "z_max_m"})
+    a.unknown_keys({
+        "kind", "max_speed_m_s", "lift_height_m", "z_min_m", "z_max_m", "port", "baud", "model", "joints",
+        "base_xyz", "base_rpy", "tool_xyz", "tool_rpy", "line_xy", "tolerance_m", "confirm_step_m",
+    })
+    arm_joints = tuple(_joint(j) for j in a.tables("joints"))
     arm = ArmConfig(
         kind=a.str("kind", "mock", choices=ARM_KINDS),
         max_speed_m_s=a.float("max_speed_m_s", 0.05, lo=0.0, hi=1.0, lo_open=True),
         lift_height_m=a.float("lift_height_m", 0.10, lo=0.0, hi=1.0, lo_open=True),
         z_min_m=a.float("z_min_m", 0.0),
         z_max_m=a.float("z_max_m", 0.6),
+        port=a.str("port", ArmConfig.port),
+        baud=a.int("baud", ArmConfig.baud, lo=9600),
+        model=a.str("model", ArmConfig.model),
+        joints=arm_joints,
+        base_xyz=a.vector("base_xyz", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
+        base_rpy=a.vector("base_rpy", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
+        tool_xyz=a.vector("tool_xyz", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
+        tool_rpy=a.vector("tool_rpy", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
+        line_xy=a.vector("line_xy", 2) if a.has("line_xy") else None,  # type: ignore[arg-type]
+        tolerance_m=a.float("tolerance_m", 0.002, lo=0.0, hi=0.1, lo_open=True),
+        confirm_step_m=a.float("confirm_step_m", 0.02, lo=0.0, hi=1.0, lo_open=True),
     )
     if arm.z_max_m <= arm.z_min_m:
         raise a.fail("z_max_m", f"a value > z_min_m ({arm.z_min_m})")
+    if arm.kind == "dynamixel" and not arm.joints:
+        raise a.fail("joints", "at least one [[arm.joints]] table when kind = \"dynamixel\"")
+    arm_ids = [j.servo_id for j in arm.joints]
+    if len(set(arm_ids)) != len(arm_ids):
+        raise a.fail("joints.servo_id", f"unique servo ids (got {arm_ids})")
 
     sf = root.table("safety", {})
     sf.unknown_keys({"on_fault", "max_fingertip_force_n", "max_joint_step_rad"})

@@ -47,6 +47,27 @@ TRANSITIONS: list[tuple[str, str, str, str | None]] = [
 ]
 
 
+def build_machine(model: Any, reason_setter: Any = None, machine_cls: type = Machine, **extra: Any) -> Machine:
+    """The one definition of states and transitions (also drawn by ``diagram``)."""
+    machine = machine_cls(
+        model=model,
+        states=STATES,
+        initial="tare",
+        auto_transitions=False,
+        queued=True,
+        after_state_change="_on_enter" if reason_setter else None,
+        **extra,
+    )
+    for src, dst, guard, reason in TRANSITIONS:
+        kwargs: dict[str, Any] = {"conditions": guard}
+        if reason and reason_setter:
+            kwargs["before"] = reason_setter(reason)
+        machine.add_transition("step", src, dst, **kwargs)
+    # Faults detected outside the guards (stale sensor, hardware, over-force, abort).
+    machine.add_transition("fail", ACTIVE, "fault", before="_set_reason" if reason_setter else None)
+    return machine
+
+
 class GraspController:
     """The model of the state machine. ``tick(snapshot) -> Command``."""
 
@@ -81,21 +102,7 @@ class GraspController:
         self.snap: Snapshot | None = None
         self.history: list[tuple[float, str, str]] = []   # (t, from, to)
 
-        self.machine = Machine(
-            model=self,
-            states=STATES,
-            initial="tare",
-            auto_transitions=False,
-            queued=True,
-            after_state_change="_on_enter",
-        )
-        for src, dst, guard, reason in TRANSITIONS:
-            kwargs: dict[str, Any] = {"conditions": guard}
-            if reason:
-                kwargs["before"] = self._reason_setter(reason)
-            self.machine.add_transition("step", src, dst, **kwargs)
-        # Faults detected outside the guards (stale sensor, hardware, over-force, abort).
-        self.machine.add_transition("fail", ACTIVE, "fault", before="_set_reason")
+        self.machine = build_machine(self, self._reason_setter)
 
     # ----- helpers ----------------------------------------------------------
     @property
@@ -249,7 +256,10 @@ class GraspController:
             self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s)
             bottom = self.reach_pose.copy()
             bottom[2] = self.lower_limit_z
-            self._move_palm_toward(bottom, s.lower_speed_m_s)
+            # The object was picked up at the reach pose: near that height the table is
+            # close, so slow down and let the release debounce cost little extra push.
+            near = snap.p_palm_world[2] - self.reach_pose[2] < s.lower_slow_zone_m
+            self._move_palm_toward(bottom, s.lower_slow_speed_m_s if near else s.lower_speed_m_s)
         elif state == "release":
             self.motion.set_posture(self.motion.open_q)
         elif state == "retreat":

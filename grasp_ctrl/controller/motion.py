@@ -14,6 +14,9 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_POINT_SENSOR
 
 
+IK_DAMPING = 0.002
+
+
 class FingertipMotion:
     def __init__(self, hand: HandConfig, kin: HandKinematics) -> None:
         self.hand = hand
@@ -26,18 +29,25 @@ class FingertipMotion:
         self.task_vectors = {f.name: np.array(f.task_vector_hand) for f in hand.fingers}
         self.q_goal = self.open_q.copy()
         self._q_sent = self.open_q.copy()
+        self.targets: dict[str, np.ndarray] = {}
+        self._reset_targets()
+
+    def _reset_targets(self) -> None:
+        self.targets = {f.name: self.pad_position(f.name, self.q_goal) for f in self.hand.fingers}
 
     def pad_position(self, finger: str, q_all: np.ndarray) -> np.ndarray:
-        T = self.kin.fk(finger, q_all)
-        return T[:3, :3] @ PAD_POINT_SENSOR + T[:3, 3]
+        R, p = self.kin.chains[finger].fk_rp(q_all[self.kin.slices[finger]])
+        return R @ PAD_POINT_SENSOR + p
 
     def set_posture(self, q: np.ndarray) -> None:
         self.q_goal = np.clip(np.asarray(q, dtype=float), self.lower, self.upper)
+        self._reset_targets()
 
     def sync(self, q_measured: np.ndarray) -> None:
         """Start from where the hand is (e.g. at trial start)."""
         self.q_goal = np.clip(q_measured, self.lower, self.upper)
         self._q_sent = self.q_goal.copy()
+        self._reset_targets()
 
     def advance(self, finger: str, distance_m: float) -> None:
         """Move one fingertip's goal along its closing vector (negative = open)."""
@@ -45,8 +55,11 @@ class FingertipMotion:
             return
         sl = self.kin.slices[finger]
         chain = self.kin.chains[finger]
-        dp = self.task_vectors[finger] * distance_m
-        self.q_goal[sl] = chain.ik_step(self.q_goal[sl], dp, PAD_POINT_SENSOR)
+        # Track an explicit pad target, so linearisation errors of the small IK steps
+        # are corrected every tick instead of accumulating into a drift off the line.
+        self.targets[finger] = self.targets[finger] + self.task_vectors[finger] * distance_m
+        pad, J = chain.point_and_jacobian(self.q_goal[sl], PAD_POINT_SENSOR)
+        self.q_goal[sl] = chain.dls_step(self.q_goal[sl], J, self.targets[finger] - pad, IK_DAMPING)
 
     def next_goal(self) -> np.ndarray:
         """The goal to send this tick: toward q_goal, at most max_step per joint."""

@@ -21,6 +21,8 @@ class ControllerSettings:
     lift_speed_m_s: float = 0.04
     lower_speed_m_s: float = 0.015
     lower_overshoot_m: float = 0.03        # how far below the grasp height lowering may go
+    lower_slow_zone_m: float = 0.015       # approach the support surface slowly from this high
+    lower_slow_speed_m_s: float = 0.005
     grip_lost_fraction: float = 0.3        # grip below this fraction of tau = slipping
     contact_lost_s: float = 0.05
     open_s: float = 0.4                    # time to open the fingers on release

@@ -20,12 +20,13 @@ from grasp_ctrl.estimators.analytic import AnalyticEstimator
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.paths import policies_dir
 
-DEFAULT_POLICY = "analytic_mock"
+DEFAULT_POLICY = "linear_mock"
 
 # kind -> "module:function" taking (meta, json_path, hand, threads) and returning an estimator.
 # Loaders are imported lazily so that e.g. onnxruntime is only loaded when used.
 LOADERS: dict[str, str] = {
     "analytic": "grasp_ctrl.estimators.registry:load_analytic",
+    "linear": "grasp_ctrl.estimators.registry:load_linear",
     "onnx": "grasp_ctrl.estimators.onnx_estimator:load_onnx_policy",
 }
 
@@ -69,6 +70,15 @@ def load_analytic(meta: dict[str, Any], json_path: Path, hand: HandConfig | None
         return AnalyticEstimator(gains, name=meta.get("name", json_path.stem))  # type: ignore[arg-type]
     except (TypeError, ValueError) as exc:
         raise PolicyError(f"{json_path}: gains_n_per_count: {exc}") from None
+
+
+def load_linear(meta: dict[str, Any], json_path: Path, hand: HandConfig | None, threads: int) -> ForceEstimator:
+    from grasp_ctrl.estimators.linear import LinearEstimator
+
+    try:
+        return LinearEstimator(meta.get("weights_n_per_count"), meta.get("bias_n"), name=meta.get("name", json_path.stem))  # type: ignore[arg-type]
+    except (TypeError, ValueError) as exc:
+        raise PolicyError(f"{json_path}: weights_n_per_count/bias_n: {exc}") from None
 
 
 def load_policy(spec: str, hand: HandConfig | None = None, threads: int = 1) -> ForceEstimator:

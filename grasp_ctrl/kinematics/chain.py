@@ -6,12 +6,13 @@ to the fingertip sensor frame. Joint vectors are ordered as in the hand file.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from grasp_ctrl.config.hand import FingerConfig, HandConfig
-from grasp_ctrl.kinematics.transforms import axis_angle, rpy_matrix, transform
+from grasp_ctrl.kinematics.transforms import rpy_matrix, transform
 
 
 @dataclass
@@ -23,6 +24,20 @@ class FingerChain:
     T_tip: np.ndarray                # last link -> sensor frame (4, 4)
     lower: np.ndarray
     upper: np.ndarray
+
+    def __post_init__(self) -> None:
+        # Precomputed pieces: FK runs many times per control tick (controller and mock world).
+        self._R_base = self.T_hand_base[:3, :3].copy()
+        self._p_base = self.T_hand_base[:3, 3].copy()
+        self._R_org = np.array([T[:3, :3] for T in self.T_origins])
+        self._p_org = np.array([T[:3, 3] for T in self.T_origins])
+        K = np.zeros((self.n, 3, 3))
+        for i, (x, y, z) in enumerate(self.axes):
+            K[i] = [[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]]
+        self._K = K
+        self._K2 = K @ K
+        self._R_tip = self.T_tip[:3, :3].copy()
+        self._p_tip = self.T_tip[:3, 3].copy()
 
     @classmethod
     def from_config(cls, f: FingerConfig) -> "FingerChain":
@@ -40,30 +55,49 @@ class FingerChain:
     def n(self) -> int:
         return len(self.T_origins)
 
-    def _frames(self, q: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
-        """Joint frames (after the joint origin, before its rotation) and the sensor frame."""
-        T = self.T_hand_base.copy()
-        joint_frames = []
-        for T_o, axis, qi in zip(self.T_origins, self.axes, q):
-            T = T @ T_o
-            joint_frames.append(T.copy())
-            T = T @ transform((0.0, 0.0, 0.0), axis_angle(axis, qi))
-        return joint_frames, T @ self.T_tip
+    def _frames(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Joint frames (after each joint origin, before its rotation) as rotations
+        (n, 3, 3) and origins (n, 3), then the sensor frame's rotation and origin."""
+        R = self._R_base
+        p = self._p_base
+        Rs = np.empty((self.n, 3, 3))
+        ps = np.empty((self.n, 3))
+        eye = np.eye(3)
+        for i in range(self.n):
+            p = p + R @ self._p_org[i]
+            R = R @ self._R_org[i]
+            Rs[i] = R
+            ps[i] = p
+            qi = float(q[i])
+            R = R @ (eye + math.sin(qi) * self._K[i] + (1.0 - math.cos(qi)) * self._K2[i])
+        return Rs, ps, R @ self._R_tip, p + R @ self._p_tip
+
+    def fk_rp(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Sensor frame in the hand frame as (rotation (3, 3), origin (3,))."""
+        _, _, R, p = self._frames(q)
+        return R, p
 
     def fk(self, q: np.ndarray) -> np.ndarray:
         """T_hand_sensor (4, 4) for joint angles q (rad)."""
-        return self._frames(np.asarray(q, dtype=float))[1]
+        R, p = self.fk_rp(q)
+        return transform(p, R)
+
+    def point_and_jacobian(self, q: np.ndarray, p_sensor: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """A sensor-frame point in the hand frame and its position Jacobian (3, n)."""
+        Rs, ps, R_s, p_s = self._frames(q)
+        p_hand = p_s if p_sensor is None else R_s @ np.asarray(p_sensor, dtype=float) + p_s
+        a = np.einsum("nij,nj->ni", Rs, self.axes)
+        b = p_hand - ps
+        J = np.array([
+            a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+            a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+            a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0],
+        ])
+        return p_hand, J
 
     def jacobian(self, q: np.ndarray, p_sensor: np.ndarray | None = None) -> np.ndarray:
         """Position Jacobian (3, n) in the hand frame of a point fixed in the sensor frame."""
-        joint_frames, T_s = self._frames(np.asarray(q, dtype=float))
-        p_local = np.zeros(3) if p_sensor is None else np.asarray(p_sensor, dtype=float)
-        p_hand = T_s[:3, :3] @ p_local + T_s[:3, 3]
-        J = np.empty((3, self.n))
-        for i, (T_j, axis) in enumerate(zip(joint_frames, self.axes)):
-            a_hand = T_j[:3, :3] @ axis
-            J[:, i] = np.cross(a_hand, p_hand - T_j[:3, 3])
-        return J
+        return self.point_and_jacobian(q, p_sensor)[1]
 
     def ik_step(
         self,
@@ -75,7 +109,10 @@ class FingerChain:
         """Damped least-squares joint step for a small Cartesian displacement of a
         sensor-frame point, clamped to the joint limits. Returns the new joint angles."""
         q = np.asarray(q, dtype=float)
-        J = self.jacobian(q, p_sensor)
+        return self.dls_step(q, self.jacobian(q, p_sensor), dp_hand, damping)
+
+    def dls_step(self, q: np.ndarray, J: np.ndarray, dp_hand: np.ndarray, damping: float = 0.01) -> np.ndarray:
+        """The step of ``ik_step`` for a Jacobian the caller already has."""
         # Joints at a limit that the step would push further are frozen, so the
         # remaining joints carry the motion instead of it being clipped away.
         active = np.ones(self.n, dtype=bool)

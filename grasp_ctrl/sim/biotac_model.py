@@ -72,6 +72,13 @@ class BioTacSensorModel:
         self.burst = np.zeros(n_tips)
         self.was_in_contact = np.zeros(n_tips, dtype=bool)
         self.t = 0.0
+        std = np.empty(FRAME_LEN)
+        std[ELECTRODES] = p.noise_e
+        std[PDC] = p.noise_pdc
+        std[PAC] = p.noise_pac
+        std[TDC] = p.noise_t
+        std[TAC] = p.noise_t
+        self._noise_std = std
 
     def tared_electrodes(self, p_contact_sensor: np.ndarray, f_sensor: np.ndarray, n_out_sensor: np.ndarray) -> np.ndarray:
         """Noise-free electrode changes (n, 19) for contacts at ``p_contact_sensor``
@@ -111,14 +118,9 @@ class BioTacSensorModel:
         self.burst = self.burst * np.exp(-dt / p.pac_decay_s) + onset * p.pac_onset_amp
         slip_amp = np.minimum(p.pac_slip_amp * np.abs(slip_speed_m_s) * 100.0, 500.0)
         amp = self.burst + slip_amp
-        out[:, PAC] += amp[:, None] * rng.standard_normal((self.n, 22))
+        out[:, PAC] += amp[:, None] * rng.standard_normal((self.n, 22))  # bursts
         out[:, TDC] += p.tdc_drift_per_s * self.t
 
-        noise = np.empty((self.n, FRAME_LEN))
-        noise[:, ELECTRODES] = p.noise_e * rng.standard_normal((self.n, 19))
-        noise[:, PDC] = p.noise_pdc * rng.standard_normal(self.n)
-        noise[:, PAC] = p.noise_pac * rng.standard_normal((self.n, 22))
-        noise[:, TDC] = p.noise_t * rng.standard_normal(self.n)
-        noise[:, TAC] = p.noise_t * rng.standard_normal(self.n)
+        noise = self._noise_std * rng.standard_normal((self.n, FRAME_LEN))
         out += noise
         return np.clip(np.rint(out), 0, COUNT_MAX).astype(np.int64)

@@ -22,26 +22,24 @@ def solve_object_height(
     contact (0 for no contact). Finger i pushes the object up with
     clip(kt*(anchor_i - z), -capacity_i, capacity_i).
     """
-    def net_up(z: float) -> float:
-        return float(np.sum(np.clip(kt * (anchors - z), -capacity, capacity))) - weight_n
+    def net_up(z: np.ndarray) -> np.ndarray:
+        return np.clip(kt * (anchors[:, None] - z[None, :]), -capacity[:, None], capacity[:, None]).sum(axis=0) - weight_n
 
-    g0 = net_up(0.0)
+    g0 = float(net_up(np.zeros(1))[0])
     if g0 <= 0.0:
         return 0.0, -g0
-    # net_up decreases in z; bracket then bisect (piecewise linear: converges fast).
-    hi = float(np.max(anchors)) + float(np.max(capacity)) / kt + 1e-3
-    if net_up(hi) > 0.0:  # cannot happen with positive weight; guard against bad input
-        return hi, 0.0
-    lo = 0.0
-    for _ in range(50):
-        mid = 0.5 * (lo + hi)
-        if net_up(mid) > 0.0:
-            lo = mid
-        else:
-            hi = mid
-        if hi - lo < 1e-9:
-            break
-    return 0.5 * (lo + hi), 0.0
+    # net_up is piecewise linear and decreasing in z, with kinks where a contact
+    # starts or stops slipping: evaluate at the kinks and interpolate exactly.
+    held = capacity > 0.0
+    kinks = np.concatenate([anchors[held] - capacity[held] / kt, anchors[held] + capacity[held] / kt])
+    z = np.unique(np.concatenate([[0.0], kinks[kinks > 0.0]]))
+    g = net_up(z)
+    below = np.flatnonzero(g <= 0.0)
+    if below.size == 0:  # still pushing up past every kink: cannot happen with positive weight
+        return float(z[-1]), 0.0
+    j = int(below[0])
+    z0, z1, g_lo, g_hi = z[j - 1], z[j], g[j - 1], g[j]
+    return float(z0 + (z1 - z0) * g_lo / (g_lo - g_hi)), 0.0
 
 
 def tangential_forces(

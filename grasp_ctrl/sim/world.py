@@ -27,6 +27,7 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.kinematics.batched import BatchedKinematics
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.sim.biotac_model import BioTacParams, BioTacSensorModel
 from grasp_ctrl.sim.grip import solve_object_height, tangential_forces
@@ -38,10 +39,10 @@ GRAVITY = 9.81
 @dataclass(frozen=True)
 class WorldParams:
     servo_time_constant_s: float = 0.03
-    servo_stiffness_nm_per_rad: float = 3.0
+    servo_stiffness_nm_per_rad: float = 10.0
     servo_max_speed_rad_s: float = 6.0
     torque_per_amp_nm: float = 0.5
-    tangential_stiffness_n_per_m: float = 300.0
+    tangential_stiffness_n_per_m: float = 400.0
     placement_jitter_m: float = 0.003
     mass_jitter: float = 0.03
     friction_jitter: float = 0.03
@@ -69,6 +70,7 @@ class MockWorld:
         self.params = p = params or WorldParams()
         self.rng = np.random.default_rng(seed)
         self.kin = HandKinematics(hand)
+        self.bkin = BatchedKinematics(self.kin)
         self.dt = hand.dt
         self.t = 0.0
         self.phase = "idle"
@@ -111,7 +113,7 @@ class MockWorld:
         self.n_out_world = np.zeros((n, 3))
         self.sensors = BioTacSensorModel(n, self.rng, p.biotac)
         self.seq = 0
-        self._pad_z = np.zeros(n)
+        self._pad_heights()
         self.raw = self._sense()
 
         self.events: list[WorldEvent] = []
@@ -173,50 +175,71 @@ class MockWorld:
     def _contacts(self) -> None:
         p = self.params
         kp = p.servo_stiffness_nm_per_rad
+        kt = p.tangential_stiffness_n_per_m
         q = self.q_servo.copy()
+        pads_hand, jacobians = self.bkin.points_and_jacobians(self.q_servo, PAD_POINT_SENSOR)
         for i, name in enumerate(self.fingers):
-            sl = self.kin.slices[name]
-            chain = self.kin.chains[name]
-            T = chain.fk(self.q_servo[sl])
-            pad_world = self.palm_world + T[:3, :3] @ PAD_POINT_SENSOR + T[:3, 3]
-            d0, n_out = self._penetration(pad_world)
+            d0, n_out = self._penetration(self.palm_world + pads_hand[i])
             was = self.in_contact[i]
             if d0 <= 0.0:
                 self.normal_n[i] = 0.0
                 self.in_contact[i] = False
                 continue
-            a = chain.jacobian(self.q_servo[sl], PAD_POINT_SENSOR).T @ (-n_out)   # dd/dq
-            a2 = float(a @ a)
+            sl = self.kin.slices[name]
+            J = jacobians[i]
+            a = J.T @ (-n_out)   # d(penetration)/dq
             k = self.k_contact
-            if not self.torque_on or a2 < 1e-12:
+            pad_z = self.palm_world[2] + pads_hand[i][2]
+            # Vertical stick spring of a contact that already sticks: it resists the pad
+            # sliding up or down the object while the finger deflects.
+            stretch = pad_z - self.stick_offset[i] - self.obj_z if was else 0.0
+            sticking = was and abs(kt * stretch) < self.mu * self.normal_n[i]
+            if not self.torque_on or float(a @ a) < 1e-12:
                 # A limp finger yields completely: no squeeze force.
+                q[sl] = self.q_servo[sl] + self._retract(a, d0)
                 normal = 0.0
-                d = 0.0
             else:
-                d = d0 * kp / (kp + k * a2)
+                # Servo spring (kp per joint) in series with the contact springs: the
+                # minimiser of 0.5*kp*|dq|^2 + 0.5*k*(d0 + a.dq)^2 + 0.5*kt*(s0 + b.dq)^2.
+                if sticking:
+                    b = J[2]
+                    g11, g12, g22 = float(a @ a), float(a @ b), float(b @ b)
+                    # (kp I + D G) y = D r, 2x2, solved in closed form.
+                    m11, m12, m21, m22 = kp + k * g11, k * g12, kt * g12, kp + kt * g22
+                    det = m11 * m22 - m12 * m21
+                    r1, r2 = k * d0, kt * stretch
+                    y1 = (m22 * r1 - m12 * r2) / det
+                    y2 = (m11 * r2 - m21 * r1) / det
+                    dq = -(a * y1 + b * y2)
+                else:
+                    dq = -a * (k * d0 / (kp + k * float(a @ a)))
+                d = d0 + float(a @ dq)
                 normal = k * d
-                tau_peak = normal * np.abs(a)
-                over = tau_peak / np.maximum(self.tau_max[sl], 1e-9)
+                over = normal * np.abs(a) / np.maximum(self.tau_max[sl], 1e-9)
                 if over.max() > 1.0:           # current limit: the servo yields
                     normal /= over.max()
-                    d = normal / k
-            c = (d0 - d) / a2 if a2 > 1e-12 else 0.0
-            q[sl] = self.q_servo[sl] - c * a
+                    dq = self._retract(a, d0 - normal / k)
+                q[sl] = self.q_servo[sl] + dq
             self.normal_n[i] = normal
             self.n_out_world[i] = n_out
             self.in_contact[i] = normal > 1e-6
             if self.in_contact[i] and not was:
-                self.stick_offset[i] = pad_world[2] - self.obj_z
+                self.stick_offset[i] = self.palm_world[2] + pads_hand[i][2] - self.obj_z
                 self.events.append(WorldEvent(self.t, "contact", name))
         self.q = np.clip(q, self.lower, self.upper)
         self._pad_heights()
 
+    @staticmethod
+    def _retract(a: np.ndarray, depth: float) -> np.ndarray:
+        """Smallest joint motion that backs a fingertip out of the object by ``depth``."""
+        a2 = float(a @ a)
+        return -(depth / a2) * a if a2 > 1e-12 else np.zeros_like(a)
+
     def _pad_heights(self) -> None:
-        z = np.empty(len(self.fingers))
-        for i, name in enumerate(self.fingers):
-            T = self.kin.chains[name].fk(self.q[self.kin.slices[name]])
-            z[i] = self.palm_world[2] + (T[:3, :3] @ PAD_POINT_SENSOR + T[:3, 3])[2]
-        self._pad_z = z
+        """Sensor orientations and pad heights at the actual (deflected) joint angles."""
+        R, p = self.bkin.sensor_frames(self.q)
+        self._R_sensor = R
+        self._pad_z = self.palm_world[2] + (R @ PAD_POINT_SENSOR + p)[:, 2]
 
     def _object(self) -> None:
         kt = self.params.tangential_stiffness_n_per_m
@@ -244,10 +267,9 @@ class MockWorld:
     def _sense(self) -> np.ndarray:
         n = len(self.fingers)
         f_sensor = np.zeros((n, 3))
-        for i, name in enumerate(self.fingers):
+        for i in range(n):
             if self.in_contact[i]:
-                R = self.kin.chains[name].fk(self.q[self.kin.slices[name]])[:3, :3]
-                f_sensor[i] = R.T @ self.f_world[i]
+                f_sensor[i] = self._R_sensor[i].T @ self.f_world[i]
         self.f_sensor = f_sensor
         p_contact = np.broadcast_to(PAD_POINT_SENSOR, (n, 3))
         n_out = np.broadcast_to(PAD_NORMAL_SENSOR, (n, 3))

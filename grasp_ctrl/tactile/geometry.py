@@ -58,12 +58,16 @@ _NORMALS = np.array(
     ]
 )
 
-#: (19, 3) electrode positions, sensor frame, metres.
-ELECTRODE_POSITIONS_SENSOR: np.ndarray = _POS_MM * 1e-3
+#: (19, 3) electrode positions, sensor frame, millimetres (the published numbers).
+ELECTRODE_POSITIONS_MM: np.ndarray = _POS_MM
+#: (19, 3) electrode positions, sensor frame, metres. Computed as mm / 1000.0,
+#: bit-for-bit the authors' conversion, so voxel edges derived from it match theirs.
+ELECTRODE_POSITIONS_SENSOR: np.ndarray = _POS_MM / 1000.0
 #: (19, 3) outward unit normals of the electrodes, sensor frame.
 ELECTRODE_NORMALS_SENSOR: np.ndarray = _NORMALS / np.linalg.norm(_NORMALS, axis=1, keepdims=True)
 #: Radius of the sensor surface model (cylinder about x, hemispherical cap for x > 0).
 SURFACE_RADIUS_M = 5.5e-3
 
+ELECTRODE_POSITIONS_MM.setflags(write=False)
 ELECTRODE_POSITIONS_SENSOR.setflags(write=False)
 ELECTRODE_NORMALS_SENSOR.setflags(write=False)

@@ -1,5 +1,6 @@
-"""One control tick's sensing: raw frames -> tare -> contact gate -> estimator ->
-forces in sensor, hand and world frames -> Snapshot (DESIGN.md 3)."""
+"""One control tick's sensing: raw frames -> (tactile pipeline: validate, tare,
+contact gate, estimator) -> forces in sensor, hand and world frames -> Snapshot
+(DESIGN.md 3)."""
 
 from __future__ import annotations
 
@@ -10,21 +11,22 @@ from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.errors import SensorStaleError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.hardware.base import JointState, TactileFrame
+from grasp_ctrl.kinematics.batched import BatchedKinematics
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.tactile.layout import FRAME_LEN
-from grasp_ctrl.tactile.tare import ContactGate, Tare
+from grasp_ctrl.tactile.pipeline import TactilePipeline
 
 
 class SensingPipeline:
     def __init__(self, hand: HandConfig, kin: HandKinematics, estimator: ForceEstimator) -> None:
         self.hand = hand
         self.kin = kin
+        self.bkin = BatchedKinematics(kin)
         self.estimator = estimator
         self.names = [f.name for f in hand.fingers]
         self.sensor_ids = [f.sensor_id for f in hand.fingers]
         n = len(self.names)
-        self.tare = Tare(n)
-        self.gate = ContactGate(n, hand.tactile.contact_pdc_threshold, hand.tactile.contact_frames)
+        self.tactile = TactilePipeline.from_hand(hand, estimator)
         self._tare_window: list[np.ndarray] = []
         self.raw = np.zeros((n, FRAME_LEN))
         self.tared = np.zeros((n, FRAME_LEN))
@@ -48,14 +50,13 @@ class SensingPipeline:
 
     def collect_tare(self, raw: np.ndarray) -> bool:
         """Add one free-space frame to the tare window; True once the baseline is set."""
-        if self.tare.ready:
+        if self.tactile.tare.ready:
             return True
         self._tare_window.append(raw.copy())
         if len(self._tare_window) >= self.hand.tactile.tare_frames:
-            self.tare.set_baseline(np.stack(self._tare_window))
+            self.tactile.set_baseline(np.stack(self._tare_window))
             self._tare_window.clear()
-            self.gate.reset()
-        return self.tare.ready
+        return self.tactile.tare.ready
 
     def snapshot(
         self,
@@ -67,24 +68,17 @@ class SensingPipeline:
     ) -> Snapshot:
         n = len(self.names)
         self.raw = raw
-        tare_ready = self.collect_tare(raw) if collecting_tare else self.tare.ready
-        f_sensor = np.zeros((n, 3))
-        variance = None
-        if self.tare.ready:
-            tared = self.tare.apply(raw)
-            in_contact = self.gate.update(tared)
-            if in_contact.any():
-                idx = np.flatnonzero(in_contact)
-                est = self.estimator.estimate(tared[idx], [self.names[i] for i in idx])
-                f_sensor[idx] = est.f_sensor
-                if est.variance is not None:
-                    variance = np.zeros((n, 3))
-                    variance[idx] = est.variance
+        tare_ready = self.collect_tare(raw) if collecting_tare else self.tactile.tare.ready
+        if tare_ready:
+            tips = self.tactile.step(raw)
+            tared, in_contact, f_sensor, variance = tips.tared, tips.in_contact, tips.f_sensor, tips.variance
         else:
             tared = np.zeros_like(raw)
             in_contact = np.zeros(n, dtype=bool)
+            f_sensor = np.zeros((n, 3))
+            variance = None
         self.tared = tared
-        R = np.stack([self.kin.fk(name, joints.q)[:3, :3] for name in self.names])
+        R, _ = self.bkin.sensor_frames(joints.q)
         f_hand = np.einsum("nij,nj->ni", R, f_sensor)
         f_world = f_hand  # the arm translates the hand: hand axes = world axes
         # Grip = the squeeze: the force across the lift direction (world z). Along z

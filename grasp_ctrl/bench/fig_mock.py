@@ -1,0 +1,85 @@
+"""Figures of the mock backend: ``control_tick_ms`` and ``mock_realtime_factor``."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from grasp_ctrl.bench.figure import Figure, time_ms
+from grasp_ctrl.config import load_hand, load_objects
+from grasp_ctrl.controller.machine import GraspController
+from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
+from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.paths import default_hand_file, default_objects_file
+from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
+from grasp_ctrl.sim.oracle import OracleEstimator
+from grasp_ctrl.sim.world import MockWorld
+from grasp_ctrl.trials.pipeline import SensingPipeline
+
+BENCH_OBJECT = "chips_can"
+
+
+class _Loop:
+    """The mock trial loop with its parts exposed, for timing them separately."""
+
+    def __init__(self, estimator_for_world, seed: int = 0) -> None:
+        self.hand = load_hand(default_hand_file())
+        obj = load_objects(default_objects_file())[BENCH_OBJECT]
+        kin = HandKinematics(self.hand)
+        self.world = MockWorld(self.hand, obj, seed)
+        self.hand_backend = MockHand(self.world, self.hand)
+        self.arm = MockArm(self.world, self.hand)
+        self.sensors = MockSensors(self.world)
+        self.pipeline = SensingPipeline(self.hand, kin, estimator_for_world(self.world))
+        self.ctrl = GraspController(self.hand, obj, self.world.reach_pose_world(), kin=kin)
+
+    def control(self) -> None:
+        """Everything of one tick except the world's physics step."""
+        raw = self.pipeline.frames_matrix(self.sensors.read_latest(), self.world.t)
+        snap = self.pipeline.snapshot(raw, self.hand_backend.read(), self.arm.position(), self.ctrl.state == "tare")
+        cmd = self.ctrl.tick(snap)
+        self.hand_backend.write_goals(cmd.q_goal)
+        self.arm.command(cmd.p_palm_world)
+
+    def run_until(self, state: str, limit_s: float = 30.0) -> None:
+        while self.ctrl.state != state:
+            if self.world.t > limit_s or self.ctrl.terminal:
+                raise RuntimeError(f"benchmark trial did not reach {state} (in {self.ctrl.state})")
+            self.world.step()
+            self.control()
+
+
+TIMED_POLICY = "icra19_official"
+
+
+def control_tick(quick: bool) -> Figure:
+    """One control tick (sensors, tare, gate, features, the official network's batched
+    inference, kinematics, state machine, goals) with the grasping fingertips in
+    contact. The trial is driven to the lift with the default policy; the official
+    network is then timed in its place (1 thread)."""
+    hand = load_hand(default_hand_file())
+    est = load_policy(DEFAULT_POLICY, hand, threads=1)
+    loop = _Loop(lambda world: est)
+    loop.run_until("lift")
+    loop.pipeline.tactile.estimator = load_policy(TIMED_POLICY, hand, threads=1)
+    return time_ms(loop.control, repeats=200 if quick else 3000)
+
+
+def mock_realtime_factor(quick: bool) -> Figure:
+    """Simulated seconds per wall-clock second of the world's physics over a 10 s
+    trial (4 fingertips, oracle control so the controller's cost is not counted)."""
+    loop = _Loop(lambda world: OracleEstimator(world))
+    sim_s = 2.0 if quick else 10.0
+    spent = 0.0
+    steps = int(round(sim_s / loop.hand.dt))
+    for _ in range(steps):
+        t0 = time.perf_counter()
+        loop.world.step()
+        spent += time.perf_counter() - t0
+        if not loop.ctrl.terminal:
+            loop.control()
+    return Figure.single(sim_s / spent, "x")
+
+
+FIGURES = {"control_tick_ms": control_tick, "mock_realtime_factor": mock_realtime_factor}

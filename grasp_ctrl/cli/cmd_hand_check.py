@@ -1,0 +1,145 @@
+"""``hand-check``: the first thing to run with a new hand (ping, read, optionally move)."""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+NAME = "hand-check"
+HELP = "ping every servo of a Dynamixel hand, print its state, optionally move each joint a little"
+DESCRIPTION = (
+    "Pings every configured servo (reports missing ids and model mismatches by joint name), reads "
+    "Hardware Error Status and the present position/velocity/current, flags joints outside their "
+    "limits. Read-only unless --move (configure, torque on, move each joint by --step within its "
+    "limits and back, then torque off) or --recover (reboot servos that report a hardware error). "
+    "Exits 0 when everything is fine, 1 otherwise."
+)
+ORDER = 40
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    from grasp_ctrl.paths import default_hand_file
+
+    p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE", help="hand config TOML")
+    p.add_argument("--port", default=None, metavar="PORT", help="serial port (default: [dynamixel] port of the hand file)")
+    p.add_argument("--baud", type=int, default=None, help="baud rate (default: the hand file's)")
+    p.add_argument("--move", action="store_true", help="move each joint by --step and back (torque on!)")
+    p.add_argument("--step", type=float, default=0.1, metavar="RAD", help="test motion per joint (default 0.1 rad)")
+    p.add_argument("--recover", action="store_true", help="reboot servos that report a hardware error")
+
+
+def run(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    import numpy as np
+
+    from grasp_ctrl.config.hand import load_hand
+    from grasp_ctrl.errors import HardwareError, UsageError
+    from grasp_ctrl.hardware.dynamixel import DynamixelHand
+    from grasp_ctrl.hardware.dynamixel import control_table as ct
+
+    if not 0.0 < args.step <= 0.5:
+        raise UsageError(f"--step: expected 0 < RAD <= 0.5, got {args.step}")
+    hand = load_hand(args.hand)
+    if args.baud:
+        hand = dataclasses.replace(hand, dynamixel=dataclasses.replace(hand.dynamixel, baud=args.baud))
+    dxl = DynamixelHand(hand, args.port)
+    bus = dxl.bus
+    bus.open()
+    problems: list[str] = []
+    try:
+        from grasp_ctrl.hardware.dynamixel.port import set_low_latency
+
+        print(f"hand-check: {hand.name} ({len(dxl.ids)} servos) on {bus.port_name} at {hand.dynamixel.baud} baud")
+        print(f"  {set_low_latency(bus.port_name, hand.dynamixel.latency_timer_ms)}")
+        print(f"  {'joint':14s} {'id':>3s}  {'model':14s} {'hw_error':18s} {'q_rad':>8s} {'counts':>7s} {'dq_rad_s':>8s} {'current_A':>9s}  status")
+        answered = 0
+        for k, j in enumerate(dxl.joints):
+            model, why = bus.ping(j.servo_id)
+            if model is None:
+                problems.append(f"{j.name} (id {j.servo_id}): no reply")
+                print(f"  {j.name:14s} {j.servo_id:3d}  {'-':14s} {'-':18s} {'':>8s} {'':>7s} {'':>8s} {'':>9s}  MISSING ({why})")
+                continue
+            answered += 1
+            found = ct.model_by_number(model)
+            model_name = found.name if found else f"model {model}"
+            status: list[str] = []   # shown in the table
+            bad: list[str] = []      # also counted as problems
+            if dxl.model is not None and model != dxl.model.model_number:
+                bad.append(f"MODEL MISMATCH (expected {dxl.model.name})")
+            hw = bus.read(j.servo_id, ct.ADDR_HARDWARE_ERROR_STATUS, 1)
+            if hw and args.recover:
+                bus.reboot(j.servo_id)
+                time.sleep(0.3)
+                status.append(f"rebooted (was {','.join(ct.hardware_error_names(hw))})")
+                hw = bus.read(j.servo_id, ct.ADDR_HARDWARE_ERROR_STATUS, 1)
+            hw_text = ",".join(ct.hardware_error_names(hw)) if hw else "-"
+            if hw:
+                bad.append("HARDWARE ERROR (run with --recover)")
+            counts = bus.read(j.servo_id, ct.ADDR_PRESENT_POSITION, 4, signed=True)
+            vel = bus.read(j.servo_id, ct.ADDR_PRESENT_VELOCITY, 4, signed=True)
+            cur = bus.read(j.servo_id, ct.ADDR_PRESENT_CURRENT, 2, signed=True)
+            sel = slice(k, k + 1)
+            cal = dataclasses.replace(
+                dxl.cal, offset_rad=dxl.cal.offset_rad[sel], sign=dxl.cal.sign[sel],
+                lower_rad=dxl.cal.lower_rad[sel], upper_rad=dxl.cal.upper_rad[sel],
+            )
+            q = float(cal.to_rad(np.array([counts]))[0])
+            dq = float(cal.velocity_to_rad_s(np.array([vel]))[0])
+            amps = float(cal.sign[0] * cur * dxl.amp_per_unit)
+            if not j.lower_rad - 1e-3 <= q <= j.upper_rad + 1e-3:
+                bad.append(f"OUTSIDE LIMITS [{j.lower_rad}, {j.upper_rad}] (check offset/sign)")
+            problems.extend(f"{j.name} (id {j.servo_id}): {s}" for s in bad)
+            status = bad + status
+            print(f"  {j.name:14s} {j.servo_id:3d}  {model_name:14s} {hw_text:18s} {q:8.3f} {counts:7d} {dq:8.3f} {amps:9.3f}  {'; '.join(status) or 'ok'}")
+        print(f"  {answered}/{len(dxl.ids)} servos answered; bus: {bus.stats.comm_errors} communication errors, {bus.stats.retries} retries")
+    finally:
+        bus.close()
+
+    if args.move and not problems:
+        problems += _move_test(hand, args.port, args.step)
+    if problems:
+        raise HardwareError(f"hand-check found {len(problems)} problem(s): " + "; ".join(problems))
+    print("hand-check: OK")
+    return 0
+
+
+def _move_test(hand, port: str | None, step: float) -> list[str]:
+    """Each joint in turn: +-step (toward the middle of its range) and back, within the step limit."""
+    import numpy as np
+
+    from grasp_ctrl.hardware.dynamixel import DynamixelHand
+
+    problems: list[str] = []
+    print(f"move test: each joint by {step:.3f} rad and back (torque on)")
+    with DynamixelHand(hand, port) as dxl:
+        home = dxl.read().q.copy()
+        for k, j in enumerate(dxl.joints):
+            direction = 1.0 if home[k] + step <= j.upper_rad else -1.0
+            target = home.copy()
+            target[k] = float(np.clip(home[k] + direction * step, j.lower_rad, j.upper_rad))
+            reached = _drive(dxl, target, k)
+            err = abs(reached - target[k])
+            ok = err < max(0.02, 0.2 * step)
+            back = _drive(dxl, home, k)
+            verdict = "ok" if ok else "DID NOT REACH (blocked? current limit? sign?)"
+            print(f"  {j.name:14s} goal {target[k]:+.3f}  reached {reached:+.3f}  back {back:+.3f}  {verdict}")
+            if not ok:
+                problems.append(f"{j.name} (id {j.servo_id}): moved to {reached:.3f} rad, goal {target[k]:.3f}")
+            dxl.check_health(force=True)
+        dxl.safe_stop("torque_off")
+    return problems
+
+
+def _drive(dxl, target, k: int, timeout_s: float = 1.5) -> float:
+    import numpy as np
+
+    end = time.monotonic() + timeout_s
+    q = dxl.read().q
+    while time.monotonic() < end:
+        dxl.write_goals(target)
+        time.sleep(dxl.hand.dt)
+        q = dxl.read().q
+        if np.allclose(dxl.last_goal, target) and abs(q[k] - target[k]) < 0.01:
+            break
+    return float(q[k])

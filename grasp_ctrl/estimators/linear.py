@@ -1,0 +1,41 @@
+"""A linear regression baseline: f_sensor = W e + b over the 19 tared electrodes.
+
+Unlike the analytic model (one gain per axis on fixed electrode normals), every
+electrode gets its own weight per axis, so shear patterns can be picked up.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from grasp_ctrl.estimators.base import Estimate
+from grasp_ctrl.tactile.layout import ELECTRODES
+
+
+def fit_linear(tared: np.ndarray, f_sensor: np.ndarray, ridge: float = 1e-3) -> tuple[np.ndarray, np.ndarray]:
+    """Ridge least squares; returns W (3, 19) in N/count and b (3,) in N."""
+    e = np.asarray(tared, dtype=float)[:, ELECTRODES]
+    X = np.hstack([e, np.ones((len(e), 1))])
+    scale = np.r_[np.full(19, np.std(e) or 1.0), 1.0]
+    Xs = X / scale
+    A = Xs.T @ Xs + ridge * len(Xs) * np.diag(np.r_[np.ones(19), 0.0])
+    coef = np.linalg.solve(A, Xs.T @ np.asarray(f_sensor, dtype=float)) / scale[:, None]
+    return coef[:19].T, coef[19]
+
+
+class LinearEstimator:
+    has_variance = False
+
+    def __init__(self, weights: np.ndarray, bias: np.ndarray, name: str = "linear") -> None:
+        W = np.asarray(weights, dtype=float)
+        b = np.asarray(bias, dtype=float)
+        if W.shape != (3, 19) or b.shape != (3,) or not (np.all(np.isfinite(W)) and np.all(np.isfinite(b))):
+            raise ValueError("linear policy needs weights of shape (3, 19) and bias of shape (3,), all finite")
+        self.W = W
+        self.b = b
+        self.name = name
+
+    def estimate(self, tared: np.ndarray, fingers: Sequence[str]) -> Estimate:
+        return Estimate(f_sensor=np.asarray(tared, dtype=float)[:, ELECTRODES] @ self.W.T + self.b)

@@ -1,0 +1,89 @@
+"""X-series (XC330 / XL330 / XM430) Protocol 2.0 control table and units.
+
+Addresses and sizes from the ROBOTIS e-manual's X-series control table.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+# EEPROM (writable with torque off only)
+ADDR_MODEL_NUMBER = 0            # 2
+ADDR_RETURN_DELAY_TIME = 9       # 1 (x2 us)
+ADDR_OPERATING_MODE = 11         # 1
+ADDR_CURRENT_LIMIT = 38          # 2
+ADDR_MAX_POSITION_LIMIT = 48     # 4
+ADDR_MIN_POSITION_LIMIT = 52     # 4
+# RAM
+ADDR_TORQUE_ENABLE = 64          # 1
+ADDR_HARDWARE_ERROR_STATUS = 70  # 1
+ADDR_POSITION_D_GAIN = 80        # 2
+ADDR_POSITION_I_GAIN = 82        # 2
+ADDR_POSITION_P_GAIN = 84        # 2
+ADDR_GOAL_CURRENT = 102          # 2
+ADDR_PROFILE_ACCELERATION = 108  # 4
+ADDR_PROFILE_VELOCITY = 112      # 4
+ADDR_GOAL_POSITION = 116         # 4
+ADDR_PRESENT_CURRENT = 126       # 2  \
+ADDR_PRESENT_VELOCITY = 128      # 4   } read together, one sync read per tick
+ADDR_PRESENT_POSITION = 132      # 4  /
+STATE_START = ADDR_PRESENT_CURRENT
+STATE_LENGTH = 10
+
+MODE_CURRENT_BASED_POSITION = 5
+
+# Hardware Error Status bits (address 70).
+HARDWARE_ERROR_BITS: dict[int, str] = {
+    0x01: "input_voltage",
+    0x04: "overheating",
+    0x08: "motor_encoder",
+    0x10: "electrical_shock",
+    0x20: "overload",
+}
+
+COUNTS_PER_REV = 4096
+CENTER_COUNTS = 2048
+RAD_PER_COUNT = 2.0 * math.pi / COUNTS_PER_REV
+RAD_S_PER_VELOCITY_UNIT = 0.229 * 2.0 * math.pi / 60.0  # 0.229 rpm per unit
+
+
+@dataclass(frozen=True)
+class ServoModel:
+    name: str
+    model_number: int
+    amp_per_current_unit: float   # Present/Goal Current, Current Limit unit
+    max_current_limit: int        # largest Current Limit register value
+    has_current_control: bool = True
+
+
+# Model numbers as the servos report them on PING (XC330-M288-T, XC330-T288-T and
+# XL330-M288-T checked against the e-manual; the others from the same tables, unverified here).
+MODELS: dict[str, ServoModel] = {
+    m.name: m
+    for m in (
+        ServoModel("XC330-M288-T", 1240, 0.001, 2352),  # checked against the e-manual table
+        ServoModel("XC330-M181-T", 1230, 0.001, 1750),
+        ServoModel("XC330-T288-T", 1220, 0.001, 1750),
+        ServoModel("XC330-T181-T", 1210, 0.001, 1750),
+        ServoModel("XL330-M288-T", 1200, 0.001, 1750),
+        ServoModel("XL330-M077-T", 1190, 0.001, 1750),
+        ServoModel("XM430-W350-T", 1020, 0.00269, 1193),
+        ServoModel("XM430-W210-T", 1030, 0.00269, 1193),
+    )
+}
+
+
+def model_by_number(number: int) -> ServoModel | None:
+    for m in MODELS.values():
+        if m.model_number == number:
+            return m
+    return None
+
+
+def hardware_error_names(bits: int) -> list[str]:
+    names = [name for bit, name in HARDWARE_ERROR_BITS.items() if bits & bit]
+    unknown = bits & ~sum(HARDWARE_ERROR_BITS)
+    if unknown:
+        names.append(f"unknown_bits_0x{unknown:02x}")
+    return names

@@ -1,0 +1,74 @@
+"""Open the real backends named by a hand file: Dynamixel hand, arm, serial sensors."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.errors import UsageError
+from grasp_ctrl.hardware.base import ArmBackend, Clock, HandBackend, SensorBackend
+
+
+@dataclass
+class HardwareRig:
+    hand: HandBackend
+    arm: ArmBackend
+    sensors: SensorBackend
+    clock: Clock
+
+    def close(self) -> None:
+        """Stop everything; the hand last, so its safe stop runs with the arm halted."""
+        for part in (self.arm, self.sensors, self.hand):
+            try:
+                part.close()
+            except Exception:  # noqa: BLE001 - keep closing the rest
+                pass
+
+
+def open_rig(
+    hand: HandConfig,
+    port: str | None = None,
+    sensor_port: str | None = None,
+    ask: Callable[[str], str] | None = None,
+) -> HardwareRig:
+    """Connect the hand, the arm and the fingertip sensors of ``hand``.
+
+    ``port`` overrides ``[dynamixel] port``; ``sensor_port`` overrides the tactile
+    port(s); ``ask`` answers the external arm's prompts (default: the terminal).
+    """
+    from grasp_ctrl.hardware.dynamixel import DynamixelHand
+    from grasp_ctrl.hardware.dynamixel.hand import MonotonicClock
+    from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
+
+    if hand.arm.kind == "mock":
+        raise UsageError(
+            f"{hand.path}: arm.kind: 'external' or 'dynamixel' for a real hand ('mock' moves nothing)"
+        )
+    clock = MonotonicClock()
+    opened: list[object] = []
+    try:
+        hand_backend = DynamixelHand(hand, port, clock=clock)
+        hand_backend.connect()
+        opened.append(hand_backend)
+        if hand.arm.kind == "dynamixel":
+            from grasp_ctrl.hardware.arm_dynamixel import DynamixelArm
+
+            arm: ArmBackend = DynamixelArm(hand)
+        else:
+            from grasp_ctrl.hardware.arm_external import ExternalArm
+
+            arm = ExternalArm(hand, ask=ask)
+        arm.connect()
+        opened.append(arm)
+        sensors = SerialSensors.from_hand(hand, port=sensor_port, clock=clock)
+        sensors.start()
+        opened.append(sensors)
+    except BaseException:
+        for part in reversed(opened):
+            try:
+                part.close()  # type: ignore[attr-defined]
+            except Exception:  # noqa: BLE001
+                pass
+        raise
+    return HardwareRig(hand_backend, arm, sensors, clock)

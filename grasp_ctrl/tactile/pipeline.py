@@ -1,0 +1,65 @@
+"""Raw frames -> per-fingertip f_sensor: validate, tare, gate contact, estimate.
+
+One call per control tick for all fingertips (DESIGN.md 3). The estimator runs
+once, batched, on the fingertips in contact; the others get zero force (and
+zero variance), as the paper did.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.estimators.base import ForceEstimator
+from grasp_ctrl.tactile.frames import validate_frames
+from grasp_ctrl.tactile.tare import ContactGate, Tare
+
+
+@dataclass(frozen=True)
+class TipForces:
+    tared: np.ndarray              # (n_tips, 44) counts
+    in_contact: np.ndarray         # (n_tips,) bool
+    f_sensor: np.ndarray           # (n_tips, 3) N, zero where not in contact
+    variance: np.ndarray | None    # (n_tips, 3) N^2 when the estimator provides it
+
+
+class TactilePipeline:
+    def __init__(self, estimator: ForceEstimator, fingers: Sequence[str], threshold: float = 10.0,
+                 frames: int = 10, validate: bool = True) -> None:
+        self.estimator = estimator
+        self.fingers = tuple(fingers)
+        self.tare = Tare(len(self.fingers))
+        self.gate = ContactGate(len(self.fingers), threshold, frames)
+        self.validate = validate
+
+    @classmethod
+    def from_hand(cls, hand: HandConfig, estimator: ForceEstimator, validate: bool = True) -> "TactilePipeline":
+        return cls(estimator, [f.name for f in hand.fingers], hand.tactile.contact_pdc_threshold,
+                   hand.tactile.contact_frames, validate)
+
+    def set_baseline(self, frames: np.ndarray) -> None:
+        """(k, n_tips, 44) raw no-contact frames; also resets the contact gate."""
+        frames = np.asarray(frames, dtype=float)
+        if self.validate:
+            validate_frames(frames.reshape(-1, frames.shape[-1]) if frames.ndim == 3 else frames)
+        self.tare.set_baseline(frames)
+        self.gate.reset()
+
+    def step(self, raw: np.ndarray) -> TipForces:
+        """One raw frame per fingertip (n_tips, 44) -> tared signals, contact flags, forces."""
+        raw = validate_frames(raw, self.fingers) if self.validate else np.asarray(raw, dtype=float)
+        tared = self.tare.apply(raw)
+        contact = self.gate.update(tared)
+        n = len(self.fingers)
+        f_sensor = np.zeros((n, 3))
+        variance = np.zeros((n, 3)) if self.estimator.has_variance else None
+        idx = np.flatnonzero(contact)
+        if idx.size:
+            est = self.estimator.estimate(tared[idx], [self.fingers[i] for i in idx])
+            f_sensor[idx] = est.f_sensor
+            if variance is not None and est.variance is not None:
+                variance[idx] = est.variance
+        return TipForces(tared, contact, f_sensor, variance)

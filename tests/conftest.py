@@ -1,0 +1,29 @@
+"""Shared fixtures: the shipped hand and object files, and the real-data folder."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from grasp_ctrl.config import load_hand, load_objects
+from grasp_ctrl.paths import REPO_ROOT
+
+SHARED_DATA = REPO_ROOT.parent / "shared" / "data"
+
+
+@pytest.fixture(scope="session")
+def hand():
+    return load_hand(REPO_ROOT / "hand_configs" / "leap_hand.toml")
+
+
+@pytest.fixture(scope="session")
+def objects():
+    return load_objects(REPO_ROOT / "hand_configs" / "objects.toml")
+
+
+@pytest.fixture
+def shared_data() -> Path:
+    if not SHARED_DATA.is_dir():
+        pytest.skip("../shared/data is not present beside the checkout")
+    return SHARED_DATA
