@@ -25,9 +25,9 @@ def test_train_evaluate_export_finetune(tmp_path: Path, monkeypatch: pytest.Monk
     assert main(["export", str(ckpt), "--name", "tiny_voxel"]) == 0
     onnx_path = tmp_path / "policies" / "tiny_voxel.onnx"
     meta = json.loads((tmp_path / "policies" / "tiny_voxel.json").read_text())
-    assert meta["kind"] == "onnx" and meta["sensor_type"] == "biotac" and meta["output_frame"] == "sensor"
-    assert meta["onnx_parity_max_abs_n"] <= 1e-5 and not meta["has_variance"]
-    assert [i["name"] for i in meta["inputs"]] == ["electrode_voxels", "contact_voxels"]
+    assert meta["kind"] == "onnx" and meta["sensor_type"] == "biotac" and meta["output"]["frame"] == "sensor"
+    assert meta["provenance"]["onnx_vs_torch_max_abs_n"] <= 1e-5 and not meta["has_variance"]
+    assert list(meta["input"]["tensors"]) == ["electrode_voxels", "contact_voxels"]
     assert "mixed" in meta["metrics"] and meta["training"]["data"]["synthetic_per_source"] == 250
     assert main(["export", str(ckpt), "--name", "tiny_voxel"]) == 2          # no silent overwrite
 
@@ -54,7 +54,7 @@ def test_dropout_export_has_variance_and_analytic_policy_loads(tmp_path: Path, m
     assert main(["train", *common, "--arch", "voxel-dropout", "--epochs", "1", "--out", str(ckpt)]) == 0
     assert main(["export", str(ckpt), "--name", "drop"]) == 0
     meta = json.loads((tmp_path / "drop.json").read_text())
-    assert meta["has_variance"] and [o["name"] for o in meta["outputs"]] == ["f_sensor", "variance"]
+    assert meta["has_variance"] and list(meta["output"]["tensors"]) == ["f_sensor", "variance"]
     sess = ort.InferenceSession(str(tmp_path / "drop.onnx"))
     grid = np.zeros((3, 16, 16, 8), np.float32)
     grid[:, 5, 5, 2] = -300
@@ -79,3 +79,30 @@ def test_bad_input_is_one_line(tmp_path: Path, capsys) -> None:
     err = capsys.readouterr().err
     assert "nope.csv" in err and "Traceback" not in err
     assert main(["export", str(tmp_path / "nope.pt"), "--name", "x"]) == 2
+
+
+def test_exported_policies_run_in_the_controllers_estimators(tmp_path: Path, monkeypatch, capsys) -> None:
+    """Voxel policies load through the registry (onnx_estimator); Su policies through the
+    feature estimator; both reproduce the torch model on tared frames."""
+    from grasp_ctrl.estimators.registry import load_policy, read_metadata
+    from grasp_ctrl.learning.dataset import Dataset
+    from grasp_ctrl.learning.feature_estimator import load_feature_onnx_policy
+    from grasp_ctrl.learning.train import TensorData, load_checkpoint, model_from_checkpoint, predict_data
+
+    monkeypatch.setenv("GRASP_CTRL_POLICIES", str(tmp_path))
+    common = ["--synthetic", "200", "--seed", "6", "--test-per-source", "100", "--quiet", "--epochs", "1"]
+    rng = np.random.default_rng(0)
+    tared = np.zeros((50, 44))
+    tared[:, :19] = -np.abs(rng.normal(0, 300, (50, 19)))
+    tared[:, 19] = rng.uniform(20, 400, 50)
+    n = len(tared)
+    ds = Dataset(np.zeros(n, str), np.zeros(n, str), np.zeros(n), tared, np.ones((n, 3)), np.zeros(n, bool),
+                 np.repeat(np.eye(3)[None], n, axis=0))
+    for arch in ("voxel", "su"):
+        ckpt = tmp_path / f"{arch}.pt"
+        assert main(["train", *common, "--arch", arch, "--out", str(ckpt)]) == 0
+        assert main(["export", str(ckpt), "--name", f"p_{arch}"]) == 0
+        json_path = tmp_path / f"p_{arch}.json"
+        est = load_policy(f"p_{arch}") if arch == "voxel" else load_feature_onnx_policy(read_metadata(json_path), json_path, None, 1)
+        ref = predict_data(model_from_checkpoint(load_checkpoint(str(ckpt))), TensorData(ds))[0]
+        np.testing.assert_allclose(est.estimate(tared, ["f"] * n).f_sensor, ref, atol=1e-4)

@@ -43,33 +43,17 @@ def _predict(spec: str, tared: np.ndarray) -> np.ndarray:
         ds = Dataset(np.zeros(n, str), np.zeros(n, str), np.zeros(n), tared, np.ones((n, 3)), np.zeros(n, bool),
                      np.repeat(np.eye(3)[None], n, axis=0))
         return predict_data(model, TensorData(ds))[0]
-    from grasp_ctrl.estimators.registry import read_metadata, resolve_policy_path
+    from grasp_ctrl.estimators.registry import load_policy, read_metadata, resolve_policy_path
+    from grasp_ctrl.learning.feature_estimator import FEATURE_KINDS, load_feature_onnx_policy
 
     json_path = resolve_policy_path(spec)
     meta = read_metadata(json_path)
-    if meta["kind"] == "analytic":
-        from grasp_ctrl.estimators.analytic import AnalyticEstimator
-
-        est = AnalyticEstimator(meta["gains_n_per_count"])
-        return est.estimate(tared, [""] * len(tared)).f_sensor
-    if meta["kind"] != "onnx":
-        raise UsageError(f"{json_path}: kind {meta['kind']!r} cannot be evaluated here")
-    import onnxruntime as ort
-
-    from grasp_ctrl.learning.features import model_inputs
-
-    onnx_path = json_path.with_name(meta.get("onnx_file", json_path.stem + ".onnx"))
-    sess = ort.InferenceSession(str(onnx_path), providers=["CPUExecutionProvider"])
-    feats = model_inputs(tared)
-    names = [i.name for i in sess.get_inputs()]
-    missing = [n for n in names if n not in feats]
-    if missing:
-        raise UsageError(f"{onnx_path}: input {missing[0]!r} is not one this package computes")
-    out = []
-    for start in range(0, len(tared), 4096):
-        sl = slice(start, start + 4096)
-        out.append(sess.run(None, {n: feats[n][sl] for n in names})[0])
-    return np.concatenate(out) * float(meta.get("output_sign", 1))
+    if meta["kind"] == "onnx" and (meta.get("input") or {}).get("kind") in FEATURE_KINDS:
+        est = load_feature_onnx_policy(meta, json_path, None, 1)
+    else:
+        est = load_policy(str(json_path))      # the controller's own estimator for this policy
+    out = [est.estimate(tared[i:i + 4096], [""] * len(tared[i:i + 4096])).f_sensor for i in range(0, len(tared), 4096)]
+    return np.concatenate(out)
 
 
 def run(args: argparse.Namespace) -> int:

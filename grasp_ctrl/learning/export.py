@@ -10,6 +10,7 @@ inside the ONNX file (metadata_props) so a policy can be fine-tuned later.
 from __future__ import annotations
 
 import base64
+import hashlib
 import io
 import json
 import tempfile
@@ -123,28 +124,55 @@ def load_onnx_weights(onnx_path: str | Path) -> tuple[str, dict[str, Any]]:
     return props[ARCH_KEY], state
 
 
-def policy_metadata(name: str, arch: str, ckpt: dict[str, Any], parity: float) -> dict[str, Any]:
+_MEANING = {
+    "electrode_voxels": "tared electrode value (counts) in each electrode's cell",
+    "contact_voxels": "1.0 in the contact point's cell",
+    "electrodes": "tared electrode values e1..e19 (counts)",
+    "pdc": "tared pdc (counts)",
+    "contact_point": "contact point on the sensor surface, sensor frame (m)",
+}
+
+
+def policy_metadata(name: str, arch: str, ckpt: dict[str, Any], parity: float, sha256: str) -> dict[str, Any]:
+    """Metadata in the layout read by grasp_ctrl.estimators.onnx_estimator (DESIGN.md 5.5)."""
     has_var = arch == "voxel-dropout"
-    outputs = [{"name": "f_sensor", "shape": ["n", 3], "units": "N", "frame": "sensor"}]
+    out_tensors = {"f_sensor": {"shape": ["batch", 3], "dtype": "float32", "units": "N",
+                                "meaning": "force ON the sensor skin (DESIGN.md 4); a pad press gives +z"}}
     if has_var:
-        outputs.append({"name": "variance", "shape": ["n", 3], "units": "N^2", "frame": "sensor"})
+        out_tensors["variance"] = {"shape": ["batch", 3], "dtype": "float32", "units": "N^2",
+                                   "meaning": "per-axis variance over the 10 heads"}
+    preprocessing: dict[str, Any] = {
+        "tare": "value - baseline",
+        "tare_note": PREPROCESSING["tare"],
+        "electrode_scaling": "none (raw tared counts; the network scales internally)",
+        "contact_gate": {"signal": "tared pdc", "threshold_counts": 10, "frames": 10,
+                         "outside_contact": "zero force, the network is not run"},
+    }
+    if arch in ("voxel", "voxel-dropout", "novoxel"):
+        preprocessing["contact_point"] = "squared_signal_centroid_projected"
+        preprocessing["contact_point_note"] = PREPROCESSING["contact_point_rule"]
+    if arch in ("voxel", "voxel-dropout"):
+        preprocessing["voxel_grid"] = "icra19"
+        preprocessing["voxel_grid_note"] = PREPROCESSING["voxel_grid"]
+    cfg = ckpt.get("config") or {}
     return {
         "name": name,
         "kind": "onnx",
+        "model_file": f"{name}.onnx",
+        "model_sha256": sha256,
         "sensor_type": "biotac",
-        "onnx_file": f"{name}.onnx",
+        "description": DESCRIPTIONS[arch] + (" with the alpha loss weight" if cfg.get("beta") is not None else ""),
         "arch": arch,
-        "input_kind": INPUT_KIND[arch],
-        "inputs": [{"name": k, "shape": v, "dtype": "float32"} for k, v in input_shapes(arch).items()],
-        "outputs": outputs,
-        "output_quantity": "f_sensor: force ON the sensor skin (DESIGN.md 4); a pad press gives +z",
-        "output_sign": 1,
-        "output_units": "N",
-        "output_frame": "sensor",
+        "input": {"kind": INPUT_KIND[arch],
+                  "tensors": {k: {"shape": ["batch", *v[1:]], "dtype": "float32", "meaning": _MEANING[k]}
+                              for k, v in input_shapes(arch).items()}},
+        "preprocessing": preprocessing,
+        "output": {"tensors": out_tensors, "units": "N", "frame": "sensor", "to_f_sensor": 1.0,
+                   "estimator_returns": "f_sensor"},
         "has_variance": has_var,
-        "preprocessing": PREPROCESSING,
+        "dropout": {"heads": 10, "keep_prob": 0.7, "at_inference": "off (heads differ by their layer norms)"} if has_var else None,
         "training": {
-            "config": ckpt.get("config"),
+            "config": cfg,
             "data": ckpt.get("data"),
             "best_epoch": ckpt.get("best_epoch"),
             "best_val_loss": ckpt.get("best_val_loss"),
@@ -152,12 +180,25 @@ def policy_metadata(name: str, arch: str, ckpt: dict[str, Any], parity: float) -
             "init_from": ckpt.get("init_from"),
         },
         "metrics": ckpt.get("metrics"),
-        "onnx_parity_max_abs_n": parity,
-        "provenance": (f"trained with grasp_ctrl (`train`), exported {datetime.now(timezone.utc).isoformat(timespec='seconds')}; "
-                       "architecture and losses after Sundaralingam et al., ICRA 2019"),
-        "licence": "BSD-3-Clause (grasp_ctrl); cite Sundaralingam et al., 'Robust Learning of Tactile Force "
-                   "Estimation through Robot Interaction', ICRA 2019",
+        "metrics_note": "test split (whole trials) of the training data; median, q1, q3 per source and mixed (paper eqs. 14-15)",
+        "provenance": {
+            "trained_with": "grasp_ctrl train (docs/learning.md)",
+            "exported": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "onnx_opset": 17,
+            "onnx_vs_torch_max_abs_n": parity,
+        },
+        "licence": "BSD-3-Clause (grasp_ctrl)",
+        "citation": "Architecture and losses after B. Sundaralingam et al., Robust Learning of Tactile Force "
+                    "Estimation through Robot Interaction, IEEE ICRA 2019",
     }
+
+
+DESCRIPTIONS = {
+    "voxel": "voxel force network (paper Fig. 2), trained by grasp_ctrl",
+    "voxel-dropout": "multi-head dropout voxel force network, trained by grasp_ctrl",
+    "novoxel": "force network without voxels (FC on e and s_c), trained by grasp_ctrl",
+    "su": "feed-forward baseline after Su et al. 2015 (electrodes + pdc), trained by grasp_ctrl",
+}
 
 
 def export_checkpoint(ckpt: dict[str, Any], name: str, out_dir: Path) -> tuple[Path, Path, float]:
@@ -166,7 +207,8 @@ def export_checkpoint(ckpt: dict[str, Any], name: str, out_dir: Path) -> tuple[P
     onnx_path = out_dir / f"{name}.onnx"
     parity = export_onnx(model, ckpt["arch"], onnx_path)
     json_path = out_dir / f"{name}.json"
-    json_path.write_text(json.dumps(policy_metadata(name, ckpt["arch"], ckpt, parity), indent=2) + "\n", encoding="utf-8")
+    sha = hashlib.sha256(onnx_path.read_bytes()).hexdigest()
+    json_path.write_text(json.dumps(policy_metadata(name, ckpt["arch"], ckpt, parity, sha), indent=2) + "\n", encoding="utf-8")
     return onnx_path, json_path, parity
 
 
@@ -181,7 +223,8 @@ def analytic_policy(name: str, gains: np.ndarray, data: dict[str, Any] | None, m
         "output_units": "N",
         "output_frame": "sensor",
         "has_variance": False,
-        "preprocessing": {"tare": PREPROCESSING["tare"], "contact_gate": PREPROCESSING["contact_gate"]},
+        "preprocessing": {"tare": "value - baseline", "tare_note": PREPROCESSING["tare"],
+                          "contact_gate": PREPROCESSING["contact_gate"]},
         "training": {"method": "per-axis least squares (Lin et al. 2013, paper eq. 15)", "data": data},
         "metrics": metrics,
         "provenance": "fitted with grasp_ctrl (`train --arch analytic`)",
