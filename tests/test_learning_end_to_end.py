@@ -106,3 +106,53 @@ def test_exported_policies_run_in_the_controllers_estimators(tmp_path: Path, mon
         est = load_policy(f"p_{arch}") if arch == "voxel" else load_feature_onnx_policy(read_metadata(json_path), json_path, None, 1)
         ref = predict_data(model_from_checkpoint(load_checkpoint(str(ckpt))), TensorData(ds))[0]
         np.testing.assert_allclose(est.estimate(tared, ["f"] * n).f_sensor, ref, atol=1e-4)
+
+
+OFFICIAL_NPZ = Path(__file__).resolve().parents[2] / "shared" / "data" / "official_icra19" / "icra19_weights.npz"
+
+
+def test_authors_weights_map_onto_the_voxel_model() -> None:
+    if not OFFICIAL_NPZ.is_file():
+        pytest.skip("shared data not present")
+    from grasp_ctrl.learning.features import model_inputs
+    from grasp_ctrl.learning.official import official_model
+    from grasp_ctrl.tactile.features import contact_points
+    from grasp_ctrl.tactile.voxel import VoxelGrid
+
+    model = official_model(OFFICIAL_NPZ)
+    rng = np.random.default_rng(0)
+    tared = np.zeros((30, 44))
+    tared[:, :19] = -np.abs(rng.normal(0, 300, (30, 19)))
+    x = model_inputs(tared)
+    with torch.no_grad():
+        ours = model(torch.tensor(x["electrode_voxels"]), torch.tensor(x["contact_voxels"])).numpy()
+    # independent numpy forward pass of the TF graph (channels-last, kernel 2 stride 2)
+    d = np.load(OFFICIAL_NPZ)
+
+    def ln(v, g, b):
+        ax = tuple(range(1, v.ndim))
+        return (v - v.mean(ax, keepdims=True)) / np.sqrt(v.var(ax, keepdims=True) + 1e-12) * g + b
+
+    def conv(v, w, b):
+        n, *sp, c = v.shape
+        half = [s // 2 for s in sp]
+        if len(sp) == 3:
+            p = v.reshape(n, half[0], 2, half[1], 2, half[2], 2, c).transpose(0, 1, 3, 5, 2, 4, 6, 7)
+        else:
+            p = v.reshape(n, half[0], 2, half[1], 2, c).transpose(0, 1, 3, 2, 4, 5)
+        return p.reshape(n, *half, -1) @ w.reshape(-1, w.shape[-1]) + b
+
+    grid = VoxelGrid("icra19")
+    e = grid.electrode_grids(tared[:, :19]).astype(float)[..., None]
+    c = grid.contact_grids(contact_points(tared)).astype(float)[..., None]
+    r = lambda v: np.maximum(v, 0)  # noqa: E731
+    a = r(ln(conv(e, d["Conv/weights"], d["Conv/biases"]), d["LayerNorm/gamma"], d["LayerNorm/beta"]))
+    b = r(ln(conv(c, d["Conv_1/weights"], d["Conv_1/biases"]), d["LayerNorm_1/gamma"], d["LayerNorm_1/beta"]))
+    h = r(ln(conv(np.concatenate([a, b], -1), d["Conv_2/weights"], d["Conv_2/biases"]), d["LayerNorm_2/gamma"], d["LayerNorm_2/beta"]))
+    h = r(ln(conv(h, d["Conv_3/weights"], d["Conv_3/biases"]), d["LayerNorm_3/gamma"], d["LayerNorm_3/beta"]))
+    h = r(ln(conv(h[:, :, :, 0], d["Conv_4/weights"], d["Conv_4/biases"]), d["LayerNorm_4/gamma"], d["LayerNorm_4/beta"]))
+    h = h.reshape(len(h), -1)
+    h = r(ln(h @ d["fully_connected/weights"] + d["fully_connected/biases"], d["LayerNorm_5/gamma"], d["LayerNorm_5/beta"]))
+    h = r(ln(h @ d["fully_connected_1/weights"] + d["fully_connected_1/biases"], d["LayerNorm_6/gamma"], d["LayerNorm_6/beta"]))
+    net = h @ d["fully_connected_2/weights"] + d["fully_connected_2/biases"]
+    np.testing.assert_allclose(ours, -net, atol=2e-3 * max(1.0, np.abs(net).max()))   # ours returns f_sensor

@@ -32,7 +32,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--lr", type=float, default=1e-4, help="initial learning rate (paper: 1e-4)")
     p.add_argument("--patience", type=int, default=None, help="stop after N epochs without validation improvement")
     p.add_argument("--threads", type=int, default=1, help="torch CPU threads")
-    p.add_argument("--init-from", metavar="POLICY|FILE", help="fine-tune: start from an exported policy (NAME or .onnx) or a .pt checkpoint")
+    p.add_argument("--init-from", metavar="POLICY|FILE",
+                   help="fine-tune: start from an exported policy (NAME or .onnx), a .pt checkpoint, or the "
+                        "authors' ICRA 2019 weights (.npz, --arch voxel)")
     p.add_argument("--out", metavar="FILE", help="checkpoint to write (.pt; .json for --arch analytic)")
     p.add_argument("--experiment", choices=("fig3", "fig3+fig4"), help="run the paper's comparison instead of one model")
     p.add_argument("--out-dir", metavar="DIR", default="runs/fig3", help="experiment output folder")
@@ -44,6 +46,15 @@ def _init_state(spec: str, arch: str):
     from grasp_ctrl.learning.train import load_checkpoint
 
     path = Path(spec)
+    if path.suffix == ".npz":
+        from grasp_ctrl.learning.official import official_state_dict
+
+        if arch != "voxel":
+            raise UsageError("--init-from: the authors' ICRA 2019 weights are a 'voxel' model (use --arch voxel)")
+        try:
+            return official_state_dict(path)
+        except (OSError, KeyError, ValueError) as exc:
+            raise UsageError(f"--init-from: {path}: not the authors' ICRA 2019 weights ({exc})") from None
     if path.suffix == ".pt":
         try:
             ckpt = load_checkpoint(str(path))
