@@ -26,7 +26,7 @@ def test_train_evaluate_export_finetune(tmp_path: Path, monkeypatch: pytest.Monk
     onnx_path = tmp_path / "policies" / "tiny_voxel.onnx"
     meta = json.loads((tmp_path / "policies" / "tiny_voxel.json").read_text())
     assert meta["kind"] == "onnx" and meta["sensor_type"] == "biotac" and meta["output"]["frame"] == "sensor"
-    assert meta["provenance"]["onnx_vs_torch_max_abs_n"] <= 1e-5 and not meta["has_variance"]
+    assert meta["provenance"]["onnx_vs_torch_max_error"] <= 1e-5 and not meta["has_variance"]
     assert list(meta["input"]["tensors"]) == ["electrode_voxels", "contact_voxels"]
     assert "mixed" in meta["metrics"] and meta["training"]["data"]["synthetic_per_source"] == 250
     assert main(["export", str(ckpt), "--name", "tiny_voxel"]) == 2          # no silent overwrite

@@ -51,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
         onnx_path, json_path, parity = export_checkpoint(ckpt, args.name, out_dir)
     except (OSError, ValueError, ExportError) as exc:
         raise UsageError(f"{src}: {exc}") from None
-    print(f"wrote {onnx_path} and {json_path} (ONNX vs torch max abs difference {parity:.2e} N)")
+    print(f"wrote {onnx_path} and {json_path} (ONNX vs torch: max difference {parity:.2e} relative to max(1 N, |f|))")
     return 0
 
 

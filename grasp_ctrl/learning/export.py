@@ -3,7 +3,7 @@
 The ONNX graph takes the model's named inputs (see ``models.input_shapes``) and returns
 ``f_sensor`` (n, 3) [N, sensor frame, force on the skin] and, for the dropout model,
 ``variance`` (n, 3) [N^2]. The export is checked against torch (max abs difference
-<= 1e-5 N on realistic inputs) before anything is written. The torch weights ride along
+<= 1e-5 relative to max(1 N, max |output|), on realistic inputs) before anything is written. The torch weights ride along
 inside the ONNX file (metadata_props) so a policy can be fine-tuned later.
 """
 
@@ -70,7 +70,8 @@ def state_dict_bytes(model: torch.nn.Module) -> bytes:
 
 
 def export_onnx(model: torch.nn.Module, arch: str, onnx_path: Path) -> float:
-    """Write the ONNX file; return the max abs torch/onnxruntime difference (N)."""
+    """Write the ONNX file; return the worst torch/onnxruntime difference, max |onnx - torch| /
+    max(1, max |torch|) per output (i.e. N for outputs up to 1 N)."""
     import onnx
     import onnxruntime as ort
 
@@ -104,7 +105,9 @@ def export_onnx(model: torch.nn.Module, arch: str, onnx_path: Path) -> float:
             ref = model(*(torch.as_tensor(ex[k]) for k in names))
         ref_list = list(ref) if isinstance(ref, tuple) else [ref]
         for g, r in zip(got, ref_list):
-            worst = max(worst, float(np.max(np.abs(g - r.numpy()))))
+            # float32 rounding grows with the output: compare relative to max(1 N, |output|)
+            scale = max(1.0, float(np.max(np.abs(r.numpy()))))
+            worst = max(worst, float(np.max(np.abs(g - r.numpy()))) / scale)
     if worst > PARITY_TOL_N:
         onnx_path.unlink()
         raise ExportError(f"ONNX output differs from torch by {worst:.3g} (> {PARITY_TOL_N})")
@@ -185,7 +188,8 @@ def policy_metadata(name: str, arch: str, ckpt: dict[str, Any], parity: float, s
             "trained_with": "grasp_ctrl train (docs/learning.md)",
             "exported": datetime.now(timezone.utc).isoformat(timespec="seconds"),
             "onnx_opset": 17,
-            "onnx_vs_torch_max_abs_n": parity,
+            "onnx_vs_torch_max_error": parity,
+            "onnx_vs_torch_error_definition": "max |onnx - torch| / max(1, max |torch|) on 200 + 1 realistic inputs",
         },
         "licence": "BSD-3-Clause (grasp_ctrl)",
         "citation": "Architecture and losses after B. Sundaralingam et al., Robust Learning of Tactile Force "
