@@ -156,3 +156,15 @@ def test_authors_weights_map_onto_the_voxel_model() -> None:
     h = r(ln(h @ d["fully_connected_1/weights"] + d["fully_connected_1/biases"], d["LayerNorm_6/gamma"], d["LayerNorm_6/beta"]))
     net = h @ d["fully_connected_2/weights"] + d["fully_connected_2/biases"]
     np.testing.assert_allclose(ours, -net, atol=2e-3 * max(1.0, np.abs(net).max()))   # ours returns f_sensor
+
+
+def test_core_commands_do_not_import_torch() -> None:
+    import subprocess
+    import sys
+
+    code = ("import sys; from grasp_ctrl.cli import build_parser; build_parser(); "
+            "import grasp_ctrl.learning.feature_estimator, grasp_ctrl.learning.synthetic, grasp_ctrl.bench.fig_pushing; "
+            "print('torch' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         cwd=Path(__file__).resolve().parents[1])
+    assert out.stdout.strip() == "False"
