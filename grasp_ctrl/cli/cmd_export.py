@@ -1,0 +1,57 @@
+"""``export``: a trained checkpoint -> policies/NAME.onnx + NAME.json."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from grasp_ctrl.cli._learning_args import require_torch
+from grasp_ctrl.errors import UsageError
+
+NAME = "export"
+HELP = "export a trained model as a policy (ONNX + metadata JSON, checked against torch)"
+ORDER = 72
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("checkpoint", metavar="CHECKPOINT", help="a .pt file from `train` (or an analytic .json)")
+    p.add_argument("--name", required=True, help="policy name: writes NAME.onnx and NAME.json")
+    p.add_argument("--out-dir", metavar="DIR", help="default: the policies/ folder")
+    p.add_argument("--force", action="store_true", help="overwrite an existing policy of that name")
+
+
+def run(args: argparse.Namespace) -> int:
+    from grasp_ctrl.paths import policies_dir
+
+    out_dir = Path(args.out_dir) if args.out_dir else policies_dir()
+    if not args.name.replace("_", "").replace("-", "").isalnum():
+        raise UsageError(f"--name: letters, digits, '_' and '-' only (got {args.name!r})")
+    json_path = out_dir / f"{args.name}.json"
+    if json_path.exists() and not args.force:
+        raise UsageError(f"{json_path}: exists (use --force to overwrite)")
+    src = Path(args.checkpoint)
+    if not src.is_file():
+        raise UsageError(f"{src}: no such checkpoint")
+    if src.suffix == ".json":
+        meta = json.loads(src.read_text())
+        if meta.get("kind") != "analytic":
+            raise UsageError(f"{src}: not an analytic policy")
+        meta["name"] = args.name
+        out_dir.mkdir(parents=True, exist_ok=True)
+        json_path.write_text(json.dumps(meta, indent=2) + "\n")
+        print(f"wrote {json_path}")
+        return 0
+    require_torch()
+    from grasp_ctrl.learning.export import ExportError, export_checkpoint
+    from grasp_ctrl.learning.train import load_checkpoint
+
+    try:
+        ckpt = load_checkpoint(str(src))
+        onnx_path, json_path, parity = export_checkpoint(ckpt, args.name, out_dir)
+    except (OSError, ValueError, ExportError) as exc:
+        raise UsageError(f"{src}: {exc}") from None
+    print(f"wrote {onnx_path} and {json_path} (ONNX vs torch: max difference {parity:.2e} relative to max(1 N, |f|))")
+    return 0
+
+

@@ -1,0 +1,44 @@
+"""The pushed object: mass, rectangular footprint, friction, inertia."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from grasp_ctrl.config.toml_reader import Table, read_toml
+
+STANDARD_GRAVITY = 9.81
+
+
+@dataclass(frozen=True)
+class PushedBox:
+    mass_kg: float
+    size_m: tuple[float, float]     # footprint (lx along the object x axis, ly)
+    mu: float                       # object-support friction coefficient
+    izz_kgm2: float | None = None   # about the vertical axis through the centre of mass
+    gravity: float = STANDARD_GRAVITY
+
+    @property
+    def inertia(self) -> float:
+        """I_zz; a uniform box of the footprint when not given."""
+        if self.izz_kgm2 is not None:
+            return self.izz_kgm2
+        lx, ly = self.size_m
+        return self.mass_kg * (lx * lx + ly * ly) / 12.0
+
+
+def load_box(path: str | Path) -> PushedBox:
+    """OBJECT.toml of DESIGN.md 5.4: mass_kg, size_m = [lx, ly], mu; optional izz_kgm2, gravity."""
+    t = Table(path, read_toml(path))
+    t.unknown_keys({"mass_kg", "size_m", "mu", "izz_kgm2", "gravity", "name"})
+    size = t.vector("size_m", 2)
+    if min(size) <= 0:
+        raise t.fail("size_m", f"two positive lengths in metres (got {list(size)})")
+    izz = t.float("izz_kgm2", None, lo=0.0, lo_open=True) if t.has("izz_kgm2") else None
+    return PushedBox(
+        mass_kg=t.float("mass_kg", lo=0.0, lo_open=True),
+        size_m=(size[0], size[1]),
+        mu=t.float("mu", lo=0.0),
+        izz_kgm2=izz,
+        gravity=t.float("gravity", STANDARD_GRAVITY, lo=0.0, lo_open=True),
+    )
