@@ -86,7 +86,7 @@ def test_exported_policies_run_in_the_controllers_estimators(tmp_path: Path, mon
     feature estimator; both reproduce the torch model on tared frames."""
     from grasp_ctrl.estimators.registry import load_policy, read_metadata
     from grasp_ctrl.learning.dataset import Dataset
-    from grasp_ctrl.learning.feature_estimator import load_feature_onnx_policy
+    from grasp_ctrl.estimators.feature_onnx_estimator import load_feature_onnx_policy
     from grasp_ctrl.learning.train import TensorData, load_checkpoint, model_from_checkpoint, predict_data
 
     monkeypatch.setenv("GRASP_CTRL_POLICIES", str(tmp_path))
@@ -163,7 +163,7 @@ def test_core_commands_do_not_import_torch() -> None:
     import sys
 
     code = ("import sys; from grasp_ctrl.cli import build_parser; build_parser(); "
-            "import grasp_ctrl.learning.feature_estimator, grasp_ctrl.learning.synthetic, grasp_ctrl.bench.fig_pushing; "
+            "import grasp_ctrl.estimators.feature_onnx_estimator, grasp_ctrl.learning.synthetic, grasp_ctrl.bench.fig_pushing; "
             "print('torch' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          cwd=Path(__file__).resolve().parents[1])

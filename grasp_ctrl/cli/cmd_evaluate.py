@@ -44,7 +44,7 @@ def _predict(spec: str, tared: np.ndarray) -> np.ndarray:
                      np.repeat(np.eye(3)[None], n, axis=0))
         return predict_data(model, TensorData(ds))[0]
     from grasp_ctrl.estimators.registry import load_policy, read_metadata, resolve_policy_path
-    from grasp_ctrl.learning.feature_estimator import FEATURE_KINDS, load_feature_onnx_policy
+    from grasp_ctrl.estimators.feature_onnx_estimator import FEATURE_KINDS, load_feature_onnx_policy
 
     json_path = resolve_policy_path(spec)
     meta = read_metadata(json_path)

@@ -100,6 +100,11 @@ def load_onnx_policy(meta: dict[str, Any], json_path: Path, hand: HandConfig | N
     if hand is not None and hand.tactile.sensor_type != meta["sensor_type"]:
         raise PolicyError(f"{json_path}: sensor_type: policy is for {meta['sensor_type']!r}, the hand "
                           f"{hand.name!r} has {hand.tactile.sensor_type!r}")
+    if (meta.get("input") or {}).get("kind") in ("electrodes_pdc", "electrodes_contact_point"):
+        # Networks on signal vectors (Su et al., the no-voxel model) rather than voxel grids.
+        from grasp_ctrl.estimators.feature_onnx_estimator import load_feature_onnx_policy
+
+        return load_feature_onnx_policy(meta, json_path, hand, threads)  # type: ignore[return-value]
     kind = _get(meta, json_path, "input.kind", "one of " + ", ".join(SUPPORTED_INPUT_KINDS))
     if kind not in SUPPORTED_INPUT_KINDS:
         raise PolicyError(f"{json_path}: input.kind: one of {SUPPORTED_INPUT_KINDS} (got {kind!r})")
