@@ -114,3 +114,33 @@ def test_biotac_model_magnitudes_match_real_recordings(shared_data):
     assert np.corrcoef(f[:, 2], pdc_rise)[0, 1] > 0.95     # more force, more pdc (gain spread aside)
     drops = -tared[:, ELECTRODES].min(axis=1)
     assert drops.max() <= 2000 and drops.min() > 50
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.tuples(st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1)).filter(lambda v: np.linalg.norm(v) > 1e-3))
+def test_skin_contact_points_lie_on_the_skin(v):
+    from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M, contact_on_skin
+
+    c, n = contact_on_skin(np.array(v))
+    assert abs(np.linalg.norm(n) - 1.0) < 1e-9
+    if c[0] > 1e-12:                                   # on the cap: a sphere about the origin
+        assert abs(np.linalg.norm(c) - SKIN_RADIUS_M) < 1e-9
+    else:                                              # on the cylinder about x
+        assert PAD_X_MIN_M - 1e-12 <= c[0] <= 0.0
+        assert abs(np.hypot(c[1], c[2]) - SKIN_RADIUS_M) < 1e-9
+
+
+def test_flat_press_lands_on_the_pad_centre():
+    from grasp_ctrl.kinematics.fingertip import contact_on_skin
+
+    c, n = contact_on_skin(PAD_NORMAL_SENSOR)   # pressing straight into a surface under the pad
+    np.testing.assert_allclose(c, PAD_POINT_SENSOR, atol=1e-12)
+    np.testing.assert_allclose(n, PAD_NORMAL_SENSOR, atol=1e-12)
+
+
+def test_oracle_succeeds_with_contacts_on_the_skin(hand, objects):
+    from grasp_ctrl.sim.world import WorldParams
+
+    obj = objects["chips_can"]
+    r = run_mock_trial(hand, obj, estimator_factory("oracle", hand), 7, "oracle", world_params=WorldParams(skin_contact=True))
+    assert r.success, (r.reason, r.events)

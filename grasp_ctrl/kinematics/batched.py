@@ -69,15 +69,24 @@ class BatchedKinematics:
             p[rows] = pg
         return R, p
 
-    def points_and_jacobians(self, q_all: np.ndarray, p_sensor: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
-        """A sensor-frame point on every fingertip in the hand frame (F, 3) and each
-        finger's position Jacobian (3, n_joints of that finger)."""
+    def points_and_jacobians(
+        self, q_all: np.ndarray, p_sensor: np.ndarray
+    ) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
+        """A sensor-frame point on every fingertip in the hand frame (F, 3), each
+        finger's position Jacobian of it (3, n_joints of that finger), and the sensor
+        rotations (F, 3, 3). ``p_sensor``: one point (3,) for all fingers, or one per
+        finger (F, 3) in hand-file finger order."""
         F = len(self.names)
+        p_sensor = np.asarray(p_sensor, dtype=float)
+        per_finger = p_sensor.ndim == 2
         pts = np.empty((F, 3))
+        rots = np.empty((F, 3, 3))
         jacs: list[np.ndarray] = [np.empty(0)] * F
         for g in self.groups:
+            rows = [self.order[n] for n in g.rows]
             Rs, ps, R, p = g.frames(q_all)
-            pt = R @ p_sensor + p                                    # (F, 3)
+            local = p_sensor[rows][..., None] if per_finger else p_sensor
+            pt = (R @ local)[..., 0] + p if per_finger else R @ p_sensor + p   # (F, 3)
             a = (Rs @ g.axes[..., None])[..., 0]                     # (F, n, 3) joint axes, hand frame
             b = pt[:, None, :] - ps
             J = np.stack([
@@ -85,7 +94,8 @@ class BatchedKinematics:
                 a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
                 a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0],
             ], axis=-1)                                              # (F, n, 3)
-            for k, name in enumerate(g.rows):
-                pts[self.order[name]] = pt[k]
-                jacs[self.order[name]] = J[k].T
-        return pts, jacs
+            pts[rows] = pt
+            rots[rows] = R
+            for k, i in enumerate(rows):
+                jacs[i] = J[k].T
+        return pts, jacs, rots

@@ -31,9 +31,10 @@ from grasp_ctrl.kinematics.batched import BatchedKinematics
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.sim.biotac_model import BioTacParams, BioTacSensorModel
 from grasp_ctrl.sim.grip import solve_object_height, tangential_forces
-from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
+from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR, contact_on_skin
 
 GRAVITY = 9.81
+NEAR_M = 0.01   # fingertips further than this from the object cannot touch it this step
 
 
 @dataclass(frozen=True)
@@ -48,6 +49,9 @@ class WorldParams:
     friction_jitter: float = 0.03
     stiffness_jitter: float = 0.05
     start_clearance_m: float = 0.05      # palm starts this far above the reach pose
+    # Contact on the skin point facing the object (cap or pad) instead of the pad centre.
+    # More faithful, but the shipped policies cannot yet detect placement with it: off.
+    skin_contact: bool = False
     biotac: BioTacParams = field(default_factory=BioTacParams)
 
 
@@ -113,6 +117,8 @@ class MockWorld:
         self.n_out_world = np.zeros((n, 3))
         self.sensors = BioTacSensorModel(n, self.rng, p.biotac)
         self.seq = 0
+        self.contact_sensor = np.tile(PAD_POINT_SENSOR, (n, 1))       # where each fingertip touches
+        self.skin_normal_sensor = np.tile(PAD_NORMAL_SENSOR, (n, 1))  # outward skin normal there
         self._pad_heights()
         self.raw = self._sense()
 
@@ -177,9 +183,17 @@ class MockWorld:
         kp = p.servo_stiffness_nm_per_rad
         kt = p.tangential_stiffness_n_per_m
         q = self.q_servo.copy()
-        pads_hand, jacobians = self.bkin.points_and_jacobians(self.q_servo, PAD_POINT_SENSOR)
+        # Where does each fingertip touch? By default on the pad centre; with skin_contact,
+        # at the skin point facing the object's surface there (contact_on_skin).
+        if p.skin_contact:
+            pads_hand, _, R_sensor = self.bkin.points_and_jacobians(self.q_servo, PAD_POINT_SENSOR)
+            for i in range(len(self.fingers)):
+                d_pad, n_out = self._penetration(self.palm_world + pads_hand[i])
+                if d_pad > -NEAR_M:
+                    self.contact_sensor[i], self.skin_normal_sensor[i] = contact_on_skin(R_sensor[i].T @ -n_out)
+        points_hand, jacobians, _ = self.bkin.points_and_jacobians(self.q_servo, self.contact_sensor)
         for i, name in enumerate(self.fingers):
-            d0, n_out = self._penetration(self.palm_world + pads_hand[i])
+            d0, n_out = self._penetration(self.palm_world + points_hand[i])
             was = self.in_contact[i]
             if d0 <= 0.0:
                 self.normal_n[i] = 0.0
@@ -189,7 +203,7 @@ class MockWorld:
             J = jacobians[i]
             a = J.T @ (-n_out)   # d(penetration)/dq
             k = self.k_contact
-            pad_z = self.palm_world[2] + pads_hand[i][2]
+            pad_z = self.palm_world[2] + points_hand[i][2]
             # Vertical stick spring of a contact that already sticks: it resists the pad
             # sliding up or down the object while the finger deflects.
             stretch = pad_z - self.stick_offset[i] - self.obj_z if was else 0.0
@@ -224,7 +238,7 @@ class MockWorld:
             self.n_out_world[i] = n_out
             self.in_contact[i] = normal > 1e-6
             if self.in_contact[i] and not was:
-                self.stick_offset[i] = self.palm_world[2] + pads_hand[i][2] - self.obj_z
+                self.stick_offset[i] = pad_z - self.obj_z
                 self.events.append(WorldEvent(self.t, "contact", name))
         self.q = np.clip(q, self.lower, self.upper)
         self._pad_heights()
@@ -236,10 +250,10 @@ class MockWorld:
         return -(depth / a2) * a if a2 > 1e-12 else np.zeros_like(a)
 
     def _pad_heights(self) -> None:
-        """Sensor orientations and pad heights at the actual (deflected) joint angles."""
+        """Sensor orientations and contact-point heights at the actual (deflected) joint angles."""
         R, p = self.bkin.sensor_frames(self.q)
         self._R_sensor = R
-        self._pad_z = self.palm_world[2] + (R @ PAD_POINT_SENSOR + p)[:, 2]
+        self._pad_z = self.palm_world[2] + ((R @ self.contact_sensor[..., None])[..., 0] + p)[:, 2]
 
     def _object(self) -> None:
         kt = self.params.tangential_stiffness_n_per_m
@@ -271,8 +285,8 @@ class MockWorld:
             if self.in_contact[i]:
                 f_sensor[i] = self._R_sensor[i].T @ self.f_world[i]
         self.f_sensor = f_sensor
-        p_contact = np.broadcast_to(PAD_POINT_SENSOR, (n, 3))
-        n_out = np.broadcast_to(PAD_NORMAL_SENSOR, (n, 3))
+        p_contact = self.contact_sensor
+        n_out = self.skin_normal_sensor
         self.seq = (self.seq + 1) & 0xFFFF
         return self.sensors.frames(p_contact, f_sensor, n_out, self.in_contact.copy(), self.slip_speed, self.dt)
 
