@@ -21,6 +21,8 @@ class _Group:
         self.R_base = np.array([c._R_base for c in chains])
         self.p_base = np.array([c._p_base for c in chains])
         self.R_org = np.array([c._R_org for c in chains])       # (F, n, 3, 3)
+        # Joint origins without a rotation (the common case) skip a matrix product.
+        self.org_rotates = [not np.allclose(self.R_org[:, i], np.eye(3)) for i in range(self.R_org.shape[1])]
         self.p_org = np.array([c._p_org for c in chains])[..., None]   # (F, n, 3, 1)
         self.eye = np.eye(3)
         self.K = np.array([c._K for c in chains])
@@ -40,7 +42,8 @@ class _Group:
         ps = np.empty((F, self.n, 3, 1))
         for i in range(self.n):
             p = p + R @ self.p_org[:, i]
-            R = R @ self.R_org[:, i]
+            if self.org_rotates[i]:
+                R = R @ self.R_org[:, i]
             Rs[:, i] = R
             ps[:, i] = p
             R = R @ rots[:, i]
