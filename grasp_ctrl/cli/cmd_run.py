@@ -68,7 +68,8 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     from grasp_ctrl.paths import default_hand_file, default_objects_file
     from grasp_ctrl.trials.manifest import RunManifest, file_sha256
     from grasp_ctrl.trials.presets import get_preset
-    from grasp_ctrl.trials.selection import load_hand_file, select_objects
+    from grasp_ctrl.config.hand import load_hand
+    from grasp_ctrl.trials.selection import select_objects
 
     preset = get_preset(args.preset) if args.preset else None
     trials = args.trials if args.trials is not None else (preset.trials if preset else 5)
@@ -76,7 +77,7 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
         raise UsageError("--trials: must be at least 1")
     hand_file = Path(args.hand or default_hand_file())
     object_file = Path(args.object_file or default_objects_file())
-    hand = load_hand_file(hand_file)
+    hand = load_hand(hand_file)
     objects_spec = args.objects if args.objects is not None else (",".join(preset.objects) if preset else None)
     objects = select_objects(object_file, objects_spec)
     policies = args.policy or (list(preset.policies) if preset else [DEFAULT_POLICY])
@@ -95,7 +96,7 @@ def _resumed(args: argparse.Namespace, run_dir: Path) -> tuple[Any, Any]:
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.paths import default_hand_file
     from grasp_ctrl.trials.manifest import file_sha256, read_manifest
-    from grasp_ctrl.trials.selection import load_hand_file
+    from grasp_ctrl.config.hand import load_hand
 
     given = [f"--{f.replace('_', '-')}" for f in PLAN_FLAGS if getattr(args, f) is not None]
     if given or args.out:
@@ -108,7 +109,7 @@ def _resumed(args: argparse.Namespace, run_dir: Path) -> tuple[Any, Any]:
     hand_file = Path(manifest.hand_file) if manifest.hand_file else default_hand_file()
     if not hand_file.is_file():
         raise UsageError(f"--resume: the run's hand file {hand_file} is gone")
-    hand = load_hand_file(hand_file)
+    hand = load_hand(hand_file)
     if hand.name != manifest.hand:
         raise UsageError(f"--resume: {hand_file} describes hand {hand.name!r}, the run used {manifest.hand!r}")
     if manifest.hand_sha256 and file_sha256(hand_file) != manifest.hand_sha256:

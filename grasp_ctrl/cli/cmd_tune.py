@@ -45,7 +45,8 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.trials.progress import Progress
     from grasp_ctrl.trials.runner import mock_trial_fn, parallel_trials, trial_seed
-    from grasp_ctrl.trials.selection import load_hand_file, select_objects
+    from grasp_ctrl.config.hand import load_hand
+    from grasp_ctrl.trials.selection import select_objects
     from grasp_ctrl.trials.toml_edit import update_object_file
     from grasp_ctrl.trials.tune import format_sweep, parse_param, rank, run_sweep, settings_grid
 
@@ -58,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
     if "," in args.object or args.object.strip() == "all":
         raise UsageError("--object: one object name")
     grid = settings_grid([parse_param(s) for s in args.param])
-    hand = load_hand_file(args.hand)
+    hand = load_hand(args.hand)
     (obj,) = select_objects(args.object_file, args.object)
     if args.backend == "dynamixel":
         # No ground truth on the real hand: the operator labels every trial.

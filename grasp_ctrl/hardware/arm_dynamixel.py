@@ -23,21 +23,12 @@ from grasp_ctrl.hardware.dynamixel.hand import MonotonicClock
 from grasp_ctrl.hardware.dynamixel.setup import configure_servos
 from grasp_ctrl.kinematics.chain import FingerChain
 from grasp_ctrl.kinematics.ik import solve_position_ik
-from grasp_ctrl.kinematics.transforms import rpy_matrix, transform
 
 
 def arm_chain(hand: HandConfig) -> FingerChain:
     """The arm as a kinematic chain from the world frame to the palm."""
     a = hand.arm
-    return FingerChain(
-        name="arm",
-        T_hand_base=transform(a.base_xyz, rpy_matrix(a.base_rpy)),
-        T_origins=[transform(j.origin_xyz, rpy_matrix(j.origin_rpy)) for j in a.joints],
-        axes=np.array([j.axis for j in a.joints], dtype=float),
-        T_tip=transform(a.tool_xyz, rpy_matrix(a.tool_rpy)),
-        lower=np.array([j.lower_rad for j in a.joints]),
-        upper=np.array([j.upper_rad for j in a.joints]),
-    )
+    return FingerChain.from_joints("arm", a.base_xyz, a.base_rpy, a.joints, a.tool_xyz, a.tool_rpy)
 
 
 class DynamixelArm:

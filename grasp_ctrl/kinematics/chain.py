@@ -8,10 +8,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 
-from grasp_ctrl.config.hand import FingerConfig, HandConfig
+from grasp_ctrl.config.hand import FingerConfig, HandConfig, JointConfig
 from grasp_ctrl.kinematics.transforms import rpy_matrix, transform
 
 
@@ -40,16 +41,29 @@ class FingerChain:
         self._p_tip = self.T_tip[:3, 3].copy()
 
     @classmethod
-    def from_config(cls, f: FingerConfig) -> "FingerChain":
+    def from_joints(
+        cls,
+        name: str,
+        base_xyz: Sequence[float],
+        base_rpy: Sequence[float],
+        joints: Sequence[JointConfig],
+        tip_xyz: Sequence[float],
+        tip_rpy: Sequence[float],
+    ) -> "FingerChain":
+        """A chain from its base pose, joint configs and end (tip or tool) pose."""
         return cls(
-            name=f.name,
-            T_hand_base=transform(f.base_xyz, rpy_matrix(f.base_rpy)),
-            T_origins=[transform(j.origin_xyz, rpy_matrix(j.origin_rpy)) for j in f.joints],
-            axes=np.array([j.axis for j in f.joints], dtype=float),
-            T_tip=transform(f.tip_xyz, rpy_matrix(f.tip_rpy)),
-            lower=np.array([j.lower_rad for j in f.joints]),
-            upper=np.array([j.upper_rad for j in f.joints]),
+            name=name,
+            T_hand_base=transform(base_xyz, rpy_matrix(base_rpy)),
+            T_origins=[transform(j.origin_xyz, rpy_matrix(j.origin_rpy)) for j in joints],
+            axes=np.array([j.axis for j in joints], dtype=float),
+            T_tip=transform(tip_xyz, rpy_matrix(tip_rpy)),
+            lower=np.array([j.lower_rad for j in joints]),
+            upper=np.array([j.upper_rad for j in joints]),
         )
+
+    @classmethod
+    def from_config(cls, f: FingerConfig) -> "FingerChain":
+        return cls.from_joints(f.name, f.base_xyz, f.base_rpy, f.joints, f.tip_xyz, f.tip_rpy)
 
     @property
     def n(self) -> int:

@@ -28,16 +28,14 @@ class MockHand:
         self.max_step = hand.safety.max_joint_step_rad
         self.connected = False
         self.fault: str | None = None   # tests inject e.g. "overload"
-        self.goals_sent: list[np.ndarray] = []
-        self.record_goals = False
+        self._q_prev = world.q.copy()   # for the velocity estimate of read()
 
     def connect(self) -> None:
         self.connected = True
 
     def read(self) -> JointState:
         w = self.world
-        q_prev = getattr(self, "_q_prev", w.q)
-        dq = (w.q - q_prev) / w.dt
+        dq = (w.q - self._q_prev) / w.dt
         self._q_prev = w.q.copy()
         p = w.params
         current = p.servo_stiffness_nm_per_rad * (w.q_servo - w.q) / p.torque_per_amp_nm
@@ -51,8 +49,6 @@ class MockHand:
         q = np.clip(q_goal, prev - self.max_step, prev + self.max_step)
         q = np.clip(q, self.lower, self.upper)
         self.world.q_goal = q
-        if self.record_goals:
-            self.goals_sent.append(q.copy())
 
     def set_torque(self, enabled: bool) -> None:
         self.world.torque_on = enabled

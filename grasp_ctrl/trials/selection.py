@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from grasp_ctrl.config.hand import HandConfig, load_hand
 from grasp_ctrl.config.objects import ObjectProfile, default_set, load_objects
 from grasp_ctrl.errors import UsageError
 
@@ -25,6 +24,3 @@ def select_objects(objects_file: str | Path, spec: str | None) -> list[ObjectPro
             raise UsageError(f"--objects: unknown object {unknown[0]!r} (known: {', '.join(profiles)})")
     return [profiles[n] for n in names]
 
-
-def load_hand_file(path: str | Path) -> HandConfig:
-    return load_hand(path)
