@@ -65,7 +65,11 @@ def measure_control_tick(quick: bool) -> Figure:
 
 def mock_realtime_factor(quick: bool) -> Figure:
     """Simulated seconds per wall-clock second of the world's physics over a 10 s
-    trial (4 fingertips, oracle control so the controller's cost is not counted)."""
+    trial (4 fingertips, oracle control so the controller's cost is not counted),
+    after a warm-up world has loaded (or compiled) the kernels (grasp_ctrl/jit.py)."""
+    warm_up = _Loop(lambda world: OracleEstimator(world), seed=1)
+    for _ in range(3):
+        warm_up.world.step()
     loop = _Loop(lambda world: OracleEstimator(world))
     sim_s = 2.0 if quick else 10.0
     spent = 0.0

@@ -24,7 +24,10 @@ def all_figures() -> dict[str, Callable[[bool], Figure]]:
 def machine_description() -> str:
     import os
 
-    return f"{platform.node()} {platform.machine()} {os.cpu_count()} cpu {platform.python_implementation()} {platform.python_version()}"
+    from grasp_ctrl import jit
+
+    return (f"{platform.node()} {platform.machine()} {os.cpu_count()} cpu {platform.python_implementation()} "
+            f"{platform.python_version()}, mock-world kernels: {jit.backend()}")
 
 
 def run_figures(only: list[str] | None, quick: bool) -> dict[str, Figure]:

@@ -26,6 +26,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     only = [n.strip() for n in args.only.split(",") if n.strip()] if args.only else None
     results = run_figures(only, quick=args.quick)
+    print(f"machine: {machine_description()}")
     print(f"{'figure':32s} {'median':>12s} {'p99':>12s}  unit")
     for name, fig in results.items():
         print(f"{name:32s} {fig.median:12.4g} {fig.p99:12.4g}  {fig.unit}")

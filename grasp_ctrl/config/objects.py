@@ -7,13 +7,23 @@ A profile file holds one ``[objects.NAME]`` table per object; see
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from grasp_ctrl.config.toml_reader import Table, read_toml
 
 SHAPES = ("cylinder", "box")
+
+
+@dataclass(frozen=True)
+class CapProfile:
+    """A domed cap on the body's top (the mustard bottle's) and the finger placed on it."""
+    diameter_m: float               # base of the dome
+    height_m: float                 # above the body's top
+    offset_m: tuple[float, float]   # dome centre from the footprint centre (x, y)
+    finger: str                     # this fingertip grasps the cap (a non-flat contact)
+    contact_height_m: float         # its contact height above the table
 
 
 @dataclass(frozen=True)
@@ -29,6 +39,7 @@ class ObjectProfile:
     crush_force_n: float | None     # grip force that crushes a deformable object
     grasp_height_m: float           # height of the fingertip contacts above the table
     tip_force_n: float              # push into the table that knocks it over
+    cap: CapProfile | None = None   # height_m is then the body's, without the cap
     # controller thresholds (tunable per object)
     tau_n: float = 2.0
     release_threshold_n: float = 0.3
@@ -50,7 +61,7 @@ TUNABLE = ("tau_n", "release_threshold_n", "release_debounce", "lift_height_m", 
 def _object(name: str, t: Table) -> ObjectProfile:
     t.unknown_keys({
         "shape", "diameter_m", "size_m", "height_m", "mass_kg", "mu", "stiffness_n_per_m",
-        "deformable", "crush_force_n", "grasp_height_m", "tip_force_n", *TUNABLE,
+        "deformable", "crush_force_n", "grasp_height_m", "tip_force_n", "cap", *TUNABLE,
     })
     shape = t.str("shape", choices=SHAPES)
     if shape == "cylinder":
@@ -68,6 +79,7 @@ def _object(name: str, t: Table) -> ObjectProfile:
     if not deformable and t.has("crush_force_n"):
         raise t.fail("crush_force_n", "absent for a rigid object (set deformable = true)")
     grasp_h = t.float("grasp_height_m", 0.5 * height, lo=0.005, hi=height)
+    cap = _cap(t.table("cap"), size, height) if t.has("cap") else None
     return ObjectProfile(
         name=name,
         shape=shape,
@@ -80,12 +92,48 @@ def _object(name: str, t: Table) -> ObjectProfile:
         crush_force_n=crush,
         grasp_height_m=grasp_h,
         tip_force_n=t.float("tip_force_n", 15.0, lo=0.0, lo_open=True),
+        cap=cap,
         tau_n=t.float("tau_n", 2.0, lo=0.1, hi=20.0),
         release_threshold_n=t.float("release_threshold_n", 0.3, lo=0.0, hi=10.0),
         release_debounce=t.int("release_debounce", 3, lo=1, hi=1000),
         lift_height_m=t.float("lift_height_m", 0.10, lo=0.0, hi=1.0, lo_open=True),
         hold_s=t.float("hold_s", 0.5, lo=0.0, hi=60.0),
     )
+
+
+def _cap(t: Table, size: tuple[float, float], height: float) -> CapProfile:
+    t.unknown_keys({"diameter_m", "height_m", "offset_m", "finger", "contact_height_m"})
+    diameter = t.float("diameter_m", lo=0.005, hi=min(size))
+    cap_h = t.float("height_m", lo=0.002, hi=0.2)
+    ox, oy = t.vector("offset_m", 2, (0.0, 0.0))
+    if abs(ox) + 0.5 * diameter > 0.5 * size[0] + 1e-9 or abs(oy) + 0.5 * diameter > 0.5 * size[1] + 1e-9:
+        raise t.fail("offset_m", "an offset that keeps the cap's base on the body's top")
+    contact = t.float("contact_height_m", lo=height, lo_open=True)
+    if contact >= height + cap_h:
+        raise t.fail("contact_height_m", f"a height on the cap, below its top at {height + cap_h:.3f} m")
+    return CapProfile(diameter, cap_h, (ox, oy), t.str("finger"), contact)
+
+
+def profile_table(obj: ObjectProfile) -> dict[str, Any]:
+    """The ``[objects.NAME]`` table (as parsed TOML) that loads back to ``obj``."""
+    doc: dict[str, Any] = {k: v for k, v in asdict(obj).items() if k not in ("name", "size_m", "cap")}
+    if obj.shape == "cylinder":
+        doc["diameter_m"] = obj.size_m[0]
+    else:
+        doc["size_m"] = list(obj.size_m)
+    if obj.crush_force_n is None:
+        doc.pop("crush_force_n")
+    if obj.cap is not None:
+        cap = asdict(obj.cap)
+        cap["offset_m"] = list(obj.cap.offset_m)
+        doc["cap"] = cap
+    return doc
+
+
+def revalidate(obj: ObjectProfile, source: str) -> ObjectProfile:
+    """``obj`` checked by the loader's own rules (after edits such as a tuning
+    sweep's); ConfigError names ``source`` and the offending key."""
+    return _object(obj.name, Table(source, profile_table(obj)))
 
 
 def load_objects(path: str | Path) -> dict[str, ObjectProfile]:

@@ -7,7 +7,11 @@ of the sensor frame (the pad faces -z, DESIGN.md 4).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+from grasp_ctrl.jit import njit
 
 PAD_POINT_SENSOR = np.array([-0.003, 0.0, -5.5e-3])
 PAD_NORMAL_SENSOR = np.array([0.0, 0.0, -1.0])
@@ -23,6 +27,24 @@ PAD_X_MIN_M = -0.014
 #: at which the contact leaves the pad for the fingertip's cap.
 CAP_TILT_SIN = 0.17
 PAD_SLIDE_M = 0.004
+PAD_POINT_X_M = float(PAD_POINT_SENSOR[0])
+
+
+@njit
+def skin_contact_point(ux: float, uy: float, uz: float) -> tuple[float, float, float, float, float, float]:
+    """``contact_on_skin`` on plain floats (also compiled into the mock world's step):
+    the contact point (x, y, z) and outward skin normal (x, y, z), sensor frame."""
+    norm = math.sqrt(ux * ux + uy * uy + uz * uz)
+    ux, uy, uz = ux / norm, uy / norm, uz / norm
+    if ux > CAP_TILT_SIN:
+        return SKIN_RADIUS_M * ux, SKIN_RADIUS_M * uy, SKIN_RADIUS_M * uz, ux, uy, uz
+    yz = math.sqrt(uy * uy + uz * uz)
+    if yz > 1e-9:
+        ry, rz = uy / yz, uz / yz
+    else:
+        ry, rz = 0.0, 1.0      # the pad's opposite side (-PAD_NORMAL_SENSOR)
+    x = min(max(PAD_POINT_X_M + PAD_SLIDE_M * ux / CAP_TILT_SIN, PAD_X_MIN_M), 0.0)
+    return x, SKIN_RADIUS_M * ry, SKIN_RADIUS_M * rz, 0.0, ry, rz
 
 
 def contact_on_skin(u_sensor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -35,10 +57,5 @@ def contact_on_skin(u_sensor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     the tilt (a flat press lands on the pad centre, PAD_POINT_SENSOR).
     """
     u = np.asarray(u_sensor, dtype=float)
-    u = u / np.linalg.norm(u)
-    if u[0] > CAP_TILT_SIN:
-        return SKIN_RADIUS_M * u, u
-    yz = np.hypot(u[1], u[2])
-    ring = np.array([0.0, u[1], u[2]]) / yz if yz > 1e-9 else -PAD_NORMAL_SENSOR
-    x = float(np.clip(PAD_POINT_SENSOR[0] + PAD_SLIDE_M * u[0] / CAP_TILT_SIN, PAD_X_MIN_M, 0.0))
-    return np.array([x, 0.0, 0.0]) + SKIN_RADIUS_M * ring, ring
+    cx, cy, cz, nx, ny, nz = skin_contact_point(float(u[0]), float(u[1]), float(u[2]))
+    return np.array([cx, cy, cz]), np.array([nx, ny, nz])

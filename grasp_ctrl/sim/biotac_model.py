@@ -18,12 +18,16 @@ All parameters live in ``BioTacParams``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from grasp_ctrl.jit import njit
 from grasp_ctrl.tactile.geometry import ELECTRODE_POSITIONS_SENSOR
 from grasp_ctrl.tactile.layout import COUNT_MAX, ELECTRODES, FRAME_LEN, PAC, PDC, TAC, TDC
+
+PAC_START = PAC.start
 
 
 @dataclass(frozen=True)
@@ -54,9 +58,16 @@ DEFAULT_PARAMS = BioTacParams()
 
 
 class BioTacSensorModel:
-    """State of n simulated fingertip sensors (baselines, burst timers, drift)."""
+    """State of n simulated fingertip sensors (baselines, burst timers, drift).
 
-    def __init__(self, n_tips: int, rng: np.random.Generator, params: BioTacParams = DEFAULT_PARAMS) -> None:
+    ``noise_block``: random draws are made for this many frames at a time (the
+    mock world uses a block of frames; one-off callers keep 1). Frames are
+    deterministic from the generator either way.
+    """
+
+    def __init__(
+        self, n_tips: int, rng: np.random.Generator, params: BioTacParams = DEFAULT_PARAMS, noise_block: int = 1
+    ) -> None:
         p = params
         self.p = p
         self.n = n_tips
@@ -79,20 +90,55 @@ class BioTacSensorModel:
         std[TDC] = p.noise_t
         std[TAC] = p.noise_t
         self._noise_std = std
+        self.noise_block = max(1, int(noise_block))
+        self._noisy_base = np.empty((0, n_tips, FRAME_LEN))
+        self._pac_unit = np.empty((0, n_tips, 22))
+        self._next = 0
+        self._map_key: bytes | None = None
+        self._maps = np.empty((n_tips, 4, 19))
+        self._consts = _pack(p)
+
+    def electrode_maps(self, p_contact_sensor: np.ndarray, n_out_sensor: np.ndarray) -> np.ndarray:
+        """(n, 4, 19): electrode drops before saturation are ``[f_normal, f] @ maps``,
+        f the force on the skin (sensor frame) and f_normal = max(-f.n, 0) its
+        pressing part. Cached while the contact points stay put (the usual case)."""
+        key = p_contact_sensor.tobytes() + n_out_sensor.tobytes()
+        if key == self._map_key:
+            return self._maps
+        p = self.p
+        d = ELECTRODE_POSITIONS_SENSOR[None, :, :] - p_contact_sensor[:, None, :]       # (n, 19, 3)
+        w = np.exp(-np.einsum("nij,nij->ni", d, d) / (2.0 * p.footprint_m**2))        # (n, 19)
+        # drop = w * (g_n * f_normal + g_s * d.f_tangent / footprint), with
+        # f_tangent = f + f_normal * n: linear in (f_normal, f).
+        shear = w * (p.e_gain_shear / p.footprint_m)
+        maps = np.empty((len(d), 4, 19))
+        maps[:, 0] = w * p.e_gain_normal + shear * np.einsum("nij,nj->ni", d, n_out_sensor)
+        maps[:, 1:] = shear[:, None, :] * d.transpose(0, 2, 1)
+        maps *= self.gain[:, None, None]
+        self._maps, self._map_key = maps, key
+        return maps
 
     def tared_electrodes(self, p_contact_sensor: np.ndarray, f_sensor: np.ndarray, n_out_sensor: np.ndarray) -> np.ndarray:
         """Noise-free electrode changes (n, 19) for contacts at ``p_contact_sensor``
         with force ``f_sensor`` on the skin and outward surface normal ``n_out_sensor``."""
-        p = self.p
-        d = ELECTRODE_POSITIONS_SENSOR[None, :, :] - p_contact_sensor[:, None, :]       # (n, 19, 3)
-        w = np.exp(-np.einsum("nij,nij->ni", d, d) / (2.0 * p.footprint_m**2))        # (n, 19)
-        f_normal = np.maximum(-np.einsum("ni,ni->n", f_sensor, n_out_sensor), 0.0)     # pressing in
-        f_tangent = f_sensor + f_normal[:, None] * n_out_sensor
-        shear = np.einsum("nij,nj->ni", d, f_tangent) / p.footprint_m                  # (n, 19)
-        drop = w * (p.e_gain_normal * f_normal[:, None] + p.e_gain_shear * shear)
-        drop *= self.gain[:, None]
-        # Saturating, and only drops: the fluid under a pressed pad cannot pull an electrode up much.
-        return -p.e_drop_max * np.tanh(np.maximum(drop, -0.1 * p.e_drop_max) / p.e_drop_max)
+        maps = self.electrode_maps(p_contact_sensor, n_out_sensor)
+        out = np.empty((self.n, 19))
+        for i in range(self.n):
+            _electrode_drops(maps[i], f_sensor[i], n_out_sensor[i], self.p.e_drop_max, out[i])
+        return out
+
+    def _draw(self) -> int:
+        """Index of this frame's noise in the current block (drawing a new block when spent)."""
+        if self._next >= len(self._noisy_base):
+            k = self.noise_block
+            pac = self.rng.standard_normal((k, self.n, 22))
+            noise = self._noise_std * self.rng.standard_normal((k, self.n, FRAME_LEN))
+            self._pac_unit = pac
+            self._noisy_base = noise + self.baseline
+            self._next = 0
+        i = self._next
+        self._next += 1
+        return i
 
     def frames(
         self,
@@ -104,23 +150,74 @@ class BioTacSensorModel:
         dt: float,
     ) -> np.ndarray:
         """Advance by ``dt`` and return (n, 44) raw frames as integer counts."""
-        p = self.p
-        rng = self.rng
+        return self.next_frames(
+            np.ascontiguousarray(p_contact_sensor, dtype=float), np.ascontiguousarray(f_sensor, dtype=float),
+            np.ascontiguousarray(n_out_sensor, dtype=float), np.ascontiguousarray(in_contact, dtype=np.bool_),
+            np.ascontiguousarray(slip_speed_m_s, dtype=float), dt,
+        )
+
+    def next_frames(
+        self, p_contact_sensor: np.ndarray, f_sensor: np.ndarray, n_out_sensor: np.ndarray,
+        in_contact: np.ndarray, slip_speed_m_s: np.ndarray, dt: float,
+    ) -> np.ndarray:
+        """``frames`` for callers that already hold C-contiguous float64 arrays
+        (bool for ``in_contact``) of the right shapes: the mock world, every step."""
         self.t += dt
-        out = self.baseline.copy()
-        f_sensor = np.where(in_contact[:, None], f_sensor, 0.0)
-        out[:, ELECTRODES] += self.tared_electrodes(p_contact_sensor, f_sensor, n_out_sensor)
-        f_mag = np.linalg.norm(f_sensor, axis=1) * self.gain
-        out[:, PDC] += p.pdc_max_rise * np.tanh(p.pdc_gain * f_mag / p.pdc_max_rise)
+        i = self._draw()
+        return _frames(
+            self._noisy_base[i], self._pac_unit[i], self.electrode_maps(p_contact_sensor, n_out_sensor),
+            f_sensor, n_out_sensor, in_contact, slip_speed_m_s,
+            self.burst, self.was_in_contact, self.gain, self._consts, self.t, dt,
+        )
 
-        onset = in_contact & ~self.was_in_contact
-        self.was_in_contact = in_contact.copy()
-        self.burst = self.burst * np.exp(-dt / p.pac_decay_s) + onset * p.pac_onset_amp
-        slip_amp = np.minimum(p.pac_slip_amp * np.abs(slip_speed_m_s) * 100.0, 500.0)
-        amp = self.burst + slip_amp
-        out[:, PAC] += amp[:, None] * rng.standard_normal((self.n, 22))  # bursts
-        out[:, TDC] += p.tdc_drift_per_s * self.t
 
-        noise = self._noise_std * rng.standard_normal((self.n, FRAME_LEN))
-        out += noise
-        return np.clip(np.rint(out), 0, COUNT_MAX).astype(np.int64)
+# Constants of _frames, packed for the compiled kernel.
+E_DROP_MAX, PDC_GAIN, PDC_MAX_RISE, PAC_ONSET, PAC_SLIP, PAC_DECAY_S, TDC_DRIFT = range(7)
+
+
+def _pack(p: BioTacParams) -> np.ndarray:
+    return np.array([p.e_drop_max, p.pdc_gain, p.pdc_max_rise, p.pac_onset_amp, p.pac_slip_amp,
+                     p.pac_decay_s, p.tdc_drift_per_s])
+
+
+@njit
+def _electrode_drops(maps: np.ndarray, f: np.ndarray, n_out: np.ndarray, e_max: float, out: np.ndarray) -> None:
+    """Electrode changes (19,) of one contact: [f_normal, f] @ maps, saturating, and
+    only drops (the fluid under a pressed pad cannot pull an electrode up much)."""
+    f_normal = max(-(f[0] * n_out[0] + f[1] * n_out[1] + f[2] * n_out[2]), 0.0)
+    for e in range(19):
+        drop = f_normal * maps[0, e] + f[0] * maps[1, e] + f[1] * maps[2, e] + f[2] * maps[3, e]
+        out[e] = -e_max * math.tanh(max(drop, -0.1 * e_max) / e_max)
+
+
+@njit
+def _frames(
+    out: np.ndarray, pac_unit: np.ndarray, maps: np.ndarray, f_sensor: np.ndarray, n_out: np.ndarray,
+    in_contact: np.ndarray, slip: np.ndarray, burst: np.ndarray, was_in_contact: np.ndarray,
+    gain: np.ndarray, c: np.ndarray, t: float, dt: float,
+) -> np.ndarray:
+    """One frame per sensor from its noisy baseline ``out`` (modified in place)."""
+    n = out.shape[0]
+    drops = np.empty(19)
+    decay = math.exp(-dt / c[PAC_DECAY_S])
+    frame = np.empty((n, FRAME_LEN), dtype=np.int64)
+    for i in range(n):
+        if in_contact[i]:
+            _electrode_drops(maps[i], f_sensor[i], n_out[i], c[E_DROP_MAX], drops)
+            for e in range(19):
+                out[i, e] += drops[e]
+            f = f_sensor[i]
+            f_mag = math.sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]) * gain[i]
+            out[i, PDC] += c[PDC_MAX_RISE] * math.tanh(c[PDC_GAIN] * f_mag / c[PDC_MAX_RISE])
+        # pac: a decaying burst at contact onset plus noise growing with slip speed.
+        burst[i] = burst[i] * decay + (c[PAC_ONSET] if in_contact[i] and not was_in_contact[i] else 0.0)
+        was_in_contact[i] = in_contact[i]
+        amp = burst[i] + min(c[PAC_SLIP] * abs(slip[i]) * 100.0, 500.0)
+        if amp > 1e-3:
+            for k in range(22):
+                out[i, PAC_START + k] += amp * pac_unit[i, k]
+        out[i, TDC] += c[TDC_DRIFT] * t
+        for k in range(FRAME_LEN):
+            v = np.rint(out[i, k])      # half to even, like numpy elsewhere
+            frame[i, k] = 0 if v < 0.0 else (COUNT_MAX if v > COUNT_MAX else int(v))
+    return frame

@@ -12,29 +12,42 @@ Model (quasi-static, documented in docs/mock_world.md):
   is deflected back until servo torque and contact force balance, so the force
   follows from position error and stiffness, not from a script.
 - Contact: one contact point per fingertip (the pad); normal force
-  ``k * penetration`` with the object's stiffness; vertical friction through a
+  ``k * penetration`` with the object's stiffness, along the surface normal of
+  the body or of a domed cap (shapes.py); vertical friction through a
   stick-slip spring capped by ``mu * N`` (grip.py); the table only pushes up.
 - Outcomes: crushing (deformable objects, grip above crush force), knocking
   over (push into the table above ``tip_force_n``), slipping and dropping are
   recorded as events from the simulated truth.
+
+Speed: a step must cost tens of microseconds (``bench``'s
+``mock_realtime_factor``), so the physics is one kernel over arrays
+(sim/world_step.py), compiled by numba when the ``sim`` extra is installed
+(grasp_ctrl/jit.py). The kinematics of all fingers are one tensor contraction
+(kinematics/multilinear.py) at the servo positions; the contact solve, linear
+in the deflection, then moves each contact point and sensor frame to first
+order (the deflections are hundredths of a radian).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import math
+
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
-from grasp_ctrl.kinematics.batched import BatchedKinematics
 from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
+from grasp_ctrl.kinematics.multilinear import MultilinearKinematics
+from grasp_ctrl.sim import world_step as ws
 from grasp_ctrl.sim.biotac_model import BioTacParams, BioTacSensorModel
-from grasp_ctrl.sim.grip import solve_object_height, tangential_forces
-from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR, contact_on_skin
+from grasp_ctrl.sim.shapes import shape_params
 
 GRAVITY = 9.81
 NEAR_M = 0.01   # fingertips further than this from the object cannot touch it this step
+NOISE_BLOCK = 128   # sensor noise is drawn for this many steps at a time
 
 
 @dataclass(frozen=True)
@@ -74,31 +87,33 @@ class MockWorld:
         self.params = p = params or WorldParams()
         self.rng = np.random.default_rng(seed)
         self.kin = HandKinematics(hand)
-        self.bkin = BatchedKinematics(self.kin)
+        mk = MultilinearKinematics(self.kin)
+        self._take, self._W = mk.take, mk.point_table(np.tile(PAD_POINT_SENSOR, (mk.F, 1)))
         self.dt = hand.dt
         self.t = 0.0
         self.phase = "idle"
 
         # Object, randomised within a few percent / millimetres.
         self.obj = obj
+        self._shape = shape_params(obj)
         rng = self.rng
-        self.obj_xy = rng.uniform(-p.placement_jitter_m, p.placement_jitter_m, size=2)
+        xy = rng.uniform(-p.placement_jitter_m, p.placement_jitter_m, size=2)
         self.mass = obj.mass_kg * (1.0 + p.mass_jitter * rng.uniform(-1, 1))
         self.mu = obj.mu * (1.0 + p.friction_jitter * rng.uniform(-1, 1))
         self.k_contact = obj.stiffness_n_per_m * (1.0 + p.stiffness_jitter * rng.uniform(-1, 1))
-        self.obj_z = 0.0
-        self.table_n = self.mass * GRAVITY
+        self._obj = np.array([xy[0], xy[1], 0.0, self.mass * GRAVITY, 0.0])
         self.max_obj_z = 0.0
 
         # Hand and arm.
         joints = hand.joints
         self.lower = np.array([j.lower_rad for j in joints])
         self.upper = np.array([j.upper_rad for j in joints])
-        self.q_goal = np.array([j.open_rad for j in joints])
-        self.q_servo = self.q_goal.copy()          # the servo's internal (lagged) position
-        self.q = self.q_goal.copy()                # actual, after contact deflection
+        self._q_goal = np.array([j.open_rad for j in joints])
+        self.q_servo = self._q_goal.copy()          # the servo's internal (lagged) position
+        self.q = self._q_goal.copy()                # actual, after contact deflection
         self.torque_on = True
         self.tau_max = np.array([j.current_limit_a for j in joints]) * p.torque_per_amp_nm
+        self._reach = self.tau_max / p.servo_stiffness_nm_per_rad
         self.palm_world = self.reach_pose_world() + np.array([0.0, 0.0, p.start_clearance_m])
         self.palm_target = self.palm_world.copy()
         self.arm_speed = hand.arm.max_speed_m_s
@@ -106,199 +121,119 @@ class MockWorld:
         # Fingertips and sensors (in hand-file finger order).
         self.fingers = [f.name for f in hand.fingers]
         self.sensor_ids = [f.sensor_id for f in hand.fingers]
+        slices = [self.kin.slices[f] for f in self.fingers]
+        self._starts = np.array([sl.start for sl in slices], dtype=np.int64)
+        self._counts = np.array([sl.stop - sl.start for sl in slices], dtype=np.int64)
         n = len(self.fingers)
         self.normal_n = np.zeros(n)
         self.tangential_up_n = np.zeros(n)   # upward force of each finger on the object
         self.in_contact = np.zeros(n, dtype=bool)
-        self.stick_offset = np.zeros(n)       # finger height minus object height at stick
+        self.stick_offset = np.zeros(n)       # contact height minus object height at stick
         self.slip_speed = np.zeros(n)
         self.f_world = np.zeros((n, 3))       # force ON each sensor skin, world frame
         self.f_sensor = np.zeros((n, 3))
-        self.n_out_world = np.zeros((n, 3))
-        self.sensors = BioTacSensorModel(n, self.rng, p.biotac)
+        self.n_out_world = np.zeros((n, 3))   # object's outward surface normal at each contact
+        self._contact_z = np.zeros(n)         # contact height (world) after deflection
+        self._omega = np.zeros((n, 3))        # rotation of each sensor frame by the deflection
+        self._rows = np.zeros((n, self._W.shape[2]))
+        self._new_contact = np.zeros(n, dtype=bool)
+        self.sensors = BioTacSensorModel(n, self.rng, p.biotac, noise_block=NOISE_BLOCK)
         self.seq = 0
         self.contact_sensor = np.tile(PAD_POINT_SENSOR, (n, 1))       # where each fingertip touches
         self.skin_normal_sensor = np.tile(PAD_NORMAL_SENSOR, (n, 1))  # outward skin normal there
-        self._pad_heights()
+        self._pad_local = np.array(PAD_POINT_SENSOR)
+        self._consts = np.zeros(ws.N_CONSTS)
+        c = self._consts
+        c[ws.DT], c[ws.ARM_SPEED] = self.dt, self.arm_speed
+        c[ws.ALPHA] = 1.0 - math.exp(-self.dt / p.servo_time_constant_s)
+        c[ws.MAX_SERVO_STEP] = p.servo_max_speed_rad_s * self.dt
+        c[ws.KP], c[ws.KT] = p.servo_stiffness_nm_per_rad, p.tangential_stiffness_n_per_m
+        c[ws.K_CONTACT], c[ws.MU], c[ws.WEIGHT] = self.k_contact, self.mu, self.mass * GRAVITY
+        c[ws.SKIN_CONTACT], c[ws.NEAR] = float(p.skin_contact), NEAR_M
+        ws.fk_rows(self.q_servo, self._take, self._W, self._rows)
         self.raw = self._sense()
 
         self.events: list[WorldEvent] = []
         self.crushed = False
         self.knocked_over = False
 
-    # ----- geometry -------------------------------------------------------
+    # ----- state --------------------------------------------------------------
+    @property
+    def q_goal(self) -> np.ndarray:
+        return self._q_goal
+
+    @q_goal.setter
+    def q_goal(self, q: np.ndarray) -> None:
+        # Goals inside the joint limits keep the servos' first-order steps inside them too.
+        self._q_goal = np.clip(np.asarray(q, dtype=float), self.lower, self.upper)
+
+    @property
+    def obj_xy(self) -> np.ndarray:
+        return self._obj[:2].copy()
+
+    @property
+    def obj_z(self) -> float:
+        return float(self._obj[ws.OZ])
+
+    @property
+    def table_n(self) -> float:
+        return float(self._obj[ws.TABLE_N])
+
+    @property
+    def _R_sensor(self) -> np.ndarray:
+        """Sensor rotations (F, 3, 3) in the hand frame at the deflected joint angles."""
+        out = np.empty((len(self.fingers), 3, 3))
+        for i, row in enumerate(self._rows):
+            R = row[:9].reshape(3, 3)
+            w = self._omega[i]
+            for col in range(3):
+                out[i, :, col] = ws._rotate(w[0], w[1], w[2], R[0, col], R[1, col], R[2, col])
+        return out
+
     def reach_pose_world(self) -> np.ndarray:
         """Nominal palm position for grasping (the controller does not see the jitter)."""
         return np.array([0.0, 0.0, self.obj.grasp_height_m + self.hand.grasp.palm_above_contact_m])
 
-    def _penetration(self, p_world: np.ndarray) -> tuple[float, np.ndarray]:
-        """Penetration depth of a point into the object (<= 0 outside) and the
-        outward surface normal there (horizontal)."""
-        z_rel = p_world[2] - self.obj_z
-        if z_rel < 0.0 or z_rel > self.obj.height_m:
-            return -1.0, np.zeros(3)
-        dx = p_world[0] - self.obj_xy[0]
-        dy = p_world[1] - self.obj_xy[1]
-        if self.obj.shape == "cylinder":
-            r = float(np.hypot(dx, dy))
-            if r < 1e-9:
-                return self.obj.half_width_m, np.array([1.0, 0.0, 0.0])
-            return self.obj.half_width_m - r, np.array([dx / r, dy / r, 0.0])
-        hx, hy = 0.5 * self.obj.size_m[0], 0.5 * self.obj.size_m[1]
-        px, py = hx - abs(dx), hy - abs(dy)
-        if px <= py:
-            return px, np.array([np.sign(dx) or 1.0, 0.0, 0.0])
-        return py, np.array([0.0, np.sign(dy) or 1.0, 0.0])
-
     # ----- stepping -------------------------------------------------------
     def step(self) -> None:
-        p = self.params
-        dt = self.dt
-        self.t += dt
-        # Arm: straight line toward the target at the speed limit.
-        delta = self.palm_target - self.palm_world
-        dist = float(np.linalg.norm(delta))
-        max_step = self.arm_speed * dt
-        self.palm_world = self.palm_target.copy() if dist <= max_step else self.palm_world + delta * (max_step / dist)
-
-        # Servos: first-order lag toward the goal, speed limited; no torque = limp (stays).
-        if self.torque_on:
-            alpha = 1.0 - np.exp(-dt / p.servo_time_constant_s)
-            step = np.clip(alpha * (self.q_goal - self.q_servo), -p.servo_max_speed_rad_s * dt, p.servo_max_speed_rad_s * dt)
-            # The servo's internal position cannot run away from the actual one further than
-            # the current limit allows (current-based position mode).
-            reach = self.tau_max / p.servo_stiffness_nm_per_rad
-            self.q_servo = np.clip(self.q_servo + step, self.q - reach, self.q + reach)
-        else:
-            self.q_servo = self.q.copy()
-        self.q_servo = np.clip(self.q_servo, self.lower, self.upper)
-
-        self._contacts()
-        self._object()
+        self.t += self.dt
+        self._consts[ws.TORQUE_ON] = 1.0 if self.torque_on else 0.0
+        prev_z = self._obj[ws.OZ]
+        ws.world_step(
+            self._q_goal, self.q_servo, self.q, self.lower, self.upper, self._reach, self.tau_max,
+            self._starts, self._counts, self.palm_world, self.palm_target, self._take, self._W,
+            self._pad_local, self.contact_sensor, self.skin_normal_sensor, self._shape, self._obj,
+            self.normal_n, self.in_contact, self.stick_offset, self.slip_speed, self.n_out_world,
+            self._contact_z, self._omega, self.tangential_up_n, self.f_world, self.f_sensor,
+            self._rows, self._new_contact, self._consts,
+        )
         self.raw = self._sense()
-        self._judge()
-
-    def _contacts(self) -> None:
-        p = self.params
-        kp = p.servo_stiffness_nm_per_rad
-        kt = p.tangential_stiffness_n_per_m
-        q = self.q_servo.copy()
-        # Where does each fingertip touch? By default on the pad centre; with skin_contact,
-        # at the skin point facing the object's surface there (contact_on_skin).
-        if p.skin_contact:
-            pads_hand, _, R_sensor = self.bkin.points_and_jacobians(self.q_servo, PAD_POINT_SENSOR)
-            for i in range(len(self.fingers)):
-                d_pad, n_out = self._penetration(self.palm_world + pads_hand[i])
-                if d_pad > -NEAR_M:
-                    self.contact_sensor[i], self.skin_normal_sensor[i] = contact_on_skin(R_sensor[i].T @ -n_out)
-        points_hand, jacobians, _ = self.bkin.points_and_jacobians(self.q_servo, self.contact_sensor)
-        for i, name in enumerate(self.fingers):
-            d0, n_out = self._penetration(self.palm_world + points_hand[i])
-            was = self.in_contact[i]
-            if d0 <= 0.0:
-                self.normal_n[i] = 0.0
-                self.in_contact[i] = False
-                continue
-            sl = self.kin.slices[name]
-            J = jacobians[i]
-            a = J.T @ (-n_out)   # d(penetration)/dq
-            k = self.k_contact
-            pad_z = self.palm_world[2] + points_hand[i][2]
-            # Vertical stick spring of a contact that already sticks: it resists the pad
-            # sliding up or down the object while the finger deflects.
-            stretch = pad_z - self.stick_offset[i] - self.obj_z if was else 0.0
-            sticking = was and abs(kt * stretch) < self.mu * self.normal_n[i]
-            if not self.torque_on or float(a @ a) < 1e-12:
-                # A limp finger yields completely: no squeeze force.
-                q[sl] = self.q_servo[sl] + self._retract(a, d0)
-                normal = 0.0
-            else:
-                # Servo spring (kp per joint) in series with the contact springs: the
-                # minimiser of 0.5*kp*|dq|^2 + 0.5*k*(d0 + a.dq)^2 + 0.5*kt*(s0 + b.dq)^2.
-                if sticking:
-                    b = J[2]
-                    g11, g12, g22 = float(a @ a), float(a @ b), float(b @ b)
-                    # (kp I + D G) y = D r, 2x2, solved in closed form.
-                    m11, m12, m21, m22 = kp + k * g11, k * g12, kt * g12, kp + kt * g22
-                    det = m11 * m22 - m12 * m21
-                    r1, r2 = k * d0, kt * stretch
-                    y1 = (m22 * r1 - m12 * r2) / det
-                    y2 = (m11 * r2 - m21 * r1) / det
-                    dq = -(a * y1 + b * y2)
-                else:
-                    dq = -a * (k * d0 / (kp + k * float(a @ a)))
-                d = d0 + float(a @ dq)
-                normal = k * d
-                over = normal * np.abs(a) / np.maximum(self.tau_max[sl], 1e-9)
-                if over.max() > 1.0:           # current limit: the servo yields
-                    normal /= over.max()
-                    dq = self._retract(a, d0 - normal / k)
-                q[sl] = self.q_servo[sl] + dq
-            self.normal_n[i] = normal
-            self.n_out_world[i] = n_out
-            self.in_contact[i] = normal > 1e-6
-            if self.in_contact[i] and not was:
-                self.stick_offset[i] = pad_z - self.obj_z
-                self.events.append(WorldEvent(self.t, "contact", name))
-        self.q = np.clip(q, self.lower, self.upper)
-        self._pad_heights()
-
-    @staticmethod
-    def _retract(a: np.ndarray, depth: float) -> np.ndarray:
-        """Smallest joint motion that backs a fingertip out of the object by ``depth``."""
-        a2 = float(a @ a)
-        return -(depth / a2) * a if a2 > 1e-12 else np.zeros_like(a)
-
-    def _pad_heights(self) -> None:
-        """Sensor orientations and contact-point heights at the actual (deflected) joint angles."""
-        R, p = self.bkin.sensor_frames(self.q)
-        self._R_sensor = R
-        self._pad_z = self.palm_world[2] + ((R @ self.contact_sensor[..., None])[..., 0] + p)[:, 2]
-
-    def _object(self) -> None:
-        kt = self.params.tangential_stiffness_n_per_m
-        capacity = np.where(self.in_contact, self.mu * self.normal_n, 0.0)
-        anchors = self._pad_z - self.stick_offset
-        weight = self.mass * GRAVITY
-        z, table_n = solve_object_height(anchors, capacity, kt, weight)
-        t_up, slipping = tangential_forces(anchors, capacity, kt, z)
-        # Slipping contacts drag their anchor: the spring stays at the friction limit.
-        new_offset = np.where(slipping & self.in_contact, self._pad_z - (z + t_up / kt), self.stick_offset)
-        self.slip_speed = np.abs(new_offset - self.stick_offset) / self.dt
-        self.stick_offset = new_offset
-        prev_z = self.obj_z
-        self.obj_z = z
-        self.table_n = table_n
-        self.tangential_up_n = np.where(self.in_contact, t_up, 0.0)
-        self.max_obj_z = max(self.max_obj_z, z)
-        if prev_z > 0.002 and z == 0.0:
-            self.events.append(WorldEvent(self.t, "fell", f"from {prev_z * 1000:.1f} mm while {self.phase}"))
-        # Force ON each fingertip skin: the object pushes the pad outward and drags it
-        # opposite to the finger's upward force on the object.
-        self.f_world = self.normal_n[:, None] * self.n_out_world
-        self.f_world[:, 2] -= self.tangential_up_n
+        self._record(prev_z)
 
     def _sense(self) -> np.ndarray:
-        n = len(self.fingers)
-        f_sensor = np.zeros((n, 3))
-        for i in range(n):
-            if self.in_contact[i]:
-                f_sensor[i] = self._R_sensor[i].T @ self.f_world[i]
-        self.f_sensor = f_sensor
-        p_contact = self.contact_sensor
-        n_out = self.skin_normal_sensor
         self.seq = (self.seq + 1) & 0xFFFF
-        return self.sensors.frames(p_contact, f_sensor, n_out, self.in_contact.copy(), self.slip_speed, self.dt)
+        return self.sensors.next_frames(self.contact_sensor, self.f_sensor, self.skin_normal_sensor,
+                                        self.in_contact, self.slip_speed, self.dt)
 
-    def _judge(self) -> None:
+    def _record(self, prev_z: float) -> None:
+        """Events and outcome flags from the step's truth."""
+        obj = self._obj
+        z = obj[ws.OZ]
+        if z > self.max_obj_z:
+            self.max_obj_z = float(z)
+        if self._new_contact.any():
+            for i in np.flatnonzero(self._new_contact):
+                self.events.append(WorldEvent(self.t, "contact", self.fingers[i]))
+        if prev_z > 0.002 and z == 0.0:
+            self.events.append(WorldEvent(self.t, "fell", f"from {prev_z * 1000:.1f} mm while {self.phase}"))
         if self.obj.deformable and not self.crushed:
             assert self.obj.crush_force_n is not None
-            worst = float(self.normal_n.max())
+            worst = obj[ws.MAX_NORMAL]
             if worst > self.obj.crush_force_n:
                 self.crushed = True
                 self.events.append(WorldEvent(self.t, "crushed", f"grip {worst:.2f} N > {self.obj.crush_force_n} N"))
         if not self.knocked_over:
-            push = self.table_n - self.mass * GRAVITY
+            push = obj[ws.TABLE_N] - self.mass * GRAVITY
             if push > self.obj.tip_force_n:
                 self.knocked_over = True
                 self.events.append(WorldEvent(self.t, "knocked_over", f"pushed {push:.2f} N into the table"))

@@ -67,24 +67,13 @@ def settings_grid(params: Sequence[tuple[str, list[float | int]]]) -> list[dict[
 
 def apply_setting(obj: ObjectProfile, setting: dict[str, float | int]) -> ObjectProfile:
     """The profile with the setting applied; values outside the file's limits are refused."""
-    import dataclasses
-
-    from grasp_ctrl.config.objects import _object  # the loader's own validation
-    from grasp_ctrl.config.toml_reader import Table
+    from grasp_ctrl.config.objects import revalidate
     from grasp_ctrl.errors import ConfigError
 
     tuned = obj.with_params(**setting)
     # Re-validate through the loader so the sweep never tries what the file could not hold.
-    doc: dict[str, Any] = {k: v for k, v in dataclasses.asdict(tuned).items() if k != "name"}
-    size = doc.pop("size_m")
-    if tuned.shape == "cylinder":
-        doc["diameter_m"] = size[0]
-    else:
-        doc["size_m"] = list(size)
-    if doc["crush_force_n"] is None:
-        doc.pop("crush_force_n")
     try:
-        _object(obj.name, Table(f"--param ({obj.name})", doc))
+        revalidate(tuned, f"--param ({obj.name})")
     except ConfigError as exc:  # names the key and the allowed range
         raise UsageError(str(exc)) from None
     return tuned
