@@ -20,6 +20,7 @@ from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.motion import FingertipMotion
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.controller.snapshot import Command, Snapshot
+from grasp_ctrl.errors import ConfigError
 from grasp_ctrl.kinematics.chain import HandKinematics
 
 STATES = ["tare", "reach", "close", "ramp", "lift", "hold", "lower", "release", "retreat", "done", "fault"]
@@ -89,6 +90,7 @@ class GraspController:
         self.grasp_mask = np.array([f.grasp for f in hand.fingers])
         self.release_idx = self.names.index(hand.grasp.release_finger)
         self.reach_pose = np.asarray(reach_pose_world, dtype=float)
+        self.reach_q = self._reach_posture()
         self.lift_top = self.reach_pose + np.array([0.0, 0.0, obj.lift_height_m])
         self.lower_limit_z = self.reach_pose[2] - self.s.lower_overshoot_m
         self.palm_target: np.ndarray | None = None
@@ -105,6 +107,21 @@ class GraspController:
         self.machine = build_machine(self, self._reason_setter)
 
     # ----- helpers ----------------------------------------------------------
+    def _reach_posture(self) -> np.ndarray:
+        """The pregrasp posture; with a capped object, its cap finger's pad raised to
+        the cap's contact height (the others close at ``grasp_height_m``)."""
+        cap = self.obj.cap
+        if cap is None:
+            return self.motion.pregrasp_q.copy()
+        where = f"object {self.obj.name!r}"
+        if cap.finger not in self.names or not self.grasp_mask[self.names.index(cap.finger)]:
+            raise ConfigError(where, "cap.finger", f"a grasping finger of hand {self.hand.name!r} (got {cap.finger!r})")
+        try:
+            return self.motion.raised_posture(self.motion.pregrasp_q,
+                                              {cap.finger: cap.contact_height_m - self.obj.grasp_height_m})
+        except ValueError as exc:
+            raise ConfigError(where, "cap.contact_height_m", f"a height the finger can reach ({exc})") from None
+
     @property
     def terminal(self) -> bool:
         return self.state in TERMINAL  # type: ignore[attr-defined]
@@ -240,7 +257,7 @@ class GraspController:
         if state == "tare":
             pass  # stay still in free space while the baseline is recorded
         elif state == "reach":
-            self.motion.set_posture(self.motion.pregrasp_q)
+            self.motion.set_posture(self.reach_q)
             self._move_palm_toward(self.reach_pose, self.hand.arm.max_speed_m_s)
         elif state == "close":
             for i, name in enumerate(self.names):

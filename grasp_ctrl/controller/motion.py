@@ -11,7 +11,7 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.kinematics.fingertip import PAD_POINT_SENSOR
+from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 
 
 IK_DAMPING = 0.002
@@ -42,6 +42,34 @@ class FingertipMotion:
     def set_posture(self, q: np.ndarray) -> None:
         self.q_goal = np.clip(np.asarray(q, dtype=float), self.lower, self.upper)
         self._reset_targets()
+
+    def raised_posture(self, q: np.ndarray, raises_m: dict[str, float], tolerance_m: float = 5e-4) -> np.ndarray:
+        """``q`` with some fingertips' pads moved straight up (hand +z) by the given
+        heights, their pads still facing the way they did (e.g. the index fingertip
+        on a bottle's cap); the other fingers unchanged. Raises ValueError when a
+        pad cannot get there within the joint limits."""
+        from scipy.optimize import least_squares
+
+        q = np.clip(np.asarray(q, dtype=float), self.lower, self.upper).copy()
+        for finger, dz in raises_m.items():
+            sl = self.kin.slices[finger]
+            chain = self.kin.chains[finger]
+            R0, p0 = chain.fk_rp(q[sl])
+            target = R0 @ PAD_POINT_SENSOR + p0 + np.array([0.0, 0.0, dz])
+            facing = R0 @ PAD_NORMAL_SENSOR
+
+            def residual(qf: np.ndarray) -> np.ndarray:
+                R, p = chain.fk_rp(qf)
+                # 1 rad of pad tilt weighs like 2 cm of position error.
+                return np.concatenate([R @ PAD_POINT_SENSOR + p - target, 0.02 * (R @ PAD_NORMAL_SENSOR - facing)])
+
+            fit = least_squares(residual, q[sl], bounds=(self.lower[sl], self.upper[sl]))
+            miss = float(np.linalg.norm(fit.fun[:3]))
+            if miss > tolerance_m:
+                raise ValueError(f"{finger}: cannot raise the pad by {dz * 1000:.1f} mm within the joint limits "
+                                 f"({miss * 1000:.1f} mm short)")
+            q[sl] = fit.x
+        return q
 
     def sync(self, q_measured: np.ndarray) -> None:
         """Start from where the hand is (e.g. at trial start)."""

@@ -143,8 +143,12 @@ def _contacts(
             cz += row[6] * ex + row[7] * ey + row[8] * ez
         z_world = palm[2] + cz
         contact_z[i] = z_world
-        d0, nx, ny, nz = penetration(shape, palm[0] + cx - obj[OX], palm[1] + cy - obj[OY], z_world - obj[OZ])
         was = touch[i]
+        # A contact that holds stays where it touched the object's surface: the pad's
+        # vertical offset from there is skin shear (the stick spring), not sliding. It
+        # matters on the cap, whose surface turns away higher up.
+        z_on_object = stick[i] if was else z_world - obj[OZ]
+        d0, nx, ny, nz = penetration(shape, palm[0] + cx - obj[OX], palm[1] + cy - obj[OY], z_on_object)
         if d0 <= 0.0:
             normal[i] = 0.0
             touch[i] = False
