@@ -6,6 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from grasp_ctrl.cli import main
@@ -75,6 +76,10 @@ def test_bad_hand_file_names_file_and_key(tmp_path, old, new, key, expected):
         ("tip_force_n = 6.0", "tip_force_n = 6.0\ncrush_force_n = 3.0", "objects.chips_can.crush_force_n", "rigid"),
         ('shape = "box"', 'shape = "sphere"', "objects.cleanser.shape", "cylinder, box"),
         ('"lego",', '"duplo",', "default_set", "unknown"),
+        ("offset_m = [0.0, 0.02]", "offset_m = [0.0, 0.04]", "objects.mustard_bottle.cap.offset_m", "cap's base"),
+        ("contact_height_m = 0.162", "contact_height_m = 0.18", "objects.mustard_bottle.cap.contact_height_m", "below its top"),
+        ("contact_height_m = 0.162", "contact_height_m = 0.15", "objects.mustard_bottle.cap.contact_height_m", "> 0.16"),
+        ('finger = "index"', 'finger = "index"\nshape = "dome"', "objects.mustard_bottle.cap.shape", "a known key"),
     ],
 )
 def test_bad_object_file_names_file_and_key(tmp_path, old, new, key, expected):
@@ -114,3 +119,35 @@ def test_cli_subprocess_no_traceback(tmp_path):
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr
     assert str(bad) in proc.stderr
+
+
+def test_cap_finger_must_be_a_grasping_finger_of_the_hand(hand, objects):
+    from dataclasses import replace
+
+    from grasp_ctrl.controller.machine import GraspController
+
+    mustard = objects["mustard_bottle"]
+    for finger in ("pinky", "ring"):          # unknown; not grasping in the LEAP hand file
+        bad = replace(mustard, cap=replace(mustard.cap, finger=finger))
+        with pytest.raises(ConfigError) as err:
+            GraspController(hand, bad, np.zeros(3))
+        assert err.value.key == "cap.finger" and "grasping finger" in err.value.expected
+
+
+def test_cap_contact_out_of_the_fingers_reach_is_refused(hand, objects):
+    from dataclasses import replace
+
+    from grasp_ctrl.controller.machine import GraspController
+
+    mustard = objects["mustard_bottle"]
+    far = replace(mustard, grasp_height_m=0.02)     # the cap 14 cm above the other fingertips
+    with pytest.raises(ConfigError) as err:
+        GraspController(hand, far, np.zeros(3))
+    assert err.value.key == "cap.contact_height_m"
+
+
+def test_profiles_survive_a_round_trip_through_their_table(objects):
+    from grasp_ctrl.config.objects import revalidate
+
+    for obj in objects.values():
+        assert revalidate(obj, "round trip") == obj
