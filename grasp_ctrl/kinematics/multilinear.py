@@ -20,6 +20,7 @@ import itertools
 
 import numpy as np
 
+from grasp_ctrl.jit import njit
 from grasp_ctrl.kinematics.chain import FingerChain, HandKinematics
 
 #: Largest chain handled (3^n monomials per finger).
@@ -76,6 +77,25 @@ def _pose_table(chain: FingerChain, n: int) -> np.ndarray:
     return W
 
 
+@njit
+def contract(q: np.ndarray, take: np.ndarray, W: np.ndarray, rows: np.ndarray) -> None:
+    """Rows (F, C) of all fingers at joint angles q: the monomials of (1, cos q_i,
+    sin q_i) gathered by ``take`` (n, F, 3^n) and contracted with W (F, 3^n, C).
+    Compiled into the mock world's step (grasp_ctrl/jit.py)."""
+    J = q.shape[0]
+    vals = np.empty(2 * J + 2)
+    vals[0] = 1.0
+    vals[1:J + 1] = np.cos(q)
+    vals[J + 1:2 * J + 1] = np.sin(q)
+    vals[2 * J + 1] = 0.0
+    g = np.take(vals, take)
+    m = g[0].copy()
+    for i in range(1, take.shape[0]):
+        m *= g[i]
+    for f in range(W.shape[0]):
+        rows[f] = np.dot(m[f], W[f])
+
+
 class MultilinearKinematics:
     """Sensor poses, contact points and joint axes of every finger, batched.
 
@@ -109,8 +129,6 @@ class MultilinearKinematics:
                 else:   # padded slot: cos and sin terms read the trailing zero
                     take[i, f] = np.where(digits[i] == 0, 0, 1 + 2 * J)
         self.take = take
-        self._one = np.ones(1)
-        self._zero = np.zeros(1)
         self._point_key: bytes | None = None
         self._W_point = self.W
 
@@ -121,15 +139,6 @@ class MultilinearKinematics:
     @staticmethod
     def origin(k: int) -> slice:
         return slice(15 + 6 * k, 18 + 6 * k)
-
-    def _monomials(self, q_all: np.ndarray) -> np.ndarray:
-        """(F, 1, 3^n): all products of one factor (1, cos q_i, sin q_i) per joint."""
-        vals = np.concatenate((self._one, np.cos(q_all), np.sin(q_all), self._zero))
-        g = vals.take(self.take)
-        m = g[0] if self.n == 1 else g[0] * g[1]
-        for i in range(2, self.n):
-            m *= g[i]
-        return m[:, None, :]
 
     def point_table(self, p_sensor: np.ndarray) -> np.ndarray:
         """W with the origin columns moved to one sensor-frame point per finger (F, 3)."""
@@ -145,7 +154,9 @@ class MultilinearKinematics:
         """(F, 12 + 6n) at joint angles ``q_all``; ``POINT`` is the sensor-frame point
         ``p_sensor[f]`` (per finger, (F, 3)) in the hand frame, or the sensor origin."""
         W = self.W if p_sensor is None else self.point_table(np.ascontiguousarray(p_sensor, dtype=float))
-        return (self._monomials(q_all) @ W)[:, 0, :]
+        rows = np.empty((self.F, W.shape[2]))
+        contract(np.ascontiguousarray(q_all, dtype=float), self.take, W, rows)
+        return rows
 
     def jacobian(self, row: np.ndarray) -> np.ndarray:
         """Position Jacobian (3, n) of the row's point: axis_k x (point - origin_k)."""

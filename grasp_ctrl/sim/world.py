@@ -40,7 +40,7 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
-from grasp_ctrl.kinematics.multilinear import MultilinearKinematics
+from grasp_ctrl.kinematics.multilinear import MultilinearKinematics, contract
 from grasp_ctrl.sim import world_step as ws
 from grasp_ctrl.sim.biotac_model import BioTacParams, BioTacSensorModel
 from grasp_ctrl.sim.shapes import shape_params
@@ -150,7 +150,7 @@ class MockWorld:
         c[ws.KP], c[ws.KT] = p.servo_stiffness_nm_per_rad, p.tangential_stiffness_n_per_m
         c[ws.K_CONTACT], c[ws.MU], c[ws.WEIGHT] = self.k_contact, self.mu, self.mass * GRAVITY
         c[ws.SKIN_CONTACT], c[ws.NEAR] = float(p.skin_contact), NEAR_M
-        ws.fk_rows(self.q_servo, self._take, self._W, self._rows)
+        contract(self.q_servo, self._take, self._W, self._rows)
         self.raw = self._sense()
 
         self.events: list[WorldEvent] = []

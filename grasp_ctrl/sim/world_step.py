@@ -15,6 +15,7 @@ import numpy as np
 
 from grasp_ctrl.jit import njit
 from grasp_ctrl.kinematics.fingertip import skin_contact_point
+from grasp_ctrl.kinematics.multilinear import contract
 from grasp_ctrl.sim.grip import solve_object_height, tangential_forces
 from grasp_ctrl.sim.shapes import penetration
 
@@ -23,23 +24,6 @@ DT, ARM_SPEED, ALPHA, MAX_SERVO_STEP, KP, KT, K_CONTACT, MU, WEIGHT, TORQUE_ON, 
 N_CONSTS = 12
 # Object state (obj).
 OX, OY, OZ, TABLE_N, MAX_NORMAL = range(5)
-
-
-@njit
-def fk_rows(q: np.ndarray, take: np.ndarray, W: np.ndarray, rows: np.ndarray) -> None:
-    """Multilinear forward kinematics (kinematics/multilinear.py) into ``rows`` (F, C)."""
-    J = q.shape[0]
-    vals = np.empty(2 * J + 2)
-    vals[0] = 1.0
-    vals[1:J + 1] = np.cos(q)
-    vals[J + 1:2 * J + 1] = np.sin(q)
-    vals[2 * J + 1] = 0.0
-    g = np.take(vals, take)
-    m = g[0].copy()
-    for i in range(1, take.shape[0]):
-        m *= g[i]
-    for f in range(W.shape[0]):
-        rows[f] = np.dot(m[f], W[f])
 
 
 @njit
@@ -96,7 +80,7 @@ def world_step(
     """Advance the world by one control period (all arrays updated in place)."""
     _move_arm(palm, palm_target, c[ARM_SPEED] * c[DT])
     _move_servos(q_goal, q_servo, q, reach, c)
-    fk_rows(q_servo, take, W, rows)
+    contract(q_servo, take, W, rows)
     _contacts(q_servo, q, lower, upper, tau_max, starts, counts, palm, pad_local, contact_local, skin_normal,
               shape, obj, normal, touch, stick, n_out, contact_z, omega, rows, new_contact, c)
     _object(obj, normal, touch, stick, slip, n_out, contact_z, t_up, c)
