@@ -50,8 +50,22 @@ def _cache_dir() -> Path:
     return base / "grasp_ctrl" / "numba" / f"{_numba.__version__}-{digest.hexdigest()[:16]}"
 
 
+def _writable(path: Path) -> bool:
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / f".probe-{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+        return True
+    except OSError:
+        return False
+
+
 if _numba is not None and not os.environ.get("NUMBA_CACHE_DIR"):
-    _numba.config.CACHE_DIR = str(_cache_dir())
+    # Where that folder cannot be written numba keeps its own default locations.
+    _where = _cache_dir()
+    if _writable(_where):
+        _numba.config.CACHE_DIR = str(_where)
 
 
 def njit(fn: F) -> F:
