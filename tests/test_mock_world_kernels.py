@@ -17,12 +17,9 @@ from hypothesis import strategies as st
 
 from grasp_ctrl import jit
 from grasp_ctrl.kinematics.chain import FingerChain, HandKinematics
-from grasp_ctrl.kinematics.fingertip import PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.multilinear import MultilinearKinematics
 from grasp_ctrl.paths import REPO_ROOT
-from grasp_ctrl.sim import world_step as ws
 from grasp_ctrl.sim.shapes import penetration, shape_params
-from grasp_ctrl.sim.world import MockWorld
 
 unit = st.floats(0.0, 1.0)
 
