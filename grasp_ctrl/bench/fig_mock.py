@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import time
 
-
 from grasp_ctrl.bench.figure import Figure, time_ms
 from grasp_ctrl.config import load_hand, load_objects
 from grasp_ctrl.controller.machine import GraspController
