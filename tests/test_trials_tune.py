@@ -123,3 +123,40 @@ def test_tune_command_ranks_and_writes_the_best_setting(tmp_path, capsys):
         assert f"+tau_n = {after}" in printed
     else:
         assert status == 1 and objects_file.read_text() == OBJECTS_TOML.read_text()
+
+
+def test_tune_on_the_real_hand_ranks_by_the_operators_labels(tmp_path, capsys, monkeypatch):
+    """`tune --backend dynamixel`: no ground truth, so each trial is labelled at the
+    prompt; the sweep ranks by those labels and writes the winner."""
+    import io
+
+    import grasp_ctrl.trials.hardware as hardware
+
+    seen = []
+
+    def fake_hardware_trial_fn(hand, policies, settings, jobs, port=None, sensor_port=None):
+        assert (port, sensor_port) == ("/dev/ttyUSB7", "/dev/ttyACM7")
+
+        def trial(policy, obj, k, seed, log_path):
+            seen.append(obj.tau_n)
+            return {"object": obj.name, "policy": policy, "trial": k, "seed": seed, "success": True, "reason": None,
+                    "final_state": "done", "backend": "dynamixel", "judged_by": "controller",
+                    "controller": {"final_state": "done", "success": True, "reason": None}, "peak_grip_est_n": obj.tau_n}
+        return trial
+
+    monkeypatch.setattr(hardware, "hardware_trial_fn", fake_hardware_trial_fn)
+    # The controller thinks both went well; the operator saw the gentler grasp slip.
+    monkeypatch.setattr("sys.stdin", io.StringIO("f\nslipped\nslid down\ns\n\n"))
+    objects_file = tmp_path / "objects.toml"
+    shutil.copy(OBJECTS_TOML, objects_file)
+    out = tmp_path / "sweep.json"
+    status = main(["tune", "--object", "lego", "--param", "tau=1.5,2.5", "--trials", "1", "--policy", "linear_mock",
+                   "--backend", "dynamixel", "--port", "/dev/ttyUSB7", "--sensor-port", "/dev/ttyACM7",
+                   "--object-file", str(objects_file), "--write", "--json", str(out), "--quiet"])
+    assert status == 0 and seen == [1.5, 2.5]
+    ranked = json.loads(out.read_text())["ranked"]
+    assert [(r["setting"]["tau_n"], r["successes"], r["failures"]) for r in ranked] == [(2.5, 1, {}), (1.5, 0, {"slipped": 1})]
+    assert load_objects(objects_file)["lego"].tau_n == 2.5
+    assert "+tau_n = 2.5" in capsys.readouterr().out
+    assert main(["tune", "--object", "lego", "--param", "tau=2", "--backend", "dynamixel", "--jobs", "2"]) == 2
+    assert "one trial at a time" in capsys.readouterr().err
