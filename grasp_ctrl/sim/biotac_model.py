@@ -8,7 +8,8 @@ to ~2000 counts, pdc rises of 40-500 counts):
   width ``footprint_m``) and shift asymmetrically with shear (the leading side
   of the drag drops more); drops saturate at ``e_drop_max`` counts;
 - pdc RISES with the force magnitude, saturating;
-- pac carries a decaying burst at contact onset and during slip;
+- pac carries a decaying burst at contact onset and during slip (its noise
+  widens);
 - tdc drifts slowly, tac is noise around its baseline;
 - every channel has Gaussian noise; each simulated sensor has its own
   baselines and a gain spread, drawn from the seed.
@@ -92,53 +93,42 @@ class BioTacSensorModel:
         self._noise_std = std
         self.noise_block = max(1, int(noise_block))
         self._noisy_base = np.empty((0, n_tips, FRAME_LEN))
-        self._pac_unit = np.empty((0, n_tips, 22))
         self._next = 0
-        self._map_key: bytes | None = None
-        self._maps = np.empty((n_tips, 4, 19))
-        self._consts = _pack(p)
+        self.consts = _pack(p)
 
     def electrode_maps(self, p_contact_sensor: np.ndarray, n_out_sensor: np.ndarray) -> np.ndarray:
         """(n, 4, 19): electrode drops before saturation are ``[f_normal, f] @ maps``,
         f the force on the skin (sensor frame) and f_normal = max(-f.n, 0) its
-        pressing part. Cached while the contact points stay put (the usual case)."""
-        key = p_contact_sensor.tobytes() + n_out_sensor.tobytes()
-        if key == self._map_key:
-            return self._maps
-        p = self.p
-        d = ELECTRODE_POSITIONS_SENSOR[None, :, :] - p_contact_sensor[:, None, :]       # (n, 19, 3)
-        w = np.exp(-np.einsum("nij,nij->ni", d, d) / (2.0 * p.footprint_m**2))        # (n, 19)
-        # drop = w * (g_n * f_normal + g_s * d.f_tangent / footprint), with
-        # f_tangent = f + f_normal * n: linear in (f_normal, f).
-        shear = w * (p.e_gain_shear / p.footprint_m)
-        maps = np.empty((len(d), 4, 19))
-        maps[:, 0] = w * p.e_gain_normal + shear * np.einsum("nij,nj->ni", d, n_out_sensor)
-        maps[:, 1:] = shear[:, None, :] * d.transpose(0, 2, 1)
-        maps *= self.gain[:, None, None]
-        self._maps, self._map_key = maps, key
+        pressing part."""
+        p_contact = np.ascontiguousarray(p_contact_sensor, dtype=float)
+        n_out = np.ascontiguousarray(n_out_sensor, dtype=float)
+        maps = np.empty((self.n, 4, 19))
+        for i in range(self.n):
+            _electrode_map(p_contact[i], n_out[i], self.gain[i], self.consts, maps[i])
         return maps
 
     def tared_electrodes(self, p_contact_sensor: np.ndarray, f_sensor: np.ndarray, n_out_sensor: np.ndarray) -> np.ndarray:
         """Noise-free electrode changes (n, 19) for contacts at ``p_contact_sensor``
         with force ``f_sensor`` on the skin and outward surface normal ``n_out_sensor``."""
         maps = self.electrode_maps(p_contact_sensor, n_out_sensor)
+        f = np.ascontiguousarray(f_sensor, dtype=float)
+        n_out = np.ascontiguousarray(n_out_sensor, dtype=float)
         out = np.empty((self.n, 19))
         for i in range(self.n):
-            _electrode_drops(maps[i], f_sensor[i], n_out_sensor[i], self.p.e_drop_max, out[i])
+            _electrode_drops(maps[i], f[i], n_out[i], self.p.e_drop_max, out[i])
         return out
 
-    def _draw(self) -> int:
-        """Index of this frame's noise in the current block (drawing a new block when spent)."""
+    def advance(self, dt: float) -> np.ndarray:
+        """Step the clock by ``dt``; this frame's noisy baselines (n, 44), which the
+        frame is built on in place (a new block of noise when one is spent)."""
+        self.t += dt
         if self._next >= len(self._noisy_base):
-            k = self.noise_block
-            pac = self.rng.standard_normal((k, self.n, 22))
-            noise = self._noise_std * self.rng.standard_normal((k, self.n, FRAME_LEN))
-            self._pac_unit = pac
+            noise = self._noise_std * self.rng.standard_normal((self.noise_block, self.n, FRAME_LEN))
             self._noisy_base = noise + self.baseline
             self._next = 0
         i = self._next
         self._next += 1
-        return i
+        return self._noisy_base[i]
 
     def frames(
         self,
@@ -150,34 +140,43 @@ class BioTacSensorModel:
         dt: float,
     ) -> np.ndarray:
         """Advance by ``dt`` and return (n, 44) raw frames as integer counts."""
-        return self.next_frames(
-            np.ascontiguousarray(p_contact_sensor, dtype=float), np.ascontiguousarray(f_sensor, dtype=float),
+        return frames_kernel(
+            self.advance(dt), np.ascontiguousarray(p_contact_sensor, dtype=float), np.ascontiguousarray(f_sensor, dtype=float),
             np.ascontiguousarray(n_out_sensor, dtype=float), np.ascontiguousarray(in_contact, dtype=np.bool_),
-            np.ascontiguousarray(slip_speed_m_s, dtype=float), dt,
-        )
-
-    def next_frames(
-        self, p_contact_sensor: np.ndarray, f_sensor: np.ndarray, n_out_sensor: np.ndarray,
-        in_contact: np.ndarray, slip_speed_m_s: np.ndarray, dt: float,
-    ) -> np.ndarray:
-        """``frames`` for callers that already hold C-contiguous float64 arrays
-        (bool for ``in_contact``) of the right shapes: the mock world, every step."""
-        self.t += dt
-        i = self._draw()
-        return _frames(
-            self._noisy_base[i], self._pac_unit[i], self.electrode_maps(p_contact_sensor, n_out_sensor),
-            f_sensor, n_out_sensor, in_contact, slip_speed_m_s,
-            self.burst, self.was_in_contact, self.gain, self._consts, self.t, dt,
+            np.ascontiguousarray(slip_speed_m_s, dtype=float), self.burst, self.was_in_contact, self.gain,
+            self.consts, self.t, dt,
         )
 
 
 # Constants of _frames, packed for the compiled kernel.
-E_DROP_MAX, PDC_GAIN, PDC_MAX_RISE, PAC_ONSET, PAC_SLIP, PAC_DECAY_S, TDC_DRIFT = range(7)
+(E_DROP_MAX, PDC_GAIN, PDC_MAX_RISE, PAC_ONSET, PAC_SLIP, PAC_DECAY_S, TDC_DRIFT,
+ E_GAIN_NORMAL, E_GAIN_SHEAR, FOOTPRINT, PAC_BASELINE, NOISE_PAC) = range(12)
+_ELECTRODES_XYZ = np.ascontiguousarray(ELECTRODE_POSITIONS_SENSOR, dtype=float)
 
 
 def _pack(p: BioTacParams) -> np.ndarray:
     return np.array([p.e_drop_max, p.pdc_gain, p.pdc_max_rise, p.pac_onset_amp, p.pac_slip_amp,
-                     p.pac_decay_s, p.tdc_drift_per_s])
+                     p.pac_decay_s, p.tdc_drift_per_s, p.e_gain_normal, p.e_gain_shear, p.footprint_m,
+                     p.pac_baseline, p.noise_pac])
+
+
+@njit
+def _electrode_map(p: np.ndarray, n_out: np.ndarray, gain: float, c: np.ndarray, maps: np.ndarray) -> None:
+    """maps (4, 19) of one contact at ``p`` (sensor frame, outward normal ``n_out``):
+    drop = w * (g_n * f_normal + g_s * d.f_tangent / footprint), with w the Gaussian
+    footprint at electrode offset d and f_tangent = f + f_normal * n, which is
+    linear in (f_normal, f)."""
+    width = c[FOOTPRINT]
+    for e in range(19):
+        dx = _ELECTRODES_XYZ[e, 0] - p[0]
+        dy = _ELECTRODES_XYZ[e, 1] - p[1]
+        dz = _ELECTRODES_XYZ[e, 2] - p[2]
+        w = math.exp(-(dx * dx + dy * dy + dz * dz) / (2.0 * width * width))
+        shear = gain * w * c[E_GAIN_SHEAR] / width
+        maps[0, e] = gain * w * c[E_GAIN_NORMAL] + shear * (dx * n_out[0] + dy * n_out[1] + dz * n_out[2])
+        maps[1, e] = shear * dx
+        maps[2, e] = shear * dy
+        maps[3, e] = shear * dz
 
 
 @njit
@@ -191,31 +190,36 @@ def _electrode_drops(maps: np.ndarray, f: np.ndarray, n_out: np.ndarray, e_max: 
 
 
 @njit
-def _frames(
-    out: np.ndarray, pac_unit: np.ndarray, maps: np.ndarray, f_sensor: np.ndarray, n_out: np.ndarray,
+def frames_kernel(
+    out: np.ndarray, p_contact: np.ndarray, f_sensor: np.ndarray, n_out: np.ndarray,
     in_contact: np.ndarray, slip: np.ndarray, burst: np.ndarray, was_in_contact: np.ndarray,
     gain: np.ndarray, c: np.ndarray, t: float, dt: float,
 ) -> np.ndarray:
-    """One frame per sensor from its noisy baseline ``out`` (modified in place)."""
+    """One frame per sensor (n, 44 counts) from its noisy baseline ``out`` (modified
+    in place); updates the pac burst state. Also called from the world's step."""
     n = out.shape[0]
     drops = np.empty(19)
+    maps = np.empty((4, 19))
     decay = math.exp(-dt / c[PAC_DECAY_S])
     frame = np.empty((n, FRAME_LEN), dtype=np.int64)
     for i in range(n):
         if in_contact[i]:
-            _electrode_drops(maps[i], f_sensor[i], n_out[i], c[E_DROP_MAX], drops)
+            _electrode_map(p_contact[i], n_out[i], gain[i], c, maps)
+            _electrode_drops(maps, f_sensor[i], n_out[i], c[E_DROP_MAX], drops)
             for e in range(19):
                 out[i, e] += drops[e]
             f = f_sensor[i]
             f_mag = math.sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]) * gain[i]
             out[i, PDC] += c[PDC_MAX_RISE] * math.tanh(c[PDC_GAIN] * f_mag / c[PDC_MAX_RISE])
-        # pac: a decaying burst at contact onset plus noise growing with slip speed.
+        # pac: a decaying burst at contact onset plus noise growing with slip speed,
+        # which widen its noise (standard deviation sqrt(noise^2 + amp^2)).
         burst[i] = burst[i] * decay + (c[PAC_ONSET] if in_contact[i] and not was_in_contact[i] else 0.0)
         was_in_contact[i] = in_contact[i]
         amp = burst[i] + min(c[PAC_SLIP] * abs(slip[i]) * 100.0, 500.0)
         if amp > 1e-3:
+            widen = math.sqrt(c[NOISE_PAC] ** 2 + amp * amp) / c[NOISE_PAC]
             for k in range(22):
-                out[i, PAC_START + k] += amp * pac_unit[i, k]
+                out[i, PAC_START + k] = c[PAC_BASELINE] + (out[i, PAC_START + k] - c[PAC_BASELINE]) * widen
         out[i, TDC] += c[TDC_DRIFT] * t
         for k in range(FRAME_LEN):
             v = np.rint(out[i, k])      # half to even, like numpy elsewhere

@@ -101,7 +101,7 @@ class MockWorld:
         self.mass = obj.mass_kg * (1.0 + p.mass_jitter * rng.uniform(-1, 1))
         self.mu = obj.mu * (1.0 + p.friction_jitter * rng.uniform(-1, 1))
         self.k_contact = obj.stiffness_n_per_m * (1.0 + p.stiffness_jitter * rng.uniform(-1, 1))
-        self._obj = np.array([xy[0], xy[1], 0.0, self.mass * GRAVITY, 0.0])
+        self._obj = np.array([xy[0], xy[1], 0.0, self.mass * GRAVITY, 0.0, 0.0])
         self.max_obj_z = 0.0
 
         # Hand and arm.
@@ -109,13 +109,13 @@ class MockWorld:
         self.lower = np.array([j.lower_rad for j in joints])
         self.upper = np.array([j.upper_rad for j in joints])
         self._q_goal = np.array([j.open_rad for j in joints])
-        self.q_servo = self._q_goal.copy()          # the servo's internal (lagged) position
-        self.q = self._q_goal.copy()                # actual, after contact deflection
+        self._q_servo = self._q_goal.copy()          # the servo's internal (lagged) position
+        self._q = self._q_goal.copy()                # actual, after contact deflection
         self.torque_on = True
         self.tau_max = np.array([j.current_limit_a for j in joints]) * p.torque_per_amp_nm
         self._reach = self.tau_max / p.servo_stiffness_nm_per_rad
-        self.palm_world = self.reach_pose_world() + np.array([0.0, 0.0, p.start_clearance_m])
-        self.palm_target = self.palm_world.copy()
+        self._palm = self.reach_pose_world() + np.array([0.0, 0.0, p.start_clearance_m])
+        self.palm_target = self._palm.copy()
         self.arm_speed = hand.arm.max_speed_m_s
 
         # Fingertips and sensors (in hand-file finger order).
@@ -136,7 +136,6 @@ class MockWorld:
         self._contact_z = np.zeros(n)         # contact height (world) after deflection
         self._omega = np.zeros((n, 3))        # rotation of each sensor frame by the deflection
         self._rows = np.zeros((n, self._W.shape[2]))
-        self._new_contact = np.zeros(n, dtype=bool)
         self.sensors = BioTacSensorModel(n, self.rng, p.biotac, noise_block=NOISE_BLOCK)
         self.seq = 0
         self.contact_sensor = np.tile(PAD_POINT_SENSOR, (n, 1))       # where each fingertip touches
@@ -148,10 +147,20 @@ class MockWorld:
         c[ws.ALPHA] = 1.0 - math.exp(-self.dt / p.servo_time_constant_s)
         c[ws.MAX_SERVO_STEP] = p.servo_max_speed_rad_s * self.dt
         c[ws.KP], c[ws.KT] = p.servo_stiffness_nm_per_rad, p.tangential_stiffness_n_per_m
-        c[ws.K_CONTACT], c[ws.MU], c[ws.WEIGHT] = self.k_contact, self.mu, self.mass * GRAVITY
+        self._weight = self.mass * GRAVITY
+        c[ws.K_CONTACT], c[ws.MU], c[ws.WEIGHT] = self.k_contact, self.mu, self._weight
         c[ws.SKIN_CONTACT], c[ws.NEAR] = float(p.skin_contact), NEAR_M
-        contract(self.q_servo, self._take, self._W, self._rows)
+        contract(self._q_servo, self._take, self._W, self._rows)
         self.raw = self._sense()
+        sens = self.sensors
+        # The world's own arrays, bound once: the kernel updates them in place.
+        self._arrays = (
+            self._q_servo, self._q, self.lower, self.upper, self._reach, self.tau_max, self._starts, self._counts,
+            self._palm, self._take, self._W, self._pad_local, self.contact_sensor, self.skin_normal_sensor,
+            self._shape, self._obj, self.normal_n, self.in_contact, self.stick_offset, self.slip_speed,
+            self.n_out_world, self._contact_z, self._omega, self.tangential_up_n, self.f_world, self.f_sensor,
+            self._rows, self._consts, sens.burst, sens.was_in_contact, sens.gain, sens.consts,
+        )
 
         self.events: list[WorldEvent] = []
         self.crushed = False
@@ -166,6 +175,19 @@ class MockWorld:
     def q_goal(self, q: np.ndarray) -> None:
         # Goals inside the joint limits keep the servos' first-order steps inside them too.
         self._q_goal = np.clip(np.asarray(q, dtype=float), self.lower, self.upper)
+
+    # Updated in place by the step kernel, so read-only here.
+    @property
+    def q(self) -> np.ndarray:
+        return self._q
+
+    @property
+    def q_servo(self) -> np.ndarray:
+        return self._q_servo
+
+    @property
+    def palm_world(self) -> np.ndarray:
+        return self._palm
 
     @property
     def obj_xy(self) -> np.ndarray:
@@ -199,44 +221,36 @@ class MockWorld:
         self.t += self.dt
         self._consts[ws.TORQUE_ON] = 1.0 if self.torque_on else 0.0
         prev_z = self._obj[ws.OZ]
-        ws.world_step(
-            self._q_goal, self.q_servo, self.q, self.lower, self.upper, self._reach, self.tau_max,
-            self._starts, self._counts, self.palm_world, self.palm_target, self._take, self._W,
-            self._pad_local, self.contact_sensor, self.skin_normal_sensor, self._shape, self._obj,
-            self.normal_n, self.in_contact, self.stick_offset, self.slip_speed, self.n_out_world,
-            self._contact_z, self._omega, self.tangential_up_n, self.f_world, self.f_sensor,
-            self._rows, self._new_contact, self._consts,
-        )
-        self.raw = self._sense()
+        sens = self.sensors
+        frame_base = sens.advance(self.dt)
+        self.raw = ws.world_step(self._q_goal, self.palm_target, frame_base, sens.t, *self._arrays)
+        self.seq = (self.seq + 1) & 0xFFFF
         self._record(prev_z)
 
     def _sense(self) -> np.ndarray:
+        """Frames of the current contact state (at start-up; ``step`` makes its own)."""
         self.seq = (self.seq + 1) & 0xFFFF
-        return self.sensors.next_frames(self.contact_sensor, self.f_sensor, self.skin_normal_sensor,
-                                        self.in_contact, self.slip_speed, self.dt)
+        return self.sensors.frames(self.contact_sensor, self.f_sensor, self.skin_normal_sensor,
+                                   self.in_contact, self.slip_speed, self.dt)
 
     def _record(self, prev_z: float) -> None:
         """Events and outcome flags from the step's truth."""
-        obj = self._obj
-        z = obj[ws.OZ]
+        z, table_n, worst, new_contacts = self._obj[ws.OZ:].tolist()
         if z > self.max_obj_z:
-            self.max_obj_z = float(z)
-        if self._new_contact.any():
-            for i in np.flatnonzero(self._new_contact):
-                self.events.append(WorldEvent(self.t, "contact", self.fingers[i]))
+            self.max_obj_z = z
+        if new_contacts:
+            for i, name in enumerate(self.fingers):
+                if int(new_contacts) >> i & 1:
+                    self.events.append(WorldEvent(self.t, "contact", name))
         if prev_z > 0.002 and z == 0.0:
             self.events.append(WorldEvent(self.t, "fell", f"from {prev_z * 1000:.1f} mm while {self.phase}"))
-        if self.obj.deformable and not self.crushed:
-            assert self.obj.crush_force_n is not None
-            worst = obj[ws.MAX_NORMAL]
-            if worst > self.obj.crush_force_n:
-                self.crushed = True
-                self.events.append(WorldEvent(self.t, "crushed", f"grip {worst:.2f} N > {self.obj.crush_force_n} N"))
-        if not self.knocked_over:
-            push = obj[ws.TABLE_N] - self.mass * GRAVITY
-            if push > self.obj.tip_force_n:
-                self.knocked_over = True
-                self.events.append(WorldEvent(self.t, "knocked_over", f"pushed {push:.2f} N into the table"))
+        obj = self.obj
+        if obj.deformable and not self.crushed and worst > obj.crush_force_n:  # type: ignore[operator]
+            self.crushed = True
+            self.events.append(WorldEvent(self.t, "crushed", f"grip {worst:.2f} N > {obj.crush_force_n} N"))
+        if not self.knocked_over and table_n - self._weight > obj.tip_force_n:
+            self.knocked_over = True
+            self.events.append(WorldEvent(self.t, "knocked_over", f"pushed {table_n - self._weight:.2f} N into the table"))
 
     # ----- helpers for backends and outcome --------------------------------
     def set_phase(self, phase: str) -> None:

@@ -1,9 +1,9 @@
-"""One physics step of the mock world (arm, servos, contacts, object), as a
-kernel over plain arrays that numba compiles when installed (grasp_ctrl/jit.py).
+"""One step of the mock world (arm, servos, contacts, object, sensor frames), as
+a kernel over plain arrays that numba compiles when installed (grasp_ctrl/jit.py).
 
 The model is documented in sim/world.py and docs/mock_world.md. Array layouts:
 ``c`` holds the constants (indices below), ``obj`` the object's state
-(x, y, z, table force, largest normal force), per-finger arrays are in
+(x, y, z, table force, largest normal force, new contacts), per-finger arrays are in
 hand-file finger order and per-joint arrays span all fingers.
 """
 
@@ -16,14 +16,15 @@ import numpy as np
 from grasp_ctrl.jit import njit
 from grasp_ctrl.kinematics.fingertip import skin_contact_point
 from grasp_ctrl.kinematics.multilinear import contract
+from grasp_ctrl.sim.biotac_model import frames_kernel
 from grasp_ctrl.sim.grip import solve_object_height, tangential_forces
 from grasp_ctrl.sim.shapes import penetration
 
 # Constants (c).
 DT, ARM_SPEED, ALPHA, MAX_SERVO_STEP, KP, KT, K_CONTACT, MU, WEIGHT, TORQUE_ON, SKIN_CONTACT, NEAR = range(12)
 N_CONSTS = 12
-# Object state (obj).
-OX, OY, OZ, TABLE_N, MAX_NORMAL = range(5)
+# Object state (obj) and the step's contact events.
+OX, OY, OZ, TABLE_N, MAX_NORMAL, NEW_CONTACTS = range(6)
 
 
 @njit
@@ -69,22 +70,30 @@ def _move_servos(q_goal: np.ndarray, q_servo: np.ndarray, q: np.ndarray, reach: 
 
 @njit
 def world_step(
-    q_goal: np.ndarray, q_servo: np.ndarray, q: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+    q_goal: np.ndarray, palm_target: np.ndarray, frame_base: np.ndarray, sensor_t: float,
+    q_servo: np.ndarray, q: np.ndarray, lower: np.ndarray, upper: np.ndarray,
     reach: np.ndarray, tau_max: np.ndarray, starts: np.ndarray, counts: np.ndarray,
-    palm: np.ndarray, palm_target: np.ndarray, take: np.ndarray, W: np.ndarray, pad_local: np.ndarray,
+    palm: np.ndarray, take: np.ndarray, W: np.ndarray, pad_local: np.ndarray,
     contact_local: np.ndarray, skin_normal: np.ndarray, shape: np.ndarray, obj: np.ndarray,
     normal: np.ndarray, touch: np.ndarray, stick: np.ndarray, slip: np.ndarray, n_out: np.ndarray,
     contact_z: np.ndarray, omega: np.ndarray, t_up: np.ndarray, f_world: np.ndarray, f_sensor: np.ndarray,
-    rows: np.ndarray, new_contact: np.ndarray, c: np.ndarray,
-) -> None:
-    """Advance the world by one control period (all arrays updated in place)."""
+    rows: np.ndarray, c: np.ndarray,
+    burst: np.ndarray, was_in_contact: np.ndarray, gain: np.ndarray, sensor_consts: np.ndarray,
+) -> np.ndarray:
+    """Advance the world by one control period and return the fingertips' raw
+    frames (sim/biotac_model.py, built on ``frame_base``). The first four
+    arguments change from step to step; the rest are the world's own arrays,
+    updated in place. ``obj[NEW_CONTACTS]`` flags (bit per finger) the contacts
+    made in this step."""
     _move_arm(palm, palm_target, c[ARM_SPEED] * c[DT])
     _move_servos(q_goal, q_servo, q, reach, c)
     contract(q_servo, take, W, rows)
     _contacts(q_servo, q, lower, upper, tau_max, starts, counts, palm, pad_local, contact_local, skin_normal,
-              shape, obj, normal, touch, stick, n_out, contact_z, omega, rows, new_contact, c)
+              shape, obj, normal, touch, stick, n_out, contact_z, omega, rows, c)
     _object(obj, normal, touch, stick, slip, n_out, contact_z, t_up, c)
     _forces(normal, touch, n_out, t_up, omega, rows, f_world, f_sensor)
+    return frames_kernel(frame_base, contact_local, f_sensor, skin_normal, touch, slip,
+                         burst, was_in_contact, gain, sensor_consts, sensor_t, c[DT])
 
 
 @njit
@@ -93,11 +102,12 @@ def _contacts(
     starts: np.ndarray, counts: np.ndarray, palm: np.ndarray, pad_local: np.ndarray,
     contact_local: np.ndarray, skin_normal: np.ndarray, shape: np.ndarray, obj: np.ndarray,
     normal: np.ndarray, touch: np.ndarray, stick: np.ndarray, n_out: np.ndarray, contact_z: np.ndarray,
-    omega: np.ndarray, rows: np.ndarray, new_contact: np.ndarray, c: np.ndarray,
+    omega: np.ndarray, rows: np.ndarray, c: np.ndarray,
 ) -> None:
     """Normal force per fingertip: the servo spring in series with the contact
     springs, solved in closed form; the deflected joint angles go to ``q``."""
     kp, kt, k = c[KP], c[KT], c[K_CONTACT]
+    obj[NEW_CONTACTS] = 0.0
     a = np.empty(8)      # d(penetration)/dq per joint of one finger
     b = np.empty(8)      # d(contact height)/dq
     dq = np.empty(8)
@@ -105,7 +115,6 @@ def _contacts(
         q[j] = q_servo[j]
     for i in range(rows.shape[0]):
         row = rows[i]
-        new_contact[i] = False
         omega[i, 0] = omega[i, 1] = omega[i, 2] = 0.0
         # The pad centre, or with skin_contact the skin point facing the object there.
         cx, cy, cz = row[9], row[10], row[11]
@@ -198,7 +207,7 @@ def _contacts(
         touch[i] = f_n > 1e-6
         if touch[i] and not was:
             stick[i] = z_world - obj[OZ]
-            new_contact[i] = True
+            obj[NEW_CONTACTS] += 2.0**i
 
 
 @njit
