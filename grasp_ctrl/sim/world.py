@@ -75,6 +75,11 @@ class WorldEvent:
     detail: str = ""
 
 
+def _in_place(name: str, doc: str) -> property:
+    """A read-only view of an array the step kernel updates in place."""
+    return property(lambda self: getattr(self, name), doc=doc)
+
+
 class MockWorld:
     def __init__(
         self,
@@ -115,7 +120,7 @@ class MockWorld:
         self.tau_max = np.array([j.current_limit_a for j in joints]) * p.torque_per_amp_nm
         self._reach = self.tau_max / p.servo_stiffness_nm_per_rad
         self._palm = self.reach_pose_world() + np.array([0.0, 0.0, p.start_clearance_m])
-        self.palm_target = self._palm.copy()
+        self._palm_target = self._palm.copy()
         self.arm_speed = hand.arm.max_speed_m_s
 
         # Fingertips and sensors (in hand-file finger order).
@@ -125,21 +130,21 @@ class MockWorld:
         self._starts = np.array([sl.start for sl in slices], dtype=np.int64)
         self._counts = np.array([sl.stop - sl.start for sl in slices], dtype=np.int64)
         n = len(self.fingers)
-        self.normal_n = np.zeros(n)
-        self.tangential_up_n = np.zeros(n)   # upward force of each finger on the object
-        self.in_contact = np.zeros(n, dtype=bool)
-        self.stick_offset = np.zeros(n)       # contact height minus object height at stick
-        self.slip_speed = np.zeros(n)
-        self.f_world = np.zeros((n, 3))       # force ON each sensor skin, world frame
-        self.f_sensor = np.zeros((n, 3))
-        self.n_out_world = np.zeros((n, 3))   # object's outward surface normal at each contact
+        self._normal_n = np.zeros(n)
+        self._tangential_up_n = np.zeros(n)   # upward force of each finger on the object
+        self._in_contact = np.zeros(n, dtype=bool)
+        self._stick_offset = np.zeros(n)       # contact height minus object height at stick
+        self._slip_speed = np.zeros(n)
+        self._f_world = np.zeros((n, 3))       # force ON each sensor skin, world frame
+        self._f_sensor = np.zeros((n, 3))
+        self._n_out_world = np.zeros((n, 3))   # object's outward surface normal at each contact
         self._contact_z = np.zeros(n)         # contact height (world) after deflection
         self._omega = np.zeros((n, 3))        # rotation of each sensor frame by the deflection
         self._rows = np.zeros((n, self._W.shape[2]))
         self.sensors = BioTacSensorModel(n, self.rng, p.biotac, noise_block=NOISE_BLOCK)
         self.seq = 0
-        self.contact_sensor = np.tile(PAD_POINT_SENSOR, (n, 1))       # where each fingertip touches
-        self.skin_normal_sensor = np.tile(PAD_NORMAL_SENSOR, (n, 1))  # outward skin normal there
+        self._contact_sensor = np.tile(PAD_POINT_SENSOR, (n, 1))       # where each fingertip touches
+        self._skin_normal_sensor = np.tile(PAD_NORMAL_SENSOR, (n, 1))  # outward skin normal there
         self._pad_local = np.array(PAD_POINT_SENSOR)
         self._consts = np.zeros(ws.N_CONSTS)
         c = self._consts
@@ -156,9 +161,9 @@ class MockWorld:
         # The world's own arrays, bound once: the kernel updates them in place.
         self._arrays = (
             self._q_servo, self._q, self.lower, self.upper, self._reach, self.tau_max, self._starts, self._counts,
-            self._palm, self._take, self._W, self._pad_local, self.contact_sensor, self.skin_normal_sensor,
-            self._shape, self._obj, self.normal_n, self.in_contact, self.stick_offset, self.slip_speed,
-            self.n_out_world, self._contact_z, self._omega, self.tangential_up_n, self.f_world, self.f_sensor,
+            self._palm, self._take, self._W, self._pad_local, self._contact_sensor, self._skin_normal_sensor,
+            self._shape, self._obj, self._normal_n, self._in_contact, self._stick_offset, self._slip_speed,
+            self._n_out_world, self._contact_z, self._omega, self._tangential_up_n, self._f_world, self._f_sensor,
             self._rows, self._consts, sens.burst, sens.was_in_contact, sens.gain, sens.consts,
         )
 
@@ -188,6 +193,28 @@ class MockWorld:
     @property
     def palm_world(self) -> np.ndarray:
         return self._palm
+
+    normal_n = _in_place("_normal_n", "normal force of each fingertip (N)")
+    tangential_up_n = _in_place("_tangential_up_n", "upward force of each finger on the object (N)")
+    in_contact = _in_place("_in_contact", "whether each fingertip touches the object")
+    stick_offset = _in_place("_stick_offset", "contact height minus object height at stick (m)")
+    slip_speed = _in_place("_slip_speed", "slip speed of each contact (m/s)")
+    f_world = _in_place("_f_world", "force ON each sensor skin, world frame (N)")
+    f_sensor = _in_place("_f_sensor", "force ON each sensor skin, sensor frame (N)")
+    n_out_world = _in_place("_n_out_world", "object's outward surface normal at each contact")
+    contact_sensor = _in_place("_contact_sensor", "where each fingertip touches, sensor frame (m)")
+    skin_normal_sensor = _in_place("_skin_normal_sensor", "outward skin normal there, sensor frame")
+
+    @property
+    def palm_target(self) -> np.ndarray:
+        return self._palm_target
+
+    @palm_target.setter
+    def palm_target(self, p: np.ndarray) -> None:
+        target = np.array(p, dtype=float).reshape(3)
+        if not np.all(np.isfinite(target)):
+            raise ValueError(f"palm target must be finite, got {target}")
+        self._palm_target = target
 
     @property
     def obj_xy(self) -> np.ndarray:
@@ -223,15 +250,15 @@ class MockWorld:
         prev_z = self._obj[ws.OZ]
         sens = self.sensors
         frame_base = sens.advance(self.dt)
-        self.raw = ws.world_step(self._q_goal, self.palm_target, frame_base, sens.t, *self._arrays)
+        self.raw = ws.world_step(self._q_goal, self._palm_target, frame_base, sens.t, *self._arrays)
         self.seq = (self.seq + 1) & 0xFFFF
         self._record(prev_z)
 
     def _sense(self) -> np.ndarray:
         """Frames of the current contact state (at start-up; ``step`` makes its own)."""
         self.seq = (self.seq + 1) & 0xFFFF
-        return self.sensors.frames(self.contact_sensor, self.f_sensor, self.skin_normal_sensor,
-                                   self.in_contact, self.slip_speed, self.dt)
+        return self.sensors.frames(self._contact_sensor, self._f_sensor, self._skin_normal_sensor,
+                                   self._in_contact, self._slip_speed, self.dt)
 
     def _record(self, prev_z: float) -> None:
         """Events and outcome flags from the step's truth."""
