@@ -5,13 +5,15 @@ A revolute joint's rotation is linear in (1, cos q, sin q):
 A chain of n joints is therefore a multilinear polynomial in the n vectors
 ``u_i = (1, cos q_i, sin q_i)``: the sensor pose is ``m(q) @ W`` with ``m`` the
 3^n products of their entries and W a constant table built once from the chain.
-The derivative along joint k swaps ``u_k`` for ``(0, -sin q_k, cos q_k)``.
+The same holds for each joint's axis and origin, from which the Jacobian of a
+fingertip point follows.
 
-So the poses, the point Jacobians and the rotation derivatives of all fingers
-come out of a dozen numpy calls, whatever the chain looks like. The mock world
-steps with this (it must run hundreds of times faster than real time); the
-result equals the joint-by-joint product of ``FingerChain`` to rounding.
-Fingers with fewer joints than the longest are padded with fixed joints.
+So the poses and Jacobians of all fingers come out of one gather, a few
+products and one small matrix product per finger, whatever the chain looks
+like. The mock world steps with this (it must run hundreds of times faster
+than real time); the result equals the joint-by-joint product of
+``FingerChain`` to rounding. Fingers with fewer joints than the longest are
+padded with fixed joints.
 """
 
 from __future__ import annotations
@@ -100,8 +102,8 @@ class MultilinearKinematics:
     """Sensor poses, contact points and joint axes of every finger, batched.
 
     ``evaluate`` returns (F, 12 + 6n) rows laid out as ``ROT``, ``POINT``, then
-    ``axis(k)`` and ``origin(k)`` per joint slot; ``jacobian`` turns a row into
-    the point's position Jacobian.
+    per joint slot k its axis (columns 12 + 6k ..) and origin (15 + 6k ..);
+    ``jacobian`` turns a row into the point's position Jacobian.
     """
 
     ROT = slice(0, 9)
@@ -109,7 +111,6 @@ class MultilinearKinematics:
 
     def __init__(self, kin: HandKinematics) -> None:
         names = list(kin.chains)
-        self.names = names
         self.F = F = len(names)
         self.n = n = max(kin.chains[name].n for name in names)
         if n > MAX_JOINTS:
@@ -117,7 +118,7 @@ class MultilinearKinematics:
         self.W = np.array([_pose_table(kin.chains[name], n) for name in names])   # (F, 3^n, 12 + 6n)
         # Monomial j of finger f is the product over slots i of vals[take[i, f, j]] with
         # vals = (1, cos q_0..q_J-1, sin q_0..q_J-1, 0): one gather, n - 1 products.
-        self.n_joints = J = sum(kin.chains[name].n for name in names)
+        J = sum(kin.chains[name].n for name in names)
         digits = np.array(list(itertools.product(range(3), repeat=n))).T        # (n, 3^n)
         take = np.zeros((n, F, 3**n), dtype=np.intp)
         for f, name in enumerate(names):
@@ -129,26 +130,13 @@ class MultilinearKinematics:
                 else:   # padded slot: cos and sin terms read the trailing zero
                     take[i, f] = np.where(digits[i] == 0, 0, 1 + 2 * J)
         self.take = take
-        self._point_key: bytes | None = None
-        self._W_point = self.W
-
-    @staticmethod
-    def axis(k: int) -> slice:
-        return slice(12 + 6 * k, 15 + 6 * k)
-
-    @staticmethod
-    def origin(k: int) -> slice:
-        return slice(15 + 6 * k, 18 + 6 * k)
 
     def point_table(self, p_sensor: np.ndarray) -> np.ndarray:
         """W with the origin columns moved to one sensor-frame point per finger (F, 3)."""
-        key = p_sensor.tobytes()
-        if key != self._point_key:
-            W = self.W.copy()
-            R = self.W[..., :9].reshape(self.F, -1, 3, 3)
-            W[..., 9:12] += (R @ p_sensor[:, None, :, None])[..., 0]
-            self._W_point, self._point_key = W, key
-        return self._W_point
+        W = self.W.copy()
+        R = self.W[..., :9].reshape(self.F, -1, 3, 3)
+        W[..., 9:12] += (R @ p_sensor[:, None, :, None])[..., 0]
+        return W
 
     def evaluate(self, q_all: np.ndarray, p_sensor: np.ndarray | None = None) -> np.ndarray:
         """(F, 12 + 6n) at joint angles ``q_all``; ``POINT`` is the sensor-frame point

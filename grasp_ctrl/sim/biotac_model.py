@@ -96,28 +96,6 @@ class BioTacSensorModel:
         self._next = 0
         self.consts = _pack(p)
 
-    def electrode_maps(self, p_contact_sensor: np.ndarray, n_out_sensor: np.ndarray) -> np.ndarray:
-        """(n, 4, 19): electrode drops before saturation are ``[f_normal, f] @ maps``,
-        f the force on the skin (sensor frame) and f_normal = max(-f.n, 0) its
-        pressing part."""
-        p_contact = np.ascontiguousarray(p_contact_sensor, dtype=float)
-        n_out = np.ascontiguousarray(n_out_sensor, dtype=float)
-        maps = np.empty((self.n, 4, 19))
-        for i in range(self.n):
-            _electrode_map(p_contact[i], n_out[i], self.gain[i], self.consts, maps[i])
-        return maps
-
-    def tared_electrodes(self, p_contact_sensor: np.ndarray, f_sensor: np.ndarray, n_out_sensor: np.ndarray) -> np.ndarray:
-        """Noise-free electrode changes (n, 19) for contacts at ``p_contact_sensor``
-        with force ``f_sensor`` on the skin and outward surface normal ``n_out_sensor``."""
-        maps = self.electrode_maps(p_contact_sensor, n_out_sensor)
-        f = np.ascontiguousarray(f_sensor, dtype=float)
-        n_out = np.ascontiguousarray(n_out_sensor, dtype=float)
-        out = np.empty((self.n, 19))
-        for i in range(self.n):
-            _electrode_drops(maps[i], f[i], n_out[i], self.p.e_drop_max, out[i])
-        return out
-
     def advance(self, dt: float) -> np.ndarray:
         """Step the clock by ``dt``; this frame's noisy baselines (n, 44), which the
         frame is built on in place (a new block of noise when one is spent)."""
@@ -148,7 +126,7 @@ class BioTacSensorModel:
         )
 
 
-# Constants of _frames, packed for the compiled kernel.
+# Constants of frames_kernel, packed for the compiled kernel.
 (E_DROP_MAX, PDC_GAIN, PDC_MAX_RISE, PAC_ONSET, PAC_SLIP, PAC_DECAY_S, TDC_DRIFT,
  E_GAIN_NORMAL, E_GAIN_SHEAR, FOOTPRINT, PAC_BASELINE, NOISE_PAC) = range(12)
 _ELECTRODES_XYZ = np.ascontiguousarray(ELECTRODE_POSITIONS_SENSOR, dtype=float)

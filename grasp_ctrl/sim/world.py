@@ -30,9 +30,8 @@ order (the deflections are hundredths of a radian).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import math
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -106,7 +105,8 @@ class MockWorld:
         self.mass = obj.mass_kg * (1.0 + p.mass_jitter * rng.uniform(-1, 1))
         self.mu = obj.mu * (1.0 + p.friction_jitter * rng.uniform(-1, 1))
         self.k_contact = obj.stiffness_n_per_m * (1.0 + p.stiffness_jitter * rng.uniform(-1, 1))
-        self._obj = np.array([xy[0], xy[1], 0.0, self.mass * GRAVITY, 0.0, 0.0])
+        self._weight = self.mass * GRAVITY
+        self._obj = np.array([xy[0], xy[1], 0.0, self._weight, 0.0, 0.0])
         self.max_obj_z = 0.0
 
         # Hand and arm.
@@ -152,7 +152,6 @@ class MockWorld:
         c[ws.ALPHA] = 1.0 - math.exp(-self.dt / p.servo_time_constant_s)
         c[ws.MAX_SERVO_STEP] = p.servo_max_speed_rad_s * self.dt
         c[ws.KP], c[ws.KT] = p.servo_stiffness_nm_per_rad, p.tangential_stiffness_n_per_m
-        self._weight = self.mass * GRAVITY
         c[ws.K_CONTACT], c[ws.MU], c[ws.WEIGHT] = self.k_contact, self.mu, self._weight
         c[ws.SKIN_CONTACT], c[ws.NEAR] = float(p.skin_contact), NEAR_M
         contract(self._q_servo, self._take, self._W, self._rows)
