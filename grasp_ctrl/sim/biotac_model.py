@@ -72,6 +72,9 @@ class BioTacParams:
     e_shear_global: float = 80.0
     shear_range_m: float = 6.0e-3
     e_shear_local: float = 47.0       # counts per N at one footprint width
+    # shear: fluid dragged along with the skin piles up ahead of the contact and thins behind it
+    e_shear_drag: float = 0.0         # counts per N at one drag range ahead of the contact
+    drag_range_m: float = 12.0e-3
     # hysteresis: a slow share of the load (time constants up / down), left over after release
     hysteresis_share: float = 0.05
     hysteresis_up_s: float = 0.5
@@ -180,12 +183,12 @@ class BioTacSensorModel:
 _PACKED = (
     "pdc_gain", "pdc_exponent", "pdc_max_rise", "shear_load", "e_drop_gain", "e_drop_exponent", "e_drop_max",
     "footprint_m", "contact_radius_m_per_n3", "tip_sensitivity", "side_sensitivity", "bulge_per_pdc",
-    "bulge_side_weight", "bulge_distance_m", "bulge_max", "e_shear_global", "shear_range_m", "e_shear_local",
+    "bulge_side_weight", "bulge_distance_m", "bulge_max", "e_shear_global", "shear_range_m", "e_shear_local", "e_shear_drag", "drag_range_m",
     "hysteresis_share", "hysteresis_up_s", "hysteresis_down_s", "pac_onset_amp", "pac_slip_amp", "pac_decay_s",
     "tdc_drift_per_s", "pdc_per_tdc", "e_per_tdc", "pac_baseline", "noise_pac",
 )
 (PDC_GAIN, PDC_EXP, PDC_MAX, SHEAR_LOAD, DROP_GAIN, DROP_EXP, DROP_MAX, FOOTPRINT, RADIUS_1N, TIP_SENS, SIDE_SENS,
- BULGE, BULGE_SIDE, BULGE_DIST, BULGE_MAX, SHEAR_GLOBAL, SHEAR_RANGE, SHEAR_LOCAL, HYST_SHARE, HYST_UP, HYST_DOWN,
+ BULGE, BULGE_SIDE, BULGE_DIST, BULGE_MAX, SHEAR_GLOBAL, SHEAR_RANGE, SHEAR_LOCAL, SHEAR_DRAG, DRAG_RANGE, HYST_SHARE, HYST_UP, HYST_DOWN,
  PAC_ONSET, PAC_SLIP, PAC_DECAY_S, TDC_DRIFT, PDC_PER_TDC, E_PER_TDC, PAC_BASELINE, NOISE_PAC) = range(len(_PACKED))
 
 _ELECTRODES_XYZ = np.ascontiguousarray(ELECTRODE_POSITIONS_SENSOR, dtype=float)
@@ -229,6 +232,7 @@ def contact_response(p: np.ndarray, n_out: np.ndarray, f: np.ndarray, slow_load:
     bulge_d2 = c[BULGE_DIST] * c[BULGE_DIST]
     inflation = c[BULGE_MAX] * math.tanh(c[BULGE] * pdc / c[BULGE_MAX])
     range2 = c[SHEAR_RANGE] * c[SHEAR_RANGE]
+    drag_range = c[DRAG_RANGE]
     for e in range(19):
         dx = _ELECTRODES_XYZ[e, 0] - p[0]
         dy = _ELECTRODES_XYZ[e, 1] - p[1]
@@ -245,7 +249,10 @@ def contact_response(p: np.ndarray, n_out: np.ndarray, f: np.ndarray, slow_load:
         # skin stretch: electrodes facing along the tangential force are loaded
         facing = _ELECTRODES_NORMAL[e, 0] * ft0 + ny * ft1 + _ELECTRODES_NORMAL[e, 2] * ft2
         stretch = c[SHEAR_GLOBAL] * facing * math.exp(-d2 / (2.0 * range2))
-        value = rise - drop - stretch
+        # fluid dragged along with the skin: more ahead of the contact (along f_t), less behind
+        drag = c[SHEAR_DRAG] * (dx * ft0 + dy * ft1 + dz * ft2) / drag_range * \
+            math.exp(-d2 / (2.0 * drag_range * drag_range))
+        value = rise - drop - stretch + drag
         # the electrode reading cannot fall below the fluid-free floor: drops saturate
         if value < 0.0:
             value = -c[DROP_MAX] * math.tanh(-value / c[DROP_MAX])
