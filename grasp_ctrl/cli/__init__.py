@@ -69,3 +69,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         # Output piped into e.g. `head`: not an error of ours.
         sys.stderr.close()
         return 0
+    except OSError as exc:
+        # A file the user named cannot be written or read (a directory, no such folder,
+        # no permission, disk full): one line, not a traceback.
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"{PROG}: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 1
