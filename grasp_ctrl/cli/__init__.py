@@ -53,6 +53,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     if not argv:
         argv = ["run"]
+    bad = next((a for a in argv if "\x00" in a), None)
+    if bad is not None:   # no file or name can hold one; open() would raise deep inside
+        print(f"{PROG}: error: argument {bad!r}: contains a NUL character", file=sys.stderr)
+        return 2
     args = parser.parse_args(argv)
     if not getattr(args, "_run", None):
         parser.print_help()
