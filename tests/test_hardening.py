@@ -474,3 +474,44 @@ def test_10_hand_check_shows_temperature_voltage_and_flags_a_hot_servo(tmp_path,
     assert "(id 5): HOT 68 degC" in cap.err
     assert "(id 9): INPUT VOLTAGE 4.0 V" in cap.err
     assert "(id 13): HARDWARE ERROR overheating,overload (status 0x24" in cap.err
+
+
+# ---------------------------------------------------------------- done when: interrupted == uninterrupted
+def test_interrupted_run_of_every_default_object_resumes_to_the_same_summary(tmp_path, capsys, monkeypatch):
+    """Real mock trials of the default set (mustard bottle and its cap included): Ctrl-C
+    during the fourth trial, then 'run --resume', gives the uninterrupted run's summary."""
+    import grasp_ctrl.trials.runner as runner
+    from grasp_ctrl.config.objects import default_set
+
+    names = default_set(default_objects_file())
+    assert "mustard_bottle" in names
+    full, cut = tmp_path / "full", tmp_path / "cut"
+    assert main(["run", "--trials", "1", "--out", str(full), "--quiet", "--no-tick-logs"]) == 0
+
+    real = runner.mock_trial_fn
+    calls = {"n": 0}
+
+    def interrupted_fn(*a, **k):
+        run = real(*a, **k)
+
+        def trial(*args):
+            calls["n"] += 1
+            if calls["n"] == 4:
+                raise KeyboardInterrupt   # the operator's Ctrl-C, mid-trial
+            return run(*args)
+        return trial
+
+    monkeypatch.setattr(runner, "mock_trial_fn", interrupted_fn)
+    assert main(["run", "--trials", "1", "--out", str(cut), "--quiet", "--no-tick-logs"]) == 130
+    assert len(load_records(cut).records) == 3 and not (cut / LOCK_FILE).exists()
+    monkeypatch.setattr(runner, "mock_trial_fn", real)
+    capsys.readouterr()
+    assert main(["run", "--resume", str(cut), "--quiet"]) == 0
+    a = json.loads((full / "summary.json").read_text())
+    b = json.loads((cut / "summary.json").read_text())
+    assert set(b["policies"]["linear_mock"]["objects"]) == set(names)
+    assert {k: v for k, v in a.items() if k != "run_dir"} == {k: v for k, v in b.items() if k != "run_dir"}
+    for name in names:   # and trial by trial, the same outcome
+        ra = json.loads(record_path(full, "linear_mock", name, 0).read_text())
+        rb = json.loads(record_path(cut, "linear_mock", name, 0).read_text())
+        assert (ra["success"], ra["reason"], ra["sim_duration_s"]) == (rb["success"], rb["reason"], rb["sim_duration_s"])
