@@ -99,7 +99,9 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         doc = {"object": obj.name, "policy": args.policy, "seed": args.seed, "trials": args.trials,
                "current": current, "ranked": [r.to_json() for r in rows]}
-        Path(args.json).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+        from grasp_ctrl.trials.storage import write_text_atomic
+
+        write_text_atomic(args.json, json.dumps(doc, indent=2) + "\n")
     if not args.write:
         return 0
     if best.successes == 0:

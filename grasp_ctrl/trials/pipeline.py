@@ -49,7 +49,10 @@ class SensingPipeline:
                     f"fingertip {self.names[i]!r} (sensor {sid}): last frame {age * 1000:.0f} ms old "
                     f"(stale after {stale_after * 1000:.0f} ms)"
                 )
-            raw[i] = frame.values
+            try:
+                raw[i] = frame.values
+            except (ValueError, TypeError) as exc:
+                raise FrameError(f"fingertip {self.names[i]!r} (sensor {sid}): malformed frame ({exc})") from None
         return raw
 
     def collect_tare(self, raw: np.ndarray) -> bool:

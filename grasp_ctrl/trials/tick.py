@@ -11,7 +11,7 @@ import numpy as np
 
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.snapshot import Command, Snapshot
-from grasp_ctrl.errors import HardwareError
+from grasp_ctrl.errors import FrameError, HardwareError
 from grasp_ctrl.hardware.base import ArmBackend, HandBackend, SensorBackend
 from grasp_ctrl.trials.pipeline import SensingPipeline
 
@@ -37,6 +37,9 @@ def control_tick(
     except HardwareError as exc:
         if fault is None:
             fault, detail = exc.reason, str(exc)   # the record names what failed
+    except FrameError as exc:
+        if fault is None:
+            fault, detail = "sensor_invalid", str(exc)
     snap = pipeline.snapshot(raw, hand.read(), arm.position(), ctrl.state == "tare", fault, detail)  # type: ignore[attr-defined]
     cmd = ctrl.tick(snap)
     if not (np.all(np.isfinite(cmd.q_goal)) and np.all(np.isfinite(cmd.p_palm_world))):
