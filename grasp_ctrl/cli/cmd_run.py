@@ -141,6 +141,9 @@ def run(args: argparse.Namespace) -> int:
 
     if args.threads < 1:
         raise UsageError("--threads: must be at least 1")
+    for flag in ("resume", "out", "json"):
+        if getattr(args, flag) is not None and not getattr(args, flag).strip():
+            raise UsageError(f"--{flag}: an empty path")
     if args.resume:
         run_dir = Path(args.resume)
         hand, manifest = _resumed(args, run_dir)
