@@ -342,7 +342,9 @@ def run_series(
     # Everything that can be checked is checked before the first file is touched.
     for obj in plan.objects:
         check_object_name(obj.name)
-    check_objects_for_hand(plan.objects, hand, plan.object_file or str(run_dir / RUN_FILE))
+    # on resume the profiles come from run.json, on a new run from the object file
+    source = str(run_dir / RUN_FILE) if resume or not plan.object_file else plan.object_file
+    check_objects_for_hand(plan.objects, hand, source)
     run_trial = trial_fn or mock_trial_fn(hand, policies, plan.settings, threads)  # bad policies fail here
 
     created = not run_dir.exists()
