@@ -18,8 +18,9 @@ def run(args: argparse.Namespace) -> int:
 
     text = mermaid()
     if args.out:
-        with open(args.out, "w", encoding="utf-8") as fh:
-            fh.write(text + "\n")
+        from grasp_ctrl.trials.storage import write_text_atomic
+
+        write_text_atomic(args.out, text + "\n")
     else:
         print(text)
     return 0

@@ -99,5 +99,7 @@ def run(args: argparse.Namespace) -> int:
                          "p90_deg": r.percentiles[90], "label_sign": r.label_sign, "gains": r.gains}
                         for r in all_results],
         }
-        Path(args.json).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+        from grasp_ctrl.trials.storage import write_text_atomic
+
+        write_text_atomic(args.json, json.dumps(doc, indent=2) + "\n")
     return 0

@@ -260,7 +260,7 @@ def load_hand(path: str | Path) -> HandConfig:
         baud=s.int("baud", TactileConfig.baud, lo=9600),
         mode=s.str("mode", "binary", choices=SERIAL_MODES),
         stale_after_s=s.float("stale_after_s", 0.05, lo=0.0, hi=10.0, lo_open=True),
-        contact_pdc_threshold=s.float("contact_pdc_threshold", 10.0, lo=0.0),
+        contact_pdc_threshold=s.float("contact_pdc_threshold", 10.0, lo=0.0, lo_open=True),
         contact_frames=s.int("contact_frames", 10, lo=1, hi=1000),
         tare_frames=s.int("tare_frames", 50, lo=1, hi=10000),
         ports=tuple(ports),
