@@ -28,6 +28,7 @@ LOADERS: dict[str, str] = {
     "analytic": "grasp_ctrl.estimators.registry:load_analytic",
     "linear": "grasp_ctrl.estimators.registry:load_linear",
     "onnx": "grasp_ctrl.estimators.onnx_estimator:load_onnx_policy",
+    "calibrated": "grasp_ctrl.estimators.calibrated:load_calibrated_policy",
 }
 
 
