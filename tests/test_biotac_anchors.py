@@ -51,14 +51,11 @@ def test_official_net_magnitudes_track_the_true_force(report):
         assert 0.5 <= fig.magnitude_ratio_median <= 2.0, source
 
 
-def test_official_net_pooled_direction_regression_bound(report):
-    assert report.pooled.median_angle_deg <= 23.0
-    assert report.per_source["ball-ft"].median_angle_deg <= 34.0
-
-
-@pytest.mark.xfail(strict=True, reason="issue 15 target not reached: ball-ft shear is read at about 31 deg")
-def test_official_net_pooled_direction_target(report):
+def test_official_net_reads_the_pooled_presses_at_its_real_data_level(report):
+    """Issue 15 anchor (a): <= 20 deg median over rigid-ft + ball-ft (the net reads a real
+    BioTac of another lab at about 16 deg)."""
     assert report.pooled.median_angle_deg <= 20.0
+    assert report.per_source["ball-ft"].median_angle_deg <= 32.0
 
 
 def test_simulated_patterns_look_real(report):
@@ -66,14 +63,15 @@ def test_simulated_patterns_look_real(report):
     assert sim.rising_electrodes_median >= 3
     assert 0.5 <= sim.largest_drop_over_pdc_median <= 1.5
     assert sim.rest_noise_sd == pytest.approx(report.real_b.rest_noise_sd, abs=0.12)
-    # regression bounds (2026-11-23)
-    assert sim.variance_in_real_a_top5 >= 0.45
-    assert sim.best_match_residual_median <= 0.63
+    assert 0.3 <= sim.drop_vs_pdc_loglog_slope <= 0.7
+    assert sim.max_rise_median == pytest.approx(report.real_b.max_rise_median, rel=0.3)
+    # regression bounds (measured 2026-11-23: 0.455 and 0.537)
+    assert sim.variance_in_real_a_top5 >= 0.42
+    assert sim.best_match_residual_median <= 0.57
 
 
-@pytest.mark.xfail(strict=True, reason="issue 15 target not reached: PCA share, best match, drop-vs-pdc slope")
+@pytest.mark.xfail(strict=True, reason="issue 15 target not reached: PCA share 0.46, best match 0.54")
 def test_simulated_patterns_target(report):
     sim = report.simulated
     assert sim.variance_in_real_a_top5 >= 0.69
     assert sim.best_match_residual_median <= 0.35
-    assert 0.3 <= sim.drop_vs_pdc_loglog_slope <= 0.7

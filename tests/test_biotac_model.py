@@ -53,21 +53,26 @@ def test_shear_is_not_a_moved_contact():
         assert residual > 0.4, f"shear {tangential}: a moved contact explains it (residual {residual:.2f})"
 
 
-def test_shear_loads_electrodes_on_the_side_the_force_points_to():
+def test_shear_moves_fluid_toward_the_side_the_force_points_to():
+    """The dragged skin carries fluid along: electrodes on the side the tangential force
+    points to rise, those behind drop (the sign the authors' real-data network reads as
+    that force, docs/mock_world.md), across the whole finger."""
     press = np.array([0.0, 0.0, 2.0])
     base = _pattern(PAD_POINT_SENSOR, press)[:19]
     toward_plus_y = _pattern(PAD_POINT_SENSOR, press + [0.0, 1.5, 0.0])[:19] - base
     plus_side = [10, 11, 12, 13, 14, 15]         # e11..e16: normals along +y
     minus_side = [0, 1, 2, 3, 4, 5]              # e1..e6
-    assert toward_plus_y[plus_side].mean() < 0 < toward_plus_y[minus_side].mean()
+    assert toward_plus_y[minus_side].mean() < 0 < toward_plus_y[plus_side].mean()
+    toward_tip = _pattern(PAD_POINT_SENSOR, press + [1.5, 0.0, 0.0])[:19] - base
+    assert toward_tip[[6, 7, 8, 9]].mean() > 0 > toward_tip[[5, 15, 18]].mean()   # tip e7..e10 vs back
     # the change reaches electrodes far from the footprint (a global term)
     assert abs(toward_plus_y[15]) > 3.0 and abs(toward_plus_y[5]) > 3.0
 
 
 def test_pdc_is_nonlinear_and_saturates():
-    rises = np.array([pdc_rise_of(f, C) for f in (0.5, 1.0, 2.0, 4.0, 8.0, 200.0)])
+    rises = np.array([pdc_rise_of(f, C) for f in (0.5, 1.0, 2.0, 4.0, 8.0, 20.0, 200.0)])
     assert np.all(np.diff(rises) > 0)
-    assert rises[4] < 0.9 * 8 * rises[1]        # 8 N gives less than 8x the 1 N rise: it saturates
+    assert rises[5] < 0.7 * 20 * rises[1]       # 20 N gives far less than 20x the 1 N rise
     assert rises[-1] <= DEFAULT_PARAMS.pdc_max_rise + 1e-9
 
 

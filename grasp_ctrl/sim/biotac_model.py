@@ -51,30 +51,30 @@ class BioTacParams:
     tdc_baseline_range: tuple[float, float] = (2300.0, 2700.0)
     tac_baseline: float = 2000.0
     # pdc: rise = pdc_max_rise * tanh(pdc_gain * load^pdc_exponent / pdc_max_rise)
-    pdc_gain: float = 300.0           # counts per N^pdc_exponent
-    pdc_exponent: float = 1.06
-    pdc_max_rise: float = 2900.0
+    pdc_gain: float = 257.0           # counts per N^pdc_exponent
+    pdc_exponent: float = 1.1
+    pdc_max_rise: float = 3000.0
     shear_load: float = 0.0           # tangential force's share of the load that pressurises the fluid
     # local drop under the contact: peak = e_drop_gain * F_n^e_drop_exponent, saturating
-    e_drop_gain: float = 590.0        # counts per N^e_drop_exponent
-    e_drop_exponent: float = 0.84
+    e_drop_gain: float = 600.0        # counts per N^e_drop_exponent
+    e_drop_exponent: float = 0.871
     e_drop_max: float = 1200.0
-    footprint_m: float = 2.7e-3       # footprint width of a light touch
-    contact_radius_m_per_n3: float = 0.95e-3   # Hertz-like contact radius at 1 N (grows as F^1/3)
-    tip_sensitivity: float = 1.9      # local drop factor on the tip cap (x > 0)
-    side_sensitivity: float = 1.2     # local drop factor on the sides of the cylinder
+    footprint_m: float = 2.58e-3       # footprint width of a light touch
+    contact_radius_m_per_n3: float = 0.99e-3   # Hertz-like contact radius at 1 N (grows as F^1/3)
+    tip_sensitivity: float = 0.7      # local drop factor on the tip cap (x > 0)
+    side_sensitivity: float = 1.41     # local drop factor on the sides of the cylinder
     # bulge of the free skin: rise = bulge_per_pdc * pdc_rise * side weight * distance weight
-    bulge_per_pdc: float = 0.157
-    bulge_side_weight: float = 2.9    # upper-side electrodes (|n_y| ~ 1) rise this much more than pad ones
-    bulge_distance_m: float = 8.3e-3  # the bulge grows over this distance from the contact
-    bulge_max: float = 105.0          # the skin stiffens as it inflates: rises saturate (counts)
+    bulge_per_pdc: float = 0.2
+    bulge_side_weight: float = 2.52    # upper-side electrodes (|n_y| ~ 1) rise this much more than pad ones
+    bulge_distance_m: float = 4.0e-3  # the bulge grows over this distance from the contact
+    bulge_max: float = 67.0          # the skin stiffens as it inflates: rises saturate (counts)
     # shear: global skin stretch (counts per N) fading over shear_range_m, and a local footprint skew
-    e_shear_global: float = 80.0
+    e_shear_global: float = 15.3
     shear_range_m: float = 6.0e-3
-    e_shear_local: float = 47.0       # counts per N at one footprint width
+    e_shear_local: float = 34.6       # counts per N at one footprint width
     # shear: fluid dragged along with the skin piles up ahead of the contact and thins behind it
-    e_shear_drag: float = 0.0         # counts per N at one drag range ahead of the contact
-    drag_range_m: float = 12.0e-3
+    e_shear_drag: float = 133.0         # counts per N at one drag range ahead of the contact
+    drag_range_m: float = 25.0e-3
     # hysteresis: a slow share of the load (time constants up / down), left over after release
     hysteresis_share: float = 0.05
     hysteresis_up_s: float = 0.5
