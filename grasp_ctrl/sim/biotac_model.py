@@ -73,8 +73,8 @@ class BioTacParams:
     shear_range_m: float = 6.0e-3
     e_shear_local: float = 34.6       # counts per N at one footprint width
     # shear: fluid dragged along with the skin piles up ahead of the contact and thins behind it
-    e_shear_drag: float = 133.0         # counts per N at one drag range ahead of the contact
-    drag_range_m: float = 25.0e-3
+    e_shear_drag: float = 100.0       # counts per N at one drag range ahead of the contact
+    drag_range_m: float = 8.0e-3
     # hysteresis: a slow share of the load (time constants up / down), left over after release
     hysteresis_share: float = 0.05
     hysteresis_up_s: float = 0.5
