@@ -76,7 +76,7 @@ class BioTacParams:
     e_shear_drag: float = 100.0       # counts per N at one drag range ahead of the contact
     drag_range_m: float = 8.0e-3
     # hysteresis: a slow share of the load (time constants up / down), left over after release
-    hysteresis_share: float = 0.05
+    hysteresis_share: float = 0.02
     hysteresis_up_s: float = 0.5
     hysteresis_down_s: float = 30.0
     # pac
