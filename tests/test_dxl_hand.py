@@ -70,7 +70,7 @@ def test_read_write_round_trip_in_radians(emu: DynamixelChainEmulator, hand: Dyn
     s = hand.read()
     np.testing.assert_allclose(s.q, q0, atol=2 * ct.RAD_PER_COUNT)
     target = np.array([j.pregrasp_rad for j in hand.joints]) + 0.02
-    for _ in range(10):
+    for _ in range(40):   # open -> pregrasp moves a joint up to 0.6 rad, 0.05 rad per write
         hand.write_goals(target)
     hand.read()  # request/reply: the emulator has handled every earlier packet
     cal = Calibration.from_joints(hand.joints)
