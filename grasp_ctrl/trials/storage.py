@@ -3,7 +3,7 @@
     RUN_DIR/run.json                              the run's parameters (resume reads them)
     RUN_DIR/summary.json                          the run summary (DESIGN.md 5.2)
     RUN_DIR/trials/POLICY/OBJECT/trial_NNN.json   one record per finished trial
-    RUN_DIR/trials/POLICY/OBJECT/trial_NNN_ticks.csv
+    RUN_DIR/trials/POLICY/OBJECT/trial_NNN_ticks.parquet   per-tick log (ticklog.py)
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ def record_path(run_dir: Path, policy: str, obj: str, trial: int) -> Path:
 
 
 def ticks_path(run_dir: Path, policy: str, obj: str, trial: int) -> Path:
-    return trial_dir(run_dir, policy, obj) / f"trial_{trial:03d}_ticks.csv"
+    return trial_dir(run_dir, policy, obj) / f"trial_{trial:03d}_ticks.parquet"
 
 
 def write_json(path: Path, doc: Any) -> None:
