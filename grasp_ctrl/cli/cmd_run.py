@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -19,6 +20,20 @@ DESCRIPTION = (
     "operator labels each trial's outcome at a prompt."
 )
 ORDER = 1
+
+# Worker processes take about a second to start (imports, compiled kernels): the
+# automatic --jobs gives each at least this many trials.
+MIN_TRIALS_PER_JOB = 4
+MAX_AUTO_JOBS = 8
+
+
+def auto_jobs(backend: str, trials: int, cpus: int | None = None) -> int:
+    """The default --jobs: mock trials spread over the CPU cores when there are enough."""
+    if backend != "mock":
+        return 1
+    cpus = cpus or os.cpu_count() or 1
+    return max(1, min(cpus, MAX_AUTO_JOBS, trials // MIN_TRIALS_PER_JOB))
+
 
 # The flags that define which trials a run holds (run.json stores them).
 PLAN_FLAGS = ("hand", "object_file", "backend", "objects", "policy", "trials", "seed", "preset", "no_tick_logs")
@@ -51,8 +66,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="continue an interrupted run with the parameters in RUN_DIR/run.json")
     p.add_argument("--json", default=None, metavar="FILE", help="also write the run summary JSON here")
     p.add_argument("--threads", type=int, default=1, metavar="N", help="inference threads per policy (default 1)")
-    p.add_argument("--jobs", type=int, default=1, metavar="N",
-                   help="mock trials run in N processes at once (default 1); results do not depend on it")
+    p.add_argument("--jobs", type=int, default=None, metavar="N",
+                   help="mock trials run in N processes at once (default: one per CPU core, at most "
+                        f"{MAX_AUTO_JOBS}, for runs of {MIN_TRIALS_PER_JOB * 2}+ trials; else 1); "
+                        "results do not depend on it")
     p.add_argument("--no-tick-logs", action="store_true", default=None, help="skip the per-tick CSV logs (faster)")
     p.add_argument("--quiet", action="store_true", help="no per-trial progress lines")
     p.add_argument("--port", default=None, metavar="PORT",
@@ -148,12 +165,13 @@ def run(args: argparse.Namespace) -> int:
         run_dir = Path(args.out) if args.out else Path("runs") / f"{stamp}{tag}-seed{manifest.seed}"
     trial_fn = (_hardware_trial_fn(hand, manifest, args.threads, args.port, args.sensor_port)
                 if manifest.backend == "dynamixel" else None)
+    jobs = args.jobs if args.jobs is not None else auto_jobs(manifest.backend, manifest.total)
     try:
         summary = run_series(
             hand, manifest.objects, manifest.policies, manifest.trials, manifest.seed, run_dir,
             settings=manifest.settings, progress=not args.quiet, tick_logs=manifest.tick_logs,
             threads=args.threads, resume=bool(args.resume), manifest=manifest, trial_fn=trial_fn,
-            backend=manifest.backend, jobs=args.jobs,
+            backend=manifest.backend, jobs=jobs,
         )
     except (KeyboardInterrupt, OperatorQuit) as exc:
         done = len(load_records(run_dir).records)

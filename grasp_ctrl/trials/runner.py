@@ -259,6 +259,18 @@ def _worker_trial(policy: str, obj: ObjectProfile, trial: int, seed: int, log_pa
 TrialTask = tuple[str, ObjectProfile, int, int, "Path | None"]   # policy, object, trial, seed, tick log
 
 
+def _worker_context(multiprocessing: Any) -> Any:
+    """Workers forked from a fork server that has imported the trial code and loaded the
+    compiled kernels (worker_preload), so they start at once; where there is no fork
+    server (Windows), spawned. Never forked from this process: no inherited inference
+    sessions or threads."""
+    if "forkserver" in multiprocessing.get_all_start_methods():
+        ctx = multiprocessing.get_context("forkserver")
+        ctx.set_forkserver_preload(["grasp_ctrl.trials.worker_preload"])
+        return ctx
+    return multiprocessing.get_context("spawn")
+
+
 def parallel_trials(
     jobs: int, hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None,
     threads: int, tasks: Sequence[TrialTask],
@@ -267,7 +279,7 @@ def parallel_trials(
     import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
-    ctx = multiprocessing.get_context("spawn")  # no inherited inference sessions or threads
+    ctx = _worker_context(multiprocessing)
     pool = ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_init_worker,
                                initargs=(hand, list(policies), settings or ControllerSettings(), threads))
     try:
