@@ -6,9 +6,9 @@ Every tick only copies its arrays into preallocated column buffers (a few
 microseconds); the raw-signal summaries are computed for all ticks at once and
 the file is written on ``close``: to a temporary file, fsynced, then renamed,
 so a tick log on disk is always complete (the runner closes the log before it
-writes the trial's JSON record). Signals are stored as float32 rounded to 16
-mantissa bits (relative precision 8e-6: finer than the decimals of the CSV logs
-this replaces, and the cleared low bits compress away), the time as float64, the
+writes the trial's JSON record). Signals are stored as float32 rounded to 15
+mantissa bits (a relative error of at most 1.5e-5, about the decimals of the CSV
+logs this replaces; the cleared low bits compress away), the time as float64, the
 state as a dictionary-encoded string, contacts as booleans. pandas reads it with
 ``pandas.read_parquet``; ``read_tick_log`` reads it (and older CSV logs) here.
 """
@@ -31,7 +31,7 @@ TICKS_SUFFIX = "_ticks.parquet"
 LEGACY_TICKS_SUFFIX = "_ticks.csv"
 _COMPRESSION = "zstd"
 _CHUNK = 2048   # ticks per buffer growth (20 s at 100 Hz)
-MANTISSA_BITS = 16
+MANTISSA_BITS = 15   # rounding error <= 2^-16 = 1.5e-5 relative
 
 
 def rounded_float32(values: np.ndarray, bits: int = MANTISSA_BITS) -> np.ndarray:
