@@ -182,7 +182,7 @@ def test_plot_saves_force_traces_of_a_trial(full_run, tmp_path, capsys):
     run_dir, _ = full_run
     record = record_path(run_dir, "oracle", "lego", 0)
     png = tmp_path / "trace.png"
-    assert main(["plot", str(record), "--out", str(png), "--frame", "world"]) == 0
+    assert main(["plot", str(record), "--out", str(png), "--xyz", "--frame", "world"]) == 0
     assert png.read_bytes()[:4] == b"\x89PNG"
     assert main(["plot", str(tmp_path / "trial_000.json")]) == 2
     assert "no tick log" in capsys.readouterr().err
