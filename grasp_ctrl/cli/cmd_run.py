@@ -71,7 +71,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         f"{MAX_AUTO_JOBS}, for runs of {MIN_TRIALS_PER_JOB * 2}+ trials; else 1); "
                         "results do not depend on it")
     p.add_argument("--no-tick-logs", action="store_true", default=None, help="skip the per-tick CSV logs (faster)")
-    p.add_argument("--quiet", action="store_true", help="no per-trial progress lines")
+    p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
     p.add_argument("--port", default=None, metavar="PORT",
                    help="dynamixel: the servo bus port (default: the hand file's [dynamixel] port)")
     p.add_argument("--sensor-port", default=None, metavar="PORT",
@@ -169,7 +169,9 @@ def run(args: argparse.Namespace) -> int:
     try:
         summary = run_series(
             hand, manifest.objects, manifest.policies, manifest.trials, manifest.seed, run_dir,
-            settings=manifest.settings, progress=not args.quiet, tick_logs=manifest.tick_logs,
+            # On the real hand the operator's prompts own the terminal: no progress bar there.
+            settings=manifest.settings, progress=not args.quiet and manifest.backend == "mock",
+            tick_logs=manifest.tick_logs,
             threads=args.threads, resume=bool(args.resume), manifest=manifest, trial_fn=trial_fn,
             backend=manifest.backend, jobs=jobs,
         )

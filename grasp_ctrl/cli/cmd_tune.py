@@ -38,7 +38,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--write", action="store_true", help="write the best setting into the object file")
     p.add_argument("--json", default=None, metavar="FILE", help="write the ranked sweep as JSON")
     p.add_argument("--jobs", type=int, default=1, metavar="N", help="trials in N processes at once (default 1)")
-    p.add_argument("--quiet", action="store_true", help="no per-trial progress lines")
+    p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -86,7 +86,10 @@ def run(args: argparse.Namespace) -> int:
         jobs = [(args.policy, profile, k, trial_seed(args.seed, obj.name, k), None) for _, profile, k in tasks]
         return parallel_trials(min(args.jobs, len(jobs)), hand, [args.policy], None, 1, jobs)
 
-    rows = rank(run_sweep(obj, grid, args.trials, one, on_trial, many if args.jobs > 1 else None))
+    try:
+        rows = rank(run_sweep(obj, grid, args.trials, one, on_trial, many if args.jobs > 1 else None))
+    finally:
+        progress.close()
     current = {k: getattr(obj, k) for k in grid[0]}
     print(f"{obj.name}, policy {args.policy}, {args.trials} trials per setting, seed {args.seed} (* = current)")
     print(format_sweep(rows, current))

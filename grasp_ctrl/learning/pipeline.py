@@ -110,9 +110,11 @@ def metrics_table(results: dict[str, dict[str, dict[str, Any]]], test_source: st
 def run_experiment(
     ds: Dataset, split: Split, models: dict[str, tuple[str, float | None]], out_dir: Path, epochs: int, seed: int,
     data_info: dict[str, Any], threads: int = 1, progress: Callable[[str], None] = print,
-    lr0: float = 1e-4, patience: int | None = None,
+    lr0: float = 1e-4, patience: int | None = None, report: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
-    """Every model on every training-source combination; checkpoints, JSON and tables in out_dir."""
+    """Every model on every training-source combination; checkpoints, JSON and tables in out_dir.
+    ``progress``: per-epoch status; ``report``: each model's result line (default: ``progress``)."""
+    report = report or progress
     from grasp_ctrl.learning.train import save_checkpoint
 
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -121,6 +123,7 @@ def run_experiment(
         results[combo] = {}
         for model_name, (arch, beta) in models.items():
             progress(f"== {model_name} on {combo}")
+            n_done = sum(len(r) for r in results.values()) + 1
             info = train_one(ds, split, sources, arch, beta, epochs, seed, threads=threads, progress=progress,
                              lr0=lr0, patience=patience)
             stem = f"{combo}__{model_name.replace('+', '_')}"
@@ -137,8 +140,9 @@ def run_experiment(
                                  "metrics": info["metrics"]})
                 info["best_epoch"] = result.best_epoch
             m = info["metrics"]["mixed"]
-            progress(f"   -> angle {m['angle_deg']['median']:.1f} deg, magnitude {m['magnitude_error_n']['median']:.3f} N "
-                     f"(median on the mixed test set), {info['seconds']:.0f} s")
+            report(f"{model_name} on {combo} ({n_done}/{len(COMBOS) * len(models)}): angle "
+                   f"{m['angle_deg']['median']:.1f} deg, magnitude {m['magnitude_error_n']['median']:.3f} N "
+                   f"(median on the mixed test set), {info['seconds']:.0f} s")
             results[combo][model_name] = info
     doc = {"data": data_info, "epochs": epochs, "seed": seed, "lr0": lr0, "patience": patience, "results": results}
     (out_dir / "results.json").write_text(json.dumps(doc, indent=2, default=float) + "\n")

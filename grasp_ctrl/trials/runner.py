@@ -13,6 +13,7 @@ exactly like an uninterrupted one.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import itertools
 import sys
@@ -28,7 +29,7 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.settings import ControllerSettings
-from grasp_ctrl.errors import UsageError
+from grasp_ctrl.errors import GraspCtrlError, UsageError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
@@ -278,10 +279,12 @@ def parallel_trials(
     """Mock trials in ``jobs`` processes: yields (task index, record) as each finishes."""
     import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
 
     ctx = _worker_context(multiprocessing)
     pool = ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_init_worker,
                                initargs=(hand, list(policies), settings or ControllerSettings(), threads))
+    finished_cleanly = False
     try:
         todo = iter(enumerate(tasks))
         running: dict[Any, int] = {}
@@ -291,12 +294,39 @@ def parallel_trials(
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for fut in finished:
                 i = running.pop(fut)
-                yield i, fut.result()
+                try:
+                    rec = fut.result()
+                except BrokenProcessPool:
+                    raise WorkerError("a trial worker process ended abruptly (killed, or out of memory?)") from None
+                yield i, rec
                 nxt = next(todo, None)
                 if nxt is not None:
                     running[pool.submit(_worker_trial, *nxt[1])] = nxt[0]
+        finished_cleanly = True
     finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+        if finished_cleanly:
+            pool.shutdown(wait=True)
+        else:
+            _stop_workers(pool)
+
+
+def _stop_workers(pool: Any) -> None:
+    """After Ctrl-C or an error: the trials in progress are abandoned (they run again on
+    resume), so the workers are stopped now rather than waited for; none is left behind."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in processes:
+        if proc.is_alive():
+            proc.terminate()
+    for proc in processes:
+        proc.join(timeout=5.0)
+        if proc.is_alive():
+            proc.kill()
+            proc.join(timeout=5.0)
+
+
+class WorkerError(GraspCtrlError):
+    """A worker process of ``run --jobs N`` died; the finished trials are on disk."""
 
 
 def _warn(msg: str) -> None:
@@ -382,13 +412,23 @@ def run_series(
         if after_trial:
             after_trial(rec)
 
-    run_trial = trial_fn or mock_trial_fn(hand, policies, plan.settings, threads)  # bad policies fail here
-    if jobs > 1 and len(pending) > 1:
-        for _, rec in parallel_trials(min(jobs, len(pending)), hand, policies, plan.settings, threads, pending):
-            finish(rec)
-    else:
-        for args in pending:
-            finish(run_trial(*args))
+    try:
+        run_trial = trial_fn or mock_trial_fn(hand, policies, plan.settings, threads)  # bad policies fail here
+        if jobs > 1 and len(pending) > 1:
+            try:
+                # closing: the workers are stopped at once on Ctrl-C or an error, not when collected.
+                with contextlib.closing(parallel_trials(min(jobs, len(pending)), hand, policies, plan.settings,
+                                                        threads, pending)) as results:
+                    for _, rec in results:
+                        finish(rec)
+            except WorkerError as exc:
+                raise WorkerError(f"{exc}; {len(done)} of {plan.total} trials are recorded in {run_dir}; "
+                                  f"continue with: grasp-ctrl run --resume {run_dir}") from None
+        else:
+            for args in pending:
+                finish(run_trial(*args))
+    finally:
+        reporter.close()
     records = canonical_order(list(done.values()), list(policies), plan.object_names)
     summary = summarize(records, str(run_dir), plan.backend, plan.hand, plan.seed)
     write_json(run_dir / SUMMARY_FILE, summary)
