@@ -36,7 +36,9 @@ def auto_jobs(backend: str, trials: int, cpus: int | None = None) -> int:
 
 
 # The flags that define which trials a run holds (run.json stores them).
-PLAN_FLAGS = ("hand", "object_file", "backend", "objects", "policy", "trials", "seed", "preset", "no_tick_logs")
+PLAN_FLAGS = ("hand", "object_file", "backend", "emulate", "objects", "policy", "trials", "seed", "preset",
+              "no_tick_logs")
+EMULATED = "dynamixel-emulated"   # the run's backend with --backend dynamixel --emulate
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -51,6 +53,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backend", choices=("mock", "dynamixel"), default=None,
                    help="mock: simulated hand, sensors and objects (default); dynamixel: the real hand, "
                         "the operator labels each trial")
+    p.add_argument("--emulate", action="store_true", default=None,
+                   help="with --backend dynamixel: the servo chain (Protocol 2.0) and the fingertip stream "
+                        "(protocol v1) are emulated on pseudo-terminals with the mock world's physics behind "
+                        "them, so the whole hardware path runs without hardware; scored like the mock")
+    p.add_argument("--yes", action="store_true",
+                   help="answer the pre-flight confirmation (arm at its start pose) with yes, for scripted runs")
     p.add_argument("--objects", default=None, metavar="a,b|all",
                    help="objects to run (default: the object file's default_set)")
     p.add_argument("--policy", nargs="+", action="extend", metavar="NAME|PATH",
@@ -100,8 +108,13 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     policies = args.policy or (list(preset.policies) if preset else [DEFAULT_POLICY])
     if len(set(policies)) != len(policies):
         raise UsageError("--policy: each policy once")
+    backend = args.backend or "mock"
+    if args.emulate:
+        if backend != "dynamixel":
+            raise UsageError("--emulate: only with --backend dynamixel (it emulates the real hand's links)")
+        backend = EMULATED
     manifest = RunManifest(
-        backend=args.backend or "mock", hand=hand.name, seed=args.seed if args.seed is not None else 0,
+        backend=backend, hand=hand.name, seed=args.seed if args.seed is not None else 0,
         trials=trials, policies=policies, objects=objects, tick_logs=not args.no_tick_logs,
         hand_file=str(hand_file.resolve()), hand_sha256=file_sha256(hand_file),
         object_file=str(object_file.resolve()), preset=args.preset,
@@ -146,6 +159,21 @@ def _hardware_trial_fn(hand: Any, manifest: Any, threads: int, port: str | None,
     return labelled(trial_fn, OperatorLabeller())
 
 
+def _preflight(hand: Any, manifest: Any, args: argparse.Namespace) -> None:
+    """Check every servo and fingertip, then ask for the go-ahead (before any trial)."""
+    from grasp_ctrl.trials.preflight import confirm_start, preflight_emulated, preflight_hardware
+    from grasp_ctrl.trials.runner import trial_seed
+
+    if manifest.backend == EMULATED:
+        obj = manifest.objects[0]
+        report = preflight_emulated(hand, obj, trial_seed(manifest.seed, obj.name, 0))
+    else:
+        report = preflight_hardware(hand, args.port, args.sensor_port)
+    say = lambda text: print(text, file=sys.stderr, flush=True)  # noqa: E731
+    say(report.summary())
+    confirm_start(args.yes, ask=lambda q: input(q), say=say)
+
+
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.trials.labelling import OperatorQuit
@@ -163,14 +191,23 @@ def run(args: argparse.Namespace) -> int:
         stamp = time.strftime("%Y%m%d-%H%M%S")
         tag = f"-{manifest.preset}" if manifest.preset else ""
         run_dir = Path(args.out) if args.out else Path("runs") / f"{stamp}{tag}-seed{manifest.seed}"
-    trial_fn = (_hardware_trial_fn(hand, manifest, args.threads, args.port, args.sensor_port)
-                if manifest.backend == "dynamixel" else None)
+    trial_fn = None
+    if manifest.backend in ("dynamixel", EMULATED):
+        _preflight(hand, manifest, args)
+    if manifest.backend == "dynamixel":
+        trial_fn = _hardware_trial_fn(hand, manifest, args.threads, args.port, args.sensor_port)
+    elif manifest.backend == EMULATED:
+        from grasp_ctrl.emulators.world_rig import emulated_backends
+        from grasp_ctrl.trials.runner import mock_trial_fn
+
+        trial_fn = mock_trial_fn(hand, manifest.policies, manifest.settings, args.threads,
+                                 make_backends=emulated_backends, backend=EMULATED)
     jobs = args.jobs if args.jobs is not None else auto_jobs(manifest.backend, manifest.total)
     try:
         summary = run_series(
             hand, manifest.objects, manifest.policies, manifest.trials, manifest.seed, run_dir,
             # On the real hand the operator's prompts own the terminal: no progress bar there.
-            settings=manifest.settings, progress=not args.quiet and manifest.backend == "mock",
+            settings=manifest.settings, progress=not args.quiet and manifest.backend != "dynamixel",
             tick_logs=manifest.tick_logs,
             threads=args.threads, resume=bool(args.resume), manifest=manifest, trial_fn=trial_fn,
             backend=manifest.backend, jobs=jobs,

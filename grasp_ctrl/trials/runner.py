@@ -87,6 +87,13 @@ def trial_seed(seed: int, obj_name: str, trial: int) -> int:
 
 
 EstimatorFactory = Callable[[MockWorld], ForceEstimator]
+# The hand and sensor backends of a trial on a world: the mock's own, or the real
+# backends on emulators (emulators/world_rig.py, ``run --backend dynamixel --emulate``).
+BackendFactory = Callable[[MockWorld, HandConfig], tuple[Any, Any]]
+
+
+def mock_backends(world: MockWorld, hand: HandConfig) -> tuple[MockHand, MockSensors]:
+    return MockHand(world, hand), MockSensors(world)
 
 
 def estimator_factory(spec: str, hand: HandConfig, threads: int = 1) -> EstimatorFactory:
@@ -148,14 +155,21 @@ def run_mock_trial(
     log_path: Path | None = None,
     kin: HandKinematics | None = None,
     on_tick: Callable[[MockWorld, GraspController], None] | None = None,
+    make_backends: BackendFactory | None = None,
+    backend: str = "mock",
 ) -> TrialResult:
     wall0 = time.perf_counter()
     kin = kin or HandKinematics(hand)
     world = MockWorld(hand, obj, seed, world_params)
-    hand_backend, arm, sensors = MockHand(world, hand), MockArm(world, hand), MockSensors(world)
-    hand_backend.connect()
-    arm.connect()
-    sensors.start()
+    hand_backend, sensors = (make_backends or mock_backends)(world, hand)
+    arm = MockArm(world, hand)
+    try:
+        hand_backend.connect()
+        arm.connect()
+        sensors.start()
+    except BaseException:
+        _close_all(hand_backend, arm, sensors)
+        raise
     estimator = make_estimator(world)
     pipeline = SensingPipeline(hand, kin, estimator)
     ctrl = GraspController(hand, obj, world.reach_pose_world(), settings, kin)
@@ -191,9 +205,7 @@ def run_mock_trial(
     finally:
         if log:
             log.close()
-        hand_backend.close()
-        arm.close()
-        sensors.close()
+        _close_all(hand_backend, arm, sensors)
     # The peaks over the grasping fingers follow from the per-fingertip peaks.
     peak_est = max(0.0, float(np.max(tip_grip[grasp], initial=0.0)))
     peak_true = max(0.0, float(np.max(tip_true[grasp], initial=0.0)))
@@ -216,6 +228,7 @@ def run_mock_trial(
         transitions=[(round(t, 3), a, b) for t, a, b in ctrl.history],
         events=[{"t": round(e.t, 3), "kind": e.kind, "detail": e.detail} for e in world.events],
         settings=trial_settings(hand, obj, settings),
+        backend=backend,
         controller=controller_view(ctrl),
         timings=timings,
         peak_forces={
@@ -226,19 +239,33 @@ def run_mock_trial(
     )
 
 
+def _close_all(*parts: Any) -> None:
+    """Close every backend even when one fails; the first error is raised after."""
+    error: BaseException | None = None
+    for part in parts:
+        try:
+            part.close()
+        except Exception as exc:  # noqa: BLE001 - keep closing the rest
+            error = error or exc
+    if error is not None:
+        raise error
+
+
 # A trial runner for one (policy, object, trial index, seed): returns the JSON record.
 TrialFn = Callable[[str, ObjectProfile, int, int, "Path | None"], dict[str, Any]]
 
 
 def mock_trial_fn(
-    hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None = None, threads: int = 1
+    hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None = None, threads: int = 1,
+    make_backends: BackendFactory | None = None, backend: str = "mock",
 ) -> TrialFn:
     """Policies are loaded up front, so a bad one fails before the first trial."""
     factories = {p: estimator_factory(p, hand, threads) for p in policies}
     kin = HandKinematics(hand)
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
-        return run_mock_trial(hand, obj, factories[policy], seed, policy, trial, settings, log_path=log_path, kin=kin).to_json()
+        return run_mock_trial(hand, obj, factories[policy], seed, policy, trial, settings, log_path=log_path, kin=kin,
+                              make_backends=make_backends, backend=backend).to_json()
 
     return run
 
