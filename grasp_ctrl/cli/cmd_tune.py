@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--object: one object name")
     grid = settings_grid([parse_param(s) for s in args.param])
     hand = load_hand(args.hand)
-    (obj,) = select_objects(args.object_file, args.object)
+    (obj,) = select_objects(args.object_file, args.object, flag="--object")
     if args.backend == "dynamixel":
         # No ground truth on the real hand: the operator labels every trial.
         from grasp_ctrl.trials.hardware import hardware_trial_fn
