@@ -45,6 +45,7 @@ from grasp_ctrl.trials.records import canonical_order, load_records, record_file
 from grasp_ctrl.trials.storage import SUMMARY_FILE, record_path, safe_name, ticks_path, write_json
 from grasp_ctrl.trials.summary import summarize
 from grasp_ctrl.trials.ticklog import TickLog
+from grasp_ctrl.trials.workers import worker_context
 
 MAX_TRIAL_S = 60.0
 SETTLE_S = 0.5
@@ -287,28 +288,15 @@ def _worker_trial(policy: str, obj: ObjectProfile, trial: int, seed: int, log_pa
 TrialTask = tuple[str, ObjectProfile, int, int, "Path | None"]   # policy, object, trial, seed, tick log
 
 
-def _worker_context(multiprocessing: Any) -> Any:
-    """Workers forked from a fork server that has imported the trial code and loaded the
-    compiled kernels (worker_preload), so they start at once; where there is no fork
-    server (Windows), spawned. Never forked from this process: no inherited inference
-    sessions or threads."""
-    if "forkserver" in multiprocessing.get_all_start_methods():
-        ctx = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload(["grasp_ctrl.trials.worker_preload"])
-        return ctx
-    return multiprocessing.get_context("spawn")
-
-
 def parallel_trials(
     jobs: int, hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None,
     threads: int, tasks: Sequence[TrialTask],
 ) -> Iterator[tuple[int, dict[str, Any]]]:
     """Mock trials in ``jobs`` processes: yields (task index, record) as each finishes."""
-    import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
-    ctx = _worker_context(multiprocessing)
+    ctx = worker_context()
     pool = ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_init_worker,
                                initargs=(hand, list(policies), settings or ControllerSettings(), threads))
     finished_cleanly = False
