@@ -78,7 +78,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="mock trials run in N processes at once (default: one per CPU core, at most "
                         f"{MAX_AUTO_JOBS}, for runs of {MIN_TRIALS_PER_JOB * 2}+ trials; else 1); "
                         "results do not depend on it")
-    p.add_argument("--no-tick-logs", action="store_true", default=None, help="skip the per-tick CSV logs (faster)")
+    p.add_argument("--no-tick-logs", action="store_true", default=None, help="skip the per-tick logs (faster)")
     p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
     p.add_argument("--port", default=None, metavar="PORT",
                    help="dynamixel: the servo bus port (default: the hand file's [dynamixel] port)")

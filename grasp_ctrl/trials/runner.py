@@ -169,7 +169,7 @@ def run_mock_trial(
         arm.connect()
         sensors.start()
     except BaseException:
-        _close_all(hand_backend, arm, sensors)
+        _close_all(hand_backend, arm, sensors, raise_error=False)
         raise
     estimator = make_estimator(world)
     pipeline = SensingPipeline(hand, kin, estimator)
@@ -206,7 +206,8 @@ def run_mock_trial(
     finally:
         if log:
             log.close()
-        _close_all(hand_backend, arm, sensors)
+        # A close error must not hide the error that ended the trial.
+        _close_all(hand_backend, arm, sensors, raise_error=sys.exc_info()[0] is None)
     # The peaks over the grasping fingers follow from the per-fingertip peaks.
     peak_est = max(0.0, float(np.max(tip_grip[grasp], initial=0.0)))
     peak_true = max(0.0, float(np.max(tip_true[grasp], initial=0.0)))
@@ -240,15 +241,15 @@ def run_mock_trial(
     )
 
 
-def _close_all(*parts: Any) -> None:
-    """Close every backend even when one fails; the first error is raised after."""
+def _close_all(*parts: Any, raise_error: bool = True) -> None:
+    """Close every backend even when one fails; the first error is raised after (if asked)."""
     error: BaseException | None = None
     for part in parts:
         try:
             part.close()
         except Exception as exc:  # noqa: BLE001 - keep closing the rest
             error = error or exc
-    if error is not None:
+    if error is not None and raise_error:
         raise error
 
 
