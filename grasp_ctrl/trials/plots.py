@@ -76,13 +76,13 @@ def state_spans(t: list[float], states: list[str]) -> list[tuple[float, float, s
     return spans
 
 
-def force_traces(ticks_csv: Path, path: Path, frame: str = "sensor", title: str | None = None) -> Path:
+def force_traces(ticks_file: Path, path: Path, frame: str = "sensor", title: str | None = None) -> Path:
     """One panel per fingertip: estimated fx, fy, fz (solid) and, on the mock, the true
     force (dashed, sensor frame only) over time; controller states as shaded bands."""
-    header, cols = read_tick_log(ticks_csv)
+    header, cols = read_tick_log(ticks_file)
     tips = fingertips(header, frame)
     if not tips:
-        raise UsageError(f"{ticks_csv}: no force columns in the {frame} frame, or no rows")
+        raise UsageError(f"{ticks_file}: no force columns in the {frame} frame, or no rows")
     plt = pyplot()
     t = [float(v) for v in cols["t"]]
     spans = state_spans(t, list(cols["state"]))
@@ -110,7 +110,7 @@ def force_traces(ticks_csv: Path, path: Path, frame: str = "sensor", title: str 
         labels.append("true")
     fig.legend(handles, labels, loc="lower center", ncol=len(labels), frameon=False)
     axes[-1, 0].set_xlabel("t (s)")
-    fig.suptitle(title or ticks_csv.name, y=0.995, fontsize=10)
+    fig.suptitle(title or ticks_file.name, y=0.995, fontsize=10)
     fig.tight_layout(rect=(0, 0.05, 1, 0.97))
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
