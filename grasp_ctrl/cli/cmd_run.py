@@ -78,6 +78,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="mock trials run in N processes at once (default: one per CPU core, at most "
                         f"{MAX_AUTO_JOBS}, for runs of {MIN_TRIALS_PER_JOB * 2}+ trials; else 1); "
                         "results do not depend on it")
+    p.add_argument("--executor", choices=("local", "ray"), default="local",
+                   help="local: trials in this machine's processes (default); ray: as tasks on Ray (the ray "
+                        "extra), a local instance of --jobs CPUs or the cluster at --address")
+    p.add_argument("--address", default=None, metavar="ADDR",
+                   help="with --executor ray: a running Ray cluster (e.g. 10.0.0.5:6379 or 'auto')")
     p.add_argument("--no-tick-logs", action="store_true", default=None, help="skip the per-tick logs (faster)")
     p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
     p.add_argument("--port", default=None, metavar="PORT",
@@ -191,6 +196,11 @@ def run(args: argparse.Namespace) -> int:
         stamp = time.strftime("%Y%m%d-%H%M%S")
         tag = f"-{manifest.preset}" if manifest.preset else ""
         run_dir = Path(args.out) if args.out else Path("runs") / f"{stamp}{tag}-seed{manifest.seed}"
+    from grasp_ctrl.trials.ray_executor import check_executor
+
+    check_executor(args.executor, args.address)
+    if args.executor != "local" and manifest.backend != "mock":
+        raise UsageError("--executor ray: only mock trials; a (real or emulated) hand runs here, one trial at a time")
     trial_fn = None
     if manifest.backend in ("dynamixel", EMULATED):
         _preflight(hand, manifest, args)
@@ -202,7 +212,10 @@ def run(args: argparse.Namespace) -> int:
 
         trial_fn = mock_trial_fn(hand, manifest.policies, manifest.settings, args.threads,
                                  make_backends=emulated_backends, backend=EMULATED)
-    jobs = args.jobs if args.jobs is not None else auto_jobs(manifest.backend, manifest.total)
+    if args.executor == "ray":
+        jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
+    else:
+        jobs = args.jobs if args.jobs is not None else auto_jobs(manifest.backend, manifest.total)
     try:
         summary = run_series(
             hand, manifest.objects, manifest.policies, manifest.trials, manifest.seed, run_dir,
@@ -210,7 +223,7 @@ def run(args: argparse.Namespace) -> int:
             settings=manifest.settings, progress=not args.quiet and manifest.backend != "dynamixel",
             tick_logs=manifest.tick_logs,
             threads=args.threads, resume=bool(args.resume), manifest=manifest, trial_fn=trial_fn,
-            backend=manifest.backend, jobs=jobs,
+            backend=manifest.backend, jobs=jobs, executor=args.executor, address=args.address,
         )
     except (KeyboardInterrupt, OperatorQuit) as exc:
         done = len(load_records(run_dir).records)

@@ -39,6 +39,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", metavar="FILE", help="checkpoint to write (.pt; .json for --arch analytic)")
     p.add_argument("--experiment", choices=("fig3", "fig3+fig4"), help="run the paper's comparison instead of one model")
     p.add_argument("--out-dir", metavar="DIR", default="runs/fig3", help="experiment output folder")
+    p.add_argument("--executor", choices=("local", "ray"), default="local",
+                   help="with --experiment: ray trains the models as Ray tasks (the ray extra; --threads CPUs each)")
+    p.add_argument("--address", default=None, metavar="ADDR", help="with --executor ray: a running Ray cluster")
+    p.add_argument("--jobs", type=int, default=None, metavar="N",
+                   help="with --executor ray and no --address: CPUs of the local Ray instance (default: all)")
     p.add_argument("--quiet", action="store_true",
                    help="no progress line (the current model and epoch; shown only on a terminal anyway)")
 
@@ -85,6 +90,11 @@ def run(args: argparse.Namespace) -> int:
     spec = data_spec(args)
     if args.epochs < 1 or args.batch_size < 1 or args.threads < 1:
         raise UsageError("--epochs, --batch-size and --threads must be positive")
+    from grasp_ctrl.trials.ray_executor import check_executor
+
+    check_executor(args.executor, args.address)
+    if args.executor != "local" and not args.experiment:
+        raise UsageError("--executor ray: only with --experiment (one model trains here)")
     status = StatusLine(enabled=not args.quiet)
     try:
         return _train(args, spec, status)
@@ -107,7 +117,7 @@ def _train(args: argparse.Namespace, spec: Any, status: Any) -> int:
             models.update(FIG4_MODELS)
         doc = run_experiment(ds, split, models, Path(args.out_dir), args.epochs, args.seed, data_info,
                              threads=args.threads, progress=progress, lr0=args.lr, patience=args.patience,
-                             report=status.note)
+                             report=status.note, executor=args.executor, address=args.address, jobs=args.jobs)
         status.note((Path(args.out_dir) / "results.md").read_text())
         status.note(f"results: {Path(args.out_dir) / 'results.json'}; checkpoints in {args.out_dir}")
         return 0 if doc else 1

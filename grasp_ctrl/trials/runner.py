@@ -368,6 +368,8 @@ def run_series(
     backend: str = "mock",
     warn: Callable[[str], None] = _warn,
     jobs: int = 1,
+    executor: str = "local",
+    address: str | None = None,
 ) -> dict[str, Any]:
     """objects x policies x trials with shared seeds; returns the summary (DESIGN.md 5.2).
 
@@ -375,7 +377,9 @@ def run_series(
     parameters must match its ``run.json``) and run only the missing trials.
     ``after_trial(record)`` is called once each new record is on disk.
     ``jobs``: mock trials in that many worker processes (records arrive out of
-    order; the summary does not depend on it).
+    order; the summary does not depend on it). ``executor="ray"``: the trials are
+    Ray tasks instead (``address``: a running cluster; else a local instance of
+    ``jobs`` CPUs), see ray_executor.py.
     """
     if len(set(safe_name(p) for p in policies)) != len(policies):
         raise UsageError("--policy: two policies would share one log directory; give each once")
@@ -410,6 +414,8 @@ def run_series(
         raise UsageError("--jobs: must be at least 1")
     if jobs > 1 and trial_fn is not None:
         raise UsageError("--jobs: trials on real hardware run one at a time")
+    if executor != "local" and trial_fn is not None:
+        raise UsageError("--executor: trials on real hardware run here, one at a time")
     reporter = progress if isinstance(progress, Progress) else Progress(plan.total, enabled=bool(progress))
     reporter.resumed(canonical_order(list(done.values()), list(policies), plan.object_names))
     pending = []
@@ -430,7 +436,14 @@ def run_series(
 
     try:
         run_trial = trial_fn or mock_trial_fn(hand, policies, plan.settings, threads)  # bad policies fail here
-        if jobs > 1 and len(pending) > 1:
+        if executor == "ray" and pending:
+            from grasp_ctrl.trials.ray_executor import ray_trials
+
+            with contextlib.closing(ray_trials(address, jobs, hand, policies, plan.settings, threads,
+                                               pending)) as results:
+                for _, rec in results:
+                    finish(rec)
+        elif jobs > 1 and len(pending) > 1:
             try:
                 # closing: the workers are stopped at once on Ctrl-C or an error, not when collected.
                 with contextlib.closing(parallel_trials(min(jobs, len(pending)), hand, policies, plan.settings,
