@@ -36,7 +36,7 @@ def test_missing_servo_and_hardware_error(emu: DynamixelChainEmulator, capsys: p
     assert "middle_pip       6" in cap.out and "MISSING" in cap.out
     assert "overload" in cap.out
     assert "middle_pip (id 6): no reply" in cap.err
-    assert "thumb_mcp (id 13): HARDWARE ERROR" in cap.err
+    assert "thumb_axl (id 13): HARDWARE ERROR" in cap.err
     assert not any(len(s.goal_history) for s in emu.servos.values())  # nothing moved
 
 

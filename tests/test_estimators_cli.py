@@ -79,3 +79,30 @@ def test_policies_lists_the_official_networks(tmp_path: Path, capsys: pytest.Cap
     assert meta["output"]["to_f_sensor"] == -1.0 and meta["licence"].startswith("BSD")
     assert meta["provenance"]["source"].endswith("balakumar-s/biotac_force_net")
     assert doc["icra19_dropout_official"]["has_variance"] is True
+
+
+def test_evaluate_direction_prints_the_pooled_two_fold_figure(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from grasp_ctrl.evaluation.direction import evaluate, gate_trial, pooled_percentiles
+    from grasp_ctrl.evaluation.robotic_finger import read_trials
+
+    csv_path = tmp_path / "rec.csv"
+    _write_synthetic_csv(csv_path, Rotation.from_rotvec([0.4, -0.2, 0.9]))
+    out = tmp_path / "res.json"
+    assert main(["evaluate-direction", "--data", str(csv_path), "--estimators", "analytic-unit", "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    folds = [r for r in doc["results"] if r["estimator"] == "analytic-unit"]
+    pooled = doc["pooled"]["analytic-unit"]
+    assert pooled["n_test"] == sum(r["n_test"] for r in folds)
+    assert min(r["median_deg"] for r in folds) <= pooled["median_deg"] <= max(r["median_deg"] for r in folds)
+    assert pooled["median_deg"] <= pooled["p75_deg"] <= pooled["p90_deg"]
+    line = next(ln for ln in capsys.readouterr().out.splitlines() if "pooled, both folds" in ln)
+    assert f"{pooled['median_deg']:.1f}" in line and str(pooled["n_test"]) in line
+    # pooled = percentiles of both folds' test angles together
+    from grasp_ctrl.estimators.analytic import electrode_normal_sums
+
+    samples = [gate_trial(t) for t in read_trials(csv_path)]
+    results = evaluate("analytic-unit", samples, electrode_normal_sums)
+    angles = np.concatenate([r.angles for r in results])
+    n, pc = pooled_percentiles(results)
+    assert n == len(angles) and pc[75] == pytest.approx(np.percentile(angles, 75))
+    assert results[0].percentiles[50] == pytest.approx(np.median(results[0].angles))

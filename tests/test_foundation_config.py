@@ -52,10 +52,10 @@ def _mutate(tmp_path: Path, src: Path, old: str, new: str) -> Path:
         ('name = "leap_hand"\n', "", "name", "missing"),
         ("rate_hz = 100.0", 'rate_hz = "fast"', "rate_hz", "finite number"),
         ("servo_id = 5\n", "servo_id = 4\n", "servo_id", "unique servo ids"),
-        ("upper_rad = 0.5", "upper_rad = -0.6", "fingers[0].joints[0].upper_rad", "> lower_rad"),
+        ("upper_rad = 2.23", "upper_rad = -0.6", "fingers[0].joints[0].upper_rad", "> lower_rad"),
         ('on_fault = "open"', 'on_fault = "panic"', "safety.on_fault", "one of hold, open, torque_off"),
         ("stale_after_s = 0.05", "stale_afer_s = 0.05", "tactile.stale_afer_s", "known key"),
-        ("axis = [1.0, 0.0, 0.0]", "axis = [0.0, 0.0, 0.0]", "fingers[0].joints[0].axis", "non-zero"),
+        ("axis = [0.0, 0.0, -1.0]", "axis = [0.0, 0.0, 0.0]", "fingers[0].joints[0].axis", "non-zero"),
         ('release_finger = "index"', 'release_finger = "ring"', "grasp.release_finger", "grasp = true"),
     ],
 )

@@ -44,8 +44,9 @@ def test_fk_is_a_rigid_transform_and_matches_the_open_pose() -> None:
         R = T[:3, :3]
         np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-9)
         assert np.linalg.det(R) == pytest.approx(1.0)
-        # fingertips hang below the palm
-        assert T[2, 3] < -0.05, name
+        # the grasping fingertips hang below the palm; the idle ring finger is held up out of the way
+        if HAND.finger(name).grasp:
+            assert T[2, 3] < -0.05, name
 
 
 @settings(max_examples=40, deadline=None)

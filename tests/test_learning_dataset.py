@@ -72,18 +72,67 @@ def test_projected_rows_need_a_rotation(tmp_path: Path) -> None:
         read_csv(path)
 
 
-def test_raw_signals_are_tared_per_trial(tmp_path: Path) -> None:
-    path = tmp_path / "raw.csv"
-    cols = ["trial_id", "source", "t", *RAW_COLUMNS, "fx", "fy", "fz", "projected"]
+RAW_HEADER = ["trial_id", "source", "t", *RAW_COLUMNS, "fx", "fy", "fz", "projected"]
+
+
+def _raw_trial_rows(trial: str, base: float, n_tare: int, n_press: int, label: str = "2") -> list[list[str]]:
+    """n_tare contact-free rows (label 0 0 0), then a press: electrodes drop 500, pdc rises 100."""
     rows = []
-    for trial, base in (("a", 3000.0), ("b", 2000.0)):
-        for i in range(12):
-            value = base - (500.0 if i >= 10 else 0.0)
-            rows.append([trial, "rigid-ft", f"{i * 0.01}"] + [str(value)] * 44 + ["0", "0", "1", "0"])
-    path.write_text("\n".join(",".join(r) for r in [cols] + rows) + "\n")
-    ds, _ = read_dataset(path, tare_frames=10)
-    np.testing.assert_allclose(ds.tared[ds.trial_id == "a"][-1], -500.0)
-    np.testing.assert_allclose(ds.tared[ds.trial_id == "b"][:10], 0.0)
+    for i in range(n_tare + n_press):
+        pressed = i >= n_tare
+        signals = [base - 500.0 if pressed else base] * 44
+        signals[19] = base + 100.0 if pressed else base       # pdc
+        f = ["0", "0", label] if pressed else ["0", "0", "0"]
+        rows.append([trial, "rigid-ft", f"{(i - n_tare) * 0.01:.2f}"] + [str(v) for v in signals] + f + ["0"])
+    return rows
+
+
+def _write(path: Path, rows: list[list[str]], head: list[str] = RAW_HEADER) -> Path:
+    path.write_text("\n".join(",".join(r) for r in [head] + rows) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("on_bad", ["raise", "skip"])
+def test_raw_file_tares_on_its_leading_zero_label_rows(tmp_path: Path, on_bad: str) -> None:
+    # regression: zero-label tare rows were rejected as bad rows; skipping them tared on the presses
+    path = _write(tmp_path / "raw.csv", _raw_trial_rows("a", 3000.0, 12, 30) + _raw_trial_rows("b", 2000.0, 10, 25))
+    ds, bad = read_csv(path, on_bad=on_bad)
+    assert bad == []
+    for trial, n_press in (("a", 30), ("b", 25)):
+        tared = ds.tared[ds.trial_id == trial]
+        assert len(tared) == n_press - 9                  # contact gate: pdc > 10 for 10 rows
+        np.testing.assert_allclose(tared[:, 0], -500.0)   # baseline = the tare rows, not the presses
+        np.testing.assert_allclose(tared[:, 19], 100.0)
+    assert np.all(np.linalg.norm(ds.f_sensor, axis=1) > 0)
+    np.testing.assert_allclose(ds.t[ds.trial_id == "b"][0], 0.09)
+
+
+def test_raw_file_needs_ten_tare_rows_per_trial(tmp_path: Path) -> None:
+    path = _write(tmp_path / "raw.csv", _raw_trial_rows("a", 3000.0, 12, 30) + _raw_trial_rows("short", 2000.0, 6, 30))
+    with pytest.raises(DatasetError, match=r"trial 'short' \(line 44\): 6 contact-free tare row\(s\).*at least 10"):
+        read_csv(path)
+    assert len(read_csv(path, min_tare_rows=5)[0]) == 2 * 21
+
+
+def test_raw_stream_rows_without_force_or_label_are_not_samples(tmp_path: Path) -> None:
+    rows = _raw_trial_rows("a", 3000.0, 10, 30)
+    rows[10 + 15][-4:-1] = ["0", "0", "0"]        # released for one row: gate stays on, not a sample
+    rows[10 + 16][-4:-1] = ["", "", ""]           # no label known: not a sample
+    ds, _ = read_csv(_write(tmp_path / "raw.csv", rows))
+    assert len(ds) == 21 - 2
+    # an unlabelled first stream row ends the tare window (it may be in contact)
+    rows = _raw_trial_rows("b", 3000.0, 10, 30)
+    rows[3][-4:-1] = ["", "", ""]
+    with pytest.raises(DatasetError, match="3 contact-free tare row"):
+        read_csv(_write(tmp_path / "raw2.csv", rows))
+
+
+def test_tared_file_still_rejects_zero_and_missing_labels(tmp_path: Path) -> None:
+    head = ["trial_id", "source", "t", *CHANNEL_NAMES, "fx", "fy", "fz", "projected"]
+    rows = [["a", "rigid-ft", "0"] + ["1"] * 44 + ["0", "0", "0", "0"],
+            ["a", "rigid-ft", "0"] + ["1"] * 44 + ["", "", "", "0"]]
+    with pytest.raises(DatasetError, match="line 2: fx, fy, fz: a non-zero force label.*line 3: fx: a number"):
+        read_csv(_write(tmp_path / "t.csv", rows, head))
 
 
 def test_missing_columns_named(tmp_path: Path) -> None:

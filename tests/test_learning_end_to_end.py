@@ -42,7 +42,7 @@ def test_train_evaluate_export_finetune(tmp_path: Path, monkeypatch: pytest.Monk
     ckpt2 = tmp_path / "ft.pt"
     assert main(["train", *common, "--sources", "rigid-ft", "--arch", "voxel", "--epochs", "1",
                  "--init-from", "tiny_voxel", "--out", str(ckpt2), "--quiet"]) == 0
-    assert torch.load(ckpt2, weights_only=False)["init_from"] == "tiny_voxel"
+    assert torch.load(ckpt2, weights_only=True)["init_from"] == "tiny_voxel"
     assert main(["train", *common, "--arch", "su", "--epochs", "1", "--init-from", "tiny_voxel", "--quiet"]) == 2
     assert "is a 'voxel' model" in capsys.readouterr().err
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import shutil
 from pathlib import Path
@@ -95,8 +96,10 @@ def test_metadata_mismatch_is_a_clear_policy_error(tmp_path: Path, edit: Callabl
 
 
 def test_corrupt_model_file_is_a_policy_error(tmp_path: Path) -> None:
-    path = _copy_policy(tmp_path, lambda m: None)
-    (tmp_path / "icra19_official.onnx").write_bytes(b"not a model")
+    # the hash matches (so onnxruntime gets to parse it), the content is not a model
+    bad = b"not a model"
+    path = _copy_policy(tmp_path, lambda m: m.update(model_sha256=hashlib.sha256(bad).hexdigest()))
+    (tmp_path / "icra19_official.onnx").write_bytes(bad)
     with pytest.raises(PolicyError, match="cannot load the ONNX model"):
         load_policy(str(path), threads=1)
 

@@ -14,6 +14,7 @@ from grasp_ctrl.emulators.dxl_chain import DynamixelChainEmulator
 from grasp_ctrl.emulators.tactile_bridge import SyntheticSource, TactileBridgeEmulator
 from grasp_ctrl.errors import HardwareError
 from grasp_ctrl.tactile.layout import PDC
+from grasp_ctrl.trials.manifest import read_manifest
 from grasp_ctrl.trials.preflight import preflight_hardware
 from grasp_ctrl.trials.runner import estimator_factory, run_mock_trial, trial_seed
 
@@ -31,6 +32,10 @@ def test_one_emulated_trial_runs_like_the_mock(tmp_path, hand, objects, capsys):
     rec = json.loads((run_dir / "trials" / "linear_mock" / "chips_can" / "trial_000.json").read_text())
     assert rec["backend"] == "dynamixel-emulated" and rec["judged_by"] == "world"
     assert (run_dir / "trials" / "linear_mock" / "chips_can" / "trial_000_ticks.parquet").stat().st_size > 10_000
+    # run.json (revalidated on resume) accepts the emulated backend: the finished run resumes to itself
+    assert read_manifest(run_dir).backend == "dynamixel-emulated"
+    assert main(["run", "--resume", str(run_dir), "--yes", "--quiet", "--json", str(tmp_path / "again.json")]) == 0
+    assert json.loads((tmp_path / "again.json").read_text())["policies"] == summary["policies"]
     # The same trial on the mock backends: the emulated links quantise goals and counts, nothing more.
     mock = run_mock_trial(hand, objects["chips_can"], estimator_factory("linear_mock", hand),
                           trial_seed(4, "chips_can", 0), "linear_mock")

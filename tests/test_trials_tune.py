@@ -91,7 +91,7 @@ def test_edit_keeps_an_inline_comment(tmp_path):
 
 @settings(max_examples=25, deadline=None)
 @given(name=st.sampled_from(["chips_can", "lego", "paper_cup", "mustard_bottle"]),
-       tau=st.floats(0.1, 20.0), threshold=st.floats(0.0, 10.0), debounce=st.integers(1, 1000))
+       tau=st.floats(0.1, 20.0), threshold=st.floats(0.0, 10.0, exclude_min=True), debounce=st.integers(1, 1000))
 def test_written_values_read_back_exactly(tmp_path_factory, name, tau, threshold, debounce):
     path = tmp_path_factory.mktemp("tune") / "objects.toml"
     shutil.copy(OBJECTS_TOML, path)

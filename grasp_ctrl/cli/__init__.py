@@ -53,6 +53,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     if not argv:
         argv = ["run"]
+    bad = next((a for a in argv if "\x00" in a), None)
+    if bad is not None:   # no file or name can hold one; open() would raise deep inside
+        print(f"{PROG}: error: argument {bad!r}: contains a NUL character", file=sys.stderr)
+        return 2
     args = parser.parse_args(argv)
     if not getattr(args, "_run", None):
         parser.print_help()
@@ -69,3 +73,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         # Output piped into e.g. `head`: not an error of ours.
         sys.stderr.close()
         return 0
+    except OSError as exc:
+        # A file the user named cannot be written or read (a directory, no such folder,
+        # no permission, disk full): one line, not a traceback.
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"{PROG}: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 1

@@ -14,7 +14,9 @@ def add_data_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--synthetic", type=int, metavar="N", default=0,
                    help="generate N force samples per source with the mock world's BioTac model")
     p.add_argument("--seed", type=int, default=0, help="data generation, split and initialisation seed")
-    p.add_argument("--tare-frames", type=int, default=10, help="raw signals: rows per trial used as the tare baseline")
+    p.add_argument("--tare-frames", type=int, default=10,
+                   help="raw signals: each trial starts with at least this many contact-free rows labelled 0 0 0, "
+                        "whose mean is its tare baseline")
     p.add_argument("--skip-bad-rows", action="store_true", help="leave bad rows out (each is reported) instead of failing")
     p.add_argument("--test-per-source", type=int, default=1500, help="test samples per source (paper: 1500)")
 

@@ -28,7 +28,9 @@ def run(args: argparse.Namespace) -> int:
         return 0
     text = mermaid()
     if args.out:
-        Path(args.out).write_text(text + "\n", encoding="utf-8")
+        from grasp_ctrl.trials.storage import write_text_atomic
+
+        write_text_atomic(args.out, text + "\n")
     else:
         print(text)
     return 0

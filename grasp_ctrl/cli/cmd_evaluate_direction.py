@@ -14,7 +14,7 @@ DESCRIPTION = (
     "Tares each trial on its first frames, gates contact (tared pdc > threshold for N frames), estimates "
     "a force direction and reports the angle to the labelled plate normal (median, 75th, 90th percentile, "
     "degrees) after fitting one fixed rotation (and label sign) on one long trial and testing on the "
-    "other, both ways. Estimators: policy:NAME (any policy, e.g. policy:icra19_official), analytic "
+    "other, both ways, and pooled over both folds' test frames (the README's figure). Estimators: policy:NAME (any policy, e.g. policy:icra19_official), analytic "
     "(Lin et al., relative gains fitted with the rotation), analytic-unit (gains 1,1,1), surface-normal."
 )
 ORDER = 70
@@ -55,7 +55,7 @@ def _estimator(spec: str, threads: int):  # type: ignore[no-untyped-def]
 
 
 def run(args: argparse.Namespace) -> int:
-    from grasp_ctrl.evaluation.direction import evaluate, gate_trial
+    from grasp_ctrl.evaluation.direction import evaluate, gate_trial, pooled_percentiles
     from grasp_ctrl.evaluation.robotic_finger import read_trials
 
     if args.tare_frames < 1 or args.frames < 1:
@@ -81,14 +81,21 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--estimators: at least one estimator")
     estimators = [_estimator(spec, args.threads) for spec in specs]  # fail before printing anything
     all_results = []
-    print(f"{'estimator':28s} {'train -> test':44s} {'n_test':>7s} {'median':>7s} {'p75':>7s} {'p90':>7s}  deg")
+    pooled = {}
+    w = max([28] + [len(name) for name, _ in estimators])
+    print(f"{'estimator':{w}s} {'train -> test':44s} {'n_test':>7s} {'median':>7s} {'p75':>7s} {'p90':>7s}  deg")
     for name, fn in estimators:
-        for r in evaluate(name, samples, fn):
+        results = evaluate(name, samples, fn)
+        for r in results:
             all_results.append(r)
             pc = r.percentiles
             extra = f"  gains {['%.3g' % g for g in r.gains]}" if r.gains else ""
-            print(f"{name:28s} {r.train + ' -> ' + r.test:44s} {r.n_test:7d} {pc[50]:7.1f} {pc[75]:7.1f} {pc[90]:7.1f}"
+            print(f"{name:{w}s} {r.train + ' -> ' + r.test:44s} {r.n_test:7d} {pc[50]:7.1f} {pc[75]:7.1f} {pc[90]:7.1f}"
                   f"  label sign {r.label_sign:+.0f}{extra}")
+        n, pc = pooled_percentiles(results)
+        pooled[name] = {"n_test": n, "median_deg": pc[50], "p75_deg": pc[75], "p90_deg": pc[90]}
+        label = f"pooled, {len(results)} folds" if len(results) != 2 else "pooled, both folds"
+        print(f"{name:{w}s} {label:44s} {n:7d} {pc[50]:7.1f} {pc[75]:7.1f} {pc[90]:7.1f}")
     if args.json:
         doc = {
             "data": str(args.data),
@@ -98,6 +105,9 @@ def run(args: argparse.Namespace) -> int:
                          "n_test": r.n_test, "median_deg": r.percentiles[50], "p75_deg": r.percentiles[75],
                          "p90_deg": r.percentiles[90], "label_sign": r.label_sign, "gains": r.gains}
                         for r in all_results],
+            "pooled": pooled,
         }
-        Path(args.json).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+        from grasp_ctrl.trials.storage import write_text_atomic
+
+        write_text_atomic(args.json, json.dumps(doc, indent=2) + "\n")
     return 0

@@ -6,11 +6,14 @@ import argparse
 import time
 
 NAME = "hand-check"
+HOT_MARGIN_C = 5   # flag a servo this close to its Temperature Limit (it shuts down there)
 HELP = "ping every servo of a Dynamixel hand, print its state, optionally move each joint a little"
 DESCRIPTION = (
     "Pings every configured servo (reports missing ids and model mismatches by joint name), reads "
-    "Hardware Error Status and the present position/velocity/current, flags joints outside their "
-    "limits. Read-only unless --move (configure, torque on, move each joint by --step within its "
+    "Hardware Error Status (bits by name), temperature, input voltage and the present "
+    "position/velocity/current, flags joints outside their limits, servos within "
+    f"{HOT_MARGIN_C} degC of their temperature limit and input voltages outside their voltage limits. "
+    "Read-only unless --move (configure, torque on, move each joint by --step within its "
     "limits and back, then torque off) or --recover (reboot servos that report a hardware error). "
     "Exits 0 when everything is fine, 1 otherwise."
 )
@@ -52,13 +55,14 @@ def run(args: argparse.Namespace) -> int:
 
         print(f"hand-check: {hand.name} ({len(dxl.ids)} servos) on {bus.port_name} at {hand.dynamixel.baud} baud")
         print(f"  {set_low_latency(bus.port_name, hand.dynamixel.latency_timer_ms)}")
-        print(f"  {'joint':14s} {'id':>3s}  {'model':14s} {'hw_error':18s} {'q_rad':>8s} {'counts':>7s} {'dq_rad_s':>8s} {'current_A':>9s}  status")
+        print(f"  {'joint':14s} {'id':>3s}  {'model':14s} {'hw_error':18s} {'temp_C':>6s} {'input_V':>7s} "
+              f"{'q_rad':>8s} {'counts':>7s} {'dq_rad_s':>8s} {'current_A':>9s}  status")
         answered = 0
         for k, j in enumerate(dxl.joints):
             model, why = bus.ping(j.servo_id)
             if model is None:
                 problems.append(f"{j.name} (id {j.servo_id}): no reply")
-                print(f"  {j.name:14s} {j.servo_id:3d}  {'-':14s} {'-':18s} {'':>8s} {'':>7s} {'':>8s} {'':>9s}  MISSING ({why})")
+                print(f"  {j.name:14s} {j.servo_id:3d}  {'-':14s} {'-':18s} {'':>6s} {'':>7s} {'':>8s} {'':>7s} {'':>8s} {'':>9s}  MISSING ({why})")
                 continue
             answered += 1
             found = ct.model_by_number(model)
@@ -73,9 +77,11 @@ def run(args: argparse.Namespace) -> int:
                 time.sleep(0.3)
                 status.append(f"rebooted (was {','.join(ct.hardware_error_names(hw))})")
                 hw = bus.read(j.servo_id, ct.ADDR_HARDWARE_ERROR_STATUS, 1)
-            hw_text = ",".join(ct.hardware_error_names(hw)) if hw else "-"
+            hw_text = f"{','.join(ct.hardware_error_names(hw))} (0x{hw:02x})" if hw else "-"
             if hw:
-                bad.append("HARDWARE ERROR (run with --recover)")
+                bad.append(f"HARDWARE ERROR {','.join(ct.hardware_error_names(hw))} (status 0x{hw:02x}; run with --recover)")
+            temp_c, volts, supply_problems = _thermal_and_supply(bus, j.servo_id)
+            bad += supply_problems
             counts = bus.read(j.servo_id, ct.ADDR_PRESENT_POSITION, 4, signed=True)
             vel = bus.read(j.servo_id, ct.ADDR_PRESENT_VELOCITY, 4, signed=True)
             cur = bus.read(j.servo_id, ct.ADDR_PRESENT_CURRENT, 2, signed=True)
@@ -91,7 +97,8 @@ def run(args: argparse.Namespace) -> int:
                 bad.append(f"OUTSIDE LIMITS [{j.lower_rad}, {j.upper_rad}] (check offset/sign)")
             problems.extend(f"{j.name} (id {j.servo_id}): {s}" for s in bad)
             status = bad + status
-            print(f"  {j.name:14s} {j.servo_id:3d}  {model_name:14s} {hw_text:18s} {q:8.3f} {counts:7d} {dq:8.3f} {amps:9.3f}  {'; '.join(status) or 'ok'}")
+            print(f"  {j.name:14s} {j.servo_id:3d}  {model_name:14s} {hw_text:18s} {temp_c:6d} {volts:7.1f} "
+                  f"{q:8.3f} {counts:7d} {dq:8.3f} {amps:9.3f}  {'; '.join(status) or 'ok'}")
         print(f"  {answered}/{len(dxl.ids)} servos answered; bus: {bus.stats.comm_errors} communication errors, {bus.stats.retries} retries")
     finally:
         bus.close()
@@ -102,6 +109,24 @@ def run(args: argparse.Namespace) -> int:
         raise HardwareError(f"hand-check found {len(problems)} problem(s): " + "; ".join(problems))
     print("hand-check: OK")
     return 0
+
+
+def _thermal_and_supply(bus, dxl_id: int) -> tuple[int, float, list[str]]:
+    """(temperature degC, input voltage V, problems), judged against the servo's own limit
+    registers (a limit register reading 0 is treated as unknown)."""
+    from grasp_ctrl.hardware.dynamixel import control_table as ct
+
+    out: list[str] = []
+    temp_c = bus.read(dxl_id, ct.ADDR_PRESENT_TEMPERATURE, 1)
+    temp_limit = bus.read(dxl_id, ct.ADDR_TEMPERATURE_LIMIT, 1)
+    if temp_limit and temp_c >= temp_limit - HOT_MARGIN_C:
+        out.append(f"HOT {temp_c} degC (shuts down at {temp_limit} degC; let it cool)")
+    volts = bus.read(dxl_id, ct.ADDR_PRESENT_INPUT_VOLTAGE, 2) * ct.VOLT_PER_UNIT
+    v_max = bus.read(dxl_id, ct.ADDR_MAX_VOLTAGE_LIMIT, 2) * ct.VOLT_PER_UNIT
+    v_min = bus.read(dxl_id, ct.ADDR_MIN_VOLTAGE_LIMIT, 2) * ct.VOLT_PER_UNIT
+    if v_max and not v_min <= volts <= v_max:
+        out.append(f"INPUT VOLTAGE {volts:.1f} V outside {v_min:.1f}-{v_max:.1f} V (check the supply)")
+    return temp_c, volts, out
 
 
 def _move_test(hand, port: str | None, step: float) -> list[str]:

@@ -38,7 +38,7 @@ def auto_jobs(backend: str, trials: int, cpus: int | None = None) -> int:
 # The flags that define which trials a run holds (run.json stores them).
 PLAN_FLAGS = ("hand", "object_file", "backend", "emulate", "objects", "policy", "trials", "seed", "preset",
               "no_tick_logs")
-EMULATED = "dynamixel-emulated"   # the run's backend with --backend dynamixel --emulate
+EMULATED = "dynamixel-emulated"   # the run's backend with --emulate (= manifest.EMULATED_BACKEND; lazy imports)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -96,15 +96,17 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.estimators.registry import DEFAULT_POLICY
     from grasp_ctrl.paths import default_hand_file, default_objects_file
-    from grasp_ctrl.trials.manifest import RunManifest, file_sha256
+    from grasp_ctrl.trials.manifest import MAX_TRIALS, RunManifest, file_sha256
     from grasp_ctrl.trials.presets import get_preset
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.trials.selection import select_objects
 
     preset = get_preset(args.preset) if args.preset else None
     trials = args.trials if args.trials is not None else (preset.trials if preset else 5)
-    if trials < 1:
-        raise UsageError("--trials: must be at least 1")
+    if not 1 <= trials <= MAX_TRIALS:
+        raise UsageError(f"--trials: from 1 to {MAX_TRIALS} (got {trials})")
+    if args.seed is not None and not 0 <= args.seed < 2**63:
+        raise UsageError(f"--seed: an integer from 0 to 2**63-1 (got {args.seed})")
     hand_file = Path(args.hand or default_hand_file())
     object_file = Path(args.object_file or default_objects_file())
     hand = load_hand(hand_file)
@@ -185,9 +187,13 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.trials.records import load_records
     from grasp_ctrl.trials.runner import run_series
     from grasp_ctrl.trials.summary import format_table
+    from grasp_ctrl.trials.storage import write_text_atomic
 
     if args.threads < 1:
         raise UsageError("--threads: must be at least 1")
+    for flag in ("resume", "out", "json"):
+        if getattr(args, flag) is not None and not getattr(args, flag).strip():
+            raise UsageError(f"--{flag}: an empty path")
     if args.resume:
         run_dir = Path(args.resume)
         hand, manifest = _resumed(args, run_dir)
@@ -234,6 +240,6 @@ def run(args: argparse.Namespace) -> int:
     print(format_table(summary))
     print(f"logs: {run_dir}  (compare: grasp-ctrl compare {run_dir})")
     if args.json:
-        Path(args.json).write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+        write_text_atomic(args.json, json.dumps(summary, indent=2) + "\n")
         print(f"summary: {args.json}")
     return 0

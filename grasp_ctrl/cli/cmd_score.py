@@ -29,6 +29,8 @@ def run(args: argparse.Namespace) -> int:
     report_problems(scored)
     print(format_table(scored.summary))
     if args.json:
-        Path(args.json).write_text(json.dumps(scored.summary, indent=2) + "\n", encoding="utf-8")
+        from grasp_ctrl.trials.storage import write_text_atomic
+
+        write_text_atomic(args.json, json.dumps(scored.summary, indent=2) + "\n")
         print(f"summary: {args.json}")
     return 0

@@ -52,7 +52,8 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.trials.selection import select_objects
     from grasp_ctrl.trials.toml_edit import update_object_file
-    from grasp_ctrl.trials.tune import format_sweep, parse_param, rank, run_sweep, settings_grid
+    from grasp_ctrl.trials.tune import apply_setting, format_sweep, parse_param, rank, run_sweep, settings_grid
+    from grasp_ctrl.config.checks import check_objects_for_hand
 
     if args.backend != "mock" and args.jobs != 1:
         raise UsageError("--jobs: the real hand runs one trial at a time")
@@ -67,9 +68,13 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--jobs: must be at least 1")
     if "," in args.object or args.object.strip() == "all":
         raise UsageError("--object: one object name")
+    if not 0 <= args.seed < 2**63:
+        raise UsageError(f"--seed: an integer from 0 to 2**63-1 (got {args.seed})")
     grid = settings_grid([parse_param(s) for s in args.param])
     hand = load_hand(args.hand)
     (obj,) = select_objects(args.object_file, args.object, flag="--object")
+    # every setting of the sweep must also fit the hand (tau below its force limit, ...)
+    check_objects_for_hand([apply_setting(obj, s) for s in grid], hand, f"--param ({obj.name})")
     if args.backend == "dynamixel":
         # No ground truth on the real hand: the operator labels every trial.
         from grasp_ctrl.trials.hardware import hardware_trial_fn
@@ -109,7 +114,9 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         doc = {"object": obj.name, "policy": args.policy, "seed": args.seed, "trials": args.trials,
                "current": current, "ranked": [r.to_json() for r in rows]}
-        Path(args.json).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+        from grasp_ctrl.trials.storage import write_text_atomic
+
+        write_text_atomic(args.json, json.dumps(doc, indent=2) + "\n")
     if not args.write:
         return 0
     if best.successes == 0:

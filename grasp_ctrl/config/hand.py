@@ -30,6 +30,7 @@ class JointConfig:
     offset_rad: float = 0.0                   # servo zero -> joint zero
     sign: int = 1                             # servo direction
     current_limit_a: float = 1.0
+    gain_scale: float = 1.0                   # x the [dynamixel] position gains (LEAP API: 0.75 on abduction)
 
 
 @dataclass(frozen=True)
@@ -157,7 +158,7 @@ class HandConfig:
 def _joint(t: Table) -> JointConfig:
     t.unknown_keys({
         "name", "servo_id", "axis", "origin_xyz", "origin_rpy", "lower_rad", "upper_rad",
-        "open_rad", "pregrasp_rad", "offset_rad", "sign", "current_limit_a",
+        "open_rad", "pregrasp_rad", "offset_rad", "sign", "current_limit_a", "gain_scale",
     })
     lower = t.float("lower_rad", lo=-6.3, hi=6.3)
     upper = t.float("upper_rad", lo=-6.3, hi=6.3)
@@ -180,6 +181,7 @@ def _joint(t: Table) -> JointConfig:
         offset_rad=t.float("offset_rad", 0.0, lo=-6.3, hi=6.3),
         sign=sign,
         current_limit_a=t.float("current_limit_a", 1.0, lo=0.0, hi=5.0, lo_open=True),
+        gain_scale=t.float("gain_scale", 1.0, lo=0.0, hi=4.0, lo_open=True),
     )
 
 
@@ -260,7 +262,7 @@ def load_hand(path: str | Path) -> HandConfig:
         baud=s.int("baud", TactileConfig.baud, lo=9600),
         mode=s.str("mode", "binary", choices=SERIAL_MODES),
         stale_after_s=s.float("stale_after_s", 0.05, lo=0.0, hi=10.0, lo_open=True),
-        contact_pdc_threshold=s.float("contact_pdc_threshold", 10.0, lo=0.0),
+        contact_pdc_threshold=s.float("contact_pdc_threshold", 10.0, lo=0.0, lo_open=True),
         contact_frames=s.int("contact_frames", 10, lo=1, hi=1000),
         tare_frames=s.int("tare_frames", 50, lo=1, hi=10000),
         ports=tuple(ports),

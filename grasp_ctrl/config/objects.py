@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from grasp_ctrl.config.toml_reader import Table, read_toml
+from grasp_ctrl.names import SAFE_NAME_RULE, is_safe_name
 
 SHAPES = ("cylinder", "box")
 
@@ -94,7 +95,8 @@ def _object(name: str, t: Table) -> ObjectProfile:
         tip_force_n=t.float("tip_force_n", 15.0, lo=0.0, lo_open=True),
         cap=cap,
         tau_n=t.float("tau_n", 2.0, lo=0.1, hi=20.0),
-        release_threshold_n=t.float("release_threshold_n", 0.3, lo=0.0, hi=10.0),
+        # the release rule is dot(-f_world, n_world) < -threshold: a positive number
+        release_threshold_n=t.float("release_threshold_n", 0.3, lo=0.0, hi=10.0, lo_open=True),
         release_debounce=t.int("release_debounce", 3, lo=1, hi=1000),
         lift_height_m=t.float("lift_height_m", 0.10, lo=0.0, hi=1.0, lo_open=True),
         hold_s=t.float("hold_s", 0.5, lo=0.0, hi=60.0),
@@ -130,6 +132,28 @@ def profile_table(obj: ObjectProfile) -> dict[str, Any]:
     return doc
 
 
+def profile_from_json(name: object, doc: Any, source: str, prefix: str = "") -> ObjectProfile:
+    """A profile stored as ``dataclasses.asdict`` (``run.json``) -> checked by the loader's rules.
+
+    The cap comes back as a :class:`CapProfile`, and every bound and cross-field
+    rule of the object file applies; errors name ``source`` and ``prefix + key``."""
+    if not isinstance(doc, dict):
+        raise Table(source, {}, prefix).fail(str(name), "an object profile table")
+    if not is_safe_name(name):
+        raise Table(source, {}, prefix).fail("name", f"{SAFE_NAME_RULE} (got {name!r})")
+    table = {k: v for k, v in doc.items() if k not in ("name", "size_m", "cap") and v is not None}
+    size = doc.get("size_m")
+    if doc.get("shape") == "cylinder":
+        if not isinstance(size, (list, tuple)) or len(size) != 2 or size[0] != size[1]:
+            raise Table(source, {}, f"{prefix}{name}.").fail("size_m", "[d, d] for a cylinder")
+        table["diameter_m"] = size[0]
+    elif size is not None:
+        table["size_m"] = size
+    if doc.get("cap") is not None:
+        table["cap"] = doc["cap"]
+    return _object(str(name), Table(source, table, f"{prefix}{name}."))
+
+
 def revalidate(obj: ObjectProfile, source: str) -> ObjectProfile:
     """``obj`` checked by the loader's own rules (after edits such as a tuning
     sweep's); ConfigError names ``source`` and the offending key."""
@@ -143,6 +167,9 @@ def load_objects(path: str | Path) -> dict[str, ObjectProfile]:
     objs = root.table("objects")
     if not objs.data:
         raise root.fail("objects", "at least one [objects.NAME] table")
+    for name in objs.data:
+        if not is_safe_name(name):
+            raise objs.fail(name, f"{SAFE_NAME_RULE} (object names become directory names)")
     profiles = {name: _object(name, objs.table(name)) for name in objs.data}
     return profiles
 

@@ -27,6 +27,10 @@ def read_toml(path: str | Path) -> dict[str, Any]:
         raise ConfigError(str(p), "<file>", "a TOML file, got a directory") from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(str(p), "<file>", f"valid TOML ({exc})") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(str(p), "<file>", f"UTF-8 text (byte {exc.start} is not)") from None
+    except RecursionError:
+        raise ConfigError(str(p), "<file>", "valid TOML (nested too deeply)") from None
     except OSError as exc:
         raise ConfigError(str(p), "<file>", f"a readable file ({exc.strerror})") from None
 

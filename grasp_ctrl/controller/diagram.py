@@ -8,14 +8,17 @@ draws the same graph with matplotlib: no Mermaid renderer is needed.
 
 from __future__ import annotations
 
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
 from grasp_ctrl.controller.machine import ACTIVE, STATES, TERMINAL, TRANSITIONS
 from grasp_ctrl.controller.settings import ControllerSettings
 
-# Faults raised outside the guards, from any active state (GraspController.tick, the runner).
-RUNTIME_FAULTS = ("sensor_stale", "hardware_error", "overforce", "aborted")
+# Faults raised outside the guards, from any active state (GraspController.tick, the
+# sensing pipeline, control_tick, the runner; docs/safety.md).
+RUNTIME_FAULTS = ("sensor_stale", "sensor_invalid", "estimate_invalid", "goal_invalid", "hardware_error",
+                  "overforce", "aborted")
 
 
 def guard_conditions(s: ControllerSettings | None = None) -> dict[str, str]:
@@ -121,7 +124,7 @@ def draw(path: Path, settings: ControllerSettings | None = None) -> Path:
             ax.text(x0 + 0.12, (y0 + y1) / 2, f"{e.guard}\n{e.condition}", fontsize=7.5, ha="left", va="center",
                     zorder=4)
     fx, fy = _LAYOUT["fault"]
-    ax.text(fx, fy + 0.55, "from every active state also:\n" + ", ".join(RUNTIME_FAULTS)
+    ax.text(fx, fy + 0.55, "from every active state also:\n" + textwrap.fill(", ".join(RUNTIME_FAULTS), 44)
             + "\nthen safety.on_fault (open | hold | torque_off)", fontsize=8, ha="center", va="top", color="#b03a2e")
     ax.set_title("grasp_ctrl lift-and-place controller", fontsize=12)
     fig.tight_layout()

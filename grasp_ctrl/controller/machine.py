@@ -10,6 +10,7 @@ ticks, no timer threads), so tests can drive it tick by tick.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
@@ -103,6 +104,7 @@ class GraspController:
         self._retreat_goal: np.ndarray | None = None
         self.torque_on = True
         self.failure_reason: str | None = None
+        self.failure_detail: str | None = None      # what failed, for the record
         self.ticks_in_state = 0
         self.release_count = 0
         self.settle_count = 0
@@ -140,8 +142,9 @@ class GraspController:
             self.failure_reason = reason
         return setter
 
-    def _set_reason(self, reason: str) -> None:
+    def _set_reason(self, reason: str, detail: str | None = None) -> None:
         self.failure_reason = reason
+        self.failure_detail = detail
 
     def _on_enter(self, *_: Any, **__: Any) -> None:
         prev = self.history[-1][2] if self.history else "tare"
@@ -232,13 +235,33 @@ class GraspController:
         if not self.terminal:
             self.ticks_in_state += 1
             self._update_counters(snap)
+            # squared norms: one cheap pass on the hot path (no sqrt unless a limit is crossed)
+            force_sq = np.einsum("ij,ij->i", snap.f_sensor, snap.f_sensor)
+            limit = self.hand.safety.max_fingertip_force_n
             if snap.fault:
-                self.fail(reason=snap.fault)
-            elif (np.einsum("ij,ij->i", snap.f_sensor, snap.f_sensor) > self.hand.safety.max_fingertip_force_n ** 2).any():
-                self.fail(reason="overforce")
+                self.fail(reason=snap.fault, detail=snap.fault_detail)
+            elif not np.all(np.isfinite(force_sq)):
+                # never let NaN slip past the over-force comparison (NaN > x is False)
+                self.fail(reason="estimate_invalid", detail="non-finite estimated force in the snapshot")
+            elif (force_sq > limit * limit).any():
+                i = int(np.argmax(force_sq))
+                self.fail(reason="overforce",
+                          detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {math.sqrt(force_sq[i]):.2f} N > {limit:g} N")
             elif any(guard() for guard in self._guards[self.state]):  # type: ignore[attr-defined]
                 self.step()
         self._act(snap)
+        return Command(q_goal=self.motion.next_goal(), p_palm_world=self.palm_target.copy(), torque_on=self.torque_on)
+
+    def safe_command(self, snap: Snapshot) -> Command:
+        """The safe action from the measured pose, discarding the motion state (after a
+        command came out non-finite): the goals restart at the measured joint angles."""
+        q = np.where(np.isfinite(snap.q), snap.q, self.motion.open_q)
+        last = self.palm_target if self.palm_target is not None and np.all(np.isfinite(self.palm_target)) else self.reach_pose
+        p = snap.p_palm_world if np.all(np.isfinite(snap.p_palm_world)) else last
+        self.motion.sync(q)
+        self.palm_target = np.array(p, dtype=float)
+        if self.terminal:
+            self._safe_action(dataclasses.replace(snap, q=q, p_palm_world=self.palm_target.copy()))
         return Command(q_goal=self.motion.next_goal(), p_palm_world=self.palm_target.copy(), torque_on=self.torque_on)
 
     # ----- actions per state --------------------------------------------------

@@ -24,7 +24,8 @@ class Snapshot:
     f_world: np.ndarray           # (n_tips, 3) N
     grip_n: np.ndarray            # (n_tips,) N, squeeze: |f_world| across the lift direction
     variance: np.ndarray | None = None   # (n_tips, 3) N^2 when the policy provides it
-    fault: str | None = None      # a fault the runner detected (sensor_stale, hardware_error, aborted)
+    fault: str | None = None      # a fault the runner detected (sensor_stale, hardware_error, aborted, ...)
+    fault_detail: str | None = None   # what failed, in words (servo id and error bits, port, fingertip)
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,7 @@
 a stable path (a symlink, so an emulated unplug/replug keeps the port name like a
 ``/dev/serial/by-id`` link does) and streams protocol v1 frames from a thread at
 ``rate_hz`` per fingertip. Values come from a ``FrameSource``: ``SyntheticSource``
-(periodic presses) or ``RecordingSource`` (the robotic_finger CSV, which has pdc
+(periodic presses through the simulated BioTac) or ``RecordingSource`` (the robotic_finger CSV, which has pdc
 and e1..e19; the pac, tdc and tac channels are filled in plausibly).
 
 Faults: per-frame bit flips (1..3 bits, always caught by the CRC) and truncation,
@@ -49,20 +49,21 @@ def _to_counts(frame: np.ndarray) -> np.ndarray:
 
 
 class SyntheticSource:
-    """Slow presses on the pad: electrodes facing -z drop, pdc rises (as on a BioTac)."""
+    """Slow presses on each fingertip's pad through the simulated BioTac (the same forward
+    model as the mock world and the synthetic training data, ``sim/biotac_model.py``):
+    electrodes under the pad drop, the ones away from it rise, pdc rises. Each fingertip is
+    its own simulated sensor (baselines, gains, noise), stepped once per call."""
 
     def __init__(
-        self, seed: int = 0, rate_hz: float = 100.0, period_s: float = 3.0, depth_counts: float = 400.0, free_s: float = 1.0
+        self, seed: int = 0, rate_hz: float = 100.0, period_s: float = 3.0, peak_force_n: float = 2.0,
+        free_s: float = 1.0,
     ) -> None:
         self.rate_hz = rate_hz
         self.free_s = free_s
         self.period_s = period_s
-        self.depth = depth_counts
+        self.peak_force_n = peak_force_n
         self.seed = seed
-        rng = np.random.default_rng(seed)
-        self._baseline = rng.uniform(2800, 3400, (256, 19))
-        self._pad_weight = np.clip(-ELECTRODE_NORMALS_SENSOR[:, 2], 0.0, None) + 0.1
-        self._rngs: dict[int, np.random.Generator] = {}
+        self._sensors: dict[int, object] = {}
 
     def press(self, sensor_id: int, k: int) -> float:
         """Press depth 0..1 of fingertip ``sensor_id`` at sample ``k``: free for the first
@@ -71,14 +72,20 @@ class SyntheticSource:
         return max(0.0, np.sin(2 * np.pi * t / self.period_s)) ** 2 if t > 0 else 0.0
 
     def __call__(self, sensor_id: int, k: int) -> np.ndarray:
-        rng = self._rngs.setdefault(sensor_id, np.random.default_rng((self.seed, sensor_id)))
-        p = self.press(sensor_id, k)
-        frame = np.empty(FRAME_LEN)
-        frame[ELECTRODES] = self._baseline[sensor_id % 256] - self.depth * p * self._pad_weight + rng.normal(0, 2.0, 19)
-        frame[PDC] = 2450 + 0.8 * self.depth * p + rng.normal(0, 1.5)
-        rate = (p - self.press(sensor_id, k - 1)) * 0.8 * self.depth
-        _fill_other_channels(frame, rate, rng)
-        return _to_counts(frame)
+        from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
+        from grasp_ctrl.sim.biotac_model import BioTacSensorModel
+
+        sensor = self._sensors.get(sensor_id)
+        if sensor is None:
+            sensor = BioTacSensorModel(1, np.random.default_rng((self.seed, sensor_id)))
+            self._sensors[sensor_id] = sensor
+        depth = self.press(sensor_id, k)
+        # the press leans a little along the finger as it comes and goes
+        sway = 0.2 * np.sin(2 * np.pi * k / (self.rate_hz * self.period_s))
+        f_sensor = self.peak_force_n * depth * np.array([[sway, 0.0, 1.0]])
+        frame = sensor.frames(PAD_POINT_SENSOR[None], f_sensor, PAD_NORMAL_SENSOR[None],  # type: ignore[attr-defined]
+                              np.array([depth > 0.0]), np.zeros(1), 1.0 / self.rate_hz)
+        return frame[0].astype(np.int64)
 
 
 class RecordingSource:

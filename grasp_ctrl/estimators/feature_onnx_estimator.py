@@ -17,6 +17,7 @@ import numpy as np
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.base import Estimate
+from grasp_ctrl.estimators.onnx_checks import check_graph_io, verify_model_hash
 from grasp_ctrl.tactile.features import contact_points
 from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PDC
 
@@ -80,10 +81,12 @@ def load_feature_onnx_policy(meta: dict[str, Any], json_path: Path, hand: HandCo
     opts = ort.SessionOptions()
     opts.intra_op_num_threads = max(1, int(threads))
     opts.inter_op_num_threads = 1
+    verify_model_hash(meta, json_path, model_file)   # before onnxruntime parses the file
     try:
         session = ort.InferenceSession(str(model_file), opts, providers=["CPUExecutionProvider"])
     except Exception as exc:  # onnxruntime raises its own types
-        raise PolicyError(f"{model_file}: cannot load the ONNX model ({str(exc).splitlines()[0]})") from None
+        raise PolicyError(f"{model_file}: cannot load the ONNX model ({(str(exc).splitlines() or [type(exc).__name__])[0]})") from None
+    check_graph_io(session, meta, json_path)
     have = {i.name for i in session.get_inputs()}
     if have != set(FEATURE_KINDS[kind]):
         raise PolicyError(f"{json_path}: input.tensors: the ONNX model takes {sorted(have)}, {kind} needs "

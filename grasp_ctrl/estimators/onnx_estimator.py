@@ -20,6 +20,7 @@ import numpy as np
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.base import Estimate
+from grasp_ctrl.estimators.onnx_checks import check_graph_io, verify_model_hash
 from grasp_ctrl.tactile.features import contact_points
 from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN
 from grasp_ctrl.tactile.voxel import GRID_SHAPE, VARIANTS, VoxelGrid
@@ -158,9 +159,11 @@ def load_onnx_policy(meta: dict[str, Any], json_path: Path, hand: HandConfig | N
     opts.inter_op_num_threads = 1
     opts.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
     opts.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
+    verify_model_hash(meta, json_path, model_file)   # before onnxruntime parses the file
     try:
         session = ort.InferenceSession(str(model_file), opts, providers=["CPUExecutionProvider"])
     except Exception as exc:  # onnxruntime raises its own exception types
-        raise PolicyError(f"{model_file}: cannot load the ONNX model ({str(exc).splitlines()[0]})") from None
+        raise PolicyError(f"{model_file}: cannot load the ONNX model ({(str(exc).splitlines() or [type(exc).__name__])[0]})") from None
     _check_onnx_interface(session, json_path, tensors_in, [force_out] + ([var_out] if var_out else []))
+    check_graph_io(session, meta, json_path)
     return OnnxEstimator(session, name, el_name, cp_name, force_out, var_out, float(sign), variant)

@@ -28,6 +28,7 @@ LOADERS: dict[str, str] = {
     "analytic": "grasp_ctrl.estimators.registry:load_analytic",
     "linear": "grasp_ctrl.estimators.registry:load_linear",
     "onnx": "grasp_ctrl.estimators.onnx_estimator:load_onnx_policy",
+    "calibrated": "grasp_ctrl.estimators.calibrated:load_calibrated_policy",
 }
 
 
@@ -47,8 +48,8 @@ def resolve_policy_path(spec: str) -> Path:
 def read_metadata(json_path: Path) -> dict[str, Any]:
     try:
         meta = json.loads(json_path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise PolicyError(f"{json_path}: unreadable policy metadata ({exc})") from None
+    except (OSError, ValueError, RecursionError) as exc:   # ValueError: bad JSON or bad UTF-8
+        raise PolicyError(f"{json_path}: unreadable policy metadata ({type(exc).__name__}: {str(exc)[:200]})") from None
     if not isinstance(meta, dict) or "kind" not in meta:
         raise PolicyError(f"{json_path}: kind: required key is missing")
     return meta
@@ -86,11 +87,15 @@ def load_policy(spec: str, hand: HandConfig | None = None, threads: int = 1) -> 
     meta = read_metadata(json_path)
     check_sensor(meta, json_path, hand)
     kind = meta["kind"]
-    if kind not in LOADERS:
+    if not isinstance(kind, str) or kind not in LOADERS:
         raise PolicyError(f"{json_path}: kind: one of {', '.join(LOADERS)} (got {kind!r})")
     module_name, func_name = LOADERS[kind].split(":")
     loader: Callable[..., ForceEstimator] = getattr(importlib.import_module(module_name), func_name)
-    return loader(meta, json_path, hand, threads)
+    try:
+        return loader(meta, json_path, hand, threads)
+    except (TypeError, AttributeError, KeyError, ValueError, IndexError) as exc:
+        # a section of the wrong type (a list where a table belongs, ...) that no field check caught
+        raise PolicyError(f"{json_path}: malformed policy metadata ({type(exc).__name__}: {str(exc)[:200]})") from None
 
 
 def list_policy_names() -> list[str]:

@@ -22,7 +22,7 @@ Direction estimators:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
 import numpy as np
@@ -138,6 +138,15 @@ class DirectionResult:
     percentiles: dict[int, float]
     label_sign: float
     gains: list[float] | None
+    angles: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False, compare=False)  # (n_test,) deg
+
+
+def pooled_percentiles(results: Sequence[DirectionResult]) -> tuple[int, dict[int, float]]:
+    """The two-fold figure: percentiles over the test errors of all folds together (n, {p: deg})."""
+    ang = np.concatenate([r.angles for r in results]) if results else np.zeros(0)
+    if len(ang) == 0:
+        raise ValueError("no test angles to pool")
+    return len(ang), {p: float(np.percentile(ang, p)) for p in PERCENTILES}
 
 
 def evaluate(name: str, samples: Sequence[ContactSamples],
@@ -159,5 +168,5 @@ def evaluate(name: str, samples: Sequence[ContactSamples],
             results.append(DirectionResult(
                 name, tr.trial_id, te.trial_id, len(tr.tared), len(te.tared),
                 {p: float(np.percentile(ang, p)) for p in PERCENTILES}, fit.label_sign,
-                None if fit.gains is None else [float(g) for g in fit.gains]))
+                None if fit.gains is None else [float(g) for g in fit.gains], ang))
     return results

@@ -86,6 +86,11 @@ class FingerChain:
             R = R @ (eye + math.sin(qi) * self._K[i] + (1.0 - math.cos(qi)) * self._K2[i])
         return Rs, ps, R @ self._R_tip, p + R @ self._p_tip
 
+    def joint_axes_and_origins(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each joint's axis (n, 3, unit) and origin (n, 3) in the hand frame at angles q."""
+        Rs, ps, _, _ = self._frames(np.asarray(q, dtype=float))
+        return np.einsum("nij,nj->ni", Rs, self.axes), ps
+
     def fk_rp(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Sensor frame in the hand frame as (rotation (3, 3), origin (3,))."""
         _, _, R, p = self._frames(q)

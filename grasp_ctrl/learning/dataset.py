@@ -4,12 +4,21 @@ Columns (CSV header or Parquet column names):
 
 - ``trial_id`` (text), ``source`` (``rigid-ft``, ``ball-ft``, ``planar-pushing``), ``t`` (s);
 - the 44 signals, either TARED under the channel names ``e1..e19, pdc, pac1..pac22, tdc, tac``
-  (value - baseline, counts) or RAW under ``raw_e1 .. raw_tac``; raw signals are tared per
-  trial with the mean of the trial's first ``tare_frames`` rows, which must be free of contact;
+  (value - baseline, counts) or RAW under ``raw_e1 .. raw_tac``;
 - ``fx, fy, fz``: force label in N, sensor frame, the force ON the sensor skin (DESIGN.md 4);
 - ``projected`` (0/1): only the components parallel to the support plane are trusted
   (planar pushing); then ``r00 .. r22`` (row-major R_world_sensor, the sensor orientation in
   the world, whose z axis is the support-surface normal) are required.
+
+A TARED file holds force samples only: every row needs a non-zero label.
+
+A RAW file holds each trial's whole stream, in time order: it starts with contact-free rows
+labelled ``0 0 0`` (at least ``min_tare_rows``, default 10), whose mean is the trial's tare
+baseline (``value - baseline``) and which are not samples; then the press stream. There the
+paper's contact gate (tared pdc > 10 counts for 10 consecutive rows, counted from the first row
+after the tare rows) and a non-zero label pick the samples; rows labelled ``0 0 0`` (no force)
+or with an empty / NaN label (no label known, e.g. a static planar push) stay in the stream
+for the gate but are not samples.
 
 Extra columns are ignored. Bad rows are reported with their line number (CSV) or row number
 (Parquet), never silently dropped.
@@ -26,7 +35,8 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from grasp_ctrl.errors import GraspCtrlError
-from grasp_ctrl.tactile.layout import CHANNEL_NAMES, FRAME_LEN
+from grasp_ctrl.learning.gate import GateRule, contact_gate
+from grasp_ctrl.tactile.layout import CHANNEL_NAMES, FRAME_LEN, PDC
 
 SOURCES = ("rigid-ft", "ball-ft", "planar-pushing")
 LABEL_COLUMNS = ("fx", "fy", "fz")
@@ -97,10 +107,14 @@ def _columns_spec(header: Sequence[str], path: Path) -> tuple[list[str], bool]:
     raise DatasetError(f"{path}: missing signal column(s) {', '.join(absent[:5])} (tared e1..tac or raw_e1..raw_tac)")
 
 
+LABEL_SAMPLE, LABEL_ZERO, LABEL_NONE = 0, 1, 2   # a force label, "0 0 0" (no force), no label known
+
+
 def _parse_rows(
-    records: Iterable[tuple[int, dict[str, object]]], signal_cols: list[str], has_rot: bool, problems: _Problems
+    records: Iterable[tuple[int, dict[str, object]]], signal_cols: list[str], has_rot: bool, raw: bool,
+    problems: _Problems,
 ) -> dict[str, list]:
-    out: dict[str, list] = {f: [] for f in ("trial_id", "source", "t", "z", "f", "proj", "r")}
+    out: dict[str, list] = {f: [] for f in ("where", "trial_id", "source", "t", "z", "f", "kind", "proj", "r")}
     for where, rec in records:
         try:
             trial = str(rec["trial_id"]).strip()
@@ -111,7 +125,7 @@ def _parse_rows(
                 raise ValueError(f"source: one of {', '.join(SOURCES)} (got {source!r})")
             t = _num(rec, "t")
             z = [_num(rec, c) for c in signal_cols]
-            f = [_num(rec, c) for c in LABEL_COLUMNS]
+            f, kind = _label(rec, raw)
             proj_val = _num(rec, "projected")
             if proj_val not in (0.0, 1.0):
                 raise ValueError(f"projected: 0 or 1 (got {rec['projected']!r})")
@@ -120,97 +134,145 @@ def _parse_rows(
                 if not has_rot:
                     raise ValueError("projected label needs the sensor orientation columns r00..r22")
                 r = np.array([_num(rec, c) for c in ROTATION_COLUMNS]).reshape(3, 3)
-                if np.max(np.abs(r @ r.T - np.eye(3))) > 1e-3 or np.linalg.det(r) < 0:
+                with np.errstate(all="ignore"):
+                    orthonormal = np.max(np.abs(r @ r.T - np.eye(3))) <= 1e-3 and np.linalg.det(r) > 0
+                if not orthonormal:
                     raise ValueError("r00..r22: not a rotation matrix")
             else:
                 r = np.eye(3)
-            if not np.linalg.norm(f) > 0:
-                raise ValueError("fx, fy, fz: a non-zero force label (use force samples only)")
         except ValueError as exc:
             problems.add(where, str(exc))
             continue
-        out["trial_id"].append(trial)
-        out["source"].append(source)
-        out["t"].append(t)
-        out["z"].append(z)
-        out["f"].append(f)
-        out["proj"].append(proj)
-        out["r"].append(r)
+        for key, value in (("where", where), ("trial_id", trial), ("source", source), ("t", t), ("z", z),
+                           ("f", f), ("kind", kind), ("proj", proj), ("r", r)):
+            out[key].append(value)
     return out
+
+
+def _is_missing(value: object) -> bool:
+    if value is None:
+        return True
+    if isinstance(value, str):
+        return value.strip() == "" or value.strip().lower() == "nan"
+    return isinstance(value, float) and math.isnan(value)
+
+
+def _label(rec: dict[str, object], raw: bool) -> tuple[list[float], int]:
+    """The force label and its kind; raw files may hold "0 0 0" and unlabelled rows."""
+    if raw and all(_is_missing(rec.get(c)) for c in LABEL_COLUMNS):
+        return [0.0, 0.0, 0.0], LABEL_NONE
+    f = [_num(rec, c) for c in LABEL_COLUMNS]
+    if not any(f):
+        if raw:
+            return f, LABEL_ZERO
+        raise ValueError("fx, fy, fz: a non-zero force label (a tared file holds force samples only)")
+    return f, LABEL_SAMPLE
 
 
 def _num(rec: dict[str, object], col: str) -> float:
     value = rec.get(col)
     try:
         v = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ValueError(f"{col}: a number (got {value!r})") from None
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{col}: a number (got {_short(value)})") from None
     if not math.isfinite(v):
-        raise ValueError(f"{col}: a finite number (got {value!r})")
+        raise ValueError(f"{col}: a finite number (got {_short(value)})")
     return v
 
 
-def _build(cols: dict[str, list], raw: bool, tare_frames: int, path: Path) -> Dataset:
+def _short(value: object) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _build(cols: dict[str, list], raw: bool, min_tare_rows: int, path: Path, gate: GateRule) -> Dataset:
     n = len(cols["t"])
     if n == 0:
         raise DatasetError(f"{path}: no samples")
     z = np.asarray(cols["z"], dtype=float).reshape(n, FRAME_LEN)
     trial = np.asarray(cols["trial_id"], dtype=object).astype(str)
+    keep = np.ones(n, dtype=bool)
     if raw:
-        z = tare_per_trial(z, trial, tare_frames)
+        z, keep = _tare_and_gate(z, trial, np.asarray(cols["kind"]), np.asarray(cols["where"]), min_tare_rows,
+                                 path, gate)
+        if not keep.any():
+            raise DatasetError(f"{path}: no samples (no labelled row with the contact gate on: tared pdc > "
+                               f"{gate.pdc_threshold:g} counts for {gate.frames} rows)")
+    with np.errstate(all="ignore"):
+        finite = np.isfinite(z[keep]).all()
+    if not finite:
+        raise DatasetError(f"{path}: signals too large: not finite after taring")
     return Dataset(
-        trial_id=trial,
-        source=np.asarray(cols["source"]).astype(str),
-        t=np.asarray(cols["t"], dtype=float),
-        tared=z,
-        f_sensor=np.asarray(cols["f"], dtype=float),
-        projected=np.asarray(cols["proj"], dtype=bool),
-        r_world_sensor=np.asarray(cols["r"], dtype=float).reshape(n, 3, 3),
+        trial_id=trial[keep],
+        source=np.asarray(cols["source"]).astype(str)[keep],
+        t=np.asarray(cols["t"], dtype=float)[keep],
+        tared=z[keep],
+        f_sensor=np.asarray(cols["f"], dtype=float).reshape(n, 3)[keep],
+        projected=np.asarray(cols["proj"], dtype=bool)[keep],
+        r_world_sensor=np.asarray(cols["r"], dtype=float).reshape(n, 3, 3)[keep],
     )
 
 
-def tare_per_trial(raw: np.ndarray, trial_id: np.ndarray, tare_frames: int) -> np.ndarray:
-    """value - baseline, the baseline being the mean of each trial's first rows."""
-    out = np.asarray(raw, dtype=float).copy()
-    for trial in np.unique(trial_id):
-        idx = np.flatnonzero(trial_id == trial)
-        out[idx] -= out[idx[:tare_frames]].mean(axis=0)
-    return out
+def _tare_and_gate(z: np.ndarray, trial: np.ndarray, kind: np.ndarray, where: np.ndarray, min_tare_rows: int,
+                   path: Path, gate: GateRule) -> tuple[np.ndarray, np.ndarray]:
+    """Raw rows -> (tared rows, sample mask): per trial, its leading "0 0 0" rows are the baseline."""
+    tared = z.copy()
+    keep = np.zeros(len(z), dtype=bool)
+    for tid in dict.fromkeys(trial.tolist()):  # trials in file order
+        idx = np.flatnonzero(trial == tid)
+        not_tare = np.flatnonzero(kind[idx] != LABEL_ZERO)
+        n_tare = int(not_tare[0]) if len(not_tare) else len(idx)
+        if n_tare < min_tare_rows:
+            raise DatasetError(
+                f"{path}: trial {tid!r} (line {where[idx[0]]}): {n_tare} contact-free tare row(s) labelled 0 0 0 "
+                f"at its start, at least {min_tare_rows} needed (raw signals are tared on them)")
+        with np.errstate(all="ignore"):
+            tared[idx] -= z[idx[:n_tare]].mean(axis=0)
+        stream = idx[n_tare:]
+        keep[stream] = contact_gate(tared[stream, PDC], gate) & (kind[stream] == LABEL_SAMPLE)
+    return tared, keep
 
 
-def read_csv(path: str | Path, tare_frames: int = 10, on_bad: str = "raise") -> tuple[Dataset, list[tuple[int, str]]]:
+def read_csv(path: str | Path, min_tare_rows: int = 10, on_bad: str = "raise",
+             gate: GateRule = GateRule()) -> tuple[Dataset, list[tuple[int, str]]]:
     """Read a dataset CSV. ``on_bad="raise"`` fails listing the bad lines; ``"skip"``
     leaves them out and returns them as (line, problem) for the caller to report."""
     p = Path(path)
     try:
-        fh = p.open(newline="", encoding="utf-8")
+        fh = p.open(newline="", encoding="utf-8-sig")
     except OSError as exc:
         raise DatasetError(f"{p}: cannot read ({exc.strerror or exc})") from None
     problems = _Problems(p, "line")
     with fh:
         reader = csv.reader(fh)
-        header = [h.strip() for h in next(reader, [])]
-        if not header:
-            raise DatasetError(f"{p}: empty file")
-        signal_cols, raw = _columns_spec(header, p)
-        has_rot = all(c in header for c in ROTATION_COLUMNS)
+        try:
+            header = [h.strip() for h in next(reader, [])]
+            if not header:
+                raise DatasetError(f"{p}: empty file")
+            signal_cols, raw = _columns_spec(header, p)
+            has_rot = all(c in header for c in ROTATION_COLUMNS)
 
-        def records() -> Iterable[tuple[int, dict[str, object]]]:
-            for line_no, row in enumerate(reader, start=2):
-                if not row:
-                    continue
-                if len(row) != len(header):
-                    problems.add(line_no, f"{len(row)} fields, the header has {len(header)}")
-                    continue
-                yield line_no, dict(zip(header, row))
+            def records() -> Iterable[tuple[int, dict[str, object]]]:
+                for row in reader:
+                    if not row:
+                        continue
+                    if len(row) != len(header):
+                        problems.add(reader.line_num, f"{len(row)} fields, the header has {len(header)}")
+                        continue
+                    yield reader.line_num, dict(zip(header, row))
 
-        cols = _parse_rows(records(), signal_cols, has_rot, problems)
+            cols = _parse_rows(records(), signal_cols, has_rot, raw, problems)
+        except UnicodeDecodeError as exc:
+            raise DatasetError(f"{p}: not UTF-8 text (byte {exc.start} of a block near line {reader.line_num + 1})") from None
+        except csv.Error as exc:
+            raise DatasetError(f"{p}: line {reader.line_num}: not valid CSV ({exc})") from None
     if on_bad == "raise":
         problems.raise_if_any()
-    return _build(cols, raw, tare_frames, p), problems.items
+    return _build(cols, raw, min_tare_rows, p, gate), problems.items
 
 
-def read_parquet(path: str | Path, tare_frames: int = 10, on_bad: str = "raise") -> tuple[Dataset, list[tuple[int, str]]]:
+def read_parquet(path: str | Path, min_tare_rows: int = 10, on_bad: str = "raise",
+                 gate: GateRule = GateRule()) -> tuple[Dataset, list[tuple[int, str]]]:
     """Parquet with the same columns (needs pyarrow); rows are numbered from 1."""
     p = Path(path)
     try:
@@ -219,49 +281,75 @@ def read_parquet(path: str | Path, tare_frames: int = 10, on_bad: str = "raise")
         raise DatasetError(f"{p}: reading Parquet needs pyarrow (pip install pyarrow)") from None
     try:
         table = pq.read_table(p)
-    except (OSError, ValueError) as exc:
-        raise DatasetError(f"{p}: unreadable Parquet ({exc})") from None
-    header = list(table.column_names)
+    except Exception as exc:  # pyarrow raises its own types for corrupt files
+        raise DatasetError(f"{p}: unreadable Parquet ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
+    header = [str(c) for c in table.column_names]
     signal_cols, raw = _columns_spec(header, p)
     has_rot = all(c in header for c in ROTATION_COLUMNS)
     data = table.to_pydict()
     problems = _Problems(p, "row")
     records = ((i + 1, {c: data[c][i] for c in header}) for i in range(table.num_rows))
-    cols = _parse_rows(records, signal_cols, has_rot, problems)
+    cols = _parse_rows(records, signal_cols, has_rot, raw, problems)
     if on_bad == "raise":
         problems.raise_if_any()
-    return _build(cols, raw, tare_frames, p), problems.items
+    return _build(cols, raw, min_tare_rows, p, gate), problems.items
 
 
-def read_dataset(path: str | Path, tare_frames: int = 10, on_bad: str = "raise") -> tuple[Dataset, list[tuple[int, str]]]:
+def read_dataset(path: str | Path, min_tare_rows: int = 10, on_bad: str = "raise") -> tuple[Dataset, list[tuple[int, str]]]:
     p = Path(path)
     if p.suffix.lower() in (".parquet", ".pq"):
-        return read_parquet(p, tare_frames, on_bad)
-    return read_csv(p, tare_frames, on_bad)
+        return read_parquet(p, min_tare_rows, on_bad)
+    return read_csv(p, min_tare_rows, on_bad)
 
 
-def read_datasets(paths: Sequence[str | Path], tare_frames: int = 10, on_bad: str = "raise") -> tuple[Dataset, list[str]]:
+def read_datasets(paths: Sequence[str | Path], min_tare_rows: int = 10, on_bad: str = "raise") -> tuple[Dataset, list[str]]:
     parts, notes = [], []
     for path in paths:
-        ds, bad = read_dataset(path, tare_frames, on_bad)
+        ds, bad = read_dataset(path, min_tare_rows, on_bad)
         parts.append(ds)
         notes += [f"{path}: line {w}: {m}" for w, m in bad]
     return Dataset.concat(parts), notes
 
 
-def header() -> list[str]:
-    return ["trial_id", "source", "t", *CHANNEL_NAMES, *LABEL_COLUMNS, "projected", *ROTATION_COLUMNS]
+def header(raw: bool = False) -> list[str]:
+    signals = RAW_COLUMNS if raw else CHANNEL_NAMES
+    return ["trial_id", "source", "t", *signals, *LABEL_COLUMNS, "projected", *ROTATION_COLUMNS]
+
+
+def _cells(values: np.ndarray) -> list[str]:
+    """Shortest text that reads back to the same float (a written file trains like the arrays)."""
+    return [repr(float(v)) for v in values]
 
 
 def write_csv(path: str | Path, ds: Dataset) -> None:
+    """A TARED dataset file: one row per force sample."""
     with Path(path).open("w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
         w.writerow(header())
         for i in range(len(ds)):
-            w.writerow(
-                [ds.trial_id[i], ds.source[i], f"{ds.t[i]:.4f}"]
-                + [f"{v:.6g}" for v in ds.tared[i]]
-                + [f"{v:.6g}" for v in ds.f_sensor[i]]
-                + [int(ds.projected[i])]
-                + [f"{v:.9g}" for v in ds.r_world_sensor[i].ravel()]
-            )
+            w.writerow([ds.trial_id[i], ds.source[i], repr(float(ds.t[i]))] + _cells(ds.tared[i])
+                       + _cells(ds.f_sensor[i]) + [int(ds.projected[i])] + _cells(ds.r_world_sensor[i].ravel()))
+
+
+@dataclass
+class RawTrial:
+    """One trial's whole stream for a RAW file: tare rows (label 0 0 0) first, then the presses."""
+    trial_id: str
+    source: str
+    t: np.ndarray               # (m,) s
+    raw: np.ndarray             # (m, 44) counts
+    f_sensor: np.ndarray        # (m, 3) N; 0 0 0 = no force, NaN = no label known
+    projected: np.ndarray       # (m,) bool
+    r_world_sensor: np.ndarray  # (m, 3, 3)
+
+
+def write_raw_csv(path: str | Path, trials: Iterable[RawTrial]) -> None:
+    with Path(path).open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(header(raw=True))
+        for tr in trials:
+            for i in range(len(tr.t)):
+                label = tr.f_sensor[i]
+                label_cells = ["", "", ""] if np.isnan(label).any() else _cells(label)
+                w.writerow([tr.trial_id, tr.source, repr(float(tr.t[i]))] + _cells(tr.raw[i]) + label_cells
+                           + [int(tr.projected[i])] + _cells(tr.r_world_sensor[i].ravel()))

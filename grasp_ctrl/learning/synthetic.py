@@ -15,7 +15,9 @@ Character of each source (paper II-B, III-A):
   sensor frame, projected (the fingertip also feels an unmodelled vertical force).
 
 Only force samples enter a dataset: those where the contact gate (tared pdc > 10 counts for 10
-samples) is on, as on the robot.
+samples) is on, as on the robot. ``generate_trials`` also keeps each trial's whole raw stream
+(tare window and ungated frames) for RAW dataset files (``launch.py synth --raw``); the reader
+picks the same samples from it as ``generate`` does.
 """
 
 from __future__ import annotations
@@ -25,8 +27,9 @@ from typing import Callable
 
 import numpy as np
 
-from grasp_ctrl.learning.dataset import SOURCES, Dataset
+from grasp_ctrl.learning.dataset import SOURCES, Dataset, RawTrial
 from grasp_ctrl.learning.features import surface_point_and_normal
+from grasp_ctrl.learning.gate import GateRule, contact_gate
 from grasp_ctrl.pushing.kinematics import planar_motion
 from grasp_ctrl.pushing.simulate import PAPER_BOX, simulate_push
 from grasp_ctrl.pushing.solver import plane_force_to_sensor, pusher_forces
@@ -38,10 +41,44 @@ TARE_FRAMES = 20
 RATE_HZ = 100.0
 
 
-@dataclass(frozen=True)
-class GateRule:
-    pdc_threshold: float = 10.0
-    frames: int = 10
+@dataclass
+class SimTrial:
+    """One simulated trial: the whole raw stream and what the dataset keeps of it."""
+    trial_id: str
+    source: str
+    raw: np.ndarray        # (TARE_FRAMES + n, 44) counts: the contact-free tare window, then the stream
+    label: np.ndarray      # (n, 3) N, f_sensor label; NaN where the source gives none (unsolved push)
+    keep: np.ndarray       # (n,) bool: force samples (contact gate on, non-zero label)
+    projected: np.ndarray  # (n,) bool
+    rotation: np.ndarray   # (n, 3, 3) R_world_sensor
+
+    def tared(self) -> np.ndarray:
+        """(n, 44) stream tared on the mean of the tare window."""
+        return (self.raw - self.raw[:TARE_FRAMES].mean(axis=0))[TARE_FRAMES:]
+
+    def dataset(self) -> Dataset:
+        keep = self.keep
+        n = int(keep.sum())
+        return Dataset(
+            trial_id=np.full(n, self.trial_id), source=np.full(n, self.source), t=np.flatnonzero(keep) / RATE_HZ,
+            tared=self.tared()[keep], f_sensor=self.label[keep], projected=self.projected[keep],
+            r_world_sensor=self.rotation[keep],
+        )
+
+    def raw_rows(self) -> RawTrial:
+        """The RAW file rows: tare window labelled 0 0 0, then every stream frame (t = 0 at its start)."""
+        n = len(self.label)
+        label = np.vstack([np.zeros((TARE_FRAMES, 3)), self.label])
+        # a stream frame without a usable label is written unlabelled, never "0 0 0", which would
+        # extend the tare window when it is the first frame after it
+        stream_label = label[TARE_FRAMES:]
+        stream_label[~(np.linalg.norm(np.nan_to_num(stream_label), axis=1) > 0)] = np.nan
+        return RawTrial(
+            trial_id=self.trial_id, source=self.source, t=np.arange(-TARE_FRAMES, n) / RATE_HZ, raw=self.raw,
+            f_sensor=label, projected=np.r_[np.full(TARE_FRAMES, self.projected[0] if n else False), self.projected],
+            r_world_sensor=np.vstack([np.repeat(self.rotation[:1] if n else np.eye(3)[None], TARE_FRAMES, axis=0),
+                                      self.rotation]),
+        )
 
 
 def mock_biotac_forward(params: object | None = None) -> ForwardModel:
@@ -62,25 +99,15 @@ def mock_biotac_forward(params: object | None = None) -> ForwardModel:
     return forward
 
 
-def _gate(tared_pdc: np.ndarray, rule: GateRule) -> np.ndarray:
-    above = tared_pdc > rule.pdc_threshold
-    run = np.zeros(len(above), dtype=int)
-    count = 0
-    for i, a in enumerate(above):
-        count = count + 1 if a else 0
-        run[i] = count
-    return run >= rule.frames
-
-
 def _sensor_trial(forward: ForwardModel, p: np.ndarray, f: np.ndarray, rng: np.random.Generator,
                   rule: GateRule) -> tuple[np.ndarray, np.ndarray]:
-    """Raw frames for a trial after a no-contact tare window; (tared (n, 44), gate (n,))."""
+    """Raw frames for a trial after a no-contact tare window; (raw (TARE_FRAMES + n, 44), gate (n,))."""
     p_all = np.vstack([np.repeat(p[:1], TARE_FRAMES, axis=0), p])
     f_all = np.vstack([np.zeros((TARE_FRAMES, 3)), f])
     raw = np.asarray(forward(p_all, f_all, rng), dtype=float)
     tared = raw - raw[:TARE_FRAMES].mean(axis=0)
     tared = tared[TARE_FRAMES:]
-    return tared, _gate(tared[:, PDC], rule)
+    return raw, contact_gate(tared[:, PDC], rule)
 
 
 def _pad_point(rng: np.random.Generator, x_range: tuple[float, float], max_angle_rad: float) -> np.ndarray:
@@ -149,10 +176,10 @@ def _ft_trial(forward: ForwardModel, rng: np.random.Generator, source: str, rule
     direction = -n_out + tangential * (np.cos(phase)[:, None] * t1 + np.sin(phase)[:, None] * t2)
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
     f_true = mags[:, None] * direction
-    tared, gate = _sensor_trial(forward, points, f_true, rng, rule)
+    raw, gate = _sensor_trial(forward, points, f_true, rng, rule)
     sigma = rng.uniform(0.01, 0.1)
     label = f_true @ label_rotation.T + sigma * rng.standard_normal(f_true.shape)
-    return tared, label, gate & (np.linalg.norm(label, axis=1) > 0), np.zeros(n, bool), \
+    return raw, label, gate & (np.linalg.norm(label, axis=1) > 0), np.zeros(n, bool), \
         np.repeat(np.eye(3)[None], n, axis=0)
 
 
@@ -192,45 +219,56 @@ def _push_trial(forward: ForwardModel, rng: np.random.Generator, rule: GateRule)
     f_world3[:, 2] = rng.uniform(-0.3, 0.3) * np.linalg.norm(push.f_world_true, axis=1)
     f_true = f_world3 @ r_ws                       # R^T f, row-wise
     p = np.repeat(point[None], len(push.t), axis=0)
-    tared, gate = _sensor_trial(forward, p, f_true, rng, rule)
+    raw, gate = _sensor_trial(forward, p, f_true, rng, rule)
     solved = ~np.isnan(est.f_world[:, 0])
-    label = np.zeros((len(push.t), 3))
+    label = np.full((len(push.t), 3), np.nan)
     label[solved] = plane_force_to_sensor(est.f_world[solved], r_ws)
-    keep = gate & solved & (np.linalg.norm(label, axis=1) > 0)
-    return tared, label, keep, np.ones(len(push.t), bool), np.repeat(r_ws[None], len(push.t), axis=0)
+    keep = gate & solved & (np.linalg.norm(np.nan_to_num(label), axis=1) > 0)
+    return raw, label, keep, np.ones(len(push.t), bool), np.repeat(r_ws[None], len(push.t), axis=0)
+
+
+def simulate_trials(
+    source: str, n_samples: int, forward: ForwardModel, rng: np.random.Generator, rule: GateRule = GateRule(),
+    trial_prefix: str = "",
+) -> list[SimTrial]:
+    """Trials of one source until at least ``n_samples`` force samples are collected (trials
+    without any force sample included: their stream is still recorded)."""
+    if source not in SOURCES:
+        raise ValueError(f"source must be one of {', '.join(SOURCES)}")
+    trials: list[SimTrial] = []
+    count = 0
+    k = 0
+    while count < n_samples:
+        if source == "planar-pushing":
+            raw, label, keep, proj, rot = _push_trial(forward, rng, rule)
+        else:
+            raw, label, keep, proj, rot = _ft_trial(forward, rng, source, rule)
+        trials.append(SimTrial(f"{trial_prefix}{source}-{k:04d}", source, raw, label, keep, proj, rot))
+        count += int(keep.sum())
+        k += 1
+    return trials
 
 
 def generate_source(
     source: str, n_samples: int, forward: ForwardModel, rng: np.random.Generator, rule: GateRule = GateRule(),
     trial_prefix: str = "",
 ) -> Dataset:
-    """Trials of one source until at least ``n_samples`` force samples are collected."""
-    if source not in SOURCES:
-        raise ValueError(f"source must be one of {', '.join(SOURCES)}")
-    parts: list[Dataset] = []
-    count = 0
-    k = 0
-    while count < n_samples:
-        if source == "planar-pushing":
-            tared, label, keep, proj, rot = _push_trial(forward, rng, rule)
-        else:
-            tared, label, keep, proj, rot = _ft_trial(forward, rng, source, rule)
-        if keep.any():
-            n = int(keep.sum())
-            parts.append(Dataset(
-                trial_id=np.full(n, f"{trial_prefix}{source}-{k:04d}"),
-                source=np.full(n, source),
-                t=np.flatnonzero(keep) / RATE_HZ,
-                tared=tared[keep], f_sensor=label[keep], projected=proj[keep], r_world_sensor=rot[keep],
-            ))
-            count += n
-        k += 1
-    return Dataset.concat(parts)
+    """Force samples of one source, at least ``n_samples``."""
+    trials = simulate_trials(source, n_samples, forward, rng, rule, trial_prefix)
+    return Dataset.concat([tr.dataset() for tr in trials if tr.keep.any()])
+
+
+def generate_trials(
+    n_per_source: int, seed: int = 0, forward: ForwardModel | None = None, sources: tuple[str, ...] = SOURCES
+) -> list[SimTrial]:
+    """The trials behind ``generate`` (same seed, same draws), with their whole raw streams."""
+    rng = np.random.default_rng(seed)
+    fwd = forward or mock_biotac_forward()
+    return [tr for s in sources for tr in simulate_trials(s, n_per_source, fwd, rng)]
 
 
 def generate(
     n_per_source: int, seed: int = 0, forward: ForwardModel | None = None, sources: tuple[str, ...] = SOURCES
 ) -> Dataset:
-    rng = np.random.default_rng(seed)
-    fwd = forward or mock_biotac_forward()
-    return Dataset.concat([generate_source(s, n_per_source, fwd, rng) for s in sources])
+    trials = generate_trials(n_per_source, seed, forward, sources)
+    return Dataset.concat([tr.dataset() for tr in trials if tr.keep.any()])

@@ -4,6 +4,7 @@ best-validation checkpoint, a progress line per epoch."""
 from __future__ import annotations
 
 import math
+import pickle
 import time
 from dataclasses import asdict, dataclass, field
 from typing import Any, Callable
@@ -212,7 +213,11 @@ def save_checkpoint(path: str, result: TrainResult, extra: dict[str, Any] | None
 
 
 def load_checkpoint(path: str) -> dict[str, Any]:
-    ckpt = torch.load(path, map_location="cpu", weights_only=False)
+    # weights_only: a checkpoint holds tensors and plain containers; never unpickle code from it
+    try:
+        ckpt = torch.load(path, map_location="cpu", weights_only=True)
+    except (pickle.UnpicklingError, RuntimeError, EOFError, OSError) as exc:
+        raise ValueError(f"{path}: not a loadable weights-only checkpoint ({str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__})") from None
     if not isinstance(ckpt, dict) or ckpt.get("format") != CHECKPOINT_FORMAT:
         raise ValueError(f"{path}: not a grasp_ctrl force checkpoint")
     return ckpt

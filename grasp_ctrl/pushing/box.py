@@ -38,7 +38,7 @@ def load_box(path: str | Path) -> PushedBox:
     return PushedBox(
         mass_kg=t.float("mass_kg", lo=0.0, lo_open=True),
         size_m=(size[0], size[1]),
-        mu=t.float("mu", lo=0.0),
+        mu=t.float("mu", lo=0.0, lo_open=True),   # no friction: no force to estimate
         izz_kgm2=izz,
         gravity=t.float("gravity", STANDARD_GRAVITY, lo=0.0, lo_open=True),
     )

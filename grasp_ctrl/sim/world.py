@@ -163,7 +163,7 @@ class MockWorld:
             self._palm, self._take, self._W, self._pad_local, self._contact_sensor, self._skin_normal_sensor,
             self._shape, self._obj, self._normal_n, self._in_contact, self._stick_offset, self._slip_speed,
             self._n_out_world, self._contact_z, self._omega, self._tangential_up_n, self._f_world, self._f_sensor,
-            self._rows, self._consts, sens.burst, sens.was_in_contact, sens.gain, sens.consts,
+            self._rows, self._consts, sens.state, sens.gain, sens.consts,
         )
 
         self.events: list[WorldEvent] = []

@@ -78,7 +78,7 @@ def world_step(
     normal: np.ndarray, touch: np.ndarray, stick: np.ndarray, slip: np.ndarray, n_out: np.ndarray,
     contact_z: np.ndarray, omega: np.ndarray, t_up: np.ndarray, f_world: np.ndarray, f_sensor: np.ndarray,
     rows: np.ndarray, c: np.ndarray,
-    burst: np.ndarray, was_in_contact: np.ndarray, gain: np.ndarray, sensor_consts: np.ndarray,
+    sensor_state: np.ndarray, gain: np.ndarray, sensor_consts: np.ndarray,
 ) -> np.ndarray:
     """Advance the world by one control period and return the fingertips' raw
     frames (sim/biotac_model.py, built on ``frame_base``). The first four
@@ -93,7 +93,7 @@ def world_step(
     _object(obj, normal, touch, stick, slip, n_out, contact_z, t_up, c)
     _forces(normal, touch, n_out, t_up, omega, rows, f_world, f_sensor)
     return frames_kernel(frame_base, contact_local, f_sensor, skin_normal, touch, slip,
-                         burst, was_in_contact, gain, sensor_consts, sensor_t, c[DT])
+                         sensor_state, gain, sensor_consts, sensor_t, c[DT])
 
 
 @njit

@@ -3,9 +3,9 @@
 One background reader thread per port decodes the stream and keeps only the newest
 valid frame per fingertip, stamped with the receive time; ``read_latest`` copies
 that dict under a lock and never blocks the control tick. The control loop calls
-``check_stale(now)`` every tick: it raises ``HardwareError`` (reason
-``hardware_error``) while a port is unplugged and ``SensorStaleError`` (reason
-``sensor_stale``) naming every fingertip with no valid frame for longer than
+``check_stale(now)`` every tick: it raises ``SensorStaleError`` (reason
+``sensor_stale``) while a port is unplugged (naming the port and its
+fingertips) and naming every fingertip with no valid frame for longer than
 ``stale_after_s``; both end the trial so the controller can fault safely.
 
 An unplugged port (read error) is closed and, when ``reconnect`` is on, reopened
@@ -191,16 +191,16 @@ class SerialSensors:
     # ------------------------------------------------------------------ health, for the control loop
 
     def check_stale(self, now: float | None = None) -> None:
-        """Call every control tick. Raises ``HardwareError`` (reason ``hardware_error``)
-        while a port is disconnected, else ``SensorStaleError`` (reason
-        ``sensor_stale``) naming each fingertip whose newest valid frame is older than
-        ``stale_after_s`` (or that has sent none since ``start``)."""
+        """Call every control tick. Raises ``SensorStaleError`` (reason ``sensor_stale``):
+        while a port is disconnected (its fingertips send nothing; the message names
+        the port and why), else naming each fingertip whose newest valid frame is
+        older than ``stale_after_s`` (or that has sent none since ``start``)."""
         if self._t_start is None:
             raise HardwareError("tactile sensors: check_stale called before start()")
         now = self._now() if now is None else now
         for ps in self._ports:
             if not ps.connected:
-                raise HardwareError(self.disconnect_message(ps), reason="hardware_error")
+                raise SensorStaleError(self.disconnect_message(ps))
         stale = []
         with self._lock:
             for sid in self.sensor_ids:

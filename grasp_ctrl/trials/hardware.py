@@ -88,7 +88,7 @@ def run_hardware_trial(
                     if settle_ticks <= 0:
                         break
                 elif now - t0 > max_trial_s:
-                    ctrl.fail(reason="aborted")
+                    ctrl.fail(reason="aborted", detail=f"trial longer than {max_trial_s:g} s")
                 next_tick += dt
                 delay = next_tick - rig.clock.now()
                 if delay > 0:
@@ -102,7 +102,7 @@ def run_hardware_trial(
                     raise
                 interrupted = exc
                 if not ctrl.terminal:
-                    ctrl.fail(reason="aborted")
+                    ctrl.fail(reason="aborted", detail="operator abort (Ctrl-C)")
     finally:
         if log:
             log.close()
@@ -113,6 +113,7 @@ def run_hardware_trial(
         "final_state": ctrl.state,  # type: ignore[attr-defined]
         "success": ctrl.state == "done",  # type: ignore[attr-defined]
         "reason": ctrl.failure_reason if ctrl.state != "done" else None,  # type: ignore[attr-defined]
+        "fault_detail": ctrl.failure_detail,
         "wall_duration_s": round(end, 4),
         "tick_overruns": overruns,
         "peak_grip_est_n": round(peak_grip, 4),

@@ -11,16 +11,22 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.config.objects import ObjectProfile, profile_from_json
 from grasp_ctrl.controller.settings import ControllerSettings
-from grasp_ctrl.errors import UsageError
+from grasp_ctrl.errors import ConfigError, UsageError
 from grasp_ctrl.trials.storage import RUN_FILE, write_json
 
 FORMAT = 1
+EMULATED_BACKEND = "dynamixel-emulated"   # run --backend dynamixel --emulate (pty emulators, mock world)
+BACKENDS = ("mock", "dynamixel", EMULATED_BACKEND)
+MAX_TRIALS = 100_000
+# settings that may be zero (no slow zone, no overshoot, no retreat)
+ZERO_ALLOWED = ("lower_overshoot_m", "lower_slow_zone_m", "retreat_m")
 
 
 @dataclass
@@ -65,26 +71,56 @@ class RunManifest:
 
     @classmethod
     def from_json(cls, doc: Any, where: str) -> "RunManifest":
-        def bad(what: str) -> UsageError:
-            return UsageError(f"{where}: {what}")
+        """Every field checked as on a new run: a hand-edited or corrupt run.json
+        gives one line naming the file and the field, never a bad trial."""
+        def bad(key: str, what: str) -> UsageError:
+            return UsageError(f"{where}: {key}: {what}")
 
         if not isinstance(doc, dict) or doc.get("format") != FORMAT:
-            raise bad(f"not a run file of format {FORMAT}")
-        try:
-            objects = [_profile(o) for o in doc["objects"]]
-            settings = _settings(doc.get("settings") or {})
-            m = cls(
-                backend=str(doc["backend"]), hand=str(doc["hand"]), seed=int(doc["seed"]),
-                trials=int(doc["trials"]), policies=[str(p) for p in doc["policies"]], objects=objects,
-                tick_logs=bool(doc.get("tick_logs", True)), hand_file=doc.get("hand_file"),
-                hand_sha256=doc.get("hand_sha256"), object_file=doc.get("object_file"),
-                preset=doc.get("preset"), settings=settings,
-            )
-        except (KeyError, TypeError, ValueError) as exc:
-            raise bad(f"unreadable run parameters ({exc.__class__.__name__}: {exc})") from None
-        if m.trials < 1 or not m.policies or not m.objects:
-            raise bad("needs at least one trial, policy and object")
-        return m
+            raise UsageError(f"{where}: not a run file of format {FORMAT}")
+        for key in ("backend", "hand", "seed", "trials", "policies", "objects"):
+            if key not in doc:
+                raise bad(key, "required key is missing")
+        backend, hand = doc["backend"], doc["hand"]
+        if backend not in BACKENDS:
+            raise bad("backend", f"one of {', '.join(BACKENDS)} (got {backend!r})")
+        if not isinstance(hand, str) or not hand:
+            raise bad("hand", "a non-empty string")
+        seed, trials = doc["seed"], doc["trials"]
+        if not _is_int(seed) or not 0 <= seed < 2**63:
+            raise bad("seed", f"an integer from 0 to 2**63-1 (got {seed!r})")
+        if not _is_int(trials) or not 1 <= trials <= MAX_TRIALS:
+            raise bad("trials", f"an integer from 1 to {MAX_TRIALS} (got {trials!r})")
+        policies = doc["policies"]
+        if not isinstance(policies, list) or not policies or not all(isinstance(p, str) and p for p in policies):
+            raise bad("policies", "a non-empty list of policy names")
+        if len(set(policies)) != len(policies):
+            raise bad("policies", "each policy once")
+        raw_objects = doc["objects"]
+        if not isinstance(raw_objects, list) or not raw_objects:
+            raise bad("objects", "a non-empty list of object profiles")
+        objects = []
+        for i, o in enumerate(raw_objects):
+            name = o.get("name") if isinstance(o, dict) else None
+            try:
+                objects.append(profile_from_json(name, o, where, "objects."))
+            except ConfigError as exc:
+                raise UsageError(str(exc)) from None
+        names = [o.name for o in objects]
+        if len(set(names)) != len(names):
+            raise bad("objects", "each object once")
+        tick_logs = doc.get("tick_logs", True)
+        if not isinstance(tick_logs, bool):
+            raise bad("tick_logs", "true or false")
+        for key in ("hand_file", "hand_sha256", "object_file", "preset"):
+            if doc.get(key) is not None and not isinstance(doc[key], str):
+                raise bad(key, "a string or null")
+        settings = settings_from_json(doc.get("settings") or {}, where)
+        return cls(
+            backend=backend, hand=hand, seed=seed, trials=trials, policies=list(policies), objects=objects,
+            tick_logs=tick_logs, hand_file=doc.get("hand_file"), hand_sha256=doc.get("hand_sha256"),
+            object_file=doc.get("object_file"), preset=doc.get("preset"), settings=settings,
+        )
 
     def same_plan(self, other: "RunManifest") -> bool:
         """Would both produce the same trials? (paths and presets may differ)"""
@@ -93,15 +129,31 @@ class RunManifest:
         return all(a[k] == b[k] for k in keys)
 
 
-def _profile(d: dict[str, Any]) -> ObjectProfile:
-    d = dict(d)
-    d["size_m"] = tuple(d["size_m"])
-    return ObjectProfile(**d)
+def _is_int(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
 
 
-def _settings(d: dict[str, Any]) -> ControllerSettings:
-    known = {f.name for f in dataclasses.fields(ControllerSettings)}
-    return ControllerSettings(**{k: v for k, v in d.items() if k in known})
+def settings_from_json(d: Any, where: str) -> ControllerSettings:
+    """Controller settings from run.json: known keys, each of its default's type,
+    numbers finite and positive (``lower_*`` distances may be zero)."""
+    if not isinstance(d, dict):
+        raise UsageError(f"{where}: settings: a table of controller settings")
+    fields = {f.name: f for f in dataclasses.fields(ControllerSettings)}
+    defaults = ControllerSettings()
+    values: dict[str, Any] = {}
+    for key, v in d.items():
+        if key not in fields:
+            raise UsageError(f"{where}: settings.{key}: a known setting (one of {', '.join(fields)})")
+        default = getattr(defaults, key)
+        if isinstance(default, bool):
+            if not isinstance(v, bool):
+                raise UsageError(f"{where}: settings.{key}: true or false (got {v!r})")
+        elif isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0 \
+                or (v == 0 and key not in ZERO_ALLOWED):
+            need = "a finite number >= 0" if key in ZERO_ALLOWED else "a finite number > 0"
+            raise UsageError(f"{where}: settings.{key}: {need} (got {v!r})")
+        values[key] = v
+    return ControllerSettings(**values)
 
 
 def file_sha256(path: str | Path) -> str:

@@ -8,7 +8,7 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.controller.snapshot import Snapshot
-from grasp_ctrl.errors import SensorStaleError
+from grasp_ctrl.errors import FrameError, SensorStaleError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.hardware.base import JointState, TactileFrame
 from grasp_ctrl.kinematics.chain import HandKinematics
@@ -30,6 +30,10 @@ class SensingPipeline:
         self._tare_window: list[np.ndarray] = []
         self.raw = np.zeros((n, FRAME_LEN))
         self.tared = np.zeros((n, FRAME_LEN))
+        self.joint_names = [j.name for j in hand.joints]
+        # the last finite joint angles and palm position (used when a reading is not finite)
+        self._last_q = np.array([j.open_rad for j in hand.joints])
+        self._last_palm = np.zeros(3)
 
     def frames_matrix(self, frames: dict[int, TactileFrame], now: float) -> np.ndarray:
         """(n_tips, 44) raw counts in finger order; a missing or old frame is a fault."""
@@ -45,7 +49,10 @@ class SensingPipeline:
                     f"fingertip {self.names[i]!r} (sensor {sid}): last frame {age * 1000:.0f} ms old "
                     f"(stale after {stale_after * 1000:.0f} ms)"
                 )
-            raw[i] = frame.values
+            try:
+                raw[i] = frame.values
+            except (ValueError, TypeError) as exc:
+                raise FrameError(f"fingertip {self.names[i]!r} (sensor {sid}): malformed frame ({exc})") from None
         return raw
 
     def collect_tare(self, raw: np.ndarray) -> bool:
@@ -65,20 +72,55 @@ class SensingPipeline:
         p_palm_world: np.ndarray,
         collecting_tare: bool,
         fault: str | None = None,
+        fault_detail: str | None = None,
     ) -> Snapshot:
+        """Non-finite or malformed inputs and outputs become the snapshot's fault
+        (``sensor_invalid``, ``estimate_invalid``) and are replaced by finite values
+        (zero force, the last good joint angles) so the safe action stays finite."""
         n = len(self.names)
         self.raw = raw
-        tare_ready = self.collect_tare(raw) if collecting_tare else self.tactile.tare.ready
-        if tare_ready:
-            tips = self.tactile.step(raw)
-            tared, in_contact, f_sensor, variance = tips.tared, tips.in_contact, tips.f_sensor, tips.variance
-        else:
-            tared = np.zeros_like(raw)
-            in_contact = np.zeros(n, dtype=bool)
-            f_sensor = np.zeros((n, 3))
-            variance = None
+
+        def note(reason: str, detail: str) -> None:
+            nonlocal fault, fault_detail
+            if fault is None:
+                fault, fault_detail = reason, detail
+
+        q = np.asarray(joints.q, dtype=float)
+        if q.shape != self._last_q.shape or not np.all(np.isfinite(q)):
+            bad = [j for j, v in zip(self.joint_names, np.ravel(q)) if not np.isfinite(v)] if q.shape == self._last_q.shape else []
+            note("sensor_invalid", f"joint angles not finite ({', '.join(bad) or f'shape {q.shape}'})")
+            q = self._last_q.copy()
+        self._last_q = q
+        p_palm_world = np.asarray(p_palm_world, dtype=float)
+        if p_palm_world.shape != (3,) or not np.all(np.isfinite(p_palm_world)):
+            note("sensor_invalid", f"arm position not finite ({p_palm_world.tolist()})")
+            p_palm_world = self._last_palm.copy()
+        self._last_palm = p_palm_world
+        tared = np.zeros_like(raw, dtype=float)
+        in_contact = np.zeros(n, dtype=bool)
+        f_sensor = np.zeros((n, 3))
+        variance = None
+        try:
+            tare_ready = self.collect_tare(raw) if collecting_tare else self.tactile.tare.ready
+            if tare_ready:
+                tips = self.tactile.step(raw)
+                tared, in_contact, f_sensor, variance = tips.tared, tips.in_contact, tips.f_sensor, tips.variance
+        except FrameError as exc:
+            tare_ready = self.tactile.tare.ready
+            note("sensor_invalid", str(exc))
+        f_sensor = np.asarray(f_sensor, dtype=float)
+        bad_f = ~np.all(np.isfinite(f_sensor), axis=1)
+        bad_v = ~np.all(np.isfinite(variance), axis=1) if variance is not None else np.zeros(n, dtype=bool)
+        if bad_f.any() or bad_v.any():
+            tips_bad = [self.names[i] for i in np.flatnonzero(bad_f | bad_v)]
+            what = "force" if bad_f.any() else "variance"
+            note("estimate_invalid", f"policy {getattr(self.estimator, 'name', '?')!r} returned a non-finite "
+                                     f"{what} for fingertip(s) {', '.join(tips_bad)}")
+            f_sensor = np.where(np.isfinite(f_sensor), f_sensor, 0.0)
+            if variance is not None:
+                variance = np.where(np.isfinite(variance), variance, 0.0)
         self.tared = tared
-        R = self.fast_kin.sensor_rotations(joints.q)
+        R = self.fast_kin.sensor_rotations(q)
         f_hand = np.einsum("nij,nj->ni", R, f_sensor)
         f_world = f_hand  # the arm translates the hand: hand axes = world axes
         # Grip = the squeeze: the force across the lift direction (world z). Along z
@@ -86,7 +128,7 @@ class SensingPipeline:
         grip = np.sqrt(f_world[:, 0] ** 2 + f_world[:, 1] ** 2)
         return Snapshot(
             t=joints.t,
-            q=joints.q,
+            q=q,
             p_palm_world=p_palm_world,
             tare_ready=tare_ready,
             in_contact=in_contact,
@@ -96,4 +138,5 @@ class SensingPipeline:
             grip_n=grip,
             variance=variance,
             fault=fault,
+            fault_detail=fault_detail,
         )

@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import itertools
+import shutil
 import sys
 import time
 import zlib
@@ -25,6 +26,7 @@ from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 
+from grasp_ctrl.config.checks import check_objects_for_hand
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.machine import GraspController
@@ -42,7 +44,11 @@ from grasp_ctrl.trials.pipeline import SensingPipeline
 from grasp_ctrl.trials.tick import control_tick
 from grasp_ctrl.trials.progress import Progress
 from grasp_ctrl.trials.records import canonical_order, load_records, record_files
-from grasp_ctrl.trials.storage import SUMMARY_FILE, record_path, safe_name, ticks_path, write_json
+from grasp_ctrl.trials.runlock import RunLock
+from grasp_ctrl.trials.storage import (
+    RUN_FILE, SUMMARY_FILE, check_object_name, commit_temp, is_temp_file, record_path, safe_name, temp_path,
+    ticks_path, write_json,
+)
 from grasp_ctrl.trials.summary import summarize
 from grasp_ctrl.trials.ticklog import TickLog
 from grasp_ctrl.trials.workers import worker_context
@@ -75,6 +81,7 @@ class TrialResult:
     controller: dict[str, Any] = field(default_factory=dict)    # the controller's own view
     timings: dict[str, Any] = field(default_factory=dict)
     peak_forces: dict[str, dict[str, float]] = field(default_factory=dict)
+    fault_detail: str | None = None     # the controller's fault, in words (None without a fault)
     format: int = RECORD_FORMAT
 
     def to_json(self) -> dict[str, Any]:
@@ -128,6 +135,7 @@ def controller_view(ctrl: GraspController) -> dict[str, Any]:
         "final_state": ctrl.state,  # type: ignore[attr-defined]
         "success": ctrl.state == "done",  # type: ignore[attr-defined]
         "reason": ctrl.failure_reason,
+        "detail": ctrl.failure_detail,   # what failed (servo id and error bits, port, fingertip)
     }
 
 
@@ -202,7 +210,7 @@ def run_mock_trial(
                     break
         else:
             if not ctrl.terminal:
-                ctrl.fail(reason="aborted")
+                ctrl.fail(reason="aborted", detail=f"trial longer than {MAX_TRIAL_S:g} s of simulated time")
     finally:
         if log:
             log.close()
@@ -232,6 +240,7 @@ def run_mock_trial(
         settings=trial_settings(hand, obj, settings),
         backend=backend,
         controller=controller_view(ctrl),
+        fault_detail=ctrl.failure_detail,
         timings=timings,
         peak_forces={
             name: {"force_est_n": round(float(tip_force[i]), 4), "grip_est_n": round(float(tip_grip[i]), 4),
@@ -383,20 +392,64 @@ def run_series(
     """
     if len(set(safe_name(p) for p in policies)) != len(policies):
         raise UsageError("--policy: two policies would share one log directory; give each once")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise UsageError(f"--seed: a non-negative integer (got {seed!r})")
+    if jobs < 1:
+        raise UsageError("--jobs: must be at least 1")
+    if jobs > 1 and trial_fn is not None:
+        raise UsageError("--jobs: trials on real hardware run one at a time")
+    if executor != "local" and trial_fn is not None:
+        raise UsageError("--executor: trials on real hardware run here, one at a time")
     plan = manifest or RunManifest(
         backend=backend, hand=hand.name, seed=seed, trials=trials, policies=list(policies),
         objects=list(objects), tick_logs=tick_logs, settings=settings or ControllerSettings(),
     )
-    existing = read_manifest(run_dir)
-    if existing is not None and not resume:
-        raise UsageError(f"{run_dir} already holds a run; continue it with 'run --resume {run_dir}' or choose another --out")
-    if existing is None and record_files(run_dir):
-        raise UsageError(f"{run_dir} holds trial records but no run.json; choose another --out")
-    if existing is not None and not existing.same_plan(plan):
-        raise UsageError(f"{run_dir}/run.json describes other trials than these parameters; resume with its own parameters")
-    if existing is None:
-        write_manifest(run_dir, plan)
+    # Everything that can be checked is checked before the first file is touched.
+    for obj in plan.objects:
+        check_object_name(obj.name)
+    # on resume the profiles come from run.json, on a new run from the object file
+    source = str(run_dir / RUN_FILE) if resume or not plan.object_file else plan.object_file
+    check_objects_for_hand(plan.objects, hand, source)
+    run_trial = trial_fn or mock_trial_fn(hand, policies, plan.settings, threads)  # bad policies fail here
 
+    created = not run_dir.exists()
+    if run_dir.exists() and not run_dir.is_dir():
+        raise UsageError(f"{run_dir}: exists and is not a directory; choose another --out")
+    started = False
+    try:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        with RunLock(run_dir, warn):
+            existing = read_manifest(run_dir)
+            if existing is not None and not resume:
+                raise UsageError(f"{run_dir} already holds a run; continue it with 'run --resume {run_dir}' or choose another --out")
+            if existing is None and record_files(run_dir):
+                raise UsageError(f"{run_dir} holds trial records but no run.json; choose another --out")
+            if existing is not None and not existing.same_plan(plan):
+                raise UsageError(f"{run_dir}/run.json describes other trials than these parameters; resume with its own parameters")
+            for tmp in stale_temp_files(run_dir):   # left by a writer that died; we hold the lock
+                tmp.unlink(missing_ok=True)
+            if existing is None:
+                write_manifest(run_dir, plan)
+            started = True
+            return _run_locked(hand, plan, policies, trials, seed, run_dir, progress, resume, run_trial,
+                               after_trial, warn, jobs, threads, executor, address)
+    except BaseException:
+        if created and not started:   # a failed start leaves nothing that blocks the retry
+            shutil.rmtree(run_dir, ignore_errors=True)
+        raise
+
+
+def stale_temp_files(run_dir: Path) -> list[Path]:
+    """Temporary files of interrupted writes (``.NAME.PID.RANDOM.tmp``) in the run's tree."""
+    return [p for p in run_dir.rglob(".*.tmp") if is_temp_file(p)]
+
+
+def _run_locked(
+    hand: HandConfig, plan: RunManifest, policies: Sequence[str], trials: int, seed: int, run_dir: Path,
+    progress: bool | Progress, resume: bool, run_trial: TrialFn,
+    after_trial: Callable[[dict[str, Any]], None] | None, warn: Callable[[str], None], jobs: int, threads: int,
+    executor: str = "local", address: str | None = None,
+) -> dict[str, Any]:
     done: dict[tuple[str, str, int], dict[str, Any]] = {}
     if resume:
         loaded = load_records(run_dir)
@@ -410,32 +463,33 @@ def run_series(
             else:
                 warn(f"ignoring {record_path(run_dir, *key)}: not a trial of this run's parameters")
 
-    if jobs < 1:
-        raise UsageError("--jobs: must be at least 1")
-    if jobs > 1 and trial_fn is not None:
-        raise UsageError("--jobs: trials on real hardware run one at a time")
-    if executor != "local" and trial_fn is not None:
-        raise UsageError("--executor: trials on real hardware run here, one at a time")
     reporter = progress if isinstance(progress, Progress) else Progress(plan.total, enabled=bool(progress))
     reporter.resumed(canonical_order(list(done.values()), list(policies), plan.object_names))
     pending = []
+    tick_logs: dict[tuple[str, str, int], tuple[Path, Path]] = {}   # key -> (temporary, final) tick log
     for policy in policies:
         for obj in plan.objects:
             for k in range(trials):
                 if (policy, obj.name, k) not in done:
                     record_path(run_dir, policy, obj.name, k).parent.mkdir(parents=True, exist_ok=True)
-                    log = ticks_path(run_dir, policy, obj.name, k) if plan.tick_logs else None
+                    log = None
+                    if plan.tick_logs:
+                        final = ticks_path(run_dir, policy, obj.name, k)
+                        log = temp_path(final)   # renamed onto ``final`` just before the record is written
+                        tick_logs[(policy, obj.name, k)] = (log, final)
                     pending.append((policy, obj, k, trial_seed(seed, obj.name, k), log))
 
     def finish(rec: dict[str, Any]) -> None:
-        write_json(record_path(run_dir, rec["policy"], rec["object"], rec["trial"]), rec)
-        done[(rec["policy"], rec["object"], rec["trial"])] = rec
+        key = (rec["policy"], rec["object"], rec["trial"])
+        if key in tick_logs and tick_logs[key][0].exists():
+            commit_temp(*tick_logs[key])
+        write_json(record_path(run_dir, *key), rec)
+        done[key] = rec
         reporter.trial_done(rec)
         if after_trial:
             after_trial(rec)
 
     try:
-        run_trial = trial_fn or mock_trial_fn(hand, policies, plan.settings, threads)  # bad policies fail here
         if executor == "ray" and pending:
             from grasp_ctrl.trials.ray_executor import ray_trials
 
@@ -458,6 +512,8 @@ def run_series(
                 finish(run_trial(*args))
     finally:
         reporter.close()
+        for tmp, _final in tick_logs.values():   # the trial in progress when interrupted
+            tmp.unlink(missing_ok=True)
     records = canonical_order(list(done.values()), list(policies), plan.object_names)
     summary = summarize(records, str(run_dir), plan.backend, plan.hand, plan.seed)
     write_json(run_dir / SUMMARY_FILE, summary)

@@ -1,30 +1,49 @@
 """Where a run's files live and how they are written (atomically, fsynced).
 
     RUN_DIR/run.json                              the run's parameters (resume reads them)
+    RUN_DIR/run.lock                              held while a process writes the run
     RUN_DIR/summary.json                          the run summary (DESIGN.md 5.2)
     RUN_DIR/trials/POLICY/OBJECT/trial_NNN.json   one record per finished trial
     RUN_DIR/trials/POLICY/OBJECT/trial_NNN_ticks.parquet   per-tick log (ticklog.py)
+
+Every file is written to a temporary name unique to the writer
+(``.NAME.PID.RANDOM.tmp`` in the same directory), fsynced, renamed over the
+final name and the directory fsynced: a reader sees the old file or the whole
+new one, never a part, and two writers never share a temporary file.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import secrets
 from pathlib import Path
-from typing import Any
+from typing import IO, Any, Iterator
+
+from grasp_ctrl.errors import UsageError
+from grasp_ctrl.names import SAFE_NAME_RULE, is_safe_name, path_component
 
 RUN_FILE = "run.json"
+LOCK_FILE = "run.lock"
 SUMMARY_FILE = "summary.json"
 TRIALS_DIR = "trials"
+TMP_SUFFIX = ".tmp"
 
 
 def safe_name(name: str) -> str:
     """A policy spec such as ``oracle:scale=2`` or a path, as one directory name."""
-    return "".join(c if c.isalnum() or c in "-_." else "_" for c in name)
+    return path_component(name)
+
+
+def check_object_name(name: str) -> str:
+    if not is_safe_name(name):
+        raise UsageError(f"object name {name!r}: {SAFE_NAME_RULE}")
+    return name
 
 
 def trial_dir(run_dir: Path, policy: str, obj: str) -> Path:
-    return run_dir / TRIALS_DIR / safe_name(policy) / obj
+    return run_dir / TRIALS_DIR / safe_name(policy) / check_object_name(obj)
 
 
 def record_path(run_dir: Path, policy: str, obj: str, trial: int) -> Path:
@@ -35,19 +54,51 @@ def ticks_path(run_dir: Path, policy: str, obj: str, trial: int) -> Path:
     return trial_dir(run_dir, policy, obj) / f"trial_{trial:03d}_ticks.parquet"
 
 
+def temp_path(path: Path) -> Path:
+    """A temporary name beside ``path`` that no other writer (process or call) uses."""
+    return path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}{TMP_SUFFIX}")
+
+
+def is_temp_file(path: Path) -> bool:
+    return path.name.startswith(".") and path.name.endswith(TMP_SUFFIX)
+
+
+def commit_temp(tmp: Path, path: Path) -> None:
+    """Move a finished (closed and fsynced) temporary file onto its final name."""
+    os.replace(tmp, path)
+    fsync_dir(path.parent)
+
+
+@contextlib.contextmanager
+def atomic_writer(path: str | Path, mode: str = "w", **open_kwargs: Any) -> Iterator[IO[Any]]:
+    """``with atomic_writer(p) as fh: ...``: ``p`` appears complete on success, untouched on error."""
+    path = Path(path)
+    tmp = temp_path(path)
+    if "b" not in mode:
+        open_kwargs.setdefault("encoding", "utf-8")
+    try:
+        with open(tmp, mode, **open_kwargs) as fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        commit_temp(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
+def write_text_atomic(path: str | Path, text: str) -> None:
+    with atomic_writer(path) as fh:
+        fh.write(text)
+
+
 def write_json(path: Path, doc: Any) -> None:
     """Write atomically and fsync (file and directory): a crash loses at most the trial in progress."""
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    with tmp.open("w", encoding="utf-8") as fh:
-        json.dump(doc, fh, indent=2)
-        fh.write("\n")
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-    _fsync_dir(path.parent)
+    write_text_atomic(path, json.dumps(doc, indent=2) + "\n")
 
 
-def _fsync_dir(path: Path) -> None:
+def fsync_dir(path: Path) -> None:
     try:
         fd = os.open(path, os.O_RDONLY)
     except OSError:  # not possible on every platform (Windows)
@@ -58,3 +109,4 @@ def _fsync_dir(path: Path) -> None:
         pass
     finally:
         os.close(fd)
+

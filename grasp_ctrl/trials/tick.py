@@ -11,7 +11,7 @@ import numpy as np
 
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.snapshot import Command, Snapshot
-from grasp_ctrl.errors import HardwareError
+from grasp_ctrl.errors import FrameError, HardwareError
 from grasp_ctrl.hardware.base import ArmBackend, HandBackend, SensorBackend
 from grasp_ctrl.trials.pipeline import SensingPipeline
 
@@ -27,6 +27,7 @@ def control_tick(
 ) -> tuple[Snapshot, Command, np.ndarray]:
     """Returns the snapshot, the command sent and the raw frames used."""
     raw = pipeline.raw
+    detail = None
     try:
         hand.check_health()
         check_stale = getattr(sensors, "check_stale", None)
@@ -34,9 +35,18 @@ def control_tick(
             check_stale(now)
         raw = pipeline.frames_matrix(sensors.read_latest(), now)
     except HardwareError as exc:
-        fault = fault or exc.reason
-    snap = pipeline.snapshot(raw, hand.read(), arm.position(), ctrl.state == "tare", fault)  # type: ignore[attr-defined]
+        if fault is None:
+            fault, detail = exc.reason, str(exc)   # the record names what failed
+    except FrameError as exc:
+        if fault is None:
+            fault, detail = "sensor_invalid", str(exc)
+    snap = pipeline.snapshot(raw, hand.read(), arm.position(), ctrl.state == "tare", fault, detail)  # type: ignore[attr-defined]
     cmd = ctrl.tick(snap)
+    if not (np.all(np.isfinite(cmd.q_goal)) and np.all(np.isfinite(cmd.p_palm_world))):
+        # Never send a non-finite goal: fault, and command the safe action from the measured pose.
+        if not ctrl.terminal:
+            ctrl.fail(reason="goal_invalid", detail=f"controller computed a non-finite goal in state {ctrl.state!r}")  # type: ignore[attr-defined]
+        cmd = ctrl.safe_command(snap)
     if not cmd.torque_on:
         hand.set_torque(False)
     hand.write_goals(cmd.q_goal)

@@ -4,9 +4,10 @@ targets, joint state and, on the mock, the true forces and object height.
 
 Every tick only copies its arrays into preallocated column buffers (a few
 microseconds); the raw-signal summaries are computed for all ticks at once and
-the file is written on ``close``: to a temporary file, fsynced, then renamed,
-so a tick log on disk is always complete (the runner closes the log before it
-writes the trial's JSON record). Signals are stored as float32 rounded to 15
+the file is written on ``close`` with storage.atomic_writer (a temporary name
+unique to the writer, fsynced, then renamed), so a tick log on disk is always
+complete (the runner gives the trial a temporary path and renames it onto the
+final one just before it writes the trial's JSON record). Signals are stored as float32 rounded to 15
 mantissa bits (a relative error of at most 1.5e-5, about the decimals of the CSV
 logs this replaces; the cleared low bits compress away), the time as float64, the
 state as a dictionary-encoded string, contacts as booleans. pandas reads it with
@@ -16,7 +17,6 @@ state as a dictionary-encoded string, contacts as booleans. pandas reads it with
 from __future__ import annotations
 
 import csv
-import os
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +24,7 @@ import numpy as np
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PAC, PDC, TDC
+from grasp_ctrl.trials.storage import atomic_writer
 
 # Per-fingertip raw-signal summary columns (raw counts, before tare).
 RAW_COLUMNS = ("raw_pdc", "raw_tdc", "raw_pac_std", "raw_e_mean")
@@ -170,15 +171,11 @@ class TickLog:
         import pyarrow.parquet as pq
 
         table = self._table()
-        tmp = self.path.with_name(self.path.name + ".tmp")
         float_cols = [c for c, f in zip(table.column_names, table.schema) if str(f.type) == "float"]
-        with tmp.open("wb") as fh:
+        with atomic_writer(self.path, "wb") as fh:   # unique temporary name, fsync, rename
             # Byte-stream split makes float32 signals compress several times better.
             pq.write_table(table, fh, compression=_COMPRESSION, use_dictionary=["state"],
                            column_encoding={c: "BYTE_STREAM_SPLIT" for c in float_cols})
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, self.path)
 
 
 def read_tick_log(path: Path) -> tuple[list[str], dict[str, np.ndarray]]:

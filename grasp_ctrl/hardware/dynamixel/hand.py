@@ -217,8 +217,10 @@ class DynamixelHand:
             raise HardwareError(f"hardware error: {self._describe(errors)}", reason="hardware_error")
 
     def _describe(self, errors: dict[int, int]) -> str:
-        return "; ".join(
-            f"{self.bus.label(i)}: {', '.join(ct.hardware_error_names(bits))}" for i, bits in sorted(errors.items())
+        """Port, servo (joint name and id) and the Hardware Error Status bits, by name and value."""
+        return f"bus {self.port_name}: " + "; ".join(
+            f"{self.bus.label(i)}: {', '.join(ct.hardware_error_names(bits))} (status 0x{bits:02x})"
+            for i, bits in sorted(errors.items())
         )
 
     def recover(self) -> None:

@@ -47,4 +47,4 @@ def configure_servos(
             (ct.ADDR_POSITION_D_GAIN, dxl.position_d_gain),
         ):
             if gain is not None:
-                bus.write(i, addr, 2, gain)
+                bus.write(i, addr, 2, min(16383, int(round(gain * j.gain_scale))))

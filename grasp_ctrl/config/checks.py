@@ -1,0 +1,28 @@
+"""Checks that span two files: the object profiles against the hand they run on.
+
+Each file is valid on its own (its loader checks it); these rules need both,
+so they run before a run starts (``run``, ``tune``, ``run --resume``).
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.errors import ConfigError
+
+
+def check_objects_for_hand(objects: Sequence[ObjectProfile], hand: HandConfig, source: str) -> None:
+    """Raise ConfigError naming ``source`` and ``objects.NAME.KEY`` for the first broken rule."""
+    limit = hand.safety.max_fingertip_force_n
+    grasping = [f.name for f in hand.fingers if f.grasp]
+    for obj in objects:
+        key = f"objects.{obj.name}."
+        if obj.tau_n >= limit:
+            raise ConfigError(source, key + "tau_n",
+                              f"a grip target below safety.max_fingertip_force_n = {limit:g} N of hand "
+                              f"{hand.name!r} (got {obj.tau_n:g} N: every grasp would end as overforce)")
+        if obj.cap is not None and obj.cap.finger not in grasping:
+            raise ConfigError(source, key + "cap.finger",
+                              f"a grasping finger of hand {hand.name!r} ({', '.join(grasping)}; got {obj.cap.finger!r})")

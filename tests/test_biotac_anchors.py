@@ -1,0 +1,77 @@
+"""The simulated BioTac against real data (docs/mock_world.md, "Anchors").
+
+Measured with the same code as ``python launch.py biotac-anchors``: the authors'
+real-data network reading simulated rigid-ft + ball-ft presses (1500 force
+samples per source, seed 7) and simulated in-contact electrode patterns against
+the real long recordings A and B of robotic_finger_tidy.csv. Skipped without
+../shared/data.
+
+Each figure is asserted twice where the model does not reach issue 15's target yet:
+a regression bound at the level measured on 2026-11-23 (a change that makes the
+model less real fails), and the target itself as a strict xfail (a change that
+reaches it fails too, so that the bound is raised and the xfail removed).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from conftest import SHARED_DATA
+from grasp_ctrl.evaluation.biotac_anchors import anchor_report
+
+
+@pytest.fixture(scope="module")
+def report():
+    if not SHARED_DATA.is_dir():
+        pytest.skip("../shared/data is not present beside the checkout")
+    return anchor_report(SHARED_DATA / "robotic_finger" / "robotic_finger_tidy.csv", n_per_source=1500, seed=7)
+
+
+def test_real_reference_figures(report):
+    """The real-to-real figures the simulated ones are compared with (B against A)."""
+    real = report.real_b
+    assert real.variance_in_real_a_top5 == pytest.approx(0.81, abs=0.02)
+    assert real.best_match_residual_median == pytest.approx(0.18, abs=0.03)
+    assert 9 <= real.rising_electrodes_median <= 11
+    assert 0.8 <= real.largest_drop_over_pdc_median <= 0.9
+    assert 0.4 <= real.drop_vs_pdc_loglog_slope <= 0.6
+    assert real.rest_noise_sd == pytest.approx(0.45, abs=0.05)
+
+
+def test_official_net_reads_rigid_ft_presses_at_its_real_data_level(report):
+    rigid = report.per_source["rigid-ft"]
+    assert rigid.median_angle_deg <= 20.0
+    assert 0.5 <= rigid.magnitude_ratio_median <= 2.0
+    assert rigid.magnitude_corr >= 0.4
+
+
+def test_official_net_magnitudes_track_the_true_force(report):
+    assert report.pooled.magnitude_corr >= 0.4
+    for source, fig in report.per_source.items():
+        assert 0.5 <= fig.magnitude_ratio_median <= 2.0, source
+
+
+def test_official_net_reads_the_pooled_presses_at_its_real_data_level(report):
+    """Issue 15 anchor (a): <= 20 deg median over rigid-ft + ball-ft (the net reads a real
+    BioTac of another lab at about 16 deg)."""
+    assert report.pooled.median_angle_deg <= 20.0
+    assert report.per_source["ball-ft"].median_angle_deg <= 32.0
+
+
+def test_simulated_patterns_look_real(report):
+    sim = report.simulated
+    assert sim.rising_electrodes_median >= 3
+    assert 0.5 <= sim.largest_drop_over_pdc_median <= 1.5
+    assert sim.rest_noise_sd == pytest.approx(report.real_b.rest_noise_sd, abs=0.12)
+    assert 0.3 <= sim.drop_vs_pdc_loglog_slope <= 0.7
+    assert sim.max_rise_median == pytest.approx(report.real_b.max_rise_median, rel=0.3)
+    # regression bounds (measured 2026-11-23: 0.455 and 0.56)
+    assert sim.variance_in_real_a_top5 >= 0.42
+    assert sim.best_match_residual_median <= 0.6
+
+
+@pytest.mark.xfail(strict=True, reason="issue 15 target not reached: PCA share 0.46, best match 0.56")
+def test_simulated_patterns_target(report):
+    sim = report.simulated
+    assert sim.variance_in_real_a_top5 >= 0.69
+    assert sim.best_match_residual_median <= 0.35
