@@ -231,10 +231,41 @@ def test_close_moves_pads_along_task_vectors_within_limits(script, hand):
             assert np.linalg.norm(d) < 1e-9, f.name
 
 
-def test_diagram_lists_every_state():
-    from grasp_ctrl.controller.diagram import mermaid
+def test_diagram_lists_every_transition_with_its_guard_and_fault_reason():
+    from grasp_ctrl.controller.diagram import RUNTIME_FAULTS, mermaid
+    from grasp_ctrl.controller.machine import ACTIVE, TRANSITIONS
 
-    text = mermaid()
-    assert "stateDiagram" in text
-    for state in ("tare", "reach", "close", "ramp", "lift", "hold", "lower", "release", "retreat", "done", "fault"):
-        assert state in text
+    lines = mermaid().splitlines()
+    assert lines[0] == "stateDiagram-v2" and "  [*] --> tare" in lines
+    edges = [ln.strip() for ln in lines if "-->" in ln]
+    for src, dst, guard, reason in TRANSITIONS:
+        match = [e for e in edges if e.startswith(f"{src} --> {dst}: {guard} (")]
+        assert len(match) == 1, (src, dst, guard)
+        assert match[0].endswith(f"→ {reason}") if reason else "→" not in match[0]
+    # Every active state reaches fault, and every fault edge names its reason.
+    assert {e.split()[0] for e in edges if "--> fault" in e} == set(ACTIVE)
+    assert all("→" in e for e in edges if "--> fault" in e)
+    assert all(r in "\n".join(lines) for r in RUNTIME_FAULTS)
+    # issue 17's fault reasons (sensing pipeline, controller, control tick) are runtime faults too
+    assert {"sensor_invalid", "estimate_invalid", "goal_invalid"} <= set(RUNTIME_FAULTS)
+    assert "Class" not in "\n".join(lines)   # no styling noise
+
+
+def test_readme_diagram_is_the_diagram_commands_output(capsys):
+    from pathlib import Path
+
+    from grasp_ctrl.cli import main
+
+    assert main(["diagram"]) == 0
+    printed = capsys.readouterr().out.strip()
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    assert f"```mermaid\n{printed}\n```" in readme
+
+
+def test_diagram_picture(tmp_path):
+    pytest.importorskip("matplotlib")
+    from grasp_ctrl.cli import main
+
+    for name in ("sm.svg", "sm.png"):
+        assert main(["diagram", "--out", str(tmp_path / name)]) == 0
+        assert (tmp_path / name).stat().st_size > 10_000

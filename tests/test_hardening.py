@@ -27,6 +27,7 @@ from grasp_ctrl.trials.manifest import read_manifest
 from grasp_ctrl.trials.records import load_records
 from grasp_ctrl.trials.runner import run_mock_trial, run_series
 from grasp_ctrl.trials.storage import LOCK_FILE, record_path, safe_name, temp_path, ticks_path
+from grasp_ctrl.trials.ticklog import read_tick_log
 
 OBJECTS_TOML = Path(default_objects_file()).read_text()
 
@@ -97,13 +98,11 @@ def test_2_non_finite_estimate_is_a_recorded_safe_fault(tmp_path, hand, objects,
     assert "non-finite force" in rec["fault_detail"] and rec["controller"]["detail"] == rec["fault_detail"]
     assert summary["policies"]["linear_mock"]["objects"]["lego"]["failures"] == {"estimate_invalid": 1}
     # the safe action ran: on_fault = open, the fingers went to the open posture, finite goals only
-    ticks = ticks_path(run_dir, "linear_mock", "lego", 0).read_text().splitlines()
-    header = ticks[0].split(",")
-    goals = [i for i, c in enumerate(header) if c.startswith("q_goal")]
-    last = ticks[-1].split(",")
-    assert all(np.isfinite(float(last[i])) for i in goals)
+    header, cols = read_tick_log(ticks_path(run_dir, "linear_mock", "lego", 0))
+    last_goals = [cols[c][-1] for c in header if c.startswith("q_goal")]
+    assert len(last_goals) == len(hand.joints) and all(np.isfinite(last_goals))
     q_open = [j.open_rad for j in hand.joints]
-    assert np.allclose([float(last[i]) for i in goals], q_open, atol=0.06)
+    assert np.allclose(last_goals, q_open, atol=0.06)
 
 
 def test_2_nan_force_never_passes_the_overforce_check(hand, objects):

@@ -15,6 +15,7 @@ from grasp_ctrl.hardware.dynamixel.hand import MonotonicClock
 from grasp_ctrl.hardware.factory import HardwareRig
 from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 from grasp_ctrl.trials.hardware import hardware_trial_fn, reach_pose_world
+from grasp_ctrl.trials.ticklog import read_tick_log
 
 pytestmark = pytest.mark.skipif(not hasattr(__import__("os"), "openpty"), reason="needs POSIX pseudo-terminals")
 
@@ -53,7 +54,7 @@ def test_trial_runs_through_real_backends_and_stops_safely(emulators, objects, t
     obj = objects["chips_can"]
     prompts: list[str] = []
     trial = hardware_trial_fn(hand, ["linear_mock"], FAST, 1, open_rig_fn=_opener(dxl, tactile, obj, prompts))
-    log = tmp_path / "ticks.csv"
+    log = tmp_path / "trial_000_ticks.parquet"
     record = trial("linear_mock", obj, 0, 0, log)
 
     assert record["policy"] == "linear_mock" and record["object"] == "chips_can"
@@ -61,8 +62,8 @@ def test_trial_runs_through_real_backends_and_stops_safely(emulators, objects, t
     states = [b for _, _, b in record["transitions"]]
     assert states[0] == "reach"                      # tared first, on real frames
     assert record["judged_by"] == "controller"
-    rows = log.read_text().splitlines()
-    assert len(rows) > 50 and rows[0].startswith("t,state")
+    header, cols = read_tick_log(log)
+    assert len(cols["t"]) > 50 and header[:2] == ["t", "state"]
     # Every goal the servos received stayed inside the joint limits (LEAP: offset 0, sign +1).
     for j in hand.joints:
         history = dxl.servo(j.servo_id).goal_history

@@ -35,9 +35,7 @@ def _throughput(method: str, quick: bool) -> Figure:
             f = pusher_forces(m, p.contact_object, p.in_contact, PAPER_BOX, method=method)
             solved += int(np.sum(~np.isnan(f.f_world[:, 0])))  # samples with a force
         rates.append(solved / (time.perf_counter() - t0))
-    r = np.asarray(rates)
-    # throughput: the "p99" is the slow tail, i.e. the 1st percentile of the rate
-    return Figure(float(np.median(r)), float(np.percentile(r, 1)), "samples/s")
+    return Figure.rate(rates, "samples/s")
 
 
 FIGURES = {

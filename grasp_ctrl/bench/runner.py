@@ -30,10 +30,19 @@ def machine_description() -> str:
             f"{platform.python_version()}, mock-world kernels: {jit.backend()}")
 
 
-def run_figures(only: list[str] | None, quick: bool) -> dict[str, Figure]:
+def run_figures(only: list[str] | None, quick: bool, progress: bool = False) -> dict[str, Figure]:
+    """The figures by name; ``progress``: a one-line bar on a terminal (the figure being measured)."""
+    from grasp_ctrl.progress_bar import progress_bar
+
     figures = all_figures()
     names = list(figures) if not only else only
     unknown = [n for n in names if n not in figures]
     if unknown:
         raise UsageError(f"--only: unknown figure {unknown[0]!r} (known: {', '.join(figures)})")
-    return {n: figures[n](quick) for n in names}
+    results = {}
+    with progress_bar(len(names), "bench", progress, unit="figure", every_update=True) as bar:
+        for n in names:
+            bar.set_postfix_str(n)
+            results[n] = figures[n](quick)
+            bar.update(1)
+    return results

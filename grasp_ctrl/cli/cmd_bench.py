@@ -15,6 +15,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     p.add_argument("--quick", action="store_true", help="fewer repetitions (a smoke test, not a measurement)")
     p.add_argument("--list", action="store_true", help="list the figure names and exit")
+    p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -25,7 +26,7 @@ def run(args: argparse.Namespace) -> int:
             print(name)
         return 0
     only = [n.strip() for n in args.only.split(",") if n.strip()] if args.only else None
-    results = run_figures(only, quick=args.quick)
+    results = run_figures(only, quick=args.quick, progress=not args.quiet)
     print(f"machine: {machine_description()}")
     print(f"{'figure':32s} {'median':>12s} {'p99':>12s}  unit")
     for name, fig in results.items():

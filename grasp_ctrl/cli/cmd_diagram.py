@@ -1,21 +1,31 @@
-"""``diagram``: print the controller's state machine as Mermaid."""
+"""``diagram``: the controller's state machine as Mermaid text, or as SVG/PNG."""
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 NAME = "diagram"
-HELP = "print the controller state machine as a Mermaid diagram"
+HELP = "print the controller state machine as a Mermaid diagram (or draw it as SVG/PNG)"
+DESCRIPTION = (
+    "Print the controller's state machine as a Mermaid stateDiagram: every transition with its guard "
+    "condition, and the failure reason of every edge into fault. With --out FILE.svg or FILE.png the "
+    "diagram is drawn instead (needs matplotlib, the plot extra); any other --out gets the Mermaid text."
+)
 ORDER = 60
+PICTURE_SUFFIXES = (".svg", ".png")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--out", metavar="FILE", help="write to FILE instead of standard output")
+    p.add_argument("--out", metavar="FILE", help="write to FILE instead of standard output (.svg/.png: a picture)")
 
 
 def run(args: argparse.Namespace) -> int:
-    from grasp_ctrl.controller.diagram import mermaid
+    from grasp_ctrl.controller.diagram import draw, mermaid
 
+    if args.out and Path(args.out).suffix.lower() in PICTURE_SUFFIXES:
+        print(f"diagram: {draw(Path(args.out))}")
+        return 0
     text = mermaid()
     if args.out:
         from grasp_ctrl.trials.storage import write_text_atomic

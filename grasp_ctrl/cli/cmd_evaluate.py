@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -24,9 +25,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="test: the trial-wise test split (same seed as training); all: every sample")
     p.add_argument("--json", metavar="FILE", help="write the metrics as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="box plots of angle and magnitude error (plot extra)")
+    p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
 
 
-def _predict(spec: str, tared: np.ndarray) -> np.ndarray:
+def _predict(spec: str, tared: np.ndarray, bar: Any = None) -> np.ndarray:
+    """Forces for every sample; ``bar`` (tqdm) advances by the samples done."""
     path = Path(spec)
     if path.suffix == ".pt":
         from grasp_ctrl.cli._learning_args import require_torch
@@ -42,7 +45,10 @@ def _predict(spec: str, tared: np.ndarray) -> np.ndarray:
         n = len(tared)
         ds = Dataset(np.zeros(n, str), np.zeros(n, str), np.zeros(n), tared, np.ones((n, 3)), np.zeros(n, bool),
                      np.repeat(np.eye(3)[None], n, axis=0))
-        return predict_data(model, TensorData(ds))[0]
+        out = predict_data(model, TensorData(ds))[0]
+        if bar is not None:
+            bar.update(n)
+        return out
     from grasp_ctrl.estimators.registry import load_policy, read_metadata, resolve_policy_path
     from grasp_ctrl.estimators.feature_onnx_estimator import FEATURE_KINDS, load_feature_onnx_policy
 
@@ -52,7 +58,12 @@ def _predict(spec: str, tared: np.ndarray) -> np.ndarray:
         est = load_feature_onnx_policy(meta, json_path, None, 1)
     else:
         est = load_policy(str(json_path))      # the controller's own estimator for this policy
-    out = [est.estimate(tared[i:i + 4096], [""] * len(tared[i:i + 4096])).f_sensor for i in range(0, len(tared), 4096)]
+    out = []
+    for i in range(0, len(tared), 4096):
+        chunk = tared[i:i + 4096]
+        out.append(est.estimate(chunk, [""] * len(chunk)).f_sensor)
+        if bar is not None:
+            bar.update(len(chunk))
     return np.concatenate(out)
 
 
@@ -66,9 +77,12 @@ def run(args: argparse.Namespace) -> int:
         ds = ds.subset(split_by_trials(ds, seed=args.seed, test_per_source=args.test_per_source).test)
     if len(ds) == 0:
         raise UsageError("no samples to evaluate (use --split all for a small recording)")
+    from grasp_ctrl.progress_bar import progress_bar
+
     doc, per_model = {}, {}
     for spec in args.model:
-        f_pred = _predict(spec, ds.tared)
+        with progress_bar(len(ds), f"evaluate {Path(spec).stem}", not args.quiet, unit="sample") as bar:
+            f_pred = _predict(spec, ds.tared, bar)
         doc[spec] = by_source(ds.f_sensor, f_pred, ds.source)
         values = per_sample(ds.f_sensor, f_pred)
         for src in ds.sources():

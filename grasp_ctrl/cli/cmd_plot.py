@@ -1,4 +1,4 @@
-"""``plot``: a trial's force traces as a PNG."""
+"""``plot``: a trial at a glance as a PNG, its force traces per axis, or an animated replay."""
 
 from __future__ import annotations
 
@@ -6,49 +6,52 @@ import argparse
 from pathlib import Path
 
 NAME = "plot"
-HELP = "save a trial's fingertip force traces (with state bands) as PNG"
+HELP = "save a trial's forces, release signal, heights and states as PNG (or an animated replay)"
 DESCRIPTION = (
-    "Plot the estimated force of every fingertip (x, y, z; on the mock also the true force, dashed) "
-    "over time from a trial's tick log, with the controller states shaded. TRIAL is "
-    "trial_NNN.json or trial_NNN_ticks.csv in a run directory. Needs matplotlib (the plot extra)."
+    "Plot one trial from its tick log: per fingertip the normal and tangential force, estimated and "
+    "(on the mock) true, with tau; the release fingertip's force on the object along +z with the "
+    "release threshold; the object's and palm's heights; the controller's states as labelled bands and "
+    "the moment it ended (done, or fault with its reason). --xyz plots the force components instead; "
+    "--animate OUT.gif writes a replay (hand, object, force arrows per fingertip). TRIAL is "
+    "trial_NNN.json or trial_NNN_ticks.parquet (or the .csv of older runs) in a run directory. "
+    "Needs matplotlib (the plot extra)."
 )
 ORDER = 4
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("trial", metavar="TRIAL", help="trial_NNN.json or trial_NNN_ticks.csv")
-    p.add_argument("--out", default=None, metavar="FILE", help="PNG path (default: trial_NNN_forces.png beside it)")
-    p.add_argument("--frame", choices=("sensor", "world"), default="sensor", help="force frame (default sensor)")
-
-
-def _paths(trial: Path) -> tuple[Path, Path]:
-    from grasp_ctrl.errors import UsageError
-
-    name = trial.name
-    if name.endswith("_ticks.csv"):
-        stem = name[: -len("_ticks.csv")]
-    elif name.endswith(".json"):
-        stem = name[: -len(".json")]
-    else:
-        raise UsageError(f"{trial}: give a trial_NNN.json or trial_NNN_ticks.csv")
-    ticks = trial.with_name(f"{stem}_ticks.csv")
-    if not ticks.is_file():
-        raise UsageError(f"{ticks}: no tick log (was the run made with --no-tick-logs?)")
-    return ticks, trial.with_name(f"{stem}.json")
+    p.add_argument("trial", metavar="TRIAL", help="trial_NNN.json or trial_NNN_ticks.parquet")
+    p.add_argument("--out", default=None, metavar="FILE",
+                   help="PNG path (default: trial_NNN.png, or trial_NNN_forces.png with --xyz, beside it)")
+    p.add_argument("--xyz", action="store_true", help="the estimated force components fx, fy, fz per fingertip instead")
+    p.add_argument("--frame", choices=("sensor", "world"), default="sensor",
+                   help="with --xyz: the force components' frame (default sensor)")
+    p.add_argument("--animate", default=None, metavar="OUT.gif",
+                   help="also write an animated replay: hand pose, object, force arrows per fingertip")
+    p.add_argument("--fps", type=float, default=12.0, metavar="N", help="replay frames per second (default 12)")
+    p.add_argument("--frames", type=int, default=None, metavar="N",
+                   help="replay: at most N frames, evenly spaced over the trial (default 100)")
+    p.add_argument("--hand", default=None, metavar="FILE",
+                   help="replay: the trial's hand file (default: the one in the run's run.json)")
 
 
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.trials.plots import force_traces
-    from grasp_ctrl.trials.records import read_record
+    from grasp_ctrl.trials.trial_plot import trial_figure
+    from grasp_ctrl.trials.trial_view import hand_for_replay, load_trial
 
-    ticks, record = _paths(Path(args.trial))
-    title = None
-    if record.is_file():
-        rec, _ = read_record(record)
-        if rec is not None:
-            outcome = "success" if rec["success"] else f"failed: {rec['reason']}"
-            title = f"{rec['policy']} / {rec['object']} / trial {rec['trial']} (seed {rec['seed']}): {outcome}"
-    out = Path(args.out) if args.out else ticks.with_name(ticks.name.replace("_ticks.csv", "_forces.png"))
-    force_traces(ticks, out, args.frame, title)
+    view = load_trial(Path(args.trial))
+    stem = view.ticks_path.name.split("_ticks.")[0]
+    if args.xyz:
+        out = Path(args.out) if args.out else view.ticks_path.with_name(f"{stem}_forces.png")
+        force_traces(view.ticks_path, out, args.frame, view.title())
+    else:
+        out = Path(args.out) if args.out else view.ticks_path.with_name(f"{stem}.png")
+        trial_figure(view, out)
     print(f"plot: {out}")
+    if args.animate:
+        from grasp_ctrl.trials.replay import MAX_FRAMES, animate
+
+        hand = hand_for_replay(view, Path(args.hand) if args.hand else None)
+        print(f"replay: {animate(view, hand, Path(args.animate), fps=args.fps, max_frames=args.frames or MAX_FRAMES)}")
     return 0

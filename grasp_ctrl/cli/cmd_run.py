@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -20,8 +21,24 @@ DESCRIPTION = (
 )
 ORDER = 1
 
+# Worker processes take about a second to start (imports, compiled kernels): the
+# automatic --jobs gives each at least this many trials.
+MIN_TRIALS_PER_JOB = 4
+MAX_AUTO_JOBS = 8
+
+
+def auto_jobs(backend: str, trials: int, cpus: int | None = None) -> int:
+    """The default --jobs: mock trials spread over the CPU cores when there are enough."""
+    if backend != "mock":
+        return 1
+    cpus = cpus or os.cpu_count() or 1
+    return max(1, min(cpus, MAX_AUTO_JOBS, trials // MIN_TRIALS_PER_JOB))
+
+
 # The flags that define which trials a run holds (run.json stores them).
-PLAN_FLAGS = ("hand", "object_file", "backend", "objects", "policy", "trials", "seed", "preset", "no_tick_logs")
+PLAN_FLAGS = ("hand", "object_file", "backend", "emulate", "objects", "policy", "trials", "seed", "preset",
+              "no_tick_logs")
+EMULATED = "dynamixel-emulated"   # the run's backend with --emulate (= manifest.EMULATED_BACKEND; lazy imports)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -36,6 +53,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backend", choices=("mock", "dynamixel"), default=None,
                    help="mock: simulated hand, sensors and objects (default); dynamixel: the real hand, "
                         "the operator labels each trial")
+    p.add_argument("--emulate", action="store_true", default=None,
+                   help="with --backend dynamixel: the servo chain (Protocol 2.0) and the fingertip stream "
+                        "(protocol v1) are emulated on pseudo-terminals with the mock world's physics behind "
+                        "them, so the whole hardware path runs without hardware; scored like the mock")
+    p.add_argument("--yes", action="store_true",
+                   help="answer the pre-flight confirmation (arm at its start pose) with yes, for scripted runs")
     p.add_argument("--objects", default=None, metavar="a,b|all",
                    help="objects to run (default: the object file's default_set)")
     p.add_argument("--policy", nargs="+", action="extend", metavar="NAME|PATH",
@@ -51,10 +74,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="continue an interrupted run with the parameters in RUN_DIR/run.json")
     p.add_argument("--json", default=None, metavar="FILE", help="also write the run summary JSON here")
     p.add_argument("--threads", type=int, default=1, metavar="N", help="inference threads per policy (default 1)")
-    p.add_argument("--jobs", type=int, default=1, metavar="N",
-                   help="mock trials run in N processes at once (default 1); results do not depend on it")
-    p.add_argument("--no-tick-logs", action="store_true", default=None, help="skip the per-tick CSV logs (faster)")
-    p.add_argument("--quiet", action="store_true", help="no per-trial progress lines")
+    p.add_argument("--jobs", type=int, default=None, metavar="N",
+                   help="mock trials run in N processes at once (default: one per CPU core, at most "
+                        f"{MAX_AUTO_JOBS}, for runs of {MIN_TRIALS_PER_JOB * 2}+ trials; else 1); "
+                        "results do not depend on it")
+    p.add_argument("--executor", choices=("local", "ray"), default="local",
+                   help="local: trials in this machine's processes (default); ray: as tasks on Ray (the ray "
+                        "extra), a local instance of --jobs CPUs or the cluster at --address")
+    p.add_argument("--address", default=None, metavar="ADDR",
+                   help="with --executor ray: a running Ray cluster (e.g. 10.0.0.5:6379 or 'auto')")
+    p.add_argument("--no-tick-logs", action="store_true", default=None, help="skip the per-tick logs (faster)")
+    p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
     p.add_argument("--port", default=None, metavar="PORT",
                    help="dynamixel: the servo bus port (default: the hand file's [dynamixel] port)")
     p.add_argument("--sensor-port", default=None, metavar="PORT",
@@ -85,8 +115,13 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     policies = args.policy or (list(preset.policies) if preset else [DEFAULT_POLICY])
     if len(set(policies)) != len(policies):
         raise UsageError("--policy: each policy once")
+    backend = args.backend or "mock"
+    if args.emulate:
+        if backend != "dynamixel":
+            raise UsageError("--emulate: only with --backend dynamixel (it emulates the real hand's links)")
+        backend = EMULATED
     manifest = RunManifest(
-        backend=args.backend or "mock", hand=hand.name, seed=args.seed if args.seed is not None else 0,
+        backend=backend, hand=hand.name, seed=args.seed if args.seed is not None else 0,
         trials=trials, policies=policies, objects=objects, tick_logs=not args.no_tick_logs,
         hand_file=str(hand_file.resolve()), hand_sha256=file_sha256(hand_file),
         object_file=str(object_file.resolve()), preset=args.preset,
@@ -131,6 +166,21 @@ def _hardware_trial_fn(hand: Any, manifest: Any, threads: int, port: str | None,
     return labelled(trial_fn, OperatorLabeller())
 
 
+def _preflight(hand: Any, manifest: Any, args: argparse.Namespace) -> None:
+    """Check every servo and fingertip, then ask for the go-ahead (before any trial)."""
+    from grasp_ctrl.trials.preflight import confirm_start, preflight_emulated, preflight_hardware
+    from grasp_ctrl.trials.runner import trial_seed
+
+    if manifest.backend == EMULATED:
+        obj = manifest.objects[0]
+        report = preflight_emulated(hand, obj, trial_seed(manifest.seed, obj.name, 0))
+    else:
+        report = preflight_hardware(hand, args.port, args.sensor_port)
+    say = lambda text: print(text, file=sys.stderr, flush=True)  # noqa: E731
+    say(report.summary())
+    confirm_start(args.yes, ask=lambda q: input(q), say=say)
+
+
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.trials.labelling import OperatorQuit
@@ -152,14 +202,34 @@ def run(args: argparse.Namespace) -> int:
         stamp = time.strftime("%Y%m%d-%H%M%S")
         tag = f"-{manifest.preset}" if manifest.preset else ""
         run_dir = Path(args.out) if args.out else Path("runs") / f"{stamp}{tag}-seed{manifest.seed}"
-    trial_fn = (_hardware_trial_fn(hand, manifest, args.threads, args.port, args.sensor_port)
-                if manifest.backend == "dynamixel" else None)
+    from grasp_ctrl.trials.ray_executor import check_executor
+
+    check_executor(args.executor, args.address)
+    if args.executor != "local" and manifest.backend != "mock":
+        raise UsageError("--executor ray: only mock trials; a (real or emulated) hand runs here, one trial at a time")
+    trial_fn = None
+    if manifest.backend in ("dynamixel", EMULATED):
+        _preflight(hand, manifest, args)
+    if manifest.backend == "dynamixel":
+        trial_fn = _hardware_trial_fn(hand, manifest, args.threads, args.port, args.sensor_port)
+    elif manifest.backend == EMULATED:
+        from grasp_ctrl.emulators.world_rig import emulated_backends
+        from grasp_ctrl.trials.runner import mock_trial_fn
+
+        trial_fn = mock_trial_fn(hand, manifest.policies, manifest.settings, args.threads,
+                                 make_backends=emulated_backends, backend=EMULATED)
+    if args.executor == "ray":
+        jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
+    else:
+        jobs = args.jobs if args.jobs is not None else auto_jobs(manifest.backend, manifest.total)
     try:
         summary = run_series(
             hand, manifest.objects, manifest.policies, manifest.trials, manifest.seed, run_dir,
-            settings=manifest.settings, progress=not args.quiet, tick_logs=manifest.tick_logs,
+            # On the real hand the operator's prompts own the terminal: no progress bar there.
+            settings=manifest.settings, progress=not args.quiet and manifest.backend != "dynamixel",
+            tick_logs=manifest.tick_logs,
             threads=args.threads, resume=bool(args.resume), manifest=manifest, trial_fn=trial_fn,
-            backend=manifest.backend, jobs=args.jobs,
+            backend=manifest.backend, jobs=jobs, executor=args.executor, address=args.address,
         )
     except (KeyboardInterrupt, OperatorQuit) as exc:
         done = len(load_records(run_dir).records)

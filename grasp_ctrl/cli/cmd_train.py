@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import Any
 
 from grasp_ctrl.cli._learning_args import add_data_arguments, data_spec, parse_sources, require_torch
 from grasp_ctrl.errors import UsageError
@@ -38,7 +39,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", metavar="FILE", help="checkpoint to write (.pt; .json for --arch analytic)")
     p.add_argument("--experiment", choices=("fig3", "fig3+fig4"), help="run the paper's comparison instead of one model")
     p.add_argument("--out-dir", metavar="DIR", default="runs/fig3", help="experiment output folder")
-    p.add_argument("--quiet", action="store_true", help="no per-epoch progress lines")
+    p.add_argument("--executor", choices=("local", "ray"), default="local",
+                   help="with --experiment: ray trains the models as Ray tasks (the ray extra; --threads CPUs each)")
+    p.add_argument("--address", default=None, metavar="ADDR", help="with --executor ray: a running Ray cluster")
+    p.add_argument("--jobs", type=int, default=None, metavar="N",
+                   help="with --executor ray and no --address: CPUs of the local Ray instance (default: all)")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress line (the current model and epoch; shown only on a terminal anyway)")
 
 
 def _init_state(spec: str, arch: str):
@@ -77,26 +84,42 @@ def _init_state(spec: str, arch: str):
 
 
 def run(args: argparse.Namespace) -> int:
-    require_torch()
-    from grasp_ctrl.learning.pipeline import FIG3_MODELS, FIG4_MODELS, load_data, run_experiment, train_one
-    from grasp_ctrl.learning.splits import split_by_trials
+    from grasp_ctrl.progress_bar import StatusLine
 
+    require_torch()
     spec = data_spec(args)
     if args.epochs < 1 or args.batch_size < 1 or args.threads < 1:
         raise UsageError("--epochs, --batch-size and --threads must be positive")
-    progress = (lambda s: None) if args.quiet else (lambda s: print(s, flush=True))
-    ds, data_info = load_data(spec, report=print)
+    from grasp_ctrl.trials.ray_executor import check_executor
+
+    check_executor(args.executor, args.address)
+    if args.executor != "local" and not args.experiment:
+        raise UsageError("--executor ray: only with --experiment (one model trains here)")
+    status = StatusLine(enabled=not args.quiet)
+    try:
+        return _train(args, spec, status)
+    finally:
+        status.close()
+
+
+def _train(args: argparse.Namespace, spec: Any, status: Any) -> int:
+    from grasp_ctrl.learning.pipeline import FIG3_MODELS, FIG4_MODELS, load_data, run_experiment, train_one
+    from grasp_ctrl.learning.splits import split_by_trials
+
+    progress = status.update
+    ds, data_info = load_data(spec, report=status.note)
     split = split_by_trials(ds, seed=args.seed, test_per_source=args.test_per_source)
-    print(f"split by trials: {len(split.train)} train, {len(split.val)} validation, {len(split.test)} test samples")
+    status.note(f"split by trials: {len(split.train)} train, {len(split.val)} validation, {len(split.test)} test samples")
 
     if args.experiment:
         models = dict(FIG3_MODELS)
         if args.experiment == "fig3+fig4":
             models.update(FIG4_MODELS)
         doc = run_experiment(ds, split, models, Path(args.out_dir), args.epochs, args.seed, data_info,
-                             threads=args.threads, progress=progress, lr0=args.lr, patience=args.patience)
-        print((Path(args.out_dir) / "results.md").read_text())
-        print(f"results: {Path(args.out_dir) / 'results.json'}; checkpoints in {args.out_dir}")
+                             threads=args.threads, progress=progress, lr0=args.lr, patience=args.patience,
+                             report=status.note, executor=args.executor, address=args.address, jobs=args.jobs)
+        status.note((Path(args.out_dir) / "results.md").read_text())
+        status.note(f"results: {Path(args.out_dir) / 'results.json'}; checkpoints in {args.out_dir}")
         return 0 if doc else 1
 
     sources = parse_sources(args.sources)
@@ -118,9 +141,10 @@ def run(args: argparse.Namespace) -> int:
         from grasp_ctrl.learning.train import save_checkpoint
 
         save_checkpoint(out, info["result"], {"data": data, "metrics": info["metrics"], "init_from": args.init_from})
-        print(f"best epoch {info['result'].best_epoch}, {info['seconds_per_epoch']:.2f} s per epoch")
+        status.note(f"best epoch {info['result'].best_epoch}, {info['seconds_per_epoch']:.2f} s per epoch")
+    status.close()   # the table below is printed as it is
     _print_metrics(info["metrics"])
-    print(f"wrote {out}")
+    status.note(f"wrote {out}")
     return 0
 
 

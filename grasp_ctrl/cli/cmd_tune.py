@@ -37,8 +37,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--sensor-port", default=None, metavar="PORT", help="dynamixel: the fingertip sensors' port")
     p.add_argument("--write", action="store_true", help="write the best setting into the object file")
     p.add_argument("--json", default=None, metavar="FILE", help="write the ranked sweep as JSON")
-    p.add_argument("--jobs", type=int, default=1, metavar="N", help="trials in N processes at once (default 1)")
-    p.add_argument("--quiet", action="store_true", help="no per-trial progress lines")
+    p.add_argument("--jobs", type=int, default=1, metavar="N",
+                   help="trials in N processes at once (default 1; with --executor ray: the local instance's CPUs)")
+    p.add_argument("--executor", choices=("local", "ray"), default="local",
+                   help="ray: the trials as Ray tasks (the ray extra), on a local instance or --address")
+    p.add_argument("--address", default=None, metavar="ADDR", help="with --executor ray: a running Ray cluster")
+    p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -53,6 +57,11 @@ def run(args: argparse.Namespace) -> int:
 
     if args.backend != "mock" and args.jobs != 1:
         raise UsageError("--jobs: the real hand runs one trial at a time")
+    from grasp_ctrl.trials.ray_executor import check_executor, ray_trials
+
+    check_executor(args.executor, args.address)
+    if args.backend != "mock" and args.executor != "local":
+        raise UsageError("--executor ray: the real hand runs here, one trial at a time")
     if args.trials < 1:
         raise UsageError("--trials: must be at least 1")
     if args.jobs < 1:
@@ -63,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--seed: an integer from 0 to 2**63-1 (got {args.seed})")
     grid = settings_grid([parse_param(s) for s in args.param])
     hand = load_hand(args.hand)
-    (obj,) = select_objects(args.object_file, args.object)
+    (obj,) = select_objects(args.object_file, args.object, flag="--object")
     # every setting of the sweep must also fit the hand (tau below its force limit, ...)
     check_objects_for_hand([apply_setting(obj, s) for s in grid], hand, f"--param ({obj.name})")
     if args.backend == "dynamixel":
@@ -89,9 +98,15 @@ def run(args: argparse.Namespace) -> int:
 
     def many(tasks):  # type: ignore[no-untyped-def]
         jobs = [(args.policy, profile, k, trial_seed(args.seed, obj.name, k), None) for _, profile, k in tasks]
+        if args.executor == "ray":
+            return ray_trials(args.address, args.jobs if args.jobs > 1 else None, hand, [args.policy], None, 1, jobs)
         return parallel_trials(min(args.jobs, len(jobs)), hand, [args.policy], None, 1, jobs)
 
-    rows = rank(run_sweep(obj, grid, args.trials, one, on_trial, many if args.jobs > 1 else None))
+    try:
+        rows = rank(run_sweep(obj, grid, args.trials, one, on_trial,
+                              many if args.jobs > 1 or args.executor == "ray" else None))
+    finally:
+        progress.close()
     current = {k: getattr(obj, k) for k in grid[0]}
     print(f"{obj.name}, policy {args.policy}, {args.trials} trials per setting, seed {args.seed} (* = current)")
     print(format_sweep(rows, current))

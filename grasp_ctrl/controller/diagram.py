@@ -1,20 +1,134 @@
-"""The controller's state machine as Mermaid, from transitions' own graph support."""
+"""The controller's state machine as a Mermaid state diagram, and as a picture.
+
+Built from the one table of transitions in ``machine.py`` (so it cannot drift
+from the controller), with each guard's condition in words and the failure
+reason of every edge into ``fault``. The picture (SVG/PNG, the ``plot`` extra)
+draws the same graph with matplotlib: no Mermaid renderer is needed.
+"""
 
 from __future__ import annotations
 
-from transitions.extensions import GraphMachine
+import textwrap
+from dataclasses import dataclass
+from pathlib import Path
 
-from grasp_ctrl.controller.machine import build_machine
+from grasp_ctrl.controller.machine import ACTIVE, STATES, TERMINAL, TRANSITIONS
+from grasp_ctrl.controller.settings import ControllerSettings
+
+# Faults raised outside the guards, from any active state (GraspController.tick, the
+# sensing pipeline, control_tick, the runner; docs/safety.md).
+RUNTIME_FAULTS = ("sensor_stale", "sensor_invalid", "estimate_invalid", "goal_invalid", "hardware_error",
+                  "overforce", "aborted")
 
 
-class _Model:
-    """A stand-in model: the diagram needs the structure, not the guards' logic."""
+def guard_conditions(s: ControllerSettings | None = None) -> dict[str, str]:
+    """Each guard's condition in words, with the default settings' numbers (object
+    parameters by name: they live in the object profile)."""
+    s = s or ControllerSettings()
+    return {
+        "tare_done": "tare frames collected",
+        "at_reach_pose": f"palm within {s.reach_tolerance_m * 1000:g} mm of the reach pose",
+        "reach_timed_out": f"{s.reach_timeout_s:g} s in reach",
+        "all_in_contact": "every grasping tip's contact gate fired",
+        "close_timed_out": f"{s.close_timeout_s:g} s in close",
+        "ramp_settled": f"every grip within {s.ramp_tolerance_n:g} N of tau for {s.ramp_settle_s:g} s",
+        "ramp_timed_out": f"{s.ramp_timeout_s:g} s in ramp",
+        "grip_lost": f"a grasping tip without contact or grip below {s.grip_lost_fraction:g} tau "
+                     f"for {s.contact_lost_s:g} s",
+        "at_lift_height": "palm at lift_height_m",
+        "hold_done": "hold_s elapsed",
+        "release_detected": "index force on the object along +z below -release_threshold_n "
+                            "for release_debounce ticks",
+        "lower_exhausted": f"palm {s.lower_overshoot_m * 1000:g} mm below the grasp height",
+        "fingers_open": f"{s.open_s:g} s opening",
+        "retreat_done": f"palm {s.retreat_m * 1000:g} mm above the release point",
+    }
 
 
-def mermaid() -> str:
-    model = _Model()
-    machine = build_machine(
-        model, machine_cls=GraphMachine, graph_engine="mermaid", show_conditions=True,
-        title="grasp_ctrl lift-and-place controller",
-    )
-    return str(machine.get_graph().draw(None))
+@dataclass(frozen=True)
+class Edge:
+    src: str
+    dst: str
+    guard: str
+    condition: str
+    reason: str | None
+
+
+def edges(settings: ControllerSettings | None = None) -> list[Edge]:
+    words = guard_conditions(settings)
+    return [Edge(src, dst, guard, words[guard], reason) for src, dst, guard, reason in TRANSITIONS]
+
+
+def _label(e: Edge) -> str:
+    text = f"{e.guard} ({e.condition})"
+    return f"{text} → {e.reason}" if e.reason else text
+
+
+def mermaid(settings: ControllerSettings | None = None) -> str:
+    """Mermaid ``stateDiagram-v2`` text: the success path first, then the fault edges."""
+    all_edges = edges(settings)
+    lines = ["stateDiagram-v2", f"  [*] --> {STATES[0]}"]
+    lines += [f"  {e.src} --> {e.dst}: {_label(e)}" for e in all_edges if e.dst != "fault"]
+    lines += [f"  {e.src} --> {e.dst}: {_label(e)}" for e in all_edges if e.dst == "fault"]
+    guarded = {e.src for e in all_edges if e.dst == "fault"}
+    for state in ACTIVE:
+        if state not in guarded:
+            lines.append(f"  {state} --> fault: runtime fault → {', '.join(RUNTIME_FAULTS)}")
+    lines += [f"  {t} --> [*]" for t in TERMINAL]
+    lines += [
+        "  note right of fault",
+        f"    from every active state also: {', '.join(RUNTIME_FAULTS)}",
+        "    then the hand's safety.on_fault action (open, hold or torque_off)",
+        "  end note",
+    ]
+    return "\n".join(lines)
+
+
+# Grid positions (column, row) of the states in the picture: the success path
+# snakes down the left, fault and done on the right.
+_LAYOUT = {
+    "tare": (0, 0), "reach": (0, 1), "close": (0, 2), "ramp": (0, 3), "lift": (0, 4), "hold": (0, 5),
+    "lower": (0, 6), "release": (0, 7), "retreat": (0, 8), "done": (0, 9.2), "fault": (2.2, 4.5),
+}
+
+
+def draw(path: Path, settings: ControllerSettings | None = None) -> Path:
+    """The state machine as SVG or PNG (by the file's suffix); needs matplotlib."""
+    from grasp_ctrl.trials.plots import pyplot
+
+    plt = pyplot()
+    all_edges = edges(settings)
+    fig, ax = plt.subplots(figsize=(11.0, 11.5), dpi=110)
+    ax.set_xlim(-0.5, 3.3)
+    ax.set_ylim(10.0, -0.8)
+    ax.axis("off")
+    box = {"boxstyle": "round,pad=0.4", "fc": "#eef3fb", "ec": "#4a6fa5"}
+    for state, (x, y) in _LAYOUT.items():
+        style = dict(box, fc="#f9d6d5", ec="#b03a2e") if state == "fault" else (
+            dict(box, fc="#d5f5e3", ec="#1e8449") if state == "done" else box)
+        ax.text(x, y, state, ha="center", va="center", fontsize=11, bbox=style, zorder=3)
+    for e in all_edges:
+        (x0, y0), (x1, y1) = _LAYOUT[e.src], _LAYOUT[e.dst]
+        fault = e.dst == "fault"
+        colour = "#b03a2e" if fault else "#333333"
+        ax.annotate("", (x1, y1), (x0, y0), zorder=2,
+                    arrowprops={"arrowstyle": "-|>", "color": colour, "lw": 1.0, "shrinkA": 14, "shrinkB": 14,
+                                "connectionstyle": "arc3,rad=0.05" if fault else "arc3"})
+        if fault:
+            # On the edge, a third of the way along (the two edges out of lower share a line).
+            k = 0.55 if e.guard == "lower_exhausted" else 0.33
+            tx, ty = x0 + k * (x1 - x0), y0 + k * (y1 - y0)
+            ax.text(tx, ty, f"{e.guard} → {e.reason}", fontsize=7.5, color=colour, ha="center", va="center",
+                    bbox={"fc": "white", "ec": "none", "alpha": 0.85, "pad": 0.5}, zorder=4)
+        else:
+            ax.text(x0 + 0.12, (y0 + y1) / 2, f"{e.guard}\n{e.condition}", fontsize=7.5, ha="left", va="center",
+                    zorder=4)
+    fx, fy = _LAYOUT["fault"]
+    ax.text(fx, fy + 0.55, "from every active state also:\n" + textwrap.fill(", ".join(RUNTIME_FAULTS), 44)
+            + "\nthen safety.on_fault (open | hold | torque_off)", fontsize=8, ha="center", va="top", color="#b03a2e")
+    ax.set_title("grasp_ctrl lift-and-place controller", fontsize=12)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path

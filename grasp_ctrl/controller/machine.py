@@ -11,6 +11,7 @@ ticks, no timer threads), so tests can drive it tick by tick.
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Any
 
 import numpy as np
@@ -47,6 +48,11 @@ TRANSITIONS: list[tuple[str, str, str, str | None]] = [
     ("release", "retreat", "fingers_open", None),
     ("retreat", "done", "retreat_done", None),
 ]
+
+
+def _distance(a: np.ndarray, b: np.ndarray) -> float:
+    d = a - b
+    return math.sqrt(float(d.dot(d)))   # = np.linalg.norm(d), without its overhead
 
 
 def build_machine(model: Any, reason_setter: Any = None, machine_cls: type = Machine, **extra: Any) -> Machine:
@@ -107,6 +113,9 @@ class GraspController:
         self.history: list[tuple[float, str, str]] = []   # (t, from, to)
 
         self.machine = build_machine(self, self._reason_setter)
+        # The guards of each state's transitions: the machine is triggered only when one
+        # holds (guards are pure, so this skips its overhead on the ticks nothing happens).
+        self._guards = {state: [getattr(self, g) for src, _, g, _ in TRANSITIONS if src == state] for state in STATES}
 
     # ----- helpers ----------------------------------------------------------
     def _reach_posture(self) -> np.ndarray:
@@ -159,14 +168,14 @@ class GraspController:
 
     def at_reach_pose(self) -> bool:
         assert self.snap is not None
-        return float(np.linalg.norm(self.snap.p_palm_world - self.reach_pose)) < self.s.reach_tolerance_m
+        return _distance(self.snap.p_palm_world, self.reach_pose) < self.s.reach_tolerance_m
 
     def reach_timed_out(self) -> bool:
         return self._elapsed() > self.s.reach_timeout_s
 
     def all_in_contact(self) -> bool:
         assert self.snap is not None
-        return bool(np.all(self.snap.in_contact[self.grasp_mask]))
+        return bool(self.snap.in_contact[self.grasp_mask].all())
 
     def close_timed_out(self) -> bool:
         return self._elapsed() > self.s.close_timeout_s
@@ -178,7 +187,7 @@ class GraspController:
         return self._elapsed() > self.s.ramp_timeout_s
 
     def grip_lost(self) -> bool:
-        return bool(np.any(self.lost_count[self.grasp_mask] * self.dt >= self.s.contact_lost_s))
+        return bool((self.lost_count[self.grasp_mask] * self.dt >= self.s.contact_lost_s).any())
 
     def at_lift_height(self) -> bool:
         assert self.snap is not None
@@ -201,7 +210,7 @@ class GraspController:
         assert self.snap is not None
         if self._retreat_goal is None:
             return False
-        return float(np.linalg.norm(self.snap.p_palm_world - self._retreat_goal)) < self.s.reach_tolerance_m
+        return _distance(self.snap.p_palm_world, self._retreat_goal) < self.s.reach_tolerance_m
 
     # ----- the tick ----------------------------------------------------------
     def release_force_n(self, snap: Snapshot) -> float:
@@ -212,7 +221,7 @@ class GraspController:
     def _update_counters(self, snap: Snapshot) -> None:
         err = self.tau - snap.grip_n
         within = np.abs(err[self.grasp_mask]) <= self.s.ramp_tolerance_n
-        self.settle_count = self.settle_count + 1 if np.all(within) else 0
+        self.settle_count = self.settle_count + 1 if within.all() else 0
         lost = (~snap.in_contact) | (snap.grip_n < self.s.grip_lost_fraction * self.tau)
         self.lost_count = np.where(lost, self.lost_count + 1, 0)
         below = self.release_force_n(snap) < -self.obj.release_threshold_n
@@ -226,18 +235,19 @@ class GraspController:
         if not self.terminal:
             self.ticks_in_state += 1
             self._update_counters(snap)
-            force = np.linalg.norm(snap.f_sensor, axis=1)
+            # squared norms: one cheap pass on the hot path (no sqrt unless a limit is crossed)
+            force_sq = np.einsum("ij,ij->i", snap.f_sensor, snap.f_sensor)
             limit = self.hand.safety.max_fingertip_force_n
             if snap.fault:
                 self.fail(reason=snap.fault, detail=snap.fault_detail)
-            elif not np.all(np.isfinite(force)):
+            elif not np.all(np.isfinite(force_sq)):
                 # never let NaN slip past the over-force comparison (NaN > x is False)
                 self.fail(reason="estimate_invalid", detail="non-finite estimated force in the snapshot")
-            elif np.any(force > limit):
-                i = int(np.argmax(force))
+            elif (force_sq > limit * limit).any():
+                i = int(np.argmax(force_sq))
                 self.fail(reason="overforce",
-                          detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {force[i]:.2f} N > {limit:g} N")
-            else:
+                          detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {math.sqrt(force_sq[i]):.2f} N > {limit:g} N")
+            elif any(guard() for guard in self._guards[self.state]):  # type: ignore[attr-defined]
                 self.step()
         self._act(snap)
         return Command(q_goal=self.motion.next_goal(), p_palm_world=self.palm_target.copy(), torque_on=self.torque_on)
@@ -258,20 +268,16 @@ class GraspController:
     def _move_palm_toward(self, target: np.ndarray, speed: float) -> None:
         assert self.palm_target is not None
         delta = target - self.palm_target
-        dist = float(np.linalg.norm(delta))
+        dist = math.sqrt(float(delta.dot(delta)))
         step = speed * self.dt
         self.palm_target = target.copy() if dist <= step else self.palm_target + delta * (step / dist)
 
     def _squeeze(self, snap: Snapshot, gain: float, max_speed: float) -> None:
         """Per-finger force control along the closing vectors toward tau."""
-        for i, name in enumerate(self.names):
-            if not self.grasp_mask[i]:
-                continue
-            speed = np.clip(gain * (self.tau - snap.grip_n[i]), -max_speed, max_speed)
-            if self.s.low_confidence_slowdown and snap.variance is not None:
-                var = float(np.max(snap.variance[i]))
-                speed /= 1.0 + var / self.s.variance_scale_n2
-            self.motion.advance(name, float(speed) * self.dt)
+        speed = np.minimum(np.maximum(gain * (self.tau - snap.grip_n), -max_speed), max_speed)   # = np.clip
+        if self.s.low_confidence_slowdown and snap.variance is not None:
+            speed = speed / (1.0 + np.max(snap.variance, axis=1) / self.s.variance_scale_n2)
+        self.motion.advance_all(np.where(self.grasp_mask, speed * self.dt, 0.0))
 
     def _act(self, snap: Snapshot) -> None:
         state = self.state  # type: ignore[attr-defined]
@@ -282,9 +288,8 @@ class GraspController:
             self.motion.set_posture(self.reach_q)
             self._move_palm_toward(self.reach_pose, self.hand.arm.max_speed_m_s)
         elif state == "close":
-            for i, name in enumerate(self.names):
-                if self.grasp_mask[i] and not snap.in_contact[i]:
-                    self.motion.advance(name, s.close_speed_m_s * self.dt)
+            closing = self.grasp_mask & ~snap.in_contact
+            self.motion.advance_all(np.where(closing, s.close_speed_m_s * self.dt, 0.0))
         elif state == "ramp":
             self._squeeze(snap, s.ramp_gain_m_s_per_n, s.ramp_max_speed_m_s)
         elif state in ("lift", "hold"):

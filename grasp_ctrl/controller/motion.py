@@ -12,6 +12,7 @@ import numpy as np
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
+from grasp_ctrl.kinematics.pad_ik import PadIK
 
 
 IK_DAMPING = 0.002
@@ -26,21 +27,30 @@ class FingertipMotion:
         self.open_q = np.array([j.open_rad for j in hand.joints])
         self.pregrasp_q = np.array([j.pregrasp_rad for j in hand.joints])
         self.max_step = hand.safety.max_joint_step_rad
-        self.task_vectors = {f.name: np.array(f.task_vector_hand) for f in hand.fingers}
+        self.names = [f.name for f in hand.fingers]
+        self.index = {name: i for i, name in enumerate(self.names)}
+        self.task_vectors = np.array([f.task_vector_hand for f in hand.fingers], dtype=float)   # (F, 3)
+        self.ik = PadIK(kin, PAD_POINT_SENSOR)
         self.q_goal = self.open_q.copy()
         self._q_sent = self.open_q.copy()
-        self.targets: dict[str, np.ndarray] = {}
+        self._posture: np.ndarray | None = None   # the posture the targets were last reset to
+        self.targets = np.zeros((len(self.names), 3))   # pad targets, hand frame, finger order
         self._reset_targets()
 
     def _reset_targets(self) -> None:
-        self.targets = {f.name: self.pad_position(f.name, self.q_goal) for f in self.hand.fingers}
+        self.targets = self.ik.pad_points(self.q_goal)
 
     def pad_position(self, finger: str, q_all: np.ndarray) -> np.ndarray:
         R, p = self.kin.chains[finger].fk_rp(q_all[self.kin.slices[finger]])
         return R @ PAD_POINT_SENSOR + p
 
     def set_posture(self, q: np.ndarray) -> None:
-        self.q_goal = np.clip(np.asarray(q, dtype=float), self.lower, self.upper)
+        q_goal = np.clip(np.asarray(q, dtype=float), self.lower, self.upper)
+        # States that hold a posture set it every tick: the targets follow from it alone.
+        if self._posture is not None and np.array_equal(q_goal, self._posture) and np.array_equal(q_goal, self.q_goal):
+            return
+        self.q_goal = q_goal
+        self._posture = q_goal.copy()
         self._reset_targets()
 
     def raised_posture(self, q: np.ndarray, raises_m: dict[str, float], tolerance_m: float = 5e-4) -> np.ndarray:
@@ -75,22 +85,30 @@ class FingertipMotion:
         """Start from where the hand is (e.g. at trial start)."""
         self.q_goal = np.clip(q_measured, self.lower, self.upper)
         self._q_sent = self.q_goal.copy()
+        self._posture = None
         self._reset_targets()
 
     def advance(self, finger: str, distance_m: float) -> None:
         """Move one fingertip's goal along its closing vector (negative = open)."""
-        if distance_m == 0.0:
+        distances = np.zeros(len(self.names))
+        distances[self.index[finger]] = distance_m
+        self.advance_all(distances)
+
+    def advance_all(self, distances_m: np.ndarray) -> None:
+        """Move every fingertip's goal along its closing vector by its distance (finger
+        order; 0 leaves a finger as it is), one IK step per moving finger."""
+        move = np.asarray(distances_m, dtype=float) != 0.0
+        if not move.any():
             return
-        sl = self.kin.slices[finger]
-        chain = self.kin.chains[finger]
         # Track an explicit pad target, so linearisation errors of the small IK steps
         # are corrected every tick instead of accumulating into a drift off the line.
-        self.targets[finger] = self.targets[finger] + self.task_vectors[finger] * distance_m
-        pad, J = chain.point_and_jacobian(self.q_goal[sl], PAD_POINT_SENSOR)
-        self.q_goal[sl] = chain.dls_step(self.q_goal[sl], J, self.targets[finger] - pad, IK_DAMPING)
+        self.targets = self.targets + self.task_vectors * np.asarray(distances_m, dtype=float)[:, None]
+        self._posture = None
+        self.ik.step(self.q_goal, self.targets, move, IK_DAMPING)
 
     def next_goal(self) -> np.ndarray:
         """The goal to send this tick: toward q_goal, at most max_step per joint."""
-        step = np.clip(self.q_goal - self._q_sent, -self.max_step, self.max_step)
-        self._q_sent = np.clip(self._q_sent + step, self.lower, self.upper)
+        # np.minimum/np.maximum: np.clip's result at a fraction of its call overhead.
+        step = np.minimum(np.maximum(self.q_goal - self._q_sent, -self.max_step), self.max_step)
+        self._q_sent = np.minimum(np.maximum(self._q_sent + step, self.lower), self.upper)
         return self._q_sent.copy()

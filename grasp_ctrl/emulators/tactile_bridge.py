@@ -257,6 +257,11 @@ class TactileBridgeEmulator:
             for s in sensor_ids if sensor_ids is not None else self.sensor_ids:
                 self._paused_until[s] = until
 
+    def send_sample(self, k: int) -> None:
+        """Send sample ``k`` of every fingertip now, without the streaming thread: for a
+        caller that paces the stream itself (the mock world, one sample per step)."""
+        self._tick(k, time.monotonic())
+
     def _run(self) -> None:
         period = 1.0 / self.rate_hz
         next_t = time.monotonic()

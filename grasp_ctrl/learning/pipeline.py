@@ -110,36 +110,56 @@ def metrics_table(results: dict[str, dict[str, dict[str, Any]]], test_source: st
 def run_experiment(
     ds: Dataset, split: Split, models: dict[str, tuple[str, float | None]], out_dir: Path, epochs: int, seed: int,
     data_info: dict[str, Any], threads: int = 1, progress: Callable[[str], None] = print,
-    lr0: float = 1e-4, patience: int | None = None,
+    lr0: float = 1e-4, patience: int | None = None, report: Callable[[str], None] | None = None,
+    executor: str = "local", address: str | None = None, jobs: int | None = None,
 ) -> dict[str, Any]:
-    """Every model on every training-source combination; checkpoints, JSON and tables in out_dir."""
+    """Every model on every training-source combination; checkpoints, JSON and tables in out_dir.
+    ``progress``: per-epoch status; ``report``: each model's result line (default: ``progress``).
+    ``executor="ray"``: the models train as Ray tasks (``threads`` CPUs each; ``address``: a
+    running cluster, else a local instance of ``jobs`` CPUs); same files."""
+    report = report or progress
+    plan = [(combo, sources, name, arch, beta) for combo, sources in COMBOS.items()
+            for name, (arch, beta) in models.items()]
+    if executor == "ray":
+        from grasp_ctrl.trials.ray_executor import ray_map
+
+        args = [(sources, arch, beta, epochs, seed, 512, patience, None, threads, lr0, None)
+                for _, sources, _, arch, beta in plan]
+        trained = ray_map(address, jobs, train_one, args, shared=(ds, split), cpus_per_task=threads)
+    else:
+        def one_by_one():  # type: ignore[no-untyped-def]
+            for i, (combo, sources, name, arch, beta) in enumerate(plan):
+                progress(f"== {name} on {combo}")
+                yield i, train_one(ds, split, sources, arch, beta, epochs, seed, threads=threads, progress=progress,
+                                   lr0=lr0, patience=patience)
+        trained = one_by_one()
     from grasp_ctrl.learning.train import save_checkpoint
 
     out_dir.mkdir(parents=True, exist_ok=True)
-    results: dict[str, dict[str, dict[str, Any]]] = {}
-    for combo, sources in COMBOS.items():
-        results[combo] = {}
-        for model_name, (arch, beta) in models.items():
-            progress(f"== {model_name} on {combo}")
-            info = train_one(ds, split, sources, arch, beta, epochs, seed, threads=threads, progress=progress,
-                             lr0=lr0, patience=patience)
-            stem = f"{combo}__{model_name.replace('+', '_')}"
-            if arch == "analytic":
-                from grasp_ctrl.learning.export import analytic_policy
+    done: dict[int, dict[str, Any]] = {}
+    for i, info in trained:
+        combo, sources, model_name, arch, _beta = plan[i]
+        stem = f"{combo}__{model_name.replace('+', '_')}"
+        if arch == "analytic":
+            from grasp_ctrl.learning.export import analytic_policy
 
-                (out_dir / f"{stem}.json").write_text(json.dumps(analytic_policy(
-                    stem, info["gains"], {**data_info, "sources": list(sources)}, info["metrics"]), indent=2) + "\n")
-                info["gains"] = [float(g) for g in info["gains"]]
-            else:
-                result = info.pop("result")
-                save_checkpoint(str(out_dir / f"{stem}.pt"), result,
-                                {"data": {**data_info, "sources": list(sources), "n_train": info["n_train"]},
-                                 "metrics": info["metrics"]})
-                info["best_epoch"] = result.best_epoch
-            m = info["metrics"]["mixed"]
-            progress(f"   -> angle {m['angle_deg']['median']:.1f} deg, magnitude {m['magnitude_error_n']['median']:.3f} N "
-                     f"(median on the mixed test set), {info['seconds']:.0f} s")
-            results[combo][model_name] = info
+            (out_dir / f"{stem}.json").write_text(json.dumps(analytic_policy(
+                stem, info["gains"], {**data_info, "sources": list(sources)}, info["metrics"]), indent=2) + "\n")
+            info["gains"] = [float(g) for g in info["gains"]]
+        else:
+            result = info.pop("result")
+            save_checkpoint(str(out_dir / f"{stem}.pt"), result,
+                            {"data": {**data_info, "sources": list(sources), "n_train": info["n_train"]},
+                             "metrics": info["metrics"]})
+            info["best_epoch"] = result.best_epoch
+        m = info["metrics"]["mixed"]
+        done[i] = info
+        report(f"{model_name} on {combo} ({len(done)}/{len(plan)}): angle "
+               f"{m['angle_deg']['median']:.1f} deg, magnitude {m['magnitude_error_n']['median']:.3f} N "
+               f"(median on the mixed test set), {info['seconds']:.0f} s")
+    results: dict[str, dict[str, dict[str, Any]]] = {combo: {} for combo in COMBOS}
+    for i, (combo, _, model_name, _, _) in enumerate(plan):   # the table's order, whatever finished first
+        results[combo][model_name] = done[i]
     doc = {"data": data_info, "epochs": epochs, "seed": seed, "lr0": lr0, "patience": patience, "results": results}
     (out_dir / "results.json").write_text(json.dumps(doc, indent=2, default=float) + "\n")
     tables = ["## Test set: all sources (mixed)", metrics_table(results, "mixed")]

@@ -22,7 +22,8 @@ from grasp_ctrl.errors import ConfigError, UsageError
 from grasp_ctrl.trials.storage import RUN_FILE, write_json
 
 FORMAT = 1
-BACKENDS = ("mock", "dynamixel")
+EMULATED_BACKEND = "dynamixel-emulated"   # run --backend dynamixel --emulate (pty emulators, mock world)
+BACKENDS = ("mock", "dynamixel", EMULATED_BACKEND)
 MAX_TRIALS = 100_000
 # settings that may be zero (no slow zone, no overshoot, no retreat)
 ZERO_ALLOWED = ("lower_overshoot_m", "lower_slow_zone_m", "retreat_m")

@@ -11,8 +11,8 @@ from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.errors import FrameError, SensorStaleError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.hardware.base import JointState, TactileFrame
-from grasp_ctrl.kinematics.batched import BatchedKinematics
 from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.kinematics.pad_ik import PadIK
 from grasp_ctrl.tactile.layout import FRAME_LEN
 from grasp_ctrl.tactile.pipeline import TactilePipeline
 
@@ -21,7 +21,7 @@ class SensingPipeline:
     def __init__(self, hand: HandConfig, kin: HandKinematics, estimator: ForceEstimator) -> None:
         self.hand = hand
         self.kin = kin
-        self.bkin = BatchedKinematics(kin)
+        self.fast_kin = PadIK(kin)   # sensor rotations, compiled with the sim extra
         self.estimator = estimator
         self.names = [f.name for f in hand.fingers]
         self.sensor_ids = [f.sensor_id for f in hand.fingers]
@@ -120,12 +120,12 @@ class SensingPipeline:
             if variance is not None:
                 variance = np.where(np.isfinite(variance), variance, 0.0)
         self.tared = tared
-        R, _ = self.bkin.sensor_frames(q)
+        R = self.fast_kin.sensor_rotations(q)
         f_hand = np.einsum("nij,nj->ni", R, f_sensor)
         f_world = f_hand  # the arm translates the hand: hand axes = world axes
         # Grip = the squeeze: the force across the lift direction (world z). Along z
         # the fingertips also carry the object's weight, which must not count as grip.
-        grip = np.linalg.norm(f_world[:, :2], axis=1)
+        grip = np.sqrt(f_world[:, 0] ** 2 + f_world[:, 1] ** 2)
         return Snapshot(
             t=joints.t,
             q=q,

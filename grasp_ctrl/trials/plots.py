@@ -6,13 +6,12 @@ non-interactive Agg backend, so the rest of the program runs without it.
 
 from __future__ import annotations
 
-import csv
-import math
 from pathlib import Path
 from typing import Any, Mapping
 
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.trials.compare import ordered_names, success_matrix
+from grasp_ctrl.trials.ticklog import read_tick_log
 
 # One colour per controller state, for the shaded bands behind force traces.
 STATE_COLOURS = {
@@ -62,27 +61,6 @@ def comparison_chart(summary: Mapping[str, Any], path: Path, policies: list[str]
     return path
 
 
-def read_ticks(path: Path) -> tuple[list[str], dict[str, list[str]]]:
-    """(column order, column -> values) of a tick CSV."""
-    try:
-        with path.open(newline="", encoding="utf-8") as fh:
-            reader = csv.reader(fh)
-            header = next(reader, None)
-            if not header:
-                raise UsageError(f"{path}: empty tick log")
-            cols: dict[str, list[str]] = {c: [] for c in header}
-            for row in reader:
-                if len(row) != len(header):
-                    break  # a row cut short by a crash: plot what came before
-                for c, v in zip(header, row):
-                    cols[c].append(v)
-    except OSError as exc:
-        raise UsageError(f"{path}: cannot read ({exc.strerror})") from None
-    if "t" not in cols or "state" not in cols:
-        raise UsageError(f"{path}: not a tick log (no 't' and 'state' columns)")
-    return header, cols
-
-
 def fingertips(header: list[str], frame: str) -> list[str]:
     suffix = f"_fx_{frame}"
     return [c[: -len(suffix)] for c in header if c.endswith(suffix) and "_true_" not in c]
@@ -98,26 +76,26 @@ def state_spans(t: list[float], states: list[str]) -> list[tuple[float, float, s
     return spans
 
 
-def force_traces(ticks_csv: Path, path: Path, frame: str = "sensor", title: str | None = None) -> Path:
+def force_traces(ticks_file: Path, path: Path, frame: str = "sensor", title: str | None = None) -> Path:
     """One panel per fingertip: estimated fx, fy, fz (solid) and, on the mock, the true
     force (dashed, sensor frame only) over time; controller states as shaded bands."""
-    header, cols = read_ticks(ticks_csv)
+    header, cols = read_tick_log(ticks_file)
     tips = fingertips(header, frame)
-    if not tips or not cols["t"]:
-        raise UsageError(f"{ticks_csv}: no force columns in the {frame} frame, or no rows")
+    if not tips:
+        raise UsageError(f"{ticks_file}: no force columns in the {frame} frame, or no rows")
     plt = pyplot()
     t = [float(v) for v in cols["t"]]
-    spans = state_spans(t, cols["state"])
+    spans = state_spans(t, list(cols["state"]))
     fig, axes = plt.subplots(len(tips), 1, sharex=True, figsize=(9.0, 1.9 * len(tips) + 0.8), dpi=100, squeeze=False)
     colours = {"x": "tab:red", "y": "tab:green", "z": "tab:blue"}
     for ax, tip in zip(axes[:, 0], tips):
         for a, b, s in spans:
             ax.axvspan(a, b, color=STATE_COLOURS.get(s, "#ffffff"), lw=0)
         for axis in "xyz":
-            ax.plot(t, [_num(v) for v in cols[f"{tip}_f{axis}_{frame}"]], color=colours[axis], lw=1.0, label=f"f{axis}")
+            ax.plot(t, cols[f"{tip}_f{axis}_{frame}"], color=colours[axis], lw=1.0, label=f"f{axis}")
             true_col = f"{tip}_true_f{axis}_{frame}"
             if true_col in cols:
-                ax.plot(t, [_num(v) for v in cols[true_col]], color=colours[axis], lw=0.8, ls="--", alpha=0.7)
+                ax.plot(t, cols[true_col], color=colours[axis], lw=0.8, ls="--", alpha=0.7)
         ax.set_ylabel(f"{tip}\nN ({frame})")
         ax.grid(alpha=0.3, lw=0.5)
     top = axes[0, 0]
@@ -132,16 +110,9 @@ def force_traces(ticks_csv: Path, path: Path, frame: str = "sensor", title: str 
         labels.append("true")
     fig.legend(handles, labels, loc="lower center", ncol=len(labels), frameon=False)
     axes[-1, 0].set_xlabel("t (s)")
-    fig.suptitle(title or ticks_csv.name, y=0.995, fontsize=10)
+    fig.suptitle(title or ticks_file.name, y=0.995, fontsize=10)
     fig.tight_layout(rect=(0, 0.05, 1, 0.97))
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
     plt.close(fig)
     return path
-
-
-def _num(v: str) -> float:
-    try:
-        return float(v)
-    except ValueError:
-        return math.nan

@@ -1,4 +1,6 @@
-"""Progress lines for a series of trials: count, outcome, time, ETA, running tally."""
+"""Progress of a series of trials: one line on a terminal (a tqdm bar with the
+running tally and the last outcome), nothing when stderr is not a terminal or
+with ``--quiet``."""
 
 from __future__ import annotations
 
@@ -6,6 +8,8 @@ import sys
 import time
 from collections import defaultdict
 from typing import Any, Callable, TextIO
+
+from grasp_ctrl.progress_bar import progress_bar
 
 
 def format_duration(seconds: float) -> str:
@@ -18,7 +22,7 @@ def format_duration(seconds: float) -> str:
 
 
 class Progress:
-    """One line per finished trial on ``stream`` (stderr by default)."""
+    """``trial_done(record)`` per finished trial; ``close()`` when the series ends."""
 
     def __init__(
         self,
@@ -32,39 +36,34 @@ class Progress:
         self.enabled = enabled
         self.clock = clock
         self.done = 0
-        self._ran = 0
-        self._t0 = clock()
         self._tally: dict[str, list[int]] = defaultdict(lambda: [0, 0])  # policy -> [successes, trials]
-
-    def _say(self, line: str) -> None:
-        if self.enabled:
-            print(line, file=self.stream, flush=True)
+        self._bar = progress_bar(total, "trials", enabled, self.stream, unit="trial", every_update=True)
 
     def resumed(self, records: list[dict[str, Any]]) -> None:
-        """Trials already on disk from an earlier, interrupted session."""
+        """Trials already on disk from an earlier, interrupted session (said once, also off a terminal)."""
         for rec in records:
             self._count(rec)
         self.done = len(records)
-        if records:
-            self._say(f"resuming: {self.done} of {self.total} trials already recorded")
+        self._bar.update(self.done)
+        if records and self.enabled:
+            self._bar.write(f"resuming: {self.done} of {self.total} trials already recorded", file=self.stream)
 
     def _count(self, rec: dict[str, Any]) -> None:
         t = self._tally[rec["policy"]]
         t[0] += bool(rec["success"])
         t[1] += 1
 
+    def status(self, rec: dict[str, Any]) -> str:
+        """The tally and the last outcome, e.g. ``linear_mock 11/12 ok; last: paper_cup #1 FAIL knocked_over``."""
+        tally = ", ".join(f"{p} {s}/{n} ok" for p, (s, n) in self._tally.items())
+        mark = "ok" if rec["success"] else f"FAIL {rec['reason']}"
+        return f"{tally}; last: {rec['object']} #{rec['trial']} {mark}"
+
     def trial_done(self, rec: dict[str, Any]) -> None:
         self._count(rec)
         self.done += 1
-        self._ran += 1
-        elapsed = self.clock() - self._t0
-        left = self.total - self.done
-        eta = f", eta {format_duration(elapsed / self._ran * left)}" if left else ""
-        mark = "ok" if rec["success"] else f"FAIL {rec['reason']}"
-        s, n = self._tally[rec["policy"]]
-        wall = rec.get("wall_duration_s")
-        took = f"{wall:.1f}s" if isinstance(wall, (int, float)) else "?"
-        self._say(
-            f"[{self.done}/{self.total}] {rec['policy']} {rec['object']} #{rec['trial']}: {mark} "
-            f"({took}{eta}; {rec['policy']} {s}/{n} so far)"
-        )
+        self._bar.set_postfix_str(self.status(rec), refresh=False)
+        self._bar.update(1)
+
+    def close(self) -> None:
+        self._bar.close()

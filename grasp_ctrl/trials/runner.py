@@ -13,6 +13,7 @@ exactly like an uninterrupted one.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import itertools
 import shutil
@@ -30,7 +31,7 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.settings import ControllerSettings
-from grasp_ctrl.errors import UsageError
+from grasp_ctrl.errors import GraspCtrlError, UsageError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
@@ -50,6 +51,7 @@ from grasp_ctrl.trials.storage import (
 )
 from grasp_ctrl.trials.summary import summarize
 from grasp_ctrl.trials.ticklog import TickLog
+from grasp_ctrl.trials.workers import worker_context
 
 MAX_TRIAL_S = 60.0
 SETTLE_S = 0.5
@@ -93,6 +95,13 @@ def trial_seed(seed: int, obj_name: str, trial: int) -> int:
 
 
 EstimatorFactory = Callable[[MockWorld], ForceEstimator]
+# The hand and sensor backends of a trial on a world: the mock's own, or the real
+# backends on emulators (emulators/world_rig.py, ``run --backend dynamixel --emulate``).
+BackendFactory = Callable[[MockWorld, HandConfig], tuple[Any, Any]]
+
+
+def mock_backends(world: MockWorld, hand: HandConfig) -> tuple[MockHand, MockSensors]:
+    return MockHand(world, hand), MockSensors(world)
 
 
 def estimator_factory(spec: str, hand: HandConfig, threads: int = 1) -> EstimatorFactory:
@@ -155,21 +164,27 @@ def run_mock_trial(
     log_path: Path | None = None,
     kin: HandKinematics | None = None,
     on_tick: Callable[[MockWorld, GraspController], None] | None = None,
+    make_backends: BackendFactory | None = None,
+    backend: str = "mock",
 ) -> TrialResult:
     wall0 = time.perf_counter()
     kin = kin or HandKinematics(hand)
     world = MockWorld(hand, obj, seed, world_params)
-    hand_backend, arm, sensors = MockHand(world, hand), MockArm(world, hand), MockSensors(world)
-    hand_backend.connect()
-    arm.connect()
-    sensors.start()
+    hand_backend, sensors = (make_backends or mock_backends)(world, hand)
+    arm = MockArm(world, hand)
+    try:
+        hand_backend.connect()
+        arm.connect()
+        sensors.start()
+    except BaseException:
+        _close_all(hand_backend, arm, sensors, raise_error=False)
+        raise
     estimator = make_estimator(world)
     pipeline = SensingPipeline(hand, kin, estimator)
     ctrl = GraspController(hand, obj, world.reach_pose_world(), settings, kin)
     names = pipeline.names
     grasp = np.array([f.grasp for f in hand.fingers])
     log = TickLog(log_path, names, len(hand.joints), truth=True) if log_path else None
-    peak_est = peak_true = 0.0
     n = len(names)
     tip_force = np.zeros(n)
     tip_grip = np.zeros(n)
@@ -180,9 +195,8 @@ def run_mock_trial(
             world.step()
             world.set_phase(ctrl.state)  # type: ignore[attr-defined]
             snap, cmd, raw = control_tick(hand_backend, arm, sensors, pipeline, ctrl, world.t)
-            peak_est = max(peak_est, float(np.max(snap.grip_n[grasp], initial=0.0)))
-            peak_true = max(peak_true, float(np.max(world.normal_n[grasp], initial=0.0)))
-            np.maximum(tip_force, np.linalg.norm(snap.f_sensor, axis=1), out=tip_force)
+            f = snap.f_sensor
+            np.maximum(tip_force, np.sqrt((f * f).sum(axis=1)), out=tip_force)   # = np.linalg.norm(f, axis=1)
             np.maximum(tip_grip, snap.grip_n, out=tip_grip)
             np.maximum(tip_true, world.normal_n, out=tip_true)
             if log:
@@ -200,9 +214,11 @@ def run_mock_trial(
     finally:
         if log:
             log.close()
-        hand_backend.close()
-        arm.close()
-        sensors.close()
+        # A close error must not hide the error that ended the trial.
+        _close_all(hand_backend, arm, sensors, raise_error=sys.exc_info()[0] is None)
+    # The peaks over the grasping fingers follow from the per-fingertip peaks.
+    peak_est = max(0.0, float(np.max(tip_grip[grasp], initial=0.0)))
+    peak_true = max(0.0, float(np.max(tip_true[grasp], initial=0.0)))
     success, reason = judge(world, ctrl)
     wall = time.perf_counter() - wall0
     timings = state_timings(ctrl.history, world.t)
@@ -222,6 +238,7 @@ def run_mock_trial(
         transitions=[(round(t, 3), a, b) for t, a, b in ctrl.history],
         events=[{"t": round(e.t, 3), "kind": e.kind, "detail": e.detail} for e in world.events],
         settings=trial_settings(hand, obj, settings),
+        backend=backend,
         controller=controller_view(ctrl),
         fault_detail=ctrl.failure_detail,
         timings=timings,
@@ -233,19 +250,33 @@ def run_mock_trial(
     )
 
 
+def _close_all(*parts: Any, raise_error: bool = True) -> None:
+    """Close every backend even when one fails; the first error is raised after (if asked)."""
+    error: BaseException | None = None
+    for part in parts:
+        try:
+            part.close()
+        except Exception as exc:  # noqa: BLE001 - keep closing the rest
+            error = error or exc
+    if error is not None and raise_error:
+        raise error
+
+
 # A trial runner for one (policy, object, trial index, seed): returns the JSON record.
 TrialFn = Callable[[str, ObjectProfile, int, int, "Path | None"], dict[str, Any]]
 
 
 def mock_trial_fn(
-    hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None = None, threads: int = 1
+    hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None = None, threads: int = 1,
+    make_backends: BackendFactory | None = None, backend: str = "mock",
 ) -> TrialFn:
     """Policies are loaded up front, so a bad one fails before the first trial."""
     factories = {p: estimator_factory(p, hand, threads) for p in policies}
     kin = HandKinematics(hand)
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
-        return run_mock_trial(hand, obj, factories[policy], seed, policy, trial, settings, log_path=log_path, kin=kin).to_json()
+        return run_mock_trial(hand, obj, factories[policy], seed, policy, trial, settings, log_path=log_path, kin=kin,
+                              make_backends=make_backends, backend=backend).to_json()
 
     return run
 
@@ -272,12 +303,13 @@ def parallel_trials(
     threads: int, tasks: Sequence[TrialTask],
 ) -> Iterator[tuple[int, dict[str, Any]]]:
     """Mock trials in ``jobs`` processes: yields (task index, record) as each finishes."""
-    import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
 
-    ctx = multiprocessing.get_context("spawn")  # no inherited inference sessions or threads
+    ctx = worker_context()
     pool = ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_init_worker,
                                initargs=(hand, list(policies), settings or ControllerSettings(), threads))
+    finished_cleanly = False
     try:
         todo = iter(enumerate(tasks))
         running: dict[Any, int] = {}
@@ -287,12 +319,39 @@ def parallel_trials(
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for fut in finished:
                 i = running.pop(fut)
-                yield i, fut.result()
+                try:
+                    rec = fut.result()
+                except BrokenProcessPool:
+                    raise WorkerError("a trial worker process ended abruptly (killed, or out of memory?)") from None
+                yield i, rec
                 nxt = next(todo, None)
                 if nxt is not None:
                     running[pool.submit(_worker_trial, *nxt[1])] = nxt[0]
+        finished_cleanly = True
     finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+        if finished_cleanly:
+            pool.shutdown(wait=True)
+        else:
+            _stop_workers(pool)
+
+
+def _stop_workers(pool: Any) -> None:
+    """After Ctrl-C or an error: the trials in progress are abandoned (they run again on
+    resume), so the workers are stopped now rather than waited for; none is left behind."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in processes:
+        if proc.is_alive():
+            proc.terminate()
+    for proc in processes:
+        proc.join(timeout=5.0)
+        if proc.is_alive():
+            proc.kill()
+            proc.join(timeout=5.0)
+
+
+class WorkerError(GraspCtrlError):
+    """A worker process of ``run --jobs N`` died; the finished trials are on disk."""
 
 
 def _warn(msg: str) -> None:
@@ -318,6 +377,8 @@ def run_series(
     backend: str = "mock",
     warn: Callable[[str], None] = _warn,
     jobs: int = 1,
+    executor: str = "local",
+    address: str | None = None,
 ) -> dict[str, Any]:
     """objects x policies x trials with shared seeds; returns the summary (DESIGN.md 5.2).
 
@@ -325,7 +386,9 @@ def run_series(
     parameters must match its ``run.json``) and run only the missing trials.
     ``after_trial(record)`` is called once each new record is on disk.
     ``jobs``: mock trials in that many worker processes (records arrive out of
-    order; the summary does not depend on it).
+    order; the summary does not depend on it). ``executor="ray"``: the trials are
+    Ray tasks instead (``address``: a running cluster; else a local instance of
+    ``jobs`` CPUs), see ray_executor.py.
     """
     if len(set(safe_name(p) for p in policies)) != len(policies):
         raise UsageError("--policy: two policies would share one log directory; give each once")
@@ -335,6 +398,8 @@ def run_series(
         raise UsageError("--jobs: must be at least 1")
     if jobs > 1 and trial_fn is not None:
         raise UsageError("--jobs: trials on real hardware run one at a time")
+    if executor != "local" and trial_fn is not None:
+        raise UsageError("--executor: trials on real hardware run here, one at a time")
     plan = manifest or RunManifest(
         backend=backend, hand=hand.name, seed=seed, trials=trials, policies=list(policies),
         objects=list(objects), tick_logs=tick_logs, settings=settings or ControllerSettings(),
@@ -367,7 +432,7 @@ def run_series(
                 write_manifest(run_dir, plan)
             started = True
             return _run_locked(hand, plan, policies, trials, seed, run_dir, progress, resume, run_trial,
-                               after_trial, warn, jobs, threads)
+                               after_trial, warn, jobs, threads, executor, address)
     except BaseException:
         if created and not started:   # a failed start leaves nothing that blocks the retry
             shutil.rmtree(run_dir, ignore_errors=True)
@@ -383,6 +448,7 @@ def _run_locked(
     hand: HandConfig, plan: RunManifest, policies: Sequence[str], trials: int, seed: int, run_dir: Path,
     progress: bool | Progress, resume: bool, run_trial: TrialFn,
     after_trial: Callable[[dict[str, Any]], None] | None, warn: Callable[[str], None], jobs: int, threads: int,
+    executor: str = "local", address: str | None = None,
 ) -> dict[str, Any]:
     done: dict[tuple[str, str, int], dict[str, Any]] = {}
     if resume:
@@ -424,13 +490,28 @@ def _run_locked(
             after_trial(rec)
 
     try:
-        if jobs > 1 and len(pending) > 1:
-            for _, rec in parallel_trials(min(jobs, len(pending)), hand, policies, plan.settings, threads, pending):
-                finish(rec)
+        if executor == "ray" and pending:
+            from grasp_ctrl.trials.ray_executor import ray_trials
+
+            with contextlib.closing(ray_trials(address, jobs, hand, policies, plan.settings, threads,
+                                               pending)) as results:
+                for _, rec in results:
+                    finish(rec)
+        elif jobs > 1 and len(pending) > 1:
+            try:
+                # closing: the workers are stopped at once on Ctrl-C or an error, not when collected.
+                with contextlib.closing(parallel_trials(min(jobs, len(pending)), hand, policies, plan.settings,
+                                                        threads, pending)) as results:
+                    for _, rec in results:
+                        finish(rec)
+            except WorkerError as exc:
+                raise WorkerError(f"{exc}; {len(done)} of {plan.total} trials are recorded in {run_dir}; "
+                                  f"continue with: grasp-ctrl run --resume {run_dir}") from None
         else:
             for args in pending:
                 finish(run_trial(*args))
     finally:
+        reporter.close()
         for tmp, _final in tick_logs.values():   # the trial in progress when interrupted
             tmp.unlink(missing_ok=True)
     records = canonical_order(list(done.values()), list(policies), plan.object_names)

@@ -8,8 +8,9 @@ from grasp_ctrl.config.objects import ObjectProfile, default_set, load_objects
 from grasp_ctrl.errors import UsageError
 
 
-def select_objects(objects_file: str | Path, spec: str | None) -> list[ObjectProfile]:
-    """``spec``: None (the file's default set), ``all``, or comma-separated names."""
+def select_objects(objects_file: str | Path, spec: str | None, flag: str = "--objects") -> list[ObjectProfile]:
+    """``spec``: None (the file's default set), ``all``, or comma-separated names;
+    ``flag``: the option named in errors."""
     profiles = load_objects(objects_file)
     if spec is None:
         names = default_set(objects_file)
@@ -18,9 +19,9 @@ def select_objects(objects_file: str | Path, spec: str | None) -> list[ObjectPro
     else:
         names = [n.strip() for n in spec.split(",") if n.strip()]
         if not names:
-            raise UsageError("--objects: give names separated by commas, or 'all'")
+            raise UsageError(f"{flag}: give names separated by commas, or 'all'")
         unknown = [n for n in names if n not in profiles]
         if unknown:
-            raise UsageError(f"--objects: unknown object {unknown[0]!r} (known: {', '.join(profiles)})")
+            raise UsageError(f"{flag}: unknown object {unknown[0]!r} (known: {', '.join(profiles)})")
     return [profiles[n] for n in names]
 

@@ -4,7 +4,7 @@
     RUN_DIR/run.lock                              held while a process writes the run
     RUN_DIR/summary.json                          the run summary (DESIGN.md 5.2)
     RUN_DIR/trials/POLICY/OBJECT/trial_NNN.json   one record per finished trial
-    RUN_DIR/trials/POLICY/OBJECT/trial_NNN_ticks.csv
+    RUN_DIR/trials/POLICY/OBJECT/trial_NNN_ticks.parquet   per-tick log (ticklog.py)
 
 Every file is written to a temporary name unique to the writer
 (``.NAME.PID.RANDOM.tmp`` in the same directory), fsynced, renamed over the
@@ -51,7 +51,7 @@ def record_path(run_dir: Path, policy: str, obj: str, trial: int) -> Path:
 
 
 def ticks_path(run_dir: Path, policy: str, obj: str, trial: int) -> Path:
-    return trial_dir(run_dir, policy, obj) / f"trial_{trial:03d}_ticks.csv"
+    return trial_dir(run_dir, policy, obj) / f"trial_{trial:03d}_ticks.parquet"
 
 
 def temp_path(path: Path) -> Path:

@@ -51,6 +51,27 @@ class SyncReadResult:
     errors: dict[int, int]  # status error byte per id (bit 7 = hardware alert)
 
 
+def serial_ports_found() -> str:
+    """The serial ports this machine has, for an error message (e.g. a mistyped --port)."""
+    try:
+        from serial.tools import list_ports
+
+        ports = sorted(p.device for p in list_ports.comports())
+    except Exception:  # noqa: BLE001 - listing is a courtesy, never the error itself
+        return "serial ports could not be listed"
+    return f"serial ports found: {', '.join(ports)}" if ports else "no serial ports found"
+
+
+def _open_failure(exc: BaseException) -> str:
+    """pyserial's message repeats the port and errno; the errno's text says it once."""
+    import os
+
+    errno = getattr(exc, "errno", None)
+    if isinstance(errno, int):
+        return os.strerror(errno).lower()
+    return str(exc)
+
+
 class DynamixelBus:
     def __init__(
         self,
@@ -78,9 +99,10 @@ class DynamixelBus:
         try:
             ok = self.port.openPort() and self.port.setBaudRate(self.baud)
         except Exception as exc:  # pyserial raises SerialException / OSError
-            raise HardwareError(f"cannot open Dynamixel port {self.port_name}: {exc}") from None
+            raise HardwareError(f"cannot open Dynamixel port {self.port_name}: {_open_failure(exc)}; "
+                                f"{serial_ports_found()}") from None
         if not ok:
-            raise HardwareError(f"cannot open Dynamixel port {self.port_name} at {self.baud} baud")
+            raise HardwareError(f"cannot open Dynamixel port {self.port_name} at {self.baud} baud; {serial_ports_found()}")
 
     def close(self) -> None:
         if self.port.is_open:

@@ -1,0 +1,43 @@
+"""``trial_realtime_factor``: whole default mock trials, as the main job runs them.
+
+Physics, sensing, estimation (the default policy), control and the tick log
+written to disk, through ``run_mock_trial``; simulated seconds per wall-clock
+second, one sample per trial over the default objects (after a warm-up trial
+that loads or compiles the kernels). ``p99`` is the slow tail (Figure.rate).
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+from grasp_ctrl.bench.figure import Figure
+from grasp_ctrl.config import load_hand
+from grasp_ctrl.estimators.registry import DEFAULT_POLICY
+from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.paths import default_hand_file, default_objects_file
+from grasp_ctrl.trials.runner import estimator_factory, run_mock_trial, trial_seed
+from grasp_ctrl.trials.selection import select_objects
+
+
+def trial_realtime_factor(quick: bool) -> Figure:
+    hand = load_hand(default_hand_file())
+    objects = select_objects(default_objects_file(), None)
+    make_estimator = estimator_factory(DEFAULT_POLICY, hand)
+    kin = HandKinematics(hand)
+    rounds = 1 if quick else 3
+    factors = []
+    with tempfile.TemporaryDirectory(prefix="grasp-bench-") as tmp:
+        log = Path(tmp) / "trial_ticks.parquet"
+        run_mock_trial(hand, objects[0], make_estimator, 0, DEFAULT_POLICY, log_path=log, kin=kin)   # warm-up
+        for k in range(rounds):
+            for obj in objects[: 2 if quick else None]:
+                t0 = time.perf_counter()
+                res = run_mock_trial(hand, obj, make_estimator, trial_seed(0, obj.name, k), DEFAULT_POLICY, k,
+                                     log_path=log, kin=kin)
+                factors.append(res.sim_duration_s / (time.perf_counter() - t0))
+    return Figure.rate(factors, "x")
+
+
+FIGURES = {"trial_realtime_factor": trial_realtime_factor}

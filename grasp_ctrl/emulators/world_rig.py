@@ -1,0 +1,91 @@
+"""The whole hardware path without hardware: ``run --backend dynamixel --emulate``.
+
+The mock world is the physics behind two emulators on pseudo-terminals:
+
+- the hand: ``EmulatedDynamixelHand`` (world_hand.py), the real ``DynamixelHand``
+  backend speaking Protocol 2.0 to the servo-chain emulator (ping, configuration,
+  fast sync read, sync write, hardware-error polling, safe stop);
+- the fingertips: ``EmulatedTactileSensors`` below, the real ``SerialSensors``
+  reader (protocol v1 decoding, CRC, sequence numbers, stale detection) fed by
+  the tactile-bridge emulator, which sends the world's frames.
+
+Both run on the world's simulated clock: each control tick publishes the world's
+state to the emulators and waits until the backends have it, so a trial is as
+reproducible as on the mock, scored from the world's ground truth, and logged the
+same way. The arm is the world's (a real arm is another program's business).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.emulators.tactile_bridge import TactileBridgeEmulator
+from grasp_ctrl.emulators.world_hand import EmulatedDynamixelHand, _WorldClock
+from grasp_ctrl.hardware.base import TactileFrame
+from grasp_ctrl.tactile.layout import COUNT_MAX
+from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
+
+# How long (real time) a tick waits for the reader thread to decode the frames it sent.
+FRAME_WAIT_S = 0.5
+
+
+class EmulatedTactileSensors:
+    """``SerialSensors`` over a pty, fed one sample of the world's frames per control tick."""
+
+    def __init__(self, world: Any, hand: HandConfig) -> None:
+        self.world = world
+        self.row = {sid: i for i, sid in enumerate(world.sensor_ids)}
+        self.bridge = TactileBridgeEmulator(list(world.sensor_ids), source=self._frame, mode=hand.tactile.mode)
+        self.serial = SerialSensors.from_hand(hand, port=self.bridge.port, clock=_WorldClock(world), reconnect=False)
+        self._k = 0
+
+    def _frame(self, sensor_id: int, _k: int) -> np.ndarray:
+        return np.clip(np.rint(self.world.raw[self.row[sensor_id]]), 0, COUNT_MAX)
+
+    def send(self) -> None:
+        """Put the world's current frames on the wire and wait until they are decoded
+        (a frame that does not arrive leaves the older one: the stale check decides)."""
+        before = self.serial.frame_counts()
+        self.bridge.send_sample(self._k)
+        self._k += 1
+        deadline = time.monotonic() + FRAME_WAIT_S
+        while True:
+            counts = self.serial.frame_counts()
+            if all(counts[s] > before[s] for s in before) or time.monotonic() > deadline:
+                return
+            time.sleep(2e-5)
+
+    def start(self) -> None:
+        self.serial.start()
+        self.send()
+
+    def read_latest(self) -> dict[int, TactileFrame]:
+        self.send()
+        return self.serial.read_latest()
+
+    def check_stale(self, now: float | None = None) -> None:
+        self.serial.check_stale(now)
+
+    def wait_for_frames(self, timeout_s: float, min_frames: int = 1) -> None:
+        self.serial.wait_for_frames(timeout_s, min_frames)
+
+    def frame_counts(self) -> dict[int, int]:
+        return self.serial.frame_counts()
+
+    def stats(self) -> dict[str, int]:
+        return self.serial.stats()
+
+    def close(self) -> None:
+        try:
+            self.serial.close()
+        finally:
+            self.bridge.close()
+
+
+def emulated_backends(world: Any, hand: HandConfig) -> tuple[EmulatedDynamixelHand, EmulatedTactileSensors]:
+    """The hand and sensor backends of one emulated trial (runner.run_mock_trial's ``make_backends``)."""
+    return EmulatedDynamixelHand(world, hand), EmulatedTactileSensors(world, hand)

@@ -1,0 +1,238 @@
+"""The controller's per-tick fingertip IK for all fingers in one call.
+
+Every tick the controller moves some fingertips' pad points along their closing
+vectors: forward kinematics to the pad, its position Jacobian and one damped
+least-squares step per finger (``FingerChain.point_and_jacobian`` and
+``FingerChain.dls_step``). With the ``sim`` extra (numba) the same arithmetic
+runs compiled for all fingers at once, a few microseconds instead of about a
+hundred per finger; without it the per-finger numpy methods run. The kernels
+read only the chains' generic pieces (base pose, joint origins, axes, tip pose),
+so any serial-chain geometry works.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from grasp_ctrl import jit
+from grasp_ctrl.kinematics.batched import BatchedKinematics
+from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.kinematics.fingertip import PAD_POINT_SENSOR
+from grasp_ctrl.jit import njit
+
+
+@njit
+def _pad_and_jacobian(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, pad, J):
+    """Pad point (hand frame) of finger ``f`` into ``pad`` (3,) and its Jacobian into J (3, n)."""
+    R = R_base[f].copy()
+    p = p_base[f].copy()
+    Rs = np.empty((n, 3, 3))
+    ps = np.empty((n, 3))
+    tmp = np.empty((3, 3))
+    for i in range(n):
+        for r in range(3):
+            p[r] = p[r] + (R[r, 0] * p_org[f, i, 0] + R[r, 1] * p_org[f, i, 1] + R[r, 2] * p_org[f, i, 2])
+        for r in range(3):
+            for c in range(3):
+                tmp[r, c] = R[r, 0] * R_org[f, i, 0, c] + R[r, 1] * R_org[f, i, 1, c] + R[r, 2] * R_org[f, i, 2, c]
+        R[:, :] = tmp
+        Rs[i] = R
+        ps[i] = p
+        s = math.sin(q[start + i])
+        c1 = 1.0 - math.cos(q[start + i])
+        rot = np.empty((3, 3))
+        for r in range(3):
+            for c in range(3):
+                rot[r, c] = (1.0 if r == c else 0.0) + s * K[f, i, r, c] + c1 * K2[f, i, r, c]
+        for r in range(3):
+            for c in range(3):
+                tmp[r, c] = R[r, 0] * rot[0, c] + R[r, 1] * rot[1, c] + R[r, 2] * rot[2, c]
+        R[:, :] = tmp
+    R_s = np.empty((3, 3))
+    for r in range(3):
+        for c in range(3):
+            R_s[r, c] = R[r, 0] * R_tip[f, 0, c] + R[r, 1] * R_tip[f, 1, c] + R[r, 2] * R_tip[f, 2, c]
+    for r in range(3):
+        p_s = p[r] + (R[r, 0] * p_tip[f, 0] + R[r, 1] * p_tip[f, 1] + R[r, 2] * p_tip[f, 2])
+        pad[r] = (R_s[r, 0] * point[0] + R_s[r, 1] * point[1] + R_s[r, 2] * point[2]) + p_s
+    for i in range(n):
+        a0 = Rs[i, 0, 0] * axes[f, i, 0] + Rs[i, 0, 1] * axes[f, i, 1] + Rs[i, 0, 2] * axes[f, i, 2]
+        a1 = Rs[i, 1, 0] * axes[f, i, 0] + Rs[i, 1, 1] * axes[f, i, 1] + Rs[i, 1, 2] * axes[f, i, 2]
+        a2 = Rs[i, 2, 0] * axes[f, i, 0] + Rs[i, 2, 1] * axes[f, i, 1] + Rs[i, 2, 2] * axes[f, i, 2]
+        b0, b1, b2 = pad[0] - ps[i, 0], pad[1] - ps[i, 1], pad[2] - ps[i, 2]
+        J[0, i] = a1 * b2 - a2 * b1
+        J[1, i] = a2 * b0 - a0 * b2
+        J[2, i] = a0 * b1 - a1 * b0
+
+
+@njit
+def _solve3(A, b):
+    """x with A x = b for a 3x3 A (Gaussian elimination, partial pivoting)."""
+    M = A.copy()
+    x = b.copy()
+    for k in range(3):
+        piv = k
+        for r in range(k + 1, 3):
+            if abs(M[r, k]) > abs(M[piv, k]):
+                piv = r
+        if piv != k:
+            for c in range(3):
+                M[k, c], M[piv, c] = M[piv, c], M[k, c]
+            x[k], x[piv] = x[piv], x[k]
+        for r in range(k + 1, 3):
+            m = M[r, k] / M[k, k]
+            for c in range(k, 3):
+                M[r, c] -= m * M[k, c]
+            x[r] -= m * x[k]
+    for k in range(2, -1, -1):
+        acc = x[k]
+        for c in range(k + 1, 3):
+            acc -= M[k, c] * x[c]
+        x[k] = acc / M[k, k]
+    return x
+
+
+@njit
+def step_pads_kernel(q, targets, move, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
+                     point, damping, lower, upper):
+    """One damped least-squares step per finger with ``move[f]`` toward its pad target
+    (the arithmetic of FingerChain.point_and_jacobian + dls_step); updates ``q`` in place."""
+    pad = np.empty(3)
+    for f in range(len(move)):
+        if not move[f]:
+            continue
+        s = starts[f]
+        n = counts[f]
+        J = np.empty((3, n))
+        _pad_and_jacobian(q, f, s, n, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, pad, J)
+        dp = np.empty(3)
+        for r in range(3):
+            dp[r] = targets[f, r] - pad[r]
+        active = np.ones(n, dtype=np.bool_)
+        dq = np.zeros(n)
+        for _ in range(2):
+            A = np.zeros((3, 3))
+            for r in range(3):
+                A[r, r] = damping * damping
+            for i in range(n):
+                if active[i]:
+                    for r in range(3):
+                        for c in range(3):
+                            A[r, c] += J[r, i] * J[c, i]
+            x = _solve3(A, dp)
+            any_blocked = False
+            for i in range(n):
+                dq[i] = (J[0, i] * x[0] + J[1, i] * x[1] + J[2, i] * x[2]) if active[i] else 0.0
+            for i in range(n):
+                qi = q[s + i] + dq[i]
+                if (qi < lower[s + i] and dq[i] < 0.0) or (qi > upper[s + i] and dq[i] > 0.0):
+                    active[i] = False
+                    any_blocked = True
+            if not any_blocked:
+                break
+            if not active.any():
+                dq[:] = 0.0
+                break
+        for i in range(n):
+            q[s + i] = min(max(q[s + i] + dq[i], lower[s + i]), upper[s + i])
+
+
+@njit
+def pad_points_kernel(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, out):
+    """Every finger's pad point (hand frame) into ``out`` (F, 3)."""
+    pad = np.empty(3)
+    for f in range(len(starts)):
+        J = np.empty((3, counts[f]))
+        _pad_and_jacobian(q, f, starts[f], counts[f], R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
+                          point, pad, J)
+        out[f] = pad
+
+
+@njit
+def sensor_rotations_kernel(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, out):
+    """Every finger's sensor-frame rotation (hand frame) into ``out`` (F, 3, 3)."""
+    tmp = np.empty((3, 3))
+    rot = np.empty((3, 3))
+    for f in range(len(starts)):
+        R = R_base[f].copy()
+        for i in range(counts[f]):
+            for r in range(3):
+                for c in range(3):
+                    tmp[r, c] = R[r, 0] * R_org[f, i, 0, c] + R[r, 1] * R_org[f, i, 1, c] + R[r, 2] * R_org[f, i, 2, c]
+            R[:, :] = tmp
+            s = math.sin(q[starts[f] + i])
+            c1 = 1.0 - math.cos(q[starts[f] + i])
+            for r in range(3):
+                for c in range(3):
+                    rot[r, c] = (1.0 if r == c else 0.0) + s * K[f, i, r, c] + c1 * K2[f, i, r, c]
+            for r in range(3):
+                for c in range(3):
+                    tmp[r, c] = R[r, 0] * rot[0, c] + R[r, 1] * rot[1, c] + R[r, 2] * rot[2, c]
+            R[:, :] = tmp
+        for r in range(3):
+            for c in range(3):
+                out[f, r, c] = R[r, 0] * R_tip[f, 0, c] + R[r, 1] * R_tip[f, 1, c] + R[r, 2] * R_tip[f, 2, c]
+
+
+class PadIK:
+    """Pad points and IK steps of all fingers of one hand (hand-file finger order)."""
+
+    def __init__(self, kin: HandKinematics, point_sensor: np.ndarray = PAD_POINT_SENSOR,
+                 compiled: bool | None = None) -> None:
+        self.kin = kin
+        self.names = list(kin.chains)
+        self.point = np.ascontiguousarray(point_sensor, dtype=float)
+        chains = [kin.chains[n] for n in self.names]
+        n_joints = max(sl.stop for sl in kin.slices.values())
+        self.lower, self.upper = np.full(n_joints, -np.inf), np.full(n_joints, np.inf)
+        for name, chain in zip(self.names, chains):
+            self.lower[kin.slices[name]] = chain.lower
+            self.upper[kin.slices[name]] = chain.upper
+        self.compiled = jit.JIT if compiled is None else compiled
+        F, nmax = len(chains), max(c.n for c in chains)
+        self.starts = np.array([kin.slices[n].start for n in self.names], dtype=np.int64)
+        self.counts = np.array([c.n for c in chains], dtype=np.int64)
+        pad3 = lambda get: np.array([np.concatenate([get(c), np.zeros((nmax - c.n, *get(c).shape[1:]))])  # noqa: E731
+                                     for c in chains])
+        self._arrays = (
+            self.starts, self.counts,
+            np.array([c._R_base for c in chains]), np.array([c._p_base for c in chains]),
+            pad3(lambda c: c._R_org), pad3(lambda c: c._p_org), pad3(lambda c: c._K), pad3(lambda c: c._K2),
+            pad3(lambda c: c.axes), np.array([c._R_tip for c in chains]), np.array([c._p_tip for c in chains]),
+        )
+        assert self._arrays[2].shape == (F, 3, 3)
+        self._batched = BatchedKinematics(kin)
+
+    def pad_points(self, q_all: np.ndarray) -> np.ndarray:
+        """(F, 3) pad points, hand frame."""
+        q = np.ascontiguousarray(q_all, dtype=float)
+        if self.compiled:
+            out = np.empty((len(self.names), 3))
+            pad_points_kernel(q, *self._arrays, self.point, out)
+            return out
+        out = np.empty((len(self.names), 3))
+        for f, name in enumerate(self.names):
+            R, p = self.kin.chains[name].fk_rp(q[self.kin.slices[name]])
+            out[f] = R @ self.point + p
+        return out
+
+    def sensor_rotations(self, q_all: np.ndarray) -> np.ndarray:
+        """(F, 3, 3) sensor-frame rotations in the hand frame."""
+        if self.compiled:
+            out = np.empty((len(self.names), 3, 3))
+            sensor_rotations_kernel(np.ascontiguousarray(q_all, dtype=float), *self._arrays, out)
+            return out
+        return self._batched.sensor_frames(q_all)[0]
+
+    def step(self, q_all: np.ndarray, targets: np.ndarray, move: np.ndarray, damping: float) -> None:
+        """One DLS step toward ``targets`` (F, 3) for the fingers with ``move``; ``q_all`` in place."""
+        if self.compiled:
+            step_pads_kernel(q_all, targets, move, *self._arrays, self.point, damping, self.lower, self.upper)
+            return
+        for f, name in enumerate(self.names):
+            if move[f]:
+                chain, sl = self.kin.chains[name], self.kin.slices[name]
+                pad, J = chain.point_and_jacobian(q_all[sl], self.point)
+                q_all[sl] = chain.dls_step(q_all[sl], J, targets[f] - pad, damping)

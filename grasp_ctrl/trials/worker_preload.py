@@ -1,0 +1,34 @@
+"""Imported once by the fork server of ``run --jobs N`` (see runner.parallel_trials).
+
+Importing the trial code and loading its compiled kernels take about as long as
+a few trials; done here once, every worker process forked from the server starts
+with both ready. Only the kernels are touched (one world step, one IK step on
+the default hand); no policy is loaded, so no inference session or thread is
+shared by the forked workers.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def warm_kernels() -> None:
+    from grasp_ctrl.config import load_hand, load_objects
+    from grasp_ctrl.controller.motion import FingertipMotion
+    from grasp_ctrl.kinematics.chain import HandKinematics
+    from grasp_ctrl.paths import default_hand_file, default_objects_file
+    from grasp_ctrl.sim.world import MockWorld
+
+    hand = load_hand(default_hand_file())
+    obj = next(iter(load_objects(default_objects_file()).values()))
+    MockWorld(hand, obj, 0).step()
+    kin = HandKinematics(hand)
+    motion = FingertipMotion(hand, kin)
+    motion.advance_all(np.full(len(hand.fingers), 1e-4))
+    motion.ik.sensor_rotations(motion.q_goal)
+
+
+try:
+    warm_kernels()
+except Exception:   # a missing default file, say: the workers then load the kernels themselves
+    pass

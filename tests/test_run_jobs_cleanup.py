@@ -1,0 +1,85 @@
+"""`run --jobs N` leaves no process behind on Ctrl-C or when a worker dies.
+
+The command runs in its own session, as from a terminal; Ctrl-C is SIGINT to
+its whole process group, as a terminal sends it."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
+
+
+def _session(sid: int) -> dict[int, int]:
+    """pid -> parent pid of the live processes in session ``sid``."""
+    found = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+        except OSError:
+            continue
+        fields = stat[stat.rindex(")") + 2:].split()
+        if fields[0] != "Z" and int(fields[3]) == sid:   # state, ppid, pgrp, session
+            found[int(entry.name)] = int(fields[1])
+    return found
+
+
+def _start(out: Path) -> subprocess.Popen:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.Popen(
+        [sys.executable, str(ROOT / "launch.py"), "run", "--objects", "chips_can,lego,cleanser", "--trials", "4",
+         "--jobs", "2", "--out", str(out), "--quiet"],
+        cwd=ROOT, env=env, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _wait_for_records(proc: subprocess.Popen, out: Path, timeout: float = 120.0) -> None:
+    t0 = time.monotonic()
+    while not list(out.glob("trials/*/*/trial_*.json")):
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() - t0 < timeout, "no trial finished"
+        time.sleep(0.1)
+
+
+def _assert_session_empty(sid: int) -> None:
+    t0 = time.monotonic()
+    while _session(sid) and time.monotonic() - t0 < 10.0:
+        time.sleep(0.1)
+    assert _session(sid) == {}, "processes left behind"
+
+
+def test_ctrl_c_stops_every_worker(tmp_path):
+    out = tmp_path / "run"
+    proc = _start(out)
+    _wait_for_records(proc, out)
+    assert len(_session(proc.pid)) >= 3           # the command, its fork server and workers
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "continue with: grasp-ctrl run --resume" in err and "Traceback" not in err
+    _assert_session_empty(proc.pid)
+
+
+def test_a_dead_worker_is_a_one_line_error_and_the_rest_stop(tmp_path):
+    out = tmp_path / "run"
+    proc = _start(out)
+    _wait_for_records(proc, out)
+    procs = _session(proc.pid)
+    # Workers are forked from the fork server: their parent is not the command itself.
+    workers = [pid for pid, parent in procs.items() if pid != proc.pid and parent != proc.pid]
+    assert workers, procs
+    os.kill(workers[0], signal.SIGKILL)
+    _, err = proc.communicate(timeout=60)
+    lines = err.strip().splitlines()
+    assert proc.returncode == 1 and len(lines) == 1, err
+    assert "worker process ended abruptly" in lines[0] and "--resume" in lines[0]
+    _assert_session_empty(proc.pid)
