@@ -34,10 +34,10 @@ def _session(sid: int) -> dict[int, int]:
     return found
 
 
-def _start(out: Path) -> subprocess.Popen:
+def _start(out: Path, trials: int = 4) -> subprocess.Popen:
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     return subprocess.Popen(
-        [sys.executable, str(ROOT / "launch.py"), "run", "--objects", "chips_can,lego,cleanser", "--trials", "4",
+        [sys.executable, str(ROOT / "launch.py"), "run", "--objects", "chips_can,lego,cleanser", "--trials", str(trials),
          "--jobs", "2", "--out", str(out), "--quiet"],
         cwd=ROOT, env=env, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
@@ -59,7 +59,7 @@ def _assert_session_empty(sid: int) -> None:
 
 def test_ctrl_c_stops_every_worker(tmp_path):
     out = tmp_path / "run"
-    proc = _start(out)
+    proc = _start(out, trials=30)     # long enough that it cannot finish before the Ctrl-C on a busy host
     _wait_for_records(proc, out)
     assert len(_session(proc.pid)) >= 3           # the command, its fork server and workers
     os.killpg(proc.pid, signal.SIGINT)
