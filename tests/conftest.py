@@ -27,3 +27,13 @@ def shared_data() -> Path:
     if not SHARED_DATA.is_dir():
         pytest.skip("../shared/data is not present beside the checkout")
     return SHARED_DATA
+
+
+def sigint_as_at_a_terminal() -> None:
+    """``preexec_fn`` for children that a test interrupts with SIGINT: a shell that starts a
+    job in the background without job control (as CI runners may) hands its children SIGINT
+    ignored, and Python then never raises KeyboardInterrupt. A terminal's Ctrl-C is what the
+    tests mean, so restore the default disposition."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)

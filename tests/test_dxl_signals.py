@@ -9,6 +9,7 @@ import sys
 import time
 
 import pytest
+from conftest import sigint_as_at_a_terminal
 
 from grasp_ctrl.emulators.dxl_chain import DynamixelChainEmulator
 
@@ -39,6 +40,7 @@ def test_torque_off_after_signal(sig: signal.Signals, tmp_path) -> None:
         child = subprocess.Popen(
             [sys.executable, "-c", CHILD, emu.port, str(hand_file)],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=REPO,
+            preexec_fn=sigint_as_at_a_terminal,
         )
         try:
             assert child.stdout is not None

@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import pytest
+from conftest import sigint_as_at_a_terminal
 
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
@@ -39,7 +40,8 @@ def _start(out: Path, trials: int = 4) -> subprocess.Popen:
     return subprocess.Popen(
         [sys.executable, str(ROOT / "launch.py"), "run", "--objects", "chips_can,lego,cleanser", "--trials", str(trials),
          "--jobs", "2", "--out", str(out), "--quiet"],
-        cwd=ROOT, env=env, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        cwd=ROOT, env=env, start_new_session=True, preexec_fn=sigint_as_at_a_terminal,
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
 def _wait_for_records(proc: subprocess.Popen, out: Path, timeout: float = 120.0) -> None:

@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 
 import pytest
+from conftest import sigint_as_at_a_terminal
 
 from grasp_ctrl.cli import main
 from grasp_ctrl.tactile_link.recorder import HEADER
@@ -93,7 +94,7 @@ def test_ctrl_c_closes_the_recording_cleanly(tmp_path) -> None:
     env = dict(os.environ, PYTHONPATH=str(REPO), GRASP_CTRL_POLICIES=str(tmp_path))
     proc = subprocess.Popen(
         [sys.executable, str(REPO / "launch.py"), "sensors", "--emulate", "--record", str(rec)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, preexec_fn=sigint_as_at_a_terminal,
     )
     try:
         deadline = time.monotonic() + 20
