@@ -208,19 +208,28 @@ def pdc_rise_of(load_n: float, c: np.ndarray) -> float:
 
 
 @njit
+def split_force(f: np.ndarray, n_out: np.ndarray) -> tuple[float, float, float, float]:
+    """The pressing part ``F_n`` (N, >= 0) of the force ``f`` on the skin and its
+    tangential part (x, y, z) at a contact with outward skin normal ``n_out``."""
+    f_n = max(-(f[0] * n_out[0] + f[1] * n_out[1] + f[2] * n_out[2]), 0.0)
+    return f_n, f[0] + f_n * n_out[0], f[1] + f_n * n_out[1], f[2] + f_n * n_out[2]
+
+
+@njit
+def contact_load(f: np.ndarray, n_out: np.ndarray, c: np.ndarray) -> float:
+    """The load that pressurises the fluid (N): ``F_n + shear_load |f_t|``."""
+    f_n, ft0, ft1, ft2 = split_force(f, n_out)
+    return f_n + c[SHEAR_LOAD] * math.sqrt(ft0 * ft0 + ft1 * ft1 + ft2 * ft2)
+
+
+@njit
 def contact_response(p: np.ndarray, n_out: np.ndarray, f: np.ndarray, slow_load: float, gain: np.ndarray,
                      c: np.ndarray, e_out: np.ndarray) -> float:
     """Electrode changes ``e_out`` (19, counts) and the pdc rise (returned) of one
     contact at ``p`` (sensor frame, outward skin normal ``n_out``) under the force
     ``f`` on the skin, with ``slow_load`` the hysteretic part of the load (N)."""
-    f_n = -(f[0] * n_out[0] + f[1] * n_out[1] + f[2] * n_out[2])
-    if f_n < 0.0:
-        f_n = 0.0
-    ft0 = f[0] + f_n * n_out[0]
-    ft1 = f[1] + f_n * n_out[1]
-    ft2 = f[2] + f_n * n_out[2]
-    f_t = math.sqrt(ft0 * ft0 + ft1 * ft1 + ft2 * ft2)
-    load = f_n + c[SHEAR_LOAD] * f_t
+    f_n, ft0, ft1, ft2 = split_force(f, n_out)
+    load = f_n + c[SHEAR_LOAD] * math.sqrt(ft0 * ft0 + ft1 * ft1 + ft2 * ft2)
     share = c[HYST_SHARE]
     pdc = pdc_rise_of((1.0 - share) * load + share * slow_load, c) * gain[GAIN_PDC]
     # footprint widens with the contact radius (Hertz: a ~ F^1/3)
@@ -271,12 +280,7 @@ def static_frames(p: np.ndarray, n_out: np.ndarray, f: np.ndarray, gain: np.ndar
         fi = f[i]
         if fi[0] == 0.0 and fi[1] == 0.0 and fi[2] == 0.0:
             continue
-        f_n = max(-(fi[0] * n_out[i, 0] + fi[1] * n_out[i, 1] + fi[2] * n_out[i, 2]), 0.0)
-        ft0 = fi[0] + f_n * n_out[i, 0]
-        ft1 = fi[1] + f_n * n_out[i, 1]
-        ft2 = fi[2] + f_n * n_out[i, 2]
-        load = f_n + c[SHEAR_LOAD] * math.sqrt(ft0 * ft0 + ft1 * ft1 + ft2 * ft2)
-        out[i, 19] = contact_response(p[i], n_out[i], fi, load, gain[i], c, e)
+        out[i, 19] = contact_response(p[i], n_out[i], fi, contact_load(fi, n_out[i], c), gain[i], c, e)
         for k in range(19):
             out[i, k] = e[k]
     return out
@@ -301,13 +305,7 @@ def frames_kernel(
     for i in range(n):
         f = f_sensor[i]
         nn = n_out[i]
-        load = 0.0
-        if in_contact[i]:
-            f_n = max(-(f[0] * nn[0] + f[1] * nn[1] + f[2] * nn[2]), 0.0)
-            ft0 = f[0] + f_n * nn[0]
-            ft1 = f[1] + f_n * nn[1]
-            ft2 = f[2] + f_n * nn[2]
-            load = f_n + c[SHEAR_LOAD] * math.sqrt(ft0 * ft0 + ft1 * ft1 + ft2 * ft2)
+        load = contact_load(f, nn, c) if in_contact[i] else 0.0
         slow = state[i, ST_SLOW_LOAD]
         slow += (load - slow) * (up if load > slow else down)
         state[i, ST_SLOW_LOAD] = slow
