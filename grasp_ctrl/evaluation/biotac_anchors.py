@@ -16,8 +16,9 @@ Two kinds of evidence, both from material no one here wrote:
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 
@@ -56,17 +57,21 @@ class NetFigures:
     magnitude_corr: float
 
 
-def real_pressed(path: str | Path, trial_id: str) -> tuple[np.ndarray, np.ndarray, float]:
-    """(tared electrodes (k, 19), tared pdc (k,), electrode rest sd) of one real trial's
-    pressed frames; tare = mean of its first 50 rows."""
+def real_pressed(path: str | Path, trial_ids: Sequence[str]) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Per trial id, (tared electrodes (k, 19), tared pdc (k,), electrode rest sd) of that real
+    trial's pressed frames; tare = mean of its first 50 rows. The file is read once."""
     trials = {t.trial_id: t for t in read_trials(path)}
-    if trial_id not in trials:
-        raise KeyError(f"{path}: no trial {trial_id}")
-    raw = trials[trial_id].raw
-    rest = raw[:REAL_TARE_ROWS]
-    tared = raw - rest.mean(axis=0)
-    pressed = tared[:, PDC] > PRESSED_PDC
-    return tared[pressed][:, ELECTRODES], tared[pressed][:, PDC], float(rest[:, ELECTRODES].std(axis=0).mean())
+    out = []
+    for trial_id in trial_ids:
+        if trial_id not in trials:
+            raise KeyError(f"{path}: no trial {trial_id}")
+        raw = trials[trial_id].raw
+        rest = raw[:REAL_TARE_ROWS]
+        tared = raw - rest.mean(axis=0)
+        pressed = tared[:, PDC] > PRESSED_PDC
+        rest_sd = float(rest[:, ELECTRODES].std(axis=0).mean())
+        out.append((tared[pressed][:, ELECTRODES], tared[pressed][:, PDC], rest_sd))
+    return out
 
 
 def top_components(e: np.ndarray, k: int = 5) -> np.ndarray:
@@ -89,17 +94,19 @@ def best_match_residuals(targets: np.ndarray, library: np.ndarray) -> np.ndarray
 
 
 def pattern_figures(e: np.ndarray, pdc: np.ndarray, rest_sd: float, real_a: np.ndarray, real_b: np.ndarray,
-                    max_targets: int = 1500) -> PatternFigures:
-    """Figures of pressed frames ``e`` (k, 19) with tared ``pdc`` (k,) against real A and B."""
+                    library: np.ndarray | None = None, max_targets: int = 1500) -> PatternFigures:
+    """Figures of pressed frames ``e`` (k, 19) with tared ``pdc`` (k,) against real A and B;
+    real B's frames are matched among ``library`` (default: the frames ``e`` themselves)."""
     keep = pdc > PRESSED_PDC
     e, pdc = e[keep], pdc[keep]
     step = max(1, len(real_b) // max_targets)
+    matched_among = e if library is None else library
     drop = np.maximum(-e.min(axis=1), 1.0)
     mid = (pdc > 300) & (pdc < 400)
     return PatternFigures(
         frames=int(len(e)),
         variance_in_real_a_top5=variance_share(e, top_components(real_a)),
-        best_match_residual_median=float(np.median(best_match_residuals(real_b[::step], e))),
+        best_match_residual_median=float(np.median(best_match_residuals(real_b[::step], matched_among))),
         rising_electrodes_median=float(np.median((e > RISE_COUNTS).sum(axis=1))),
         max_rise_median=float(np.median(e[mid].max(axis=1))) if mid.any() else float("nan"),
         largest_drop_over_pdc_median=float(np.median(drop / pdc)),
@@ -120,10 +127,6 @@ def net_figures(f_est: np.ndarray, f_true: np.ndarray) -> NetFigures:
         magnitude_ratio_median=float(np.median(mag_est[ok] / mag_true[ok])),
         magnitude_corr=float(np.corrcoef(mag_est[ok], mag_true[ok])[0, 1]),
     )
-
-
-def as_dict(figures: PatternFigures | NetFigures) -> dict[str, float]:
-    return asdict(figures)
 
 
 @dataclass(frozen=True)
@@ -154,8 +157,7 @@ def anchor_report(real_path: str | Path, n_per_source: int = 1500, seed: int = 7
     from grasp_ctrl.estimators.registry import load_policy
     from grasp_ctrl.learning.synthetic import generate_source, mock_biotac_forward
 
-    real_a, _, _ = real_pressed(real_path, TRIAL_A)
-    real_b, pdc_b, rest_b = real_pressed(real_path, TRIAL_B)
+    (real_a, _, _), (real_b, pdc_b, rest_b) = real_pressed(real_path, (TRIAL_A, TRIAL_B))
     net = load_policy(policy)
     forward = mock_biotac_forward(params)
     rng = np.random.default_rng(seed)
@@ -174,15 +176,9 @@ def anchor_report(real_path: str | Path, n_per_source: int = 1500, seed: int = 7
         per_source=per_source,
         pooled=net_figures(np.vstack(est_all), np.vstack(label_all)),
         simulated=simulated,
-        real_b=_real_reference(real_a, real_b, pdc_b, rest_b),
+        # real B against A (matched among A's frames: among its own it would be 0)
+        real_b=pattern_figures(real_b, pdc_b, rest_b, real_a, real_b, library=real_a),
     )
-
-
-def _real_reference(real_a: np.ndarray, real_b: np.ndarray, pdc_b: np.ndarray, rest_b: float) -> PatternFigures:
-    """Real B's figures; its best match is among real A's frames (B against itself would be 0)."""
-    figures = pattern_figures(real_b, pdc_b, rest_b, real_a, real_b)
-    step = max(1, len(real_b) // 1500)
-    return replace(figures, best_match_residual_median=float(np.median(best_match_residuals(real_b[::step], real_a))))
 
 
 def format_report(report: AnchorReport) -> str:
