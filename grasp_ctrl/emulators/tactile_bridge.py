@@ -29,7 +29,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from grasp_ctrl.tactile.geometry import ELECTRODE_NORMALS_SENSOR
+from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
+from grasp_ctrl.sim.biotac_model import BioTacSensorModel
 from grasp_ctrl.tactile.layout import COUNT_MAX, ELECTRODES, FRAME_LEN, PAC, PDC, TAC, TDC
 from grasp_ctrl.tactile_link.protocol import SEQ_MODULO, encode_binary, encode_text
 
@@ -63,7 +64,7 @@ class SyntheticSource:
         self.period_s = period_s
         self.peak_force_n = peak_force_n
         self.seed = seed
-        self._sensors: dict[int, object] = {}
+        self._sensors: dict[int, BioTacSensorModel] = {}
 
     def press(self, sensor_id: int, k: int) -> float:
         """Press depth 0..1 of fingertip ``sensor_id`` at sample ``k``: free for the first
@@ -72,9 +73,6 @@ class SyntheticSource:
         return max(0.0, np.sin(2 * np.pi * t / self.period_s)) ** 2 if t > 0 else 0.0
 
     def __call__(self, sensor_id: int, k: int) -> np.ndarray:
-        from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
-        from grasp_ctrl.sim.biotac_model import BioTacSensorModel
-
         sensor = self._sensors.get(sensor_id)
         if sensor is None:
             sensor = BioTacSensorModel(1, np.random.default_rng((self.seed, sensor_id)))
@@ -83,8 +81,8 @@ class SyntheticSource:
         # the press leans a little along the finger as it comes and goes
         sway = 0.2 * np.sin(2 * np.pi * k / (self.rate_hz * self.period_s))
         f_sensor = self.peak_force_n * depth * np.array([[sway, 0.0, 1.0]])
-        frame = sensor.frames(PAD_POINT_SENSOR[None], f_sensor, PAD_NORMAL_SENSOR[None],  # type: ignore[attr-defined]
-                              np.array([depth > 0.0]), np.zeros(1), 1.0 / self.rate_hz)
+        frame = sensor.frames(PAD_POINT_SENSOR[None], f_sensor, PAD_NORMAL_SENSOR[None], np.array([depth > 0.0]),
+                              np.zeros(1), 1.0 / self.rate_hz)
         return frame[0].astype(np.int64)
 
 
