@@ -24,6 +24,26 @@ from grasp_ctrl.jit import njit
 
 
 @njit
+def _times(R, M, tmp):
+    """R <- R M for 3x3 matrices (``tmp`` is scratch)."""
+    for r in range(3):
+        for c in range(3):
+            tmp[r, c] = R[r, 0] * M[0, c] + R[r, 1] * M[1, c] + R[r, 2] * M[2, c]
+    R[:, :] = tmp
+
+
+@njit
+def _joint_turn(angle, K, K2, rot):
+    """``rot`` <- the rotation by ``angle`` about a joint axis with cross-product matrix K
+    (Rodrigues: I + sin K + (1 - cos) K^2)."""
+    s = math.sin(angle)
+    c1 = 1.0 - math.cos(angle)
+    for r in range(3):
+        for c in range(3):
+            rot[r, c] = (1.0 if r == c else 0.0) + s * K[r, c] + c1 * K2[r, c]
+
+
+@njit
 def _pad_and_jacobian(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, pad, J):
     """Pad point (hand frame) of finger ``f`` into ``pad`` (3,) and its Jacobian into J (3, n)."""
     R = R_base[f].copy()
@@ -31,25 +51,15 @@ def _pad_and_jacobian(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, axes,
     Rs = np.empty((n, 3, 3))
     ps = np.empty((n, 3))
     tmp = np.empty((3, 3))
+    rot = np.empty((3, 3))
     for i in range(n):
         for r in range(3):
             p[r] = p[r] + (R[r, 0] * p_org[f, i, 0] + R[r, 1] * p_org[f, i, 1] + R[r, 2] * p_org[f, i, 2])
-        for r in range(3):
-            for c in range(3):
-                tmp[r, c] = R[r, 0] * R_org[f, i, 0, c] + R[r, 1] * R_org[f, i, 1, c] + R[r, 2] * R_org[f, i, 2, c]
-        R[:, :] = tmp
+        _times(R, R_org[f, i], tmp)
         Rs[i] = R
         ps[i] = p
-        s = math.sin(q[start + i])
-        c1 = 1.0 - math.cos(q[start + i])
-        rot = np.empty((3, 3))
-        for r in range(3):
-            for c in range(3):
-                rot[r, c] = (1.0 if r == c else 0.0) + s * K[f, i, r, c] + c1 * K2[f, i, r, c]
-        for r in range(3):
-            for c in range(3):
-                tmp[r, c] = R[r, 0] * rot[0, c] + R[r, 1] * rot[1, c] + R[r, 2] * rot[2, c]
-        R[:, :] = tmp
+        _joint_turn(q[start + i], K[f, i], K2[f, i], rot)
+        _times(R, rot, tmp)
     R_s = np.empty((3, 3))
     for r in range(3):
         for c in range(3):
@@ -158,19 +168,9 @@ def sensor_rotations_kernel(q, starts, counts, R_base, p_base, R_org, p_org, K, 
     for f in range(len(starts)):
         R = R_base[f].copy()
         for i in range(counts[f]):
-            for r in range(3):
-                for c in range(3):
-                    tmp[r, c] = R[r, 0] * R_org[f, i, 0, c] + R[r, 1] * R_org[f, i, 1, c] + R[r, 2] * R_org[f, i, 2, c]
-            R[:, :] = tmp
-            s = math.sin(q[starts[f] + i])
-            c1 = 1.0 - math.cos(q[starts[f] + i])
-            for r in range(3):
-                for c in range(3):
-                    rot[r, c] = (1.0 if r == c else 0.0) + s * K[f, i, r, c] + c1 * K2[f, i, r, c]
-            for r in range(3):
-                for c in range(3):
-                    tmp[r, c] = R[r, 0] * rot[0, c] + R[r, 1] * rot[1, c] + R[r, 2] * rot[2, c]
-            R[:, :] = tmp
+            _times(R, R_org[f, i], tmp)
+            _joint_turn(q[starts[f] + i], K[f, i], K2[f, i], rot)
+            _times(R, rot, tmp)
         for r in range(3):
             for c in range(3):
                 out[f, r, c] = R[r, 0] * R_tip[f, 0, c] + R[r, 1] * R_tip[f, 1, c] + R[r, 2] * R_tip[f, 2, c]
