@@ -37,3 +37,19 @@ def sigint_as_at_a_terminal() -> None:
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def copy_policy(tmp_path: Path, edit, name: str = "icra19_official") -> Path:
+    """A copy of the shipped policy ``name`` in ``tmp_path`` (model and metadata), its
+    metadata changed by ``edit(meta)``; returns the copy's JSON path."""
+    import json
+    import shutil
+
+    from grasp_ctrl.paths import policies_dir
+
+    shutil.copy(policies_dir() / f"{name}.onnx", tmp_path / f"{name}.onnx")
+    meta = json.loads((policies_dir() / f"{name}.json").read_text())
+    edit(meta)
+    path = tmp_path / f"{name}.json"
+    path.write_text(json.dumps(meta))
+    return path

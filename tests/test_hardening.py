@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import copy_policy
 
 from grasp_ctrl.cli import main
 from grasp_ctrl.config.objects import CapProfile, load_objects
@@ -315,15 +316,6 @@ def test_7_every_shipped_policy_loads_with_its_hash_and_graph_checked(name, hand
     assert est.estimate(np.zeros((0, 44)), []).f_sensor.shape == (0, 3)
 
 
-def _policy_copy(tmp_path: Path, name: str, edit) -> Path:
-    shutil.copy(policies_dir() / f"{name}.onnx", tmp_path / f"{name}.onnx")
-    meta = json.loads((policies_dir() / f"{name}.json").read_text())
-    edit(meta)
-    path = tmp_path / f"{name}.json"
-    path.write_text(json.dumps(meta))
-    return path
-
-
 @pytest.mark.parametrize("name, edit, message", [
     ("icra19_official", lambda m: m.update(model_sha256="0" * 64), "model_sha256: icra19_official.onnx has SHA-256"),
     ("icra19_official", lambda m: m.pop("model_sha256"), "model_sha256: required key is missing"),
@@ -342,7 +334,7 @@ def _policy_copy(tmp_path: Path, name: str, edit) -> Path:
     ("su_rigid_ft_mock", lambda m: m.update(input=["electrodes"]), "malformed policy metadata"),
 ])
 def test_7_policy_file_problems_are_one_line_naming_file_and_field(tmp_path, hand, name, edit, message):
-    path = _policy_copy(tmp_path, name, edit)
+    path = copy_policy(tmp_path, edit, name)
     with pytest.raises(PolicyError) as info:
         load_policy(str(path), hand)
     assert message in str(info.value) and str(path.name) in str(info.value)
@@ -350,7 +342,7 @@ def test_7_policy_file_problems_are_one_line_naming_file_and_field(tmp_path, han
 
 
 def test_7_a_replaced_model_file_is_refused_before_it_is_parsed(tmp_path, hand, capsys):
-    path = _policy_copy(tmp_path, "su_rigid_ft_mock", lambda m: None)
+    path = copy_policy(tmp_path, lambda m: None, "su_rigid_ft_mock")
     shutil.copy(policies_dir() / "voxel_alpha_mixed_mock.onnx", tmp_path / "su_rigid_ft_mock.onnx")
     assert main(["run", "--policy", str(path), "--objects", "lego", "--trials", "1", "--out", str(tmp_path / "r")]) == 2
     assert "model_sha256" in _err_line(capsys)

@@ -3,18 +3,17 @@
 from __future__ import annotations
 
 import hashlib
-import json
-import shutil
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 import pytest
+from conftest import copy_policy
 
 from grasp_ctrl.config.hand import load_hand
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.registry import load_policy
-from grasp_ctrl.paths import default_hand_file, policies_dir
+from grasp_ctrl.paths import default_hand_file
 from grasp_ctrl.tactile.layout import ELECTRODES, PDC
 from grasp_ctrl.tactile.pipeline import TactilePipeline
 
@@ -62,15 +61,6 @@ def test_threads_are_configurable() -> None:
         load_policy("icra19_official", threads=0)
 
 
-def _copy_policy(tmp_path: Path, edit: Callable[[dict[str, Any]], None], name: str = "icra19_official") -> Path:
-    shutil.copy(policies_dir() / f"{name}.onnx", tmp_path / f"{name}.onnx")
-    meta = json.loads((policies_dir() / f"{name}.json").read_text())
-    edit(meta)
-    path = tmp_path / f"{name}.json"
-    path.write_text(json.dumps(meta))
-    return path
-
-
 @pytest.mark.parametrize("edit,message", [
     (lambda m: m.update(sensor_type="digit"), "sensor_type"),
     (lambda m: m["input"].update(kind="raw_frames"), "input.kind"),
@@ -89,7 +79,7 @@ def _copy_policy(tmp_path: Path, edit: Callable[[dict[str, Any]], None], name: s
 ])
 def test_metadata_mismatch_is_a_clear_policy_error(tmp_path: Path, edit: Callable[[dict[str, Any]], None],
                                                    message: str) -> None:
-    path = _copy_policy(tmp_path, edit)
+    path = copy_policy(tmp_path, edit)
     with pytest.raises(PolicyError, match=message) as info:
         load_policy(str(path), load_hand(default_hand_file()), threads=1)
     assert str(path.name) in str(info.value) or "missing.onnx" in str(info.value)
@@ -98,7 +88,7 @@ def test_metadata_mismatch_is_a_clear_policy_error(tmp_path: Path, edit: Callabl
 def test_corrupt_model_file_is_a_policy_error(tmp_path: Path) -> None:
     # the hash matches (so onnxruntime gets to parse it), the content is not a model
     bad = b"not a model"
-    path = _copy_policy(tmp_path, lambda m: m.update(model_sha256=hashlib.sha256(bad).hexdigest()))
+    path = copy_policy(tmp_path, lambda m: m.update(model_sha256=hashlib.sha256(bad).hexdigest()))
     (tmp_path / "icra19_official.onnx").write_bytes(bad)
     with pytest.raises(PolicyError, match="cannot load the ONNX model"):
         load_policy(str(path), threads=1)
