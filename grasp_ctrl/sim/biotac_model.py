@@ -12,12 +12,12 @@ the normal load and ``f_t`` the tangential force on the skin:
   footprint that widens with the load (Hertz-like contact radius), with a peak
   that grows sub-linearly with the load and saturates;
 - the displaced fluid inflates the free skin: electrodes away from the contact
-  RISE in proportion to pdc, more on the upper sides where the skin is free;
-- shear stretches the skin over the whole finger: electrodes whose outward
-  normal points along the tangential force are loaded (drop), those facing away
-  are unloaded (rise), fading with distance from the contact. This global term
-  is what distinguishes shear from a moved contact, whose pattern is only a
-  shifted footprint. A smaller local term skews the footprint itself;
+  RISE with pdc (saturating), more on the upper sides where the skin is free;
+- shear drags the skin and the fluid under it: electrodes ahead of the contact
+  along the tangential force rise, those behind drop, over a range three
+  footprints wide. This is what distinguishes shear from a moved contact, whose
+  pattern is only a shifted footprint. Two smaller terms load the electrodes
+  whose normal points along the force and skew the footprint itself;
 - pac: a decaying burst at contact onset and noise growing with slip speed;
 - tdc drifts slowly (warm-up) and drags the electrode and pdc baselines;
 - each simulated sensor has its own baselines, an overall gain and
@@ -29,7 +29,7 @@ All parameters live in ``BioTacParams``.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -95,12 +95,8 @@ class BioTacParams:
     gain_spread: float = 0.1          # relative sd of a sensor's overall gain
     electrode_gain_spread: float = 0.05   # relative sd of each electrode's gain
 
-    def as_dict(self) -> dict[str, object]:
-        return asdict(self)
-
 
 DEFAULT_PARAMS = BioTacParams()
-PARAM_NAMES = tuple(f.name for f in fields(BioTacParams))
 
 # Per-sensor state columns (BioTacSensorModel.state).
 ST_BURST, ST_SLOW_LOAD, ST_WAS_IN_CONTACT = range(3)
@@ -249,8 +245,9 @@ def contact_response(p: np.ndarray, n_out: np.ndarray, f: np.ndarray, slow_load:
         d2 = dx * dx + dy * dy + dz * dz
         w = math.exp(-d2 / (2.0 * width2))
         ny = _ELECTRODES_NORMAL[e, 1]
+        along = dx * ft0 + dy * ft1 + dz * ft2      # how far ahead of the contact, along f_t
         # local drop (skewed toward where the tangential force drags the skin)
-        skew = c[SHEAR_LOCAL] * w * (dx * ft0 + dy * ft1 + dz * ft2) / width
+        skew = c[SHEAR_LOCAL] * w * along / width
         drop = peak * w + skew
         # bulge of the free skin, away from the contact
         side = 1.0 + (c[BULGE_SIDE] - 1.0) * ny * ny
@@ -259,8 +256,7 @@ def contact_response(p: np.ndarray, n_out: np.ndarray, f: np.ndarray, slow_load:
         facing = _ELECTRODES_NORMAL[e, 0] * ft0 + ny * ft1 + _ELECTRODES_NORMAL[e, 2] * ft2
         stretch = c[SHEAR_GLOBAL] * facing * math.exp(-d2 / (2.0 * range2))
         # fluid dragged along with the skin: more ahead of the contact (along f_t), less behind
-        drag = c[SHEAR_DRAG] * (dx * ft0 + dy * ft1 + dz * ft2) / drag_range * \
-            math.exp(-d2 / (2.0 * drag_range * drag_range))
+        drag = c[SHEAR_DRAG] * along / drag_range * math.exp(-d2 / (2.0 * drag_range * drag_range))
         value = rise - drop - stretch + drag
         # the electrode reading cannot fall below the fluid-free floor: drops saturate
         if value < 0.0:
