@@ -168,3 +168,15 @@ def test_core_commands_do_not_import_torch() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          cwd=Path(__file__).resolve().parents[1])
     assert out.stdout.strip() == "False"
+
+
+def test_experiment_models_fig4_is_the_voxel_ablation():
+    from grasp_ctrl.learning.pipeline import experiment_models
+
+    assert experiment_models("fig3") == {"analytic": ("analytic", None), "su": ("su", None),
+                                         "voxel+alpha": ("voxel", 1.0)}
+    assert experiment_models("fig4") == {"voxel+alpha": ("voxel", 1.0), "voxel": ("voxel", None),
+                                         "novoxel+alpha": ("novoxel", 1.0), "novoxel": ("novoxel", None)}
+    assert set(experiment_models("fig3+fig4")) == {"analytic", "su", "voxel+alpha", "voxel", "novoxel+alpha", "novoxel"}
+    with pytest.raises(ValueError, match="fig3, fig4"):
+        experiment_models("fig5")

@@ -37,7 +37,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="fine-tune: start from an exported policy (NAME or .onnx), a .pt checkpoint, or the "
                         "authors' ICRA 2019 weights (.npz, --arch voxel)")
     p.add_argument("--out", metavar="FILE", help="checkpoint to write (.pt; .json for --arch analytic)")
-    p.add_argument("--experiment", choices=("fig3", "fig3+fig4"), help="run the paper's comparison instead of one model")
+    p.add_argument("--experiment", choices=("fig3", "fig4", "fig3+fig4"),
+                   help="run the paper's comparison instead of one model (fig4: the voxel network and its "
+                        "ablations without alpha and without voxels)")
     p.add_argument("--out-dir", metavar="DIR", default="runs/fig3", help="experiment output folder")
     p.add_argument("--executor", choices=("local", "ray"), default="local",
                    help="with --experiment: ray trains the models as Ray tasks (the ray extra; --threads CPUs each)")
@@ -103,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _train(args: argparse.Namespace, spec: Any, status: Any) -> int:
-    from grasp_ctrl.learning.pipeline import FIG3_MODELS, FIG4_MODELS, load_data, run_experiment, train_one
+    from grasp_ctrl.learning.pipeline import experiment_models, load_data, run_experiment, train_one
     from grasp_ctrl.learning.splits import split_by_trials
 
     progress = status.update
@@ -112,9 +114,7 @@ def _train(args: argparse.Namespace, spec: Any, status: Any) -> int:
     status.note(f"split by trials: {len(split.train)} train, {len(split.val)} validation, {len(split.test)} test samples")
 
     if args.experiment:
-        models = dict(FIG3_MODELS)
-        if args.experiment == "fig3+fig4":
-            models.update(FIG4_MODELS)
+        models = experiment_models(args.experiment)
         doc = run_experiment(ds, split, models, Path(args.out_dir), args.epochs, args.seed, data_info,
                              threads=args.threads, progress=progress, lr0=args.lr, patience=args.patience,
                              report=status.note, executor=args.executor, address=args.address, jobs=args.jobs)

@@ -22,6 +22,18 @@ FIG3_MODELS = {"analytic": ("analytic", None), "su": ("su", None), "voxel+alpha"
 FIG4_MODELS = {"voxel": ("voxel", None), "novoxel+alpha": ("novoxel", 1.0), "novoxel": ("novoxel", None)}
 
 
+def experiment_models(experiment: str) -> dict[str, tuple[str, float | None]]:
+    """The models of ``train --experiment``: fig3 (analytic, Su, voxel+alpha), fig4 (voxel+alpha
+    and its ablations: no alpha, no voxels, neither) or both."""
+    if experiment == "fig3":
+        return dict(FIG3_MODELS)
+    if experiment == "fig4":
+        return {"voxel+alpha": FIG3_MODELS["voxel+alpha"], **FIG4_MODELS}
+    if experiment == "fig3+fig4":
+        return {**FIG3_MODELS, **FIG4_MODELS}
+    raise ValueError(f"experiment must be fig3, fig4 or fig3+fig4, not {experiment!r}")
+
+
 @dataclass
 class DataSpec:
     files: Sequence[str] = ()
