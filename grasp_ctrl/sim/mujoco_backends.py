@@ -11,7 +11,7 @@ from grasp_ctrl.hardware.base import JointState
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
 from grasp_ctrl.sim.mujoco_world import MuJoCoWorld
 
-__all__ = ["MuJoCoHand", "MockArm", "MockSensors", "mujoco_backends"]
+__all__ = ["MuJoCoHand", "MuJoCoSensors", "MockArm", "mujoco_backends"]
 
 
 class MuJoCoHand(MockHand):
@@ -25,9 +25,16 @@ class MuJoCoHand(MockHand):
         return JointState(q=w.q, dq=w.dq, current_a=current, t=w.t)
 
 
-def mujoco_backends(world: MuJoCoWorld, hand: HandConfig) -> tuple[MuJoCoHand, MockSensors]:
+class MuJoCoSensors(MockSensors):
+    """The world's simulated frames; closing them ends the world's trial (e.g. writes its video)."""
+
+    def close(self) -> None:
+        self.world.close()  # type: ignore[attr-defined]
+
+
+def mujoco_backends(world: MuJoCoWorld, hand: HandConfig) -> tuple[MuJoCoHand, MuJoCoSensors]:
     """The hand and sensor backends of a trial on a MuJoCo world (the runner adds the arm)."""
-    return MuJoCoHand(world, hand), MockSensors(world)  # type: ignore[arg-type]
+    return MuJoCoHand(world, hand), MuJoCoSensors(world)  # type: ignore[arg-type]
 
 
 def make_world(hand: HandConfig, obj, seed: int, params=None) -> MuJoCoWorld:  # noqa: ANN001

@@ -387,5 +387,9 @@ class MuJoCoWorld:
     def set_phase(self, phase: str) -> None:
         self.phase = phase
 
+    def close(self) -> object:
+        """End of the trial (the recording world writes its video here)."""
+        return None
+
     def true_f_sensor(self, finger: str) -> np.ndarray:
         return self._f_sensor[self.fingers.index(finger)].copy()

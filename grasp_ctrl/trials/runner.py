@@ -282,14 +282,14 @@ TrialFn = Callable[[str, ObjectProfile, int, int, "Path | None"], dict[str, Any]
 
 def mock_trial_fn(
     hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None = None, threads: int = 1,
-    make_backends: BackendFactory | None = None, backend: str = "mock",
+    make_backends: BackendFactory | None = None, backend: str = "mock", make_world: WorldFactory | None = None,
 ) -> TrialFn:
     """Policies are loaded up front, so a bad one fails before the first trial."""
     factories = {p: estimator_factory(p, hand, threads) for p in policies}
     kin = HandKinematics(hand)
-    make_world = None
     if make_backends is None:
-        make_world, make_backends = world_for_backend(backend)
+        default_world, make_backends = world_for_backend(backend)
+        make_world = make_world or default_world
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
         return run_mock_trial(hand, obj, factories[policy], seed, policy, trial, settings, log_path=log_path, kin=kin,
