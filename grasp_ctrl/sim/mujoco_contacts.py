@@ -29,58 +29,68 @@ class TipContacts:
     other_hand_on_object_n: float      # normal force of hand links (not the fingertips) on the object
 
 
-def read_contacts(model, data, tip_geom_of: np.ndarray, object_geom: np.ndarray, table_geom: int,
+def read_contacts(model, data, tip_geom_of: list[int], object_geom: list[bool], table_geom: int,
                   n_tips: int) -> TipContacts:
     """``tip_geom_of[g]``: fingertip index of geom g or -1; ``object_geom[g]``: whether geom g
-    is the object's; ``table_geom``: the table's geom id. Hand geoms are contype 2."""
-    f_world = np.zeros((n_tips, 3))
-    normal = np.zeros(n_tips)
-    point_sum = np.zeros((n_tips, 3))
-    weight = np.zeros(n_tips)
-    touching = np.zeros(n_tips, dtype=bool)
-    touching_obj = np.zeros(n_tips, dtype=bool)
+    is the object's; ``table_geom``: the table's geom id. A few contacts per step: plain
+    Python floats are faster here than numpy on tiny arrays."""
+    f = [[0.0, 0.0, 0.0] for _ in range(n_tips)]
+    psum = [[0.0, 0.0, 0.0] for _ in range(n_tips)]
+    weight = [0.0] * n_tips
+    normal = [0.0] * n_tips
+    touching = [False] * n_tips
+    touching_obj = [False] * n_tips
     table_n = 0.0
     on_table = False
     other = 0.0
     n = data.ncon
-    if n == 0:
-        return TipContacts(f_world, normal, point_sum, touching, touching_obj, 0.0, False, 0.0)
-    con = data.contact
-    g1, g2 = con.geom1[:n], con.geom2[:n]
-    adr = con.efc_address[:n]
-    efc = data.efc_force
-    frames = con.frame[:n].reshape(n, 3, 3)
-    pos = con.pos[:n]
-    for i in range(n):
-        a = int(adr[i])
-        if a < 0:
-            continue
-        fc = efc[a:a + 3]
-        f2 = frames[i].T @ fc          # force on geom2, world frame
-        fn = float(fc[0])
-        ga, gb = int(g1[i]), int(g2[i])
-        for g, other_g, f_on_g in ((ga, gb, -f2), (gb, ga, f2)):
-            k = int(tip_geom_of[g])
-            if k >= 0:
-                f_world[k] += f_on_g
-                w = max(fn, 1e-9)
-                point_sum[k] += w * pos[i]
+    if n:
+        con = data.contact
+        g1s, g2s, adrs = con.geom1[:n].tolist(), con.geom2[:n].tolist(), con.efc_address[:n].tolist()
+        frames, poss = con.frame[:n].tolist(), con.pos[:n].tolist()
+        efc = data.efc_force
+        for i in range(n):
+            a = adrs[i]
+            if a < 0:
+                continue
+            fn, t1, t2 = efc[a:a + 3].tolist()
+            fr = frames[i]
+            # Force on geom2 in the world: frame^T (fn, t1, t2); on geom1 the opposite.
+            fx = fr[0] * fn + fr[3] * t1 + fr[6] * t2
+            fy = fr[1] * fn + fr[4] * t1 + fr[7] * t2
+            fz = fr[2] * fn + fr[5] * t1 + fr[8] * t2
+            ga, gb = g1s[i], g2s[i]
+            for g, partner, sign in ((ga, gb, -1.0), (gb, ga, 1.0)):
+                k = tip_geom_of[g]
+                if k < 0:
+                    continue
+                fk = f[k]
+                fk[0] += sign * fx
+                fk[1] += sign * fy
+                fk[2] += sign * fz
+                w = fn if fn > 1e-9 else 1e-9
+                p, ps = poss[i], psum[k]
+                ps[0] += w * p[0]
+                ps[1] += w * p[1]
+                ps[2] += w * p[2]
                 weight[k] += w
-                touching[k] |= fn > 1e-6
-                if object_geom[other_g]:
+                if fn > 1e-6:
+                    touching[k] = True
+                if object_geom[partner]:
                     normal[k] += fn
-                    touching_obj[k] |= fn > 1e-6
-        if object_geom[ga] or object_geom[gb]:
-            partner = gb if object_geom[ga] else ga
-            if partner == table_geom:
-                table_n += fn
-                on_table = on_table or fn > 1e-9
-            elif tip_geom_of[partner] < 0 and not object_geom[partner]:
-                other += fn
-    has = weight > 0
-    point = np.zeros((n_tips, 3))
-    point[has] = point_sum[has] / weight[has, None]
-    return TipContacts(f_world, normal, point, touching, touching_obj, table_n, on_table, other)
+                    if fn > 1e-6:
+                        touching_obj[k] = True
+            if object_geom[ga] or object_geom[gb]:
+                partner = gb if object_geom[ga] else ga
+                if partner == table_geom:
+                    table_n += fn
+                    on_table = on_table or fn > 1e-9
+                elif tip_geom_of[partner] < 0 and not object_geom[partner]:
+                    other += fn
+    point = np.array([[c / weight[k] for c in psum[k]] if weight[k] > 0 else [0.0, 0.0, 0.0]
+                      for k in range(n_tips)])
+    return TipContacts(np.array(f), np.array(normal), point, np.array(touching), np.array(touching_obj),
+                       table_n, on_table, other)
 
 
 def skin_point_and_normal(p_sensor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

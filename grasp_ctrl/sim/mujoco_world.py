@@ -97,10 +97,13 @@ class MuJoCoWorld:
         self._object_geom = np.zeros(m.ngeom, dtype=bool)
         for g in scene.object_geoms:
             self._object_geom[m.geom(g).id] = True
+        self._tip_geom_list = self._tip_geom_of.tolist()
+        self._object_geom_list = self._object_geom.tolist()
         self._table = m.geom("table").id
         self._obj_body = m.body(scene.object_body).id
         self._hand_body = m.body(scene.hand_body).id
         self._mocap = m.body_mocapid[m.body(scene.mocap_body).id]
+        self._vel6 = np.empty(6)
         hand_free = m.joint("hand_free")
         self._hand_qadr = m.jnt_qposadr[hand_free.id]
         obj_free = m.joint("object_free")
@@ -314,7 +317,7 @@ class MuJoCoWorld:
     def _read(self) -> None:
         """Contact forces and points of this step -> the sensor-frame quantities."""
         m, d = self.model, self.data
-        c = read_contacts(m, d, self._tip_geom_of, self._object_geom, self._table, len(self.fingers))
+        c = read_contacts(m, d, self._tip_geom_list, self._object_geom_list, self._table, len(self.fingers))
         was = self._touch_obj.copy()
         self._f_world[:] = c.f_world
         self._normal_n[:] = c.normal_from_object_n
@@ -325,27 +328,31 @@ class MuJoCoWorld:
         self.other_hand_contact_n = c.other_hand_on_object_n
         self.peak_other_hand_contact_n = max(self.peak_other_hand_contact_n, c.other_hand_on_object_n)
         self._new_contacts = self._touch_obj & ~was
-        for i in range(len(self.fingers)):
-            R, o = self.sensor_pose(i)
-            self._f_sensor[i] = R.T @ c.f_world[i]
-            if c.touching[i]:
-                p_s, n_s = skin_point_and_normal(R.T @ (c.point_world[i] - o))
-                self._contact_sensor[i] = p_s
-                self._skin_normal_sensor[i] = n_s
-                self._slip_speed[i] = self._slip_at(i, R @ p_s + o, R @ n_s) if c.touching_object[i] else 0.0
-            else:
-                self._slip_speed[i] = 0.0
+        R_all = self.data.site_xmat[self._sites].reshape(-1, 3, 3)
+        o_all = self.data.site_xpos[self._sites]
+        np.einsum("nji,nj->ni", R_all, c.f_world, out=self._f_sensor)   # R^T f per fingertip
+        for i in np.flatnonzero(c.touching):
+            R, o = R_all[i], o_all[i]
+            p_s, n_s = skin_point_and_normal(R.T @ (c.point_world[i] - o))
+            self._contact_sensor[i] = p_s
+            self._skin_normal_sensor[i] = n_s
+            self._slip_speed[i] = self._slip_at(i, R @ p_s + o, R @ n_s) if c.touching_object[i] else 0.0
+        self._slip_speed[~c.touching] = 0.0
 
     def _slip_at(self, i: int, p_world: np.ndarray, n_world: np.ndarray) -> float:
         """Tangential speed of the skin over the object at the contact point (m/s)."""
         mj, m, d = self._mj, self.model, self.data
-        v = np.empty(6)
+        v = self._vel6
         rel = np.zeros(3)
         for body, sign in ((self._tip_bodies[i], 1.0), (self._obj_body, -1.0)):
             mj.mj_objectVelocity(m, d, mj.mjtObj.mjOBJ_BODY, int(body), v, 0)
-            rel += sign * (v[3:] + np.cross(v[:3], p_world - d.xpos[body]))
-        tangential = rel - (rel @ n_world) * n_world
-        return float(np.sqrt(tangential @ tangential))
+            wx, wy, wz = v[0], v[1], v[2]
+            rx, ry, rz = p_world - d.xpos[body]
+            rel[0] += sign * (v[3] + wy * rz - wz * ry)
+            rel[1] += sign * (v[4] + wz * rx - wx * rz)
+            rel[2] += sign * (v[5] + wx * ry - wy * rx)
+        tangential = rel - float(rel @ n_world) * n_world
+        return math.sqrt(float(tangential @ tangential))
 
     def _frames(self) -> np.ndarray:
         self.seq = (self.seq + 1) & 0xFFFF
