@@ -428,7 +428,8 @@ def run_series(
     # on resume the profiles come from run.json, on a new run from the object file
     source = str(run_dir / RUN_FILE) if resume or not plan.object_file else plan.object_file
     check_objects_for_hand(plan.objects, hand, source)
-    run_trial = trial_fn or mock_trial_fn(hand, policies, plan.settings, threads, backend=plan.backend)  # bad policies fail here
+    other_world = {} if plan.backend == "mock" else {"backend": plan.backend}   # e.g. mujoco
+    run_trial = trial_fn or mock_trial_fn(hand, policies, plan.settings, threads, **other_world)  # bad policies fail here
 
     created = not run_dir.exists()
     if run_dir.exists() and not run_dir.is_dir():
