@@ -29,7 +29,7 @@ MAX_AUTO_JOBS = 8
 
 def auto_jobs(backend: str, trials: int, cpus: int | None = None) -> int:
     """The default --jobs: mock trials spread over the CPU cores when there are enough."""
-    if backend != "mock":
+    if backend not in ("mock", "mujoco"):
         return 1
     cpus = cpus or os.cpu_count() or 1
     return max(1, min(cpus, MAX_AUTO_JOBS, trials // MIN_TRIALS_PER_JOB))
@@ -50,9 +50,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="hand config TOML (default: hand_configs/leap_hand.toml)")
     p.add_argument("--object-file", default=None, metavar="FILE",
                    help="object profiles TOML (default: hand_configs/objects.toml)")
-    p.add_argument("--backend", choices=("mock", "dynamixel"), default=None,
-                   help="mock: simulated hand, sensors and objects (default); dynamixel: the real hand, "
-                        "the operator labels each trial")
+    p.add_argument("--backend", choices=("mock", "mujoco", "dynamixel"), default=None,
+                   help="mock: simulated hand, sensors and objects (default); mujoco: the same trials in a "
+                        "MuJoCo scene built from the hand and object files (the sim extra, docs/mujoco.md); "
+                        "dynamixel: the real hand, the operator labels each trial")
     p.add_argument("--emulate", action="store_true", default=None,
                    help="with --backend dynamixel: the servo chain (Protocol 2.0) and the fingertip stream "
                         "(protocol v1) are emulated on pseudo-terminals with the mock world's physics behind "
@@ -83,6 +84,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "extra), a local instance of --jobs CPUs or the cluster at --address")
     p.add_argument("--address", default=None, metavar="ADDR",
                    help="with --executor ray: a running Ray cluster (e.g. 10.0.0.5:6379 or 'auto')")
+    p.add_argument("--record-video", default=None, metavar="DIR",
+                   help="with --backend mujoco: render each trial offscreen to DIR/POLICY-OBJECT-TRIAL.mp4 (.gif "
+                        "without imageio-ffmpeg); needs a GL backend (MUJOCO_GL=egl or osmesa), else says so and "
+                        "runs without video; trials then run one at a time")
     p.add_argument("--no-tick-logs", action="store_true", default=None, help="skip the per-tick logs (faster)")
     p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
     p.add_argument("--port", default=None, metavar="PORT",
@@ -208,6 +213,8 @@ def run(args: argparse.Namespace) -> int:
     if args.executor != "local" and manifest.backend != "mock":
         raise UsageError("--executor ray: only mock trials; a (real or emulated) hand runs here, one trial at a time")
     trial_fn = None
+    if args.record_video is not None and manifest.backend != "mujoco":
+        raise UsageError("--record-video: only with --backend mujoco")
     if manifest.backend in ("dynamixel", EMULATED):
         _preflight(hand, manifest, args)
     if manifest.backend == "dynamixel":
@@ -218,6 +225,10 @@ def run(args: argparse.Namespace) -> int:
 
         trial_fn = mock_trial_fn(hand, manifest.policies, manifest.settings, args.threads,
                                  make_backends=emulated_backends, backend=EMULATED)
+    elif manifest.backend == "mujoco" and args.record_video:
+        from grasp_ctrl.sim.mujoco_video import video_trial_fn
+
+        trial_fn = video_trial_fn(hand, manifest.policies, manifest.settings, args.threads, Path(args.record_video))
     if args.executor == "ray":
         jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
     else:

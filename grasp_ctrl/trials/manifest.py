@@ -23,7 +23,7 @@ from grasp_ctrl.trials.storage import RUN_FILE, write_json
 
 FORMAT = 1
 EMULATED_BACKEND = "dynamixel-emulated"   # run --backend dynamixel --emulate (pty emulators, mock world)
-BACKENDS = ("mock", "dynamixel", EMULATED_BACKEND)
+BACKENDS = ("mock", "mujoco", "dynamixel", EMULATED_BACKEND)
 MAX_TRIALS = 100_000
 # settings that may be zero (no slow zone, no overshoot, no retreat)
 ZERO_ALLOWED = ("lower_overshoot_m", "lower_slow_zone_m", "retreat_m")

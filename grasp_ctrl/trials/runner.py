@@ -98,6 +98,17 @@ EstimatorFactory = Callable[[MockWorld], ForceEstimator]
 # The hand and sensor backends of a trial on a world: the mock's own, or the real
 # backends on emulators (emulators/world_rig.py, ``run --backend dynamixel --emulate``).
 BackendFactory = Callable[[MockWorld, HandConfig], tuple[Any, Any]]
+# The world of a trial: the mock world, or MuJoCo's (``run --backend mujoco``, sim/mujoco_world.py).
+WorldFactory = Callable[[HandConfig, ObjectProfile, int, Any], Any]
+
+
+def world_for_backend(backend: str) -> tuple[WorldFactory, BackendFactory]:
+    """The world and the hand/sensor backends behind ``backend`` (mujoco is imported only when asked)."""
+    if backend == "mujoco":
+        from grasp_ctrl.sim.mujoco_backends import make_world, mujoco_backends
+
+        return make_world, mujoco_backends
+    return MockWorld, mock_backends
 
 
 def mock_backends(world: MockWorld, hand: HandConfig) -> tuple[MockHand, MockSensors]:
@@ -166,10 +177,13 @@ def run_mock_trial(
     on_tick: Callable[[MockWorld, GraspController], None] | None = None,
     make_backends: BackendFactory | None = None,
     backend: str = "mock",
+    make_world: WorldFactory | None = None,
 ) -> TrialResult:
     wall0 = time.perf_counter()
     kin = kin or HandKinematics(hand)
-    world = MockWorld(hand, obj, seed, world_params)
+    if make_world is None and make_backends is None:
+        make_world, make_backends = world_for_backend(backend)
+    world = (make_world or MockWorld)(hand, obj, seed, world_params)
     hand_backend, sensors = (make_backends or mock_backends)(world, hand)
     arm = MockArm(world, hand)
     try:
@@ -268,15 +282,18 @@ TrialFn = Callable[[str, ObjectProfile, int, int, "Path | None"], dict[str, Any]
 
 def mock_trial_fn(
     hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None = None, threads: int = 1,
-    make_backends: BackendFactory | None = None, backend: str = "mock",
+    make_backends: BackendFactory | None = None, backend: str = "mock", make_world: WorldFactory | None = None,
 ) -> TrialFn:
     """Policies are loaded up front, so a bad one fails before the first trial."""
     factories = {p: estimator_factory(p, hand, threads) for p in policies}
     kin = HandKinematics(hand)
+    if make_backends is None:
+        default_world, make_backends = world_for_backend(backend)
+        make_world = make_world or default_world
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
         return run_mock_trial(hand, obj, factories[policy], seed, policy, trial, settings, log_path=log_path, kin=kin,
-                              make_backends=make_backends, backend=backend).to_json()
+                              make_backends=make_backends, backend=backend, make_world=make_world).to_json()
 
     return run
 
@@ -285,9 +302,10 @@ def mock_trial_fn(
 _WORKER_TRIAL_FN: TrialFn | None = None
 
 
-def _init_worker(hand: HandConfig, policies: list[str], settings: ControllerSettings, threads: int) -> None:
+def _init_worker(hand: HandConfig, policies: list[str], settings: ControllerSettings, threads: int,
+                 backend: str = "mock") -> None:
     global _WORKER_TRIAL_FN
-    _WORKER_TRIAL_FN = mock_trial_fn(hand, policies, settings, threads)
+    _WORKER_TRIAL_FN = mock_trial_fn(hand, policies, settings, threads, backend=backend)
 
 
 def _worker_trial(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
@@ -300,7 +318,7 @@ TrialTask = tuple[str, ObjectProfile, int, int, "Path | None"]   # policy, objec
 
 def parallel_trials(
     jobs: int, hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None,
-    threads: int, tasks: Sequence[TrialTask],
+    threads: int, tasks: Sequence[TrialTask], backend: str = "mock",
 ) -> Iterator[tuple[int, dict[str, Any]]]:
     """Mock trials in ``jobs`` processes: yields (task index, record) as each finishes."""
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -308,7 +326,7 @@ def parallel_trials(
 
     ctx = worker_context()
     pool = ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_init_worker,
-                               initargs=(hand, list(policies), settings or ControllerSettings(), threads))
+                               initargs=(hand, list(policies), settings or ControllerSettings(), threads, backend))
     finished_cleanly = False
     try:
         todo = iter(enumerate(tasks))
@@ -410,7 +428,8 @@ def run_series(
     # on resume the profiles come from run.json, on a new run from the object file
     source = str(run_dir / RUN_FILE) if resume or not plan.object_file else plan.object_file
     check_objects_for_hand(plan.objects, hand, source)
-    run_trial = trial_fn or mock_trial_fn(hand, policies, plan.settings, threads)  # bad policies fail here
+    other_world = {} if plan.backend == "mock" else {"backend": plan.backend}   # e.g. mujoco
+    run_trial = trial_fn or mock_trial_fn(hand, policies, plan.settings, threads, **other_world)  # bad policies fail here
 
     created = not run_dir.exists()
     if run_dir.exists() and not run_dir.is_dir():
@@ -501,7 +520,7 @@ def _run_locked(
             try:
                 # closing: the workers are stopped at once on Ctrl-C or an error, not when collected.
                 with contextlib.closing(parallel_trials(min(jobs, len(pending)), hand, policies, plan.settings,
-                                                        threads, pending)) as results:
+                                                        threads, pending, plan.backend)) as results:
                     for _, rec in results:
                         finish(rec)
             except WorkerError as exc:

@@ -1,0 +1,50 @@
+"""Hand, arm and sensor backends over a MuJoCoWorld (the mock backends' interfaces).
+
+The arm and the sensors are the mock's own (they only move ``palm_target`` and
+read ``raw``); the hand reads its current from the actuators' torques.
+"""
+
+from __future__ import annotations
+
+from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.hardware.base import JointState
+from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
+from grasp_ctrl.sim.mujoco_world import MuJoCoWorld
+
+__all__ = ["MuJoCoHand", "MuJoCoSensors", "MockArm", "mujoco_backends"]
+
+
+class MuJoCoHand(MockHand):
+    """Goals clamped like the real backend (MockHand); state read from MuJoCo."""
+
+    world: MuJoCoWorld   # type: ignore[assignment]
+
+    def read(self) -> JointState:
+        w = self.world
+        current = w.joint_torque_nm / w.params.scene.torque_per_amp_nm
+        return JointState(q=w.q, dq=w.dq, current_a=current, t=w.t)
+
+
+class MuJoCoSensors(MockSensors):
+    """The world's simulated frames; closing them ends the world's trial (e.g. writes its video)."""
+
+    def close(self) -> None:
+        self.world.close()  # type: ignore[attr-defined]
+
+
+def mujoco_backends(world: MuJoCoWorld, hand: HandConfig) -> tuple[MuJoCoHand, MuJoCoSensors]:
+    """The hand and sensor backends of a trial on a MuJoCo world (the runner adds the arm)."""
+    return MuJoCoHand(world, hand), MuJoCoSensors(world)  # type: ignore[arg-type]
+
+
+def make_world(hand: HandConfig, obj, seed: int, params=None) -> MuJoCoWorld:  # noqa: ANN001
+    return MuJoCoWorld(hand, obj, seed, params)
+
+
+def is_available() -> bool:
+    try:
+        import mujoco  # noqa: F401
+    except ImportError:
+        return False
+    return True
+

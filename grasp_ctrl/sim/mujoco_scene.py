@@ -1,0 +1,341 @@
+"""The MuJoCo scene of a trial, generated from the hand file and one object profile.
+
+Scene (MJCF text, documented in docs/mujoco.md):
+- a table (a plane at z = 0);
+- the hand: a free body welded to a mocap body (the arm), holding the palm and
+  one serial chain per finger built joint by joint from the hand file (joint
+  origins, axes and limits); each link carries collision boxes (the LEAP Hand's
+  link shapes, numbers of MuJoCo Menagerie's LEAP model) or, for a hand with
+  other chains, capsules between its joint origins; the last link carries the
+  BioTac: a capsule of the sensor model's skin radius ending in the tip's cap,
+  and a site at the sensor frame;
+- position actuators per joint with the LEAP API's PD gains converted to SI and
+  a force range of the joint's current limit times the torque constant;
+- the object: one rigid body with a free joint (cylinder or box, the mustard
+  bottle's dome as a sphere cut by the body), its mass, size and friction from
+  the profile; deformable objects have a softer contact.
+
+The hand does not collide with itself (contype/conaffinity), only with the
+object and the table. Friction of a hand-object contact is the object's
+(geom priority), of anything on the table the table's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from grasp_ctrl.config.hand import FingerConfig, HandConfig
+from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M
+from grasp_ctrl.kinematics.transforms import rpy_matrix
+
+# Dynamixel XC330-M288-T (ROBOTIS e-manual): stall torque 0.93 N m at 1.8 A and 5 V, no-load
+# speed 103 rpm. The position controller's output is a PWM duty of (P/128) per encoder pulse
+# (4096 per turn) out of 885, and (D/16) per pulse per millisecond; full duty at stall gives
+# the stall torque. With the LEAP API's P = 600, D = 200: kp = 3.2 N m/rad (the LEAP
+# simulation and MuJoCo Menagerie use 3.0), kv = 0.0086 N m s/rad (Menagerie: 0.01).
+STALL_TORQUE_NM = 0.93
+NO_LOAD_SPEED_RAD_S = 103.0 * 2.0 * math.pi / 60.0
+PULSES_PER_RAD = 4096.0 / (2.0 * math.pi)
+PWM_FULL = 885.0
+
+
+def servo_kp_nm_per_rad(p_gain: float) -> float:
+    return (p_gain / 128.0) / PWM_FULL * PULSES_PER_RAD * STALL_TORQUE_NM
+
+
+def servo_kv_nm_s_per_rad(d_gain: float) -> float:
+    return (d_gain / 16.0) / PWM_FULL * PULSES_PER_RAD * 1e-3 * STALL_TORQUE_NM
+
+
+@dataclass(frozen=True)
+class SceneParams:
+    timestep_s: float = 0.002
+    torque_per_amp_nm: float = 0.5           # as the mock world (XC330: 0.93 N m / 1.8 A)
+    # The gears' reflected rotor inertia (estimate: ~5e-8 kg m^2 rotor x 288^2) and the motor's
+    # back-EMF damping under voltage (PWM) drive: stall torque / no-load speed.
+    armature_kg_m2: float = 0.004
+    joint_damping_nm_s_per_rad: float = STALL_TORQUE_NM / NO_LOAD_SPEED_RAD_S
+    joint_frictionloss_nm: float = 0.001     # Menagerie's LEAP value
+    default_p_gain: float = 600.0            # when the hand file keeps the servos' own gains
+    default_d_gain: float = 200.0
+    table_mu: float = 0.5
+    # Contact softness: MuJoCo's time constant for the stiffest object (lego, 4000 N/m);
+    # softer objects get sqrt(4000 / stiffness) times it (a spring-mass time constant).
+    contact_timeconst_s: float = 0.004
+    reference_stiffness_n_per_m: float = 4000.0
+    torsion_radius_m: float = 0.003          # torsional friction = mu x this (pad contact patch)
+    hand_root_mass_kg: float = 0.05
+    palm_mass_kg: float = 0.237              # Menagerie's LEAP palm
+    link_mass_kg: float = 0.035              # per finger link (Menagerie: 0.003 to 0.049)
+    biotac_mass_kg: float = 0.02
+    weld_timeconst_s: float = 0.01           # the arm's grip on the wrist
+
+
+@dataclass(frozen=True)
+class PlacedObject:
+    """The object as this trial draws it (randomised around the profile)."""
+    profile: ObjectProfile
+    xy_m: tuple[float, float]
+    mass_kg: float
+    mu: float
+    stiffness_n_per_m: float
+
+
+@dataclass
+class Scene:
+    xml: str
+    finger_names: list[str]
+    joint_names: list[str]
+    biotac_geoms: list[str]
+    sensor_sites: list[str]
+    object_geoms: list[str]
+    object_body: str = "object"
+    hand_body: str = "hand"
+    mocap_body: str = "wrist"
+    upper_link_bodies: list[str] = field(default_factory=list)   # palm and first links (clear the object's top)
+
+
+# LEAP Hand collision boxes (half sizes, centre, optional quaternion w x y z), in the URDF's
+# link frames, which are the hand file's joint frames: the numbers of MuJoCo Menagerie's
+# leap_hand/right_hand.xml (MIT), by link role. Distal links lose the printed tip (the BioTac
+# replaces it).
+Box = tuple[tuple[float, float, float], tuple[float, float, float], tuple[float, float, float, float] | None]
+LEAP_PALM_BOXES: list[Box] = [
+    ((0.011, 0.013, 0.017), (-0.009, 0.008, -0.011), None),
+    ((0.011, 0.013, 0.017), (-0.009, -0.037, -0.011), None),
+    ((0.011, 0.013, 0.017), (-0.009, -0.082, -0.011), None),
+    ((0.029, 0.01, 0.023), (-0.066, -0.078, -0.0115), (0.989016, 0.0, 0.0, -0.147806)),
+    ((0.01, 0.06, 0.015), (-0.03, -0.035, -0.003), None),
+    ((0.005, 0.06, 0.01), (-0.032, -0.035, -0.024), (0.923956, 0.0, 0.382499, 0.0)),
+    ((0.012, 0.058, 0.023), (-0.048, -0.033, -0.0115), None),
+    ((0.022, 0.026, 0.023), (-0.078, -0.053, -0.0115), None),
+    ((0.002, 0.018, 0.017), (-0.098, -0.009, -0.006), None),
+    ((0.022, 0.028, 0.002), (-0.078, -0.003, 0.01), None),
+]
+LEAP_FINGER_LINK_BOXES: list[list[Box]] = [
+    [((0.01, 0.003, 0.017), (0.0, 0.018, 0.0147), None), ((0.014, 0.02, 0.01), (-0.027, 0.042, 0.015), None),
+     ((0.017, 0.003, 0.01), (-0.0262, 0.02, 0.0146), None), ((0.01, 0.012, 0.004), (-0.0295, 0.035, 0.029), None),
+     ((0.007, 0.01, 0.002), (0.0, 0.005, 0.03), None), ((0.007, 0.01, 0.002), (0.0, 0.005, -0.001), None)],
+    [((0.017, 0.013, 0.011), (0.0075, -0.0002, -0.011), None)],
+    [((0.008, 0.003, 0.013), (0.0, -0.02, 0.015), None), ((0.01, 0.002, 0.017), (0.0, -0.016, 0.015), None),
+     ((0.007, 0.01, 0.002), (0.0, -0.0045, 0.03), None), ((0.007, 0.01, 0.002), (0.0, -0.0045, 0.0), None),
+     ((0.017, 0.011, 0.013), (0.0075, -0.035, 0.015), None)],
+    [((0.01, 0.003, 0.015), (0.0, -0.017, 0.015), None), ((0.007, 0.011, 0.002), (0.0, -0.006, 0.03), None),
+     ((0.007, 0.011, 0.002), (0.0, -0.006, -0.001), None)],
+]
+LEAP_THUMB_LINK_BOXES: list[list[Box]] = [
+    [((0.017, 0.013, 0.011), (-0.0075, -0.0002, -0.011), None)],
+    [((0.009, 0.0165, 0.002), (0.0, 0.0, -0.0015), None), ((0.007, 0.002, 0.01), (0.0, -0.015, -0.013), None),
+     ((0.007, 0.002, 0.01), (0.0, 0.015, -0.013), None)],
+    [((0.01, 0.02, 0.012), (0.0, 0.0105, -0.014), None), ((0.01, 0.002, 0.016), (0.0, 0.031, -0.015), None),
+     ((0.007, 0.01, 0.002), (0.0, 0.042, 0.001), None), ((0.007, 0.01, 0.002), (0.0, 0.042, -0.029), None),
+     ((0.005, 0.012, 0.009), (-0.0135, 0.0175, -0.011656), None)],
+    [((0.01, 0.018, 0.012), (0.0, -0.0085, -0.015), None), ((0.01, 0.002, 0.015), (0.0, -0.029, -0.014), None),
+     ((0.004, 0.012, 0.009), (0.015, -0.0175, -0.0115), None)],
+]
+LINK_CAPSULE_RADIUS_M = 0.008     # links of a hand that is not the LEAP's 4 x 4 chains
+
+# The hand: collides with the object and table, not with itself.
+HAND_COLLISION = 'contype="2" conaffinity="1"'
+WORLD_COLLISION = 'contype="1" conaffinity="3"'
+
+
+def _f(values: "tuple[float, ...] | list[float] | np.ndarray") -> str:
+    return " ".join(f"{float(v):.9g}" for v in values)
+
+
+def quat_of_matrix(R: np.ndarray) -> np.ndarray:
+    """Unit quaternion (w, x, y, z) of a rotation matrix."""
+    import mujoco
+
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R, dtype=float).reshape(9))
+    return q
+
+
+def quat_of_rpy(rpy: "tuple[float, float, float]") -> np.ndarray:
+    return quat_of_matrix(rpy_matrix(rpy))
+
+
+def _box_geoms(boxes: list[Box], name: str, extra: str) -> list[str]:
+    out = []
+    for k, (size, pos, quat) in enumerate(boxes):
+        q = f' quat="{_f(quat)}"' if quat is not None else ""
+        out.append(f'<geom name="{name}_{k}" type="box" size="{_f(size)}" pos="{_f(pos)}"{q} {extra}/>')
+    return out
+
+
+def is_leap_like(hand: HandConfig) -> bool:
+    """Four fingers of four joints, the thumb last: the LEAP Hand's chains (link boxes fit)."""
+    return len(hand.fingers) == 4 and all(len(f.joints) == 4 for f in hand.fingers)
+
+
+def _link_geoms(finger: FingerConfig, k: int, leap: bool, thumb: bool, extra: str) -> list[str]:
+    name = f"{finger.joints[k].name}_link"
+    if leap:
+        table = LEAP_THUMB_LINK_BOXES if thumb else LEAP_FINGER_LINK_BOXES
+        return _box_geoms(table[k], name, extra)
+    # A capsule from this joint to the next one (the last link: to the sensor's mount).
+    end = finger.joints[k + 1].origin_xyz if k + 1 < len(finger.joints) else finger.tip_xyz
+    if np.linalg.norm(end) < 1e-6:
+        return []
+    return [f'<geom name="{name}" type="capsule" size="{LINK_CAPSULE_RADIUS_M}" '
+            f'fromto="0 0 0 {_f(end)}" {extra}/>']
+
+
+def _biotac(finger: FingerConfig, p: SceneParams) -> tuple[str, str, str]:
+    """The sensor body on the last link: the skin capsule (radius of the sensor model, from
+    its mount to the tip's cap centred on the sensor origin) and the sensor-frame site."""
+    geom = f"{finger.name}_biotac"
+    site = f"{finger.name}_sensor"
+    back = PAD_X_MIN_M - SKIN_RADIUS_M   # the skin cylinder runs back past the pad's far edge to the mount
+    xml = (
+        f'<body name="{finger.name}_tip" pos="{_f(finger.tip_xyz)}" quat="{_f(quat_of_rpy(finger.tip_rpy))}">'
+        f'<inertial pos="{_f((0.5 * back, 0.0, 0.0))}" mass="{p.biotac_mass_kg}" diaginertia="1e-6 2e-6 2e-6"/>'
+        f'<geom name="{geom}" type="capsule" size="{SKIN_RADIUS_M}" fromto="{_f((back, 0, 0))} 0 0 0" '
+        f'{HAND_COLLISION} friction="0.5 0.001 0.0001" condim="4" rgba="0.85 0.7 0.45 1"/>'
+        f'<site name="{site}" pos="0 0 0" size="0.002" rgba="1 0 0 1"/>'
+        f"</body>"
+    )
+    return xml, geom, site
+
+
+def _finger(finger: FingerConfig, hand: HandConfig, p: SceneParams, leap: bool, thumb: bool) -> tuple[str, str, str, str]:
+    """Nested bodies of one chain, the BioTac at its end; returns (xml, biotac geom, site, first body)."""
+    extra = f'{HAND_COLLISION} rgba="0.25 0.25 0.25 1"'
+    opened, closes = [], []
+    for k, j in enumerate(finger.joints):
+        opened.append(
+            f'<body name="{j.name}" pos="{_f(j.origin_xyz)}" quat="{_f(quat_of_rpy(j.origin_rpy))}">'
+            f'<inertial pos="0 0 0" mass="{p.link_mass_kg}" diaginertia="5e-6 5e-6 5e-6"/>'
+            f'<joint name="{j.name}" type="hinge" axis="{_f(j.axis)}" range="{j.lower_rad:.9g} {j.upper_rad:.9g}" '
+            f'limited="true" armature="{p.armature_kg_m2}" damping="{p.joint_damping_nm_s_per_rad:.6g}" '
+            f'frictionloss="{p.joint_frictionloss_nm}"/>'
+            + "".join(_link_geoms(finger, k, leap, thumb, extra))
+        )
+        closes.append("</body>")
+    tip_xml, geom, site = _biotac(finger, p)
+    return "".join(opened) + tip_xml + "".join(closes), geom, site, finger.joints[0].name
+
+
+def _actuators(hand: HandConfig, p: SceneParams) -> str:
+    d = hand.dynamixel
+    kp0 = servo_kp_nm_per_rad(d.position_p_gain if d.position_p_gain is not None else p.default_p_gain)
+    kv0 = servo_kv_nm_s_per_rad(d.position_d_gain if d.position_d_gain is not None else p.default_d_gain)
+    rows = []
+    for j in hand.joints:
+        tau = j.current_limit_a * p.torque_per_amp_nm
+        rows.append(
+            f'<position name="{j.name}" joint="{j.name}" kp="{kp0 * j.gain_scale:.6g}" kv="{kv0 * j.gain_scale:.6g}" '
+            f'ctrlrange="{j.lower_rad:.9g} {j.upper_rad:.9g}" ctrllimited="true" '
+            f'forcerange="{-tau:.6g} {tau:.6g}" forcelimited="true"/>'
+        )
+    return "<actuator>" + "".join(rows) + "</actuator>"
+
+
+def contact_timeconst(stiffness_n_per_m: float, p: SceneParams) -> float:
+    """Softer objects touch with a longer time constant (never below two time steps)."""
+    t = p.contact_timeconst_s * math.sqrt(p.reference_stiffness_n_per_m / max(stiffness_n_per_m, 1.0))
+    return max(t, 2.0 * p.timestep_s)
+
+
+def _object(obj: PlacedObject, p: SceneParams) -> tuple[str, list[str]]:
+    """The object's body at its resting pose (frame at the footprint centre, on the table)."""
+    prof = obj.profile
+    h = prof.height_m
+    m = obj.mass_kg
+    if prof.shape == "cylinder":
+        r = prof.half_width_m
+        ixx = m * (3 * r * r + h * h) / 12.0
+        inertia = (ixx, ixx, 0.5 * m * r * r)
+        body = f'type="cylinder" size="{r:.9g} {0.5 * h:.9g}"'
+    else:
+        sx, sy = prof.size_m
+        inertia = (m * (sy * sy + h * h) / 12.0, m * (sx * sx + h * h) / 12.0, m * (sx * sx + sy * sy) / 12.0)
+        body = f'type="box" size="{0.5 * sx:.9g} {0.5 * sy:.9g} {0.5 * h:.9g}"'
+    tc = contact_timeconst(obj.stiffness_n_per_m, p)
+    common = (f'{WORLD_COLLISION} priority="1" condim="4" friction="{obj.mu:.6g} {obj.mu * p.torsion_radius_m:.6g} 0" '
+              f'solref="{tc:.6g} 1" rgba="0.3 0.55 0.85 1"')
+    geoms = [f'<geom name="object_body" {body} pos="0 0 {0.5 * h:.9g}" {common}/>']
+    names = ["object_body"]
+    if prof.cap is not None:
+        r, ch = 0.5 * prof.cap.diameter_m, prof.cap.height_m
+        R = (r * r + ch * ch) / (2.0 * ch)
+        cz = h + ch - R
+        ox, oy = prof.cap.offset_m
+        geoms.append(f'<geom name="object_cap" type="sphere" size="{R:.9g}" pos="{ox:.9g} {oy:.9g} {cz:.9g}" {common}/>')
+        names.append("object_cap")
+    xml = (
+        f'<body name="object" pos="{obj.xy_m[0]:.9g} {obj.xy_m[1]:.9g} 0">'
+        f'<freejoint name="object_free"/>'
+        f'<inertial pos="0 0 {0.5 * h:.9g}" mass="{m:.9g}" diaginertia="{_f(inertia)}"/>'
+        + "".join(geoms) + "</body>"
+    )
+    return xml, names
+
+
+def build_scene(hand: HandConfig, obj: PlacedObject, palm_start_world: np.ndarray, p: SceneParams | None = None) -> Scene:
+    """The MJCF text of one trial's scene, the hand at ``palm_start_world``."""
+    p = p or SceneParams()
+    leap = is_leap_like(hand)
+    extra = f'{HAND_COLLISION} rgba="0.25 0.25 0.25 1"'
+    # Fingers that share a base pose share a base body (the LEAP palm: all four).
+    bases: dict[tuple, list[int]] = {}
+    for i, f in enumerate(hand.fingers):
+        bases.setdefault((tuple(f.base_xyz), tuple(f.base_rpy)), []).append(i)
+    hand_parts, biotacs, sites, upper = [], [], [], []
+    for b, ((xyz, rpy), members) in enumerate(bases.items()):
+        inner = []
+        if b == 0 and leap:
+            inner += _box_geoms(LEAP_PALM_BOXES, "palm", extra)
+        for i in members:
+            f = hand.fingers[i]
+            thumb = leap and i == len(hand.fingers) - 1
+            xml, geom, site, first = _finger(f, hand, p, leap, thumb)
+            inner.append(xml)
+            biotacs.append((i, geom))
+            sites.append((i, site))
+            upper.append(first)
+        mass = p.palm_mass_kg if b == 0 else 0.01
+        hand_parts.append(
+            f'<body name="palm{b}" pos="{_f(xyz)}" quat="{_f(quat_of_rpy(rpy))}">'
+            f'<inertial pos="-0.05 -0.04 -0.01" mass="{mass}" diaginertia="4e-4 3e-4 2e-4"/>'
+            + "".join(inner) + "</body>"
+        )
+        upper.append(f"palm{b}")
+    obj_xml, obj_geoms = _object(obj, p)
+    px, py, pz = (float(v) for v in palm_start_world)
+    xml = f"""<mujoco model="grasp_ctrl_{hand.name}_{obj.profile.name}">
+<compiler angle="radian" autolimits="true"/>
+<option timestep="{p.timestep_s}" integrator="implicitfast" cone="elliptic" impratio="10" gravity="0 0 -9.81"/>
+<visual><global offwidth="640" offheight="480"/></visual>
+<asset><texture name="grid" type="2d" builtin="checker" rgb1="0.55 0.5 0.45" rgb2="0.5 0.45 0.4" width="256" height="256"/>
+<material name="table" texture="grid" texrepeat="8 8"/></asset>
+<worldbody>
+<light pos="0.3 -0.3 0.8" dir="-0.3 0.3 -0.8" diffuse="0.8 0.8 0.8"/>
+<geom name="table" type="plane" size="0.5 0.5 0.01" material="table" {WORLD_COLLISION} priority="2" friction="{p.table_mu} 0.001 0.0001"/>
+{obj_xml}
+<body name="wrist" mocap="true" pos="{px:.9g} {py:.9g} {pz:.9g}"/>
+<body name="hand" pos="{px:.9g} {py:.9g} {pz:.9g}">
+<freejoint name="hand_free"/>
+<inertial pos="0 0 0" mass="{p.hand_root_mass_kg}" diaginertia="1e-4 1e-4 1e-4"/>
+{"".join(hand_parts)}
+</body>
+</worldbody>
+<equality><weld name="arm" body1="wrist" body2="hand" solref="{p.weld_timeconst_s} 1"/></equality>
+{_actuators(hand, p)}
+</mujoco>"""
+    order = sorted(biotacs)
+    return Scene(
+        xml=xml,
+        finger_names=[f.name for f in hand.fingers],
+        joint_names=[j.name for j in hand.joints],
+        biotac_geoms=[g for _, g in order],
+        sensor_sites=[s for _, s in sorted(sites)],
+        object_geoms=obj_geoms,
+        upper_link_bodies=upper,
+    )

@@ -1,0 +1,80 @@
+"""Trials in the MuJoCo world through the real runner and controller (skipped without mujoco)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+
+from grasp_ctrl.sim.mujoco_world import MuJoCoWorld  # noqa: E402
+from grasp_ctrl.trials.runner import estimator_factory, run_mock_trial  # noqa: E402
+
+
+class _Stop(Exception):
+    pass
+
+
+def test_an_oracle_grasp_lifts_the_chips_can(hand, objects):
+    obj = objects["chips_can"]
+    seen = {}
+
+    def stop_when_held(world, ctrl):
+        if ctrl.state == "hold":
+            seen["z"] = world.obj_z
+            seen["tilt"] = world.obj_tilt_rad
+            raise _Stop
+
+    with pytest.raises(_Stop):
+        run_mock_trial(hand, obj, estimator_factory("oracle", hand), 1, "oracle", backend="mujoco",
+                       on_tick=stop_when_held)
+    assert seen["z"] >= 0.8 * obj.lift_height_m          # carried up by friction alone
+    assert seen["tilt"] < np.radians(10)
+
+
+def test_a_too_weak_grasp_slips(hand, objects):
+    # The oracle read 4x too high: the real grip is a quarter of tau, too little to carry the can.
+    r = run_mock_trial(hand, objects["chips_can"], estimator_factory("oracle:scale=4", hand), 1,
+                       "oracle:scale=4", backend="mujoco")
+    assert not r.success and r.reason == "slipped"
+    assert r.max_object_z_m < 0.01
+    assert r.backend == "mujoco"
+
+
+def test_squeezing_the_paper_cup_too_hard_crushes_it(hand, objects):
+    obj = objects["paper_cup"]
+    r = run_mock_trial(hand, obj, estimator_factory("oracle:scale=0.5", hand), 1, "oracle:scale=0.5",
+                       backend="mujoco")
+    assert r.reason == "crushed"
+    crushed = [e for e in r.events if e["kind"] == "crushed"]
+    assert len(crushed) == 1 and r.peak_grip_true_n > obj.crush_force_n
+
+
+def _run_world(hand, obj, seed, ticks=120):
+    w = MuJoCoWorld(hand, obj, seed)
+    w.palm_target = w.reach_pose_world()
+    w.q_goal = np.array([j.pregrasp_rad for j in hand.joints])
+    frames = []
+    for _ in range(ticks):
+        w.step()
+        frames.append(w.raw.copy())
+    return np.array(frames), w.data.qpos.copy()
+
+
+def test_the_world_is_deterministic_per_seed(hand, objects):
+    obj = objects["lego"]
+    frames_a, q_a = _run_world(hand, obj, 5)
+    frames_b, q_b = _run_world(hand, obj, 5)
+    assert np.array_equal(frames_a, frames_b) and np.array_equal(q_a, q_b)
+    frames_c, q_c = _run_world(hand, obj, 6)
+    assert not np.array_equal(frames_a, frames_c)       # other sensor noise and object placement
+    assert not np.array_equal(q_a, q_c)
+
+
+def test_tall_objects_are_grasped_below_their_top_with_the_hand_clear(hand, objects):
+    for name in ("chips_can", "paper_cup", "lego"):
+        obj = objects[name]
+        w = MuJoCoWorld(hand, obj, 0)
+        assert obj.grasp_height_m <= w.grasp_height_m < obj.height_m
+        # at the start nothing of the hand touches the object
+        assert w.other_hand_contact_n == 0.0 and not w.in_contact.any()
