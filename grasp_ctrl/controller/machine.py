@@ -20,6 +20,7 @@ from transitions import Machine
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.motion import FingertipMotion
+from grasp_ctrl.controller.ramp_settle import RampSettle
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import ConfigError
@@ -108,6 +109,7 @@ class GraspController:
         self.ticks_in_state = 0
         self.release_count = 0
         self.settle_count = 0
+        self.ramp_settle = RampSettle(self.s)
         self.lost_count = np.zeros(len(self.names), dtype=int)
         self.snap: Snapshot | None = None
         self.history: list[tuple[float, str, str]] = []   # (t, from, to)
@@ -152,6 +154,7 @@ class GraspController:
         self.history.append((t, prev, self.state))  # type: ignore[attr-defined]
         self.ticks_in_state = 0
         self.settle_count = 0
+        self.ramp_settle.reset()
         self.release_count = 0
         self.lost_count[:] = 0
 
@@ -181,7 +184,7 @@ class GraspController:
         return self._elapsed() > self.s.close_timeout_s
 
     def ramp_settled(self) -> bool:
-        return self.settle_count * self.dt >= self.s.ramp_settle_s
+        return self.ramp_settle.settled(self.dt)
 
     def ramp_timed_out(self) -> bool:
         return self._elapsed() > self.s.ramp_timeout_s
@@ -222,6 +225,8 @@ class GraspController:
         err = self.tau - snap.grip_n
         within = np.abs(err[self.grasp_mask]) <= self.s.ramp_tolerance_n
         self.settle_count = self.settle_count + 1 if within.all() else 0
+        if self.state == "ramp":  # type: ignore[attr-defined]
+            self.ramp_settle.update(err[self.grasp_mask])
         lost = (~snap.in_contact) | (snap.grip_n < self.s.grip_lost_fraction * self.tau)
         self.lost_count = np.where(lost, self.lost_count + 1, 0)
         below = self.release_force_n(snap) < -self.obj.release_threshold_n
@@ -305,7 +310,9 @@ class GraspController:
             near = snap.p_palm_world[2] - self.reach_pose[2] < s.lower_slow_zone_m
             self._move_palm_toward(bottom, s.lower_slow_speed_m_s if near else s.lower_speed_m_s)
         elif state == "release":
-            self.motion.set_posture(self.motion.open_q)
+            # Back the pads off along their closing vectors: swinging straight to the open
+            # posture can sweep a fingertip (the LEAP thumb) into the table beside the object.
+            self.motion.advance_all(np.where(self.grasp_mask, -s.release_back_off_m_s * self.dt, 0.0))
         elif state == "retreat":
             if self._retreat_goal is None:
                 self._retreat_goal = snap.p_palm_world + np.array([0.0, 0.0, s.retreat_m])

@@ -13,6 +13,10 @@ class ControllerSettings:
     ramp_max_speed_m_s: float = 0.01      # rate limit of the force ramp
     ramp_tolerance_n: float = 0.15
     ramp_settle_s: float = 0.1             # all fingertips within tolerance this long
+    ramp_balance_band_n: float = 0.4       # or: mean grip within tolerance, each within this band, and
+    ramp_steady_n: float = 0.05            #   steady (a free object balancing opposing fingers,
+    ramp_steady_s: float = 0.5             #   controller/ramp_settle.py): no grip moved more than
+                                           #   ramp_steady_n for ramp_steady_s
     ramp_timeout_s: float = 6.0
     hold_gain_m_s_per_n: float = 0.005     # grip force controller during lift/hold/lower
     hold_max_speed_m_s: float = 0.004
@@ -26,6 +30,7 @@ class ControllerSettings:
     grip_lost_fraction: float = 0.3        # grip below this fraction of tau = slipping
     contact_lost_s: float = 0.05
     open_s: float = 0.4                    # time to open the fingers on release
+    release_back_off_m_s: float = 0.05     # release: pads back off along their closing vectors
     retreat_m: float = 0.05
     low_confidence_slowdown: bool = False  # slow the ramp when the policy's variance is high
     variance_scale_n2: float = 0.05        # variance at which the ramp runs at half speed

@@ -1,0 +1,55 @@
+"""When the force ramp has settled on a free object.
+
+Each grasping fingertip ramps its own contact force toward tau. On an object that
+is free to move (a real hand, MuJoCo) the fingertips push against each other
+through it: the thumb carries what the index and middle push, so the per-finger
+errors cannot all reach zero at once. Independent force loops with slightly
+inconsistent targets then settle into a steady drift (the opposing fingers trade
+the object back and forth) with every grip a little off tau and no force changing.
+
+The ramp counts as settled when either
+- every grip is within ``ramp_tolerance_n`` of tau for ``ramp_settle_s`` (the
+  fixed-object case, as before), or
+- the grips' mean is within ``ramp_tolerance_n`` of tau (the squeeze is at tau),
+  every grip within the wider ``ramp_balance_band_n`` (the spread is the balance
+  the object imposes) and no grip has moved more than ``ramp_steady_n`` for
+  ``ramp_steady_s``: the grasp is balanced and steady, more ramping only pushes
+  the object around.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from grasp_ctrl.controller.settings import ControllerSettings
+
+
+class RampSettle:
+    """Tick counters of the two settle rules. ``update(err)`` once per tick with the
+    grasping fingertips' force errors tau - grip (N); ``settled(dt)`` is the guard."""
+
+    def __init__(self, settings: ControllerSettings) -> None:
+        self.s = settings
+        self.within_ticks = 0
+        self.steady_ticks = 0
+        self._ref_err: np.ndarray | None = None   # errors when the steady window began
+
+    def reset(self) -> None:
+        self.within_ticks = 0
+        self.steady_ticks = 0
+        self._ref_err = None
+
+    def update(self, err: np.ndarray) -> None:
+        abs_err = np.abs(err)
+        self.within_ticks = self.within_ticks + 1 if bool((abs_err <= self.s.ramp_tolerance_n).all()) else 0
+        in_band = (abs(float(err.mean())) <= self.s.ramp_tolerance_n
+                   and bool((abs_err <= self.s.ramp_balance_band_n).all()))
+        if not in_band or self._ref_err is None or bool((np.abs(err - self._ref_err) > self.s.ramp_steady_n).any()):
+            self._ref_err = err.copy() if in_band else None
+            self.steady_ticks = 0
+        else:
+            self.steady_ticks += 1
+
+    def settled(self, dt: float) -> bool:
+        return (self.within_ticks * dt >= self.s.ramp_settle_s
+                or self.steady_ticks * dt >= self.s.ramp_steady_s)
