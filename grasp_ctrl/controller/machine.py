@@ -95,6 +95,9 @@ class GraspController:
         self.motion = FingertipMotion(hand, self.kin)
         self.names = [f.name for f in hand.fingers]
         self.grasp_mask = np.array([f.grasp for f in hand.fingers])
+        # Per-finger arithmetic on a handful of fingers runs on Python lists: a numpy
+        # call costs more than the whole loop at this size.
+        self._grasping = [bool(g) for g in self.grasp_mask]
         self.release_idx = self.names.index(hand.grasp.release_finger)
         self.reach_pose = np.asarray(reach_pose_world, dtype=float)
         self.reach_q = self._reach_posture()
@@ -108,7 +111,7 @@ class GraspController:
         self.ticks_in_state = 0
         self.release_count = 0
         self.settle_count = 0
-        self.lost_count = np.zeros(len(self.names), dtype=int)
+        self.lost_count = [0] * len(self.names)      # ticks each fingertip has seemed to slip
         self.snap: Snapshot | None = None
         self.history: list[tuple[float, str, str]] = []   # (t, from, to)
 
@@ -153,7 +156,7 @@ class GraspController:
         self.ticks_in_state = 0
         self.settle_count = 0
         self.release_count = 0
-        self.lost_count[:] = 0
+        self.lost_count = [0] * len(self.names)
 
     def _elapsed(self) -> float:
         return self.ticks_in_state * self.dt
@@ -187,7 +190,8 @@ class GraspController:
         return self._elapsed() > self.s.ramp_timeout_s
 
     def grip_lost(self) -> bool:
-        return bool((self.lost_count[self.grasp_mask] * self.dt >= self.s.contact_lost_s).any())
+        dt, limit = self.dt, self.s.contact_lost_s
+        return any(count * dt >= limit for count, grasping in zip(self.lost_count, self._grasping) if grasping)
 
     def at_lift_height(self) -> bool:
         assert self.snap is not None
@@ -219,11 +223,13 @@ class GraspController:
         return float(-snap.f_world[self.release_idx, 2])
 
     def _update_counters(self, snap: Snapshot) -> None:
-        err = self.tau - snap.grip_n
-        within = np.abs(err[self.grasp_mask]) <= self.s.ramp_tolerance_n
-        self.settle_count = self.settle_count + 1 if within.all() else 0
-        lost = (~snap.in_contact) | (snap.grip_n < self.s.grip_lost_fraction * self.tau)
-        self.lost_count = np.where(lost, self.lost_count + 1, 0)
+        tau, tolerance = self.tau, self.s.ramp_tolerance_n
+        grip = snap.grip_n.tolist()
+        within = all(abs(tau - g) <= tolerance for g, grasping in zip(grip, self._grasping) if grasping)
+        self.settle_count = self.settle_count + 1 if within else 0
+        floor = self.s.grip_lost_fraction * tau
+        self.lost_count = [count + 1 if not touching or g < floor else 0
+                           for count, touching, g in zip(self.lost_count, snap.in_contact.tolist(), grip)]
         below = self.release_force_n(snap) < -self.obj.release_threshold_n
         self.release_count = self.release_count + 1 if below else 0
 
@@ -235,20 +241,24 @@ class GraspController:
         if not self.terminal:
             self.ticks_in_state += 1
             self._update_counters(snap)
-            # squared norms: one cheap pass on the hot path (no sqrt unless a limit is crossed)
-            force_sq = np.einsum("ij,ij->i", snap.f_sensor, snap.f_sensor)
+            # squared norms (no sqrt unless a limit is crossed), summed in the order
+            # np.einsum("ij,ij->i") sums them, which this code used before
+            force_sq = [((0.0 + x * x) + z * z) + y * y for x, y, z in snap.f_sensor.tolist()]
             limit = self.hand.safety.max_fingertip_force_n
             if snap.fault:
                 self.fail(reason=snap.fault, detail=snap.fault_detail)
-            elif not np.all(np.isfinite(force_sq)):
+            elif not all(math.isfinite(v) for v in force_sq):
                 # never let NaN slip past the over-force comparison (NaN > x is False)
                 self.fail(reason="estimate_invalid", detail="non-finite estimated force in the snapshot")
-            elif (force_sq > limit * limit).any():
-                i = int(np.argmax(force_sq))
+            elif any(v > limit * limit for v in force_sq):
+                i = force_sq.index(max(force_sq))
                 self.fail(reason="overforce",
                           detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {math.sqrt(force_sq[i]):.2f} N > {limit:g} N")
-            elif any(guard() for guard in self._guards[self.state]):  # type: ignore[attr-defined]
-                self.step()
+            else:
+                for guard in self._guards[self.state]:  # type: ignore[attr-defined]
+                    if guard():
+                        self.step()
+                        break
         self._act(snap)
         return Command(q_goal=self.motion.next_goal(), p_palm_world=self.palm_target.copy(), torque_on=self.torque_on)
 
@@ -274,10 +284,12 @@ class GraspController:
 
     def _squeeze(self, snap: Snapshot, gain: float, max_speed: float) -> None:
         """Per-finger force control along the closing vectors toward tau."""
-        speed = np.minimum(np.maximum(gain * (self.tau - snap.grip_n), -max_speed), max_speed)   # = np.clip
+        tau = self.tau
+        speed = [min(max(gain * (tau - g), -max_speed), max_speed) for g in snap.grip_n.tolist()]
         if self.s.low_confidence_slowdown and snap.variance is not None:
-            speed = speed / (1.0 + np.max(snap.variance, axis=1) / self.s.variance_scale_n2)
-        self.motion.advance_all(np.where(self.grasp_mask, speed * self.dt, 0.0))
+            speed = (np.array(speed) / (1.0 + np.max(snap.variance, axis=1) / self.s.variance_scale_n2)).tolist()
+        dt = self.dt
+        self.motion.advance_all(np.array([v * dt if grasping else 0.0 for v, grasping in zip(speed, self._grasping)]))
 
     def _act(self, snap: Snapshot) -> None:
         state = self.state  # type: ignore[attr-defined]
@@ -288,8 +300,9 @@ class GraspController:
             self.motion.set_posture(self.reach_q)
             self._move_palm_toward(self.reach_pose, self.hand.arm.max_speed_m_s)
         elif state == "close":
-            closing = self.grasp_mask & ~snap.in_contact
-            self.motion.advance_all(np.where(closing, s.close_speed_m_s * self.dt, 0.0))
+            step = s.close_speed_m_s * self.dt
+            self.motion.advance_all(np.array([step if grasping and not touching else 0.0
+                                              for grasping, touching in zip(self._grasping, snap.in_contact.tolist())]))
         elif state == "ramp":
             self._squeeze(snap, s.ramp_gain_m_s_per_n, s.ramp_max_speed_m_s)
         elif state in ("lift", "hold"):

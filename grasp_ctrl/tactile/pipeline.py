@@ -54,12 +54,22 @@ class TactilePipeline:
         tared = self.tare.apply(raw)
         contact = self.gate.update(tared)
         n = len(self.fingers)
-        f_sensor = np.zeros((n, 3))
         variance = np.zeros((n, 3)) if self.estimator.has_variance else None
         idx = np.flatnonzero(contact)
-        if idx.size:
-            est = self.estimator.estimate(tared[idx], [self.fingers[i] for i in idx])
-            f_sensor[idx] = est.f_sensor
+        if idx.size == n:
+            # Every fingertip in contact (most of a grasp): no gather, no scatter.
+            est = self.estimator.estimate(tared, list(self.fingers))
+            f_sensor = np.array(est.f_sensor, dtype=float)   # own copy, as the scatter below makes
+            if f_sensor.shape != (n, 3):   # let the scatter broadcast or name the bad shape
+                f_sensor = np.zeros((n, 3))
+                f_sensor[idx] = est.f_sensor
             if variance is not None and est.variance is not None:
                 variance[idx] = est.variance
+        else:
+            f_sensor = np.zeros((n, 3))
+            if idx.size:
+                est = self.estimator.estimate(tared[idx], [self.fingers[i] for i in idx])
+                f_sensor[idx] = est.f_sensor
+                if variance is not None and est.variance is not None:
+                    variance[idx] = est.variance
         return TipForces(tared, contact, f_sensor, variance)

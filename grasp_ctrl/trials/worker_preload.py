@@ -2,8 +2,8 @@
 
 Importing the trial code and loading its compiled kernels take about as long as
 a few trials; done here once, every worker process forked from the server starts
-with both ready. Only the kernels are touched (one world step, one IK step on
-the default hand); no policy is loaded, so no inference session or thread is
+with both ready. Only the kernels are touched (one world step, one IK step, one
+goal step and one force rotation on the default hand); no policy is loaded, so no inference session or thread is
 shared by the forked workers.
 """
 
@@ -25,7 +25,8 @@ def warm_kernels() -> None:
     kin = HandKinematics(hand)
     motion = FingertipMotion(hand, kin)
     motion.advance_all(np.full(len(hand.fingers), 1e-4))
-    motion.ik.sensor_rotations(motion.q_goal)
+    motion.next_goal()
+    motion.ik.sensor_forces(motion.q_goal, np.zeros((len(hand.fingers), 3)))
 
 
 try:
