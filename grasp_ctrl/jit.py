@@ -37,7 +37,8 @@ JIT = _numba is not None
 #: Modules that define compiled kernels (relative to the package).
 KERNEL_SOURCES = (
     "jit.py", "sim/world_step.py", "sim/shapes.py", "sim/grip.py", "sim/biotac_model.py",
-    "kinematics/fingertip.py", "kinematics/multilinear.py", "kinematics/pad_ik.py", "controller/motion.py",
+    "kinematics/fingertip.py", "kinematics/multilinear.py", "kinematics/pad_ik.py", "limits.py",
+    "tactile/tare.py",
 )
 
 

@@ -14,7 +14,7 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.pad_ik import PadIK
-from grasp_ctrl.jit import njit
+from grasp_ctrl.limits import step_toward
 
 
 IK_DAMPING = 0.002
@@ -115,18 +115,3 @@ class FingertipMotion:
         self._q_sent = np.minimum(np.maximum(self._q_sent + step, self.lower), self.upper)
         return self._q_sent.copy()
 
-
-@njit
-def _clamp(x: float, low: float, high: float) -> float:
-    """``np.minimum(np.maximum(x, low), high)`` for one value (NaN stays NaN)."""
-    if x != x:
-        return x
-    return low if x < low else (high if x > high else x)
-
-
-@njit
-def step_toward(goal: np.ndarray, sent: np.ndarray, max_step: float, lower: np.ndarray, upper: np.ndarray) -> None:
-    """``sent`` (in place) moved toward ``goal`` by at most ``max_step`` per joint, then
-    clamped to the joint limits: ``next_goal``'s numpy arithmetic in one compiled pass."""
-    for j in range(sent.shape[0]):
-        sent[j] = _clamp(sent[j] + _clamp(goal[j] - sent[j], -max_step, max_step), lower[j], upper[j])

@@ -37,6 +37,7 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.finite import all_finite
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.multilinear import MultilinearKinematics, contract
@@ -178,7 +179,7 @@ class MockWorld:
     @q_goal.setter
     def q_goal(self, q: np.ndarray) -> None:
         # Goals inside the joint limits keep the servos' first-order steps inside them too.
-        self._q_goal = np.clip(np.asarray(q, dtype=float), self.lower, self.upper)
+        self._q_goal = np.minimum(np.maximum(np.asarray(q, dtype=float), self.lower), self.upper)   # = np.clip, cheaper
 
     # Updated in place by the step kernel, so read-only here.
     @property
@@ -211,7 +212,7 @@ class MockWorld:
     @palm_target.setter
     def palm_target(self, p: np.ndarray) -> None:
         target = np.array(p, dtype=float).reshape(3)
-        if not np.all(np.isfinite(target)):
+        if not all_finite(target):
             raise ValueError(f"palm target must be finite, got {target}")
         self._palm_target = target
 

@@ -12,10 +12,12 @@ from typing import Sequence
 
 import numpy as np
 
+from grasp_ctrl import jit
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.tactile.frames import validate_frames
-from grasp_ctrl.tactile.tare import ContactGate, Tare
+from grasp_ctrl.tactile.layout import FRAME_LEN
+from grasp_ctrl.tactile.tare import ContactGate, Tare, tare_and_gate
 
 
 @dataclass(frozen=True)
@@ -50,10 +52,17 @@ class TactilePipeline:
 
     def step(self, raw: np.ndarray) -> TipForces:
         """One raw frame per fingertip (n_tips, 44) -> tared signals, contact flags, forces."""
-        raw = validate_frames(raw, self.fingers) if self.validate else np.asarray(raw, dtype=float)
-        tared = self.tare.apply(raw)
-        contact = self.gate.update(tared)
         n = len(self.fingers)
+        tared = np.empty((n, FRAME_LEN))
+        contact = np.empty(n, dtype=bool)
+        compiled = (jit.JIT and self.validate and type(raw) is np.ndarray and raw.dtype == np.float64
+                    and raw.shape == (n, FRAME_LEN) and raw.flags.c_contiguous)
+        if not (compiled and tare_and_gate(raw, self.tare.baseline, self.gate.count, self.gate.threshold,
+                                           self.gate.frames, tared, contact)):
+            # the numpy path (and the one that names a bad value)
+            raw = validate_frames(raw, self.fingers) if self.validate else np.asarray(raw, dtype=float)
+            tared = self.tare.apply(raw)
+            contact = self.gate.update(tared)
         variance = np.zeros((n, 3)) if self.estimator.has_variance else None
         idx = np.flatnonzero(contact)
         if idx.size == n:
@@ -68,7 +77,7 @@ class TactilePipeline:
         else:
             f_sensor = np.zeros((n, 3))
             if idx.size:
-                est = self.estimator.estimate(tared[idx], [self.fingers[i] for i in idx])
+                est = self.estimator.estimate(tared[idx], [self.fingers[i] for i in idx.tolist()])
                 f_sensor[idx] = est.f_sensor
                 if variance is not None and est.variance is not None:
                     variance[idx] = est.variance

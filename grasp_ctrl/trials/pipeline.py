@@ -4,28 +4,18 @@ contact gate, estimator) -> forces in sensor, hand and world frames -> Snapshot
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.errors import FrameError, SensorStaleError
 from grasp_ctrl.estimators.base import ForceEstimator
+from grasp_ctrl.finite import all_finite
 from grasp_ctrl.hardware.base import JointState, TactileFrame
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.pad_ik import PadIK
 from grasp_ctrl.tactile.layout import FRAME_LEN
 from grasp_ctrl.tactile.pipeline import TactilePipeline
-
-
-def _all_finite(a: np.ndarray) -> bool:
-    """True when every value is finite: a NaN or inf makes the sum of squares NaN or
-    inf (no cancellation). It also overflows for values beyond 1e154, so False
-    only means "check element by element". One BLAS call, a fraction of
-    ``np.isfinite(a).all()``."""
-    flat = a.reshape(-1)
-    return math.isfinite(flat.dot(flat))
 
 
 class SensingPipeline:
@@ -97,13 +87,13 @@ class SensingPipeline:
                 fault, fault_detail = reason, detail
 
         q = np.asarray(joints.q, dtype=float)
-        if q.shape != self._last_q.shape or not (_all_finite(q) or np.all(np.isfinite(q))):
+        if q.shape != self._last_q.shape or not all_finite(q):
             bad = [j for j, v in zip(self.joint_names, np.ravel(q)) if not np.isfinite(v)] if q.shape == self._last_q.shape else []
             note("sensor_invalid", f"joint angles not finite ({', '.join(bad) or f'shape {q.shape}'})")
             q = self._last_q.copy()
         self._last_q = q
         p_palm_world = np.asarray(p_palm_world, dtype=float)
-        if p_palm_world.shape != (3,) or not (_all_finite(p_palm_world) or np.all(np.isfinite(p_palm_world))):
+        if p_palm_world.shape != (3,) or not all_finite(p_palm_world):
             note("sensor_invalid", f"arm position not finite ({p_palm_world.tolist()})")
             p_palm_world = self._last_palm.copy()
         self._last_palm = p_palm_world
@@ -123,7 +113,7 @@ class SensingPipeline:
             f_sensor = np.zeros((n, 3))
             variance = None
         f_sensor = np.asarray(f_sensor, dtype=float)
-        if not (_all_finite(f_sensor) and (variance is None or _all_finite(variance))):
+        if not (all_finite(f_sensor) and (variance is None or all_finite(variance))):
             bad_f = ~np.all(np.isfinite(f_sensor), axis=1)
             bad_v = ~np.all(np.isfinite(variance), axis=1) if variance is not None else np.zeros(n, dtype=bool)
             if bad_f.any() or bad_v.any():

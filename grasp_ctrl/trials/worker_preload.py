@@ -3,7 +3,7 @@
 Importing the trial code and loading its compiled kernels take about as long as
 a few trials; done here once, every worker process forked from the server starts
 with both ready. Only the kernels are touched (one world step, one IK step, one
-goal step and one force rotation on the default hand); no policy is loaded, so no inference session or thread is
+goal step, one force rotation and one tare on the default hand); no policy is loaded, so no inference session or thread is
 shared by the forked workers.
 """
 
@@ -16,8 +16,11 @@ def warm_kernels() -> None:
     from grasp_ctrl.config import load_hand, load_objects
     from grasp_ctrl.controller.motion import FingertipMotion
     from grasp_ctrl.kinematics.chain import HandKinematics
+    from grasp_ctrl.limits import limit_goal
     from grasp_ctrl.paths import default_hand_file, default_objects_file
     from grasp_ctrl.sim.world import MockWorld
+    from grasp_ctrl.tactile.layout import FRAME_LEN
+    from grasp_ctrl.tactile.tare import tare_and_gate
 
     hand = load_hand(default_hand_file())
     obj = next(iter(load_objects(default_objects_file()).values()))
@@ -27,6 +30,10 @@ def warm_kernels() -> None:
     motion.advance_all(np.full(len(hand.fingers), 1e-4))
     motion.next_goal()
     motion.ik.sensor_forces(motion.q_goal, np.zeros((len(hand.fingers), 3)))
+    limit_goal(motion.q_goal, motion.q_goal, 0.1, motion.lower, motion.upper, np.empty_like(motion.q_goal))
+    n = len(hand.fingers)
+    tare_and_gate(np.zeros((n, FRAME_LEN)), np.zeros((n, FRAME_LEN)), np.zeros(n, dtype=np.int64), 10.0, 10,
+                  np.empty((n, FRAME_LEN)), np.empty(n, dtype=bool))
 
 
 try:
