@@ -30,6 +30,7 @@ order (the deflections are hundredths of a radian).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -75,6 +76,15 @@ class WorldEvent:
     detail: str = ""
 
 
+@functools.lru_cache(maxsize=8)
+def pad_tables(hand: HandConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The multilinear kinematics of every finger's pad point (``take``, ``W``): built
+    once per hand (milliseconds, a noticeable share of a short trial) and shared by
+    its worlds, whose step kernel only reads them."""
+    mk = MultilinearKinematics(HandKinematics(hand))
+    return mk.take, mk.point_table(np.tile(PAD_POINT_SENSOR, (mk.F, 1)))
+
+
 def _in_place(name: str, doc: str) -> property:
     """A read-only view of an array the step kernel updates in place."""
     return property(lambda self: getattr(self, name), doc=doc)
@@ -92,8 +102,7 @@ class MockWorld:
         self.params = p = params or WorldParams()
         self.rng = np.random.default_rng(seed)
         self.kin = HandKinematics(hand)
-        mk = MultilinearKinematics(self.kin)
-        self._take, self._W = mk.take, mk.point_table(np.tile(PAD_POINT_SENSOR, (mk.F, 1)))
+        self._take, self._W = pad_tables(hand)
         self.dt = hand.dt
         self.t = 0.0
         self.phase = "idle"
