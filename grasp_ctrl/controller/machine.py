@@ -117,6 +117,8 @@ class GraspController:
         self.reach_q = self._reach_posture()
         self.lift_top = self.reach_pose + np.array([0.0, 0.0, obj.lift_height_m])
         self.lower_limit_z = self.reach_pose[2] - self.s.lower_overshoot_m
+        self.lower_bottom = self.reach_pose.copy()   # where lowering stops at the latest
+        self.lower_bottom[2] = self.lower_limit_z
         self.palm_target: np.ndarray | None = None
         self._retreat_goal: np.ndarray | None = None
         self.torque_on = True
@@ -324,12 +326,10 @@ class GraspController:
                 self._move_palm_toward(self.lift_top, s.lift_speed_m_s)
         elif state == "lower":
             self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s)
-            bottom = self.reach_pose.copy()
-            bottom[2] = self.lower_limit_z
             # The object was picked up at the reach pose: near that height the table is
             # close, so slow down and let the release debounce cost little extra push.
             near = snap.p_palm_world[2] - self.reach_pose[2] < s.lower_slow_zone_m
-            self._move_palm_toward(bottom, s.lower_slow_speed_m_s if near else s.lower_speed_m_s)
+            self._move_palm_toward(self.lower_bottom, s.lower_slow_speed_m_s if near else s.lower_speed_m_s)
         elif state == "release":
             self.motion.set_posture(self.motion.open_q)
         elif state == "retreat":

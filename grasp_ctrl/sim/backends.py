@@ -106,10 +106,10 @@ class MockSensors:
 
     def _refresh(self) -> None:
         w = self.world
-        for i, sid in enumerate(w.sensor_ids):
-            if sid in self.paused:
-                continue
-            self._latest[sid] = TactileFrame(sensor_id=sid, seq=w.seq, t_recv=w.t, values=w.raw[i])
+        raw, seq, t, paused, latest = w.raw, w.seq, w.t, self.paused, self._latest
+        for sid, values in zip(w.sensor_ids, raw):
+            if not paused or sid not in paused:
+                latest[sid] = TactileFrame(sensor_id=sid, seq=seq, t_recv=t, values=values)
 
     def read_latest(self) -> dict[int, TactileFrame]:
         self._refresh()

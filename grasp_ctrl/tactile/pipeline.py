@@ -55,28 +55,30 @@ class TactilePipeline:
         n = len(self.fingers)
         tared = np.empty((n, FRAME_LEN))
         contact = np.empty(n, dtype=bool)
-        compiled = (jit.JIT and self.validate and type(raw) is np.ndarray and raw.dtype == np.float64
-                    and raw.shape == (n, FRAME_LEN) and raw.flags.c_contiguous)
-        if not (compiled and tare_and_gate(raw, self.tare.baseline, self.gate.count, self.gate.threshold,
-                                           self.gate.frames, tared, contact)):
-            # the numpy path (and the one that names a bad value)
+        touching = -1
+        if (jit.JIT and self.validate and type(raw) is np.ndarray and raw.dtype == np.float64
+                and raw.shape == (n, FRAME_LEN) and raw.flags.c_contiguous):
+            touching = tare_and_gate(raw, self.tare.baseline, self.gate.count, self.gate.threshold,
+                                     self.gate.frames, tared, contact)
+        if touching < 0:   # the numpy path (and the one that names a bad value)
             raw = validate_frames(raw, self.fingers) if self.validate else np.asarray(raw, dtype=float)
             tared = self.tare.apply(raw)
             contact = self.gate.update(tared)
+            touching = int(np.count_nonzero(contact))
         variance = np.zeros((n, 3)) if self.estimator.has_variance else None
-        idx = np.flatnonzero(contact)
-        if idx.size == n:
-            # Every fingertip in contact (most of a grasp): no gather, no scatter.
+        if touching == n:
+            # Every fingertip in contact: no gather, no scatter.
             est = self.estimator.estimate(tared, list(self.fingers))
             f_sensor = np.array(est.f_sensor, dtype=float)   # own copy, as the scatter below makes
             if f_sensor.shape != (n, 3):   # let the scatter broadcast or name the bad shape
                 f_sensor = np.zeros((n, 3))
-                f_sensor[idx] = est.f_sensor
+                f_sensor[:] = est.f_sensor
             if variance is not None and est.variance is not None:
-                variance[idx] = est.variance
+                variance[:] = est.variance
         else:
             f_sensor = np.zeros((n, 3))
-            if idx.size:
+            if touching:
+                idx = np.flatnonzero(contact)
                 est = self.estimator.estimate(tared[idx], [self.fingers[i] for i in idx.tolist()])
                 f_sensor[idx] = est.f_sensor
                 if variance is not None and est.variance is not None:

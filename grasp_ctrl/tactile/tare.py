@@ -56,20 +56,23 @@ class ContactGate:
 
 @njit
 def tare_and_gate(raw: np.ndarray, baseline: np.ndarray, count: np.ndarray, threshold: float, frames: int,
-                  tared: np.ndarray, contact: np.ndarray) -> bool:
+                  tared: np.ndarray, contact: np.ndarray) -> int:
     """One tick of validation, ``Tare.apply`` and ``ContactGate.update`` over (n, 44)
     float frames in one compiled pass: ``tared`` = raw - baseline, ``count`` and
-    ``contact`` updated in place. False, with nothing changed, when a value is not a
-    finite count in range (the caller then names it, tactile/frames.py)."""
+    ``contact`` updated in place; returns how many fingertips are in contact. -1,
+    with nothing changed, when a value is not a finite count in range (the caller
+    then names it, tactile/frames.py)."""
     n, m = raw.shape
     for i in range(n):
         for k in range(m):
             v = raw[i, k]
             if not (v >= COUNT_MIN and v <= COUNT_MAX):   # NaN fails both
-                return False
+                return -1
+    touching = 0
     for i in range(n):
         for k in range(m):
             tared[i, k] = raw[i, k] - baseline[i, k]
         count[i] = count[i] + 1 if tared[i, PDC] > threshold else 0
         contact[i] = count[i] >= frames
-    return True
+        touching += contact[i]
+    return touching
