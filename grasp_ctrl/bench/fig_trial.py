@@ -27,7 +27,7 @@ from grasp_ctrl.trials.selection import select_objects
 
 def trial_realtime_factor(quick: bool) -> Figure:
     hand = load_hand(default_hand_file())
-    objects = select_objects(default_objects_file(), None)
+    objects = select_objects(default_objects_file(), None)[: 2 if quick else None]
     make_estimator = estimator_factory(DEFAULT_POLICY, hand)
     kin = HandKinematics(hand)
     rounds = 1 if quick else 3
@@ -37,7 +37,7 @@ def trial_realtime_factor(quick: bool) -> Figure:
         for obj in objects:   # warm-up: kernels, pyarrow, and each object's one-off set-up (a cap's posture fit)
             run_mock_trial(hand, obj, make_estimator, 0, DEFAULT_POLICY, log_path=log, kin=kin)
         for k in range(rounds):
-            for obj in objects[: 2 if quick else None]:
+            for obj in objects:
                 t0 = time.perf_counter()
                 res = run_mock_trial(hand, obj, make_estimator, trial_seed(0, obj.name, k), DEFAULT_POLICY, k,
                                      log_path=log, kin=kin)
