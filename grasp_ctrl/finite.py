@@ -1,10 +1,8 @@
 """``all_finite``: the per-tick check that an array holds no NaN or inf, cheaply.
 
-``np.isfinite(a).all()`` costs two numpy calls of a few microseconds each; the
-control loop makes several such checks per tick. A NaN or inf makes the sum of
-squares NaN or inf (squares cannot cancel), so one BLAS dot product answers
-for the common, finite case; only when it is not finite (or overflows, for
-values beyond about 1e154) are the elements checked one by one.
+``np.isfinite(a).all()`` costs two numpy calls of a few microseconds each, and
+the control loop makes several such checks per tick; with the ``sim`` extra a
+float64 array is checked by one compiled loop instead (grasp_ctrl/jit.py).
 """
 
 from __future__ import annotations
@@ -13,8 +11,20 @@ import math
 
 import numpy as np
 
+from grasp_ctrl import jit
+from grasp_ctrl.jit import njit
+
+
+@njit
+def _finite_floats(flat: np.ndarray) -> bool:
+    for v in flat:
+        if not math.isfinite(v):
+            return False
+    return True
+
 
 def all_finite(a: np.ndarray) -> bool:
-    """True when every value of ``a`` is finite (same answer as ``np.isfinite(a).all()``)."""
-    flat = a.reshape(-1)
-    return math.isfinite(flat.dot(flat)) or bool(np.isfinite(flat).all())
+    """True when every value of ``a`` is finite (the answer of ``np.isfinite(a).all()``)."""
+    if jit.JIT and a.dtype == np.float64:
+        return bool(_finite_floats(a.reshape(-1)))
+    return bool(np.isfinite(a).all())
