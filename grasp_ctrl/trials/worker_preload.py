@@ -3,10 +3,10 @@
 Importing the trial code and loading its compiled kernels take about as long as
 a few trials; done here once, every worker process forked from the server starts
 with both ready. Only the kernels are touched (one world step, IK step, goal
-step, force rotation and tare on the default hand), and the reach postures of
-the default objects with a cap are fitted (scipy's least squares, kept per
-hand); no policy is loaded, so no inference session or thread is shared by the
-forked workers.
+step, force rotation, finiteness check and tare on the default hand), and the
+reach postures of the default objects with a cap are fitted (scipy's least
+squares, kept per hand); no policy is loaded, so no inference session or thread
+is shared by the forked workers.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ def warm_kernels() -> None:
     from grasp_ctrl.config import load_hand, load_objects
     from grasp_ctrl.controller.machine import raised_reach_posture
     from grasp_ctrl.controller.motion import FingertipMotion
+    from grasp_ctrl.finite import all_finite
     from grasp_ctrl.kinematics.chain import HandKinematics
     from grasp_ctrl.limits import limit_goal
     from grasp_ctrl.paths import default_hand_file, default_objects_file
@@ -38,6 +39,7 @@ def warm_kernels() -> None:
     motion.next_goal()
     motion.ik.sensor_forces(motion.q_goal, np.zeros((len(hand.fingers), 3)))
     limit_goal(motion.q_goal, motion.q_goal, 0.1, motion.lower, motion.upper, np.empty_like(motion.q_goal))
+    all_finite(motion.q_goal)
     n = len(hand.fingers)
     tare_and_gate(np.zeros((n, FRAME_LEN)), np.zeros((n, FRAME_LEN)), np.zeros(n, dtype=np.int64), 10.0, 10,
                   np.empty((n, FRAME_LEN)), np.empty(n, dtype=bool))
