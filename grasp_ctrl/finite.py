@@ -15,6 +15,9 @@ from grasp_ctrl import jit
 from grasp_ctrl.jit import njit
 
 
+_FLOAT64 = np.dtype(np.float64)   # native float64: a singleton, so an identity test finds it
+
+
 @njit
 def _finite_floats(flat: np.ndarray) -> bool:
     for v in flat:
@@ -25,6 +28,6 @@ def _finite_floats(flat: np.ndarray) -> bool:
 
 def all_finite(a: np.ndarray) -> bool:
     """True when every value of ``a`` is finite (the answer of ``np.isfinite(a).all()``)."""
-    if jit.JIT and a.dtype == np.float64:
-        return bool(_finite_floats(a.reshape(-1)))
+    if jit.JIT and a.dtype is _FLOAT64:
+        return bool(_finite_floats(a.ravel()))
     return bool(np.isfinite(a).all())

@@ -19,6 +19,8 @@ from grasp_ctrl.tactile.frames import validate_frames
 from grasp_ctrl.tactile.layout import FRAME_LEN
 from grasp_ctrl.tactile.tare import ContactGate, Tare, tare_and_gate
 
+_FLOAT64 = np.dtype(np.float64)
+
 
 @dataclass(frozen=True)
 class TipForces:
@@ -56,7 +58,7 @@ class TactilePipeline:
         tared = np.empty((n, FRAME_LEN))
         contact = np.empty(n, dtype=bool)
         touching = -1
-        if (jit.JIT and self.validate and type(raw) is np.ndarray and raw.dtype == np.float64
+        if (jit.JIT and self.validate and type(raw) is np.ndarray and raw.dtype is _FLOAT64
                 and raw.shape == (n, FRAME_LEN) and raw.flags.c_contiguous):
             touching = tare_and_gate(raw, self.tare.baseline, self.gate.count, self.gate.threshold,
                                      self.gate.frames, tared, contact)
