@@ -206,7 +206,10 @@ class GraspController:
 
     def grip_lost(self) -> bool:
         dt, limit = self.dt, self.s.contact_lost_s
-        return any(count * dt >= limit for count, grasping in zip(self.lost_count, self._grasping) if grasping)
+        for count, grasping in zip(self.lost_count, self._grasping):   # a plain loop: no generator per tick
+            if grasping and count * dt >= limit:
+                return True
+        return False
 
     def at_lift_height(self) -> bool:
         assert self.snap is not None
@@ -240,7 +243,11 @@ class GraspController:
     def _update_counters(self, snap: Snapshot) -> None:
         tau, tolerance = self.tau, self.s.ramp_tolerance_n
         grip = snap.grip_n.tolist()
-        within = all(abs(tau - g) <= tolerance for g, grasping in zip(grip, self._grasping) if grasping)
+        within = True
+        for g, grasping in zip(grip, self._grasping):
+            if grasping and not abs(tau - g) <= tolerance:
+                within = False
+                break
         self.settle_count = self.settle_count + 1 if within else 0
         floor = self.s.grip_lost_fraction * tau
         self.lost_count = [count + 1 if not touching or g < floor else 0
@@ -262,10 +269,10 @@ class GraspController:
             limit = self.hand.safety.max_fingertip_force_n
             if snap.fault:
                 self.fail(reason=snap.fault, detail=snap.fault_detail)
-            elif not all(math.isfinite(v) for v in force_sq):
+            elif not all(map(math.isfinite, force_sq)):
                 # never let NaN slip past the over-force comparison (NaN > x is False)
                 self.fail(reason="estimate_invalid", detail="non-finite estimated force in the snapshot")
-            elif any(v > limit * limit for v in force_sq):
+            elif max(force_sq) > limit * limit:   # all finite here
                 i = force_sq.index(max(force_sq))
                 self.fail(reason="overforce",
                           detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {math.sqrt(force_sq[i]):.2f} N > {limit:g} N")
