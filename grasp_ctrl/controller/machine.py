@@ -272,7 +272,7 @@ class GraspController:
             elif not all(map(math.isfinite, force_sq)):
                 # never let NaN slip past the over-force comparison (NaN > x is False)
                 self.fail(reason="estimate_invalid", detail="non-finite estimated force in the snapshot")
-            elif max(force_sq) > limit * limit:   # all finite here
+            elif max(force_sq, default=0.0) > limit * limit:   # all finite here
                 i = force_sq.index(max(force_sq))
                 self.fail(reason="overforce",
                           detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {math.sqrt(force_sq[i]):.2f} N > {limit:g} N")

@@ -114,4 +114,3 @@ class FingertipMotion:
         step = np.minimum(np.maximum(self.q_goal - self._q_sent, -self.max_step), self.max_step)
         self._q_sent = np.minimum(np.maximum(self._q_sent + step, self.lower), self.upper)
         return self._q_sent.copy()
-

@@ -68,7 +68,7 @@ class TactilePipeline:
             contact = self.gate.update(tared)
             touching = int(np.count_nonzero(contact))
         variance = np.zeros((n, 3)) if self.estimator.has_variance else None
-        if touching == n:
+        if touching == n and n:
             # Every fingertip in contact: no gather, no scatter.
             est = self.estimator.estimate(tared, list(self.fingers))
             f_sensor = np.array(est.f_sensor, dtype=float)   # own copy, as the scatter below makes
