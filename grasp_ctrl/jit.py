@@ -1,4 +1,4 @@
-"""Optional compilation of the mock world's inner loops with numba.
+"""Optional compilation of the mock world's inner loops (and the control tick's) with numba.
 
 The mock world must step hundreds of times faster than real time, which plain
 Python cannot do for its per-fingertip contact physics. The kernels are written
@@ -6,6 +6,12 @@ as plain loops over numpy arrays: with the ``sim`` extra (numba) installed they
 are compiled on first use (about 10 s, then cached on disk); without it, or
 with ``GRASP_CTRL_NO_JIT=1``, the same code runs as ordinary Python, about ten
 times slower and with the same results.
+
+The control tick uses a few small kernels too (tare and contact gate, pad IK,
+force rotation, goal limits, finiteness checks), each replacing several numpy
+calls on 4- or 16-element arrays whose call overhead is most of their cost.
+Those callers check ``JIT`` and use their numpy code without numba (same
+results, bit for bit, tests/test_tick_kernels.py).
 
 numba's cache notices edits to a kernel's own file but not to the kernels it
 calls from other files, so the cache lives in a folder named after a hash of
@@ -37,7 +43,8 @@ JIT = _numba is not None
 #: Modules that define compiled kernels (relative to the package).
 KERNEL_SOURCES = (
     "jit.py", "sim/world_step.py", "sim/shapes.py", "sim/grip.py", "sim/biotac_model.py",
-    "kinematics/fingertip.py", "kinematics/multilinear.py", "kinematics/pad_ik.py",
+    "kinematics/fingertip.py", "kinematics/multilinear.py", "kinematics/pad_ik.py", "limits.py",
+    "tactile/tare.py", "finite.py",
 )
 
 

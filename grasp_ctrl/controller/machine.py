@@ -11,6 +11,7 @@ ticks, no timer threads), so tests can drive it tick by tick.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from typing import Any
 
@@ -77,6 +78,19 @@ def build_machine(model: Any, reason_setter: Any = None, machine_cls: type = Mac
     return machine
 
 
+@functools.lru_cache(maxsize=32)
+def _raised_reach_posture(hand: HandConfig, finger: str, raise_m: float) -> np.ndarray:
+    motion = FingertipMotion(hand, HandKinematics(hand))
+    return motion.raised_posture(motion.pregrasp_q, {finger: raise_m})
+
+
+def raised_reach_posture(hand: HandConfig, finger: str, raise_m: float) -> np.ndarray:
+    """The pregrasp posture with ``finger``'s pad raised by ``raise_m`` (FingertipMotion.
+    raised_posture). A least-squares fit of tens of milliseconds, as long as a third of
+    a trial, so it is fitted once per hand, finger and height (a ValueError is not kept)."""
+    return _raised_reach_posture(hand, finger, raise_m).copy()
+
+
 class GraspController:
     """The model of the state machine. ``tick(snapshot) -> Command``."""
 
@@ -96,11 +110,16 @@ class GraspController:
         self.motion = FingertipMotion(hand, self.kin)
         self.names = [f.name for f in hand.fingers]
         self.grasp_mask = np.array([f.grasp for f in hand.fingers])
+        # Per-finger arithmetic on a handful of fingers runs on Python lists: a numpy
+        # call costs more than the whole loop at this size.
+        self._grasping = [bool(g) for g in self.grasp_mask]
         self.release_idx = self.names.index(hand.grasp.release_finger)
         self.reach_pose = np.asarray(reach_pose_world, dtype=float)
         self.reach_q = self._reach_posture()
         self.lift_top = self.reach_pose + np.array([0.0, 0.0, obj.lift_height_m])
         self.lower_limit_z = self.reach_pose[2] - self.s.lower_overshoot_m
+        self.lower_bottom = self.reach_pose.copy()   # where lowering stops at the latest
+        self.lower_bottom[2] = self.lower_limit_z
         self.palm_target: np.ndarray | None = None
         self._retreat_goal: np.ndarray | None = None
         self.torque_on = True
@@ -110,7 +129,7 @@ class GraspController:
         self.release_count = 0
         self.settle_count = 0
         self.ramp_settle = RampSettle(self.s)
-        self.lost_count = np.zeros(len(self.names), dtype=int)
+        self.lost_count = [0] * len(self.names)      # ticks each fingertip has seemed to slip
         self.snap: Snapshot | None = None
         self.history: list[tuple[float, str, str]] = []   # (t, from, to)
 
@@ -130,8 +149,7 @@ class GraspController:
         if cap.finger not in self.names or not self.grasp_mask[self.names.index(cap.finger)]:
             raise ConfigError(where, "cap.finger", f"a grasping finger of hand {self.hand.name!r} (got {cap.finger!r})")
         try:
-            return self.motion.raised_posture(self.motion.pregrasp_q,
-                                              {cap.finger: cap.contact_height_m - self.obj.grasp_height_m})
+            return raised_reach_posture(self.hand, cap.finger, cap.contact_height_m - self.obj.grasp_height_m)
         except ValueError as exc:
             raise ConfigError(where, "cap.contact_height_m", f"a height the finger can reach ({exc})") from None
 
@@ -156,7 +174,7 @@ class GraspController:
         self.settle_count = 0
         self.ramp_settle.reset()
         self.release_count = 0
-        self.lost_count[:] = 0
+        self.lost_count = [0] * len(self.names)
 
     def _elapsed(self) -> float:
         return self.ticks_in_state * self.dt
@@ -190,7 +208,11 @@ class GraspController:
         return self._elapsed() > self.s.ramp_timeout_s
 
     def grip_lost(self) -> bool:
-        return bool((self.lost_count[self.grasp_mask] * self.dt >= self.s.contact_lost_s).any())
+        dt, limit = self.dt, self.s.contact_lost_s
+        for count, grasping in zip(self.lost_count, self._grasping):   # a plain loop: no generator per tick
+            if grasping and count * dt >= limit:
+                return True
+        return False
 
     def at_lift_height(self) -> bool:
         assert self.snap is not None
@@ -222,13 +244,19 @@ class GraspController:
         return float(-snap.f_world[self.release_idx, 2])
 
     def _update_counters(self, snap: Snapshot) -> None:
-        err = self.tau - snap.grip_n
-        within = np.abs(err[self.grasp_mask]) <= self.s.ramp_tolerance_n
-        self.settle_count = self.settle_count + 1 if within.all() else 0
+        tau, tolerance = self.tau, self.s.ramp_tolerance_n
+        grip = snap.grip_n.tolist()
+        within = True
+        for g, grasping in zip(grip, self._grasping):
+            if grasping and not abs(tau - g) <= tolerance:
+                within = False
+                break
+        self.settle_count = self.settle_count + 1 if within else 0
         if self.state == "ramp":  # type: ignore[attr-defined]
-            self.ramp_settle.update(err[self.grasp_mask])
-        lost = (~snap.in_contact) | (snap.grip_n < self.s.grip_lost_fraction * self.tau)
-        self.lost_count = np.where(lost, self.lost_count + 1, 0)
+            self.ramp_settle.update(tau - snap.grip_n[self.grasp_mask])
+        floor = self.s.grip_lost_fraction * tau
+        self.lost_count = [count + 1 if not touching or g < floor else 0
+                           for count, touching, g in zip(self.lost_count, snap.in_contact.tolist(), grip)]
         below = self.release_force_n(snap) < -self.obj.release_threshold_n
         self.release_count = self.release_count + 1 if below else 0
 
@@ -240,20 +268,24 @@ class GraspController:
         if not self.terminal:
             self.ticks_in_state += 1
             self._update_counters(snap)
-            # squared norms: one cheap pass on the hot path (no sqrt unless a limit is crossed)
-            force_sq = np.einsum("ij,ij->i", snap.f_sensor, snap.f_sensor)
+            # squared norms (no sqrt unless a limit is crossed), summed in the order
+            # np.einsum("ij,ij->i") sums them, which this code used before
+            force_sq = [((0.0 + x * x) + z * z) + y * y for x, y, z in snap.f_sensor.tolist()]
             limit = self.hand.safety.max_fingertip_force_n
             if snap.fault:
                 self.fail(reason=snap.fault, detail=snap.fault_detail)
-            elif not np.all(np.isfinite(force_sq)):
+            elif not all(map(math.isfinite, force_sq)):
                 # never let NaN slip past the over-force comparison (NaN > x is False)
                 self.fail(reason="estimate_invalid", detail="non-finite estimated force in the snapshot")
-            elif (force_sq > limit * limit).any():
-                i = int(np.argmax(force_sq))
+            elif max(force_sq, default=0.0) > limit * limit:   # all finite here
+                i = force_sq.index(max(force_sq))
                 self.fail(reason="overforce",
                           detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {math.sqrt(force_sq[i]):.2f} N > {limit:g} N")
-            elif any(guard() for guard in self._guards[self.state]):  # type: ignore[attr-defined]
-                self.step()
+            else:
+                for guard in self._guards[self.state]:  # type: ignore[attr-defined]
+                    if guard():
+                        self.step()
+                        break
         self._act(snap)
         return Command(q_goal=self.motion.next_goal(), p_palm_world=self.palm_target.copy(), torque_on=self.torque_on)
 
@@ -279,10 +311,12 @@ class GraspController:
 
     def _squeeze(self, snap: Snapshot, gain: float, max_speed: float) -> None:
         """Per-finger force control along the closing vectors toward tau."""
-        speed = np.minimum(np.maximum(gain * (self.tau - snap.grip_n), -max_speed), max_speed)   # = np.clip
+        tau = self.tau
+        speed = [min(max(gain * (tau - g), -max_speed), max_speed) for g in snap.grip_n.tolist()]
         if self.s.low_confidence_slowdown and snap.variance is not None:
-            speed = speed / (1.0 + np.max(snap.variance, axis=1) / self.s.variance_scale_n2)
-        self.motion.advance_all(np.where(self.grasp_mask, speed * self.dt, 0.0))
+            speed = (np.array(speed) / (1.0 + np.max(snap.variance, axis=1) / self.s.variance_scale_n2)).tolist()
+        dt = self.dt
+        self.motion.advance_all(np.array([v * dt if grasping else 0.0 for v, grasping in zip(speed, self._grasping)]))
 
     def _act(self, snap: Snapshot) -> None:
         state = self.state  # type: ignore[attr-defined]
@@ -293,8 +327,9 @@ class GraspController:
             self.motion.set_posture(self.reach_q)
             self._move_palm_toward(self.reach_pose, self.hand.arm.max_speed_m_s)
         elif state == "close":
-            closing = self.grasp_mask & ~snap.in_contact
-            self.motion.advance_all(np.where(closing, s.close_speed_m_s * self.dt, 0.0))
+            step = s.close_speed_m_s * self.dt
+            self.motion.advance_all(np.array([step if grasping and not touching else 0.0
+                                              for grasping, touching in zip(self._grasping, snap.in_contact.tolist())]))
         elif state == "ramp":
             self._squeeze(snap, s.ramp_gain_m_s_per_n, s.ramp_max_speed_m_s)
         elif state in ("lift", "hold"):
@@ -303,12 +338,10 @@ class GraspController:
                 self._move_palm_toward(self.lift_top, s.lift_speed_m_s)
         elif state == "lower":
             self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s)
-            bottom = self.reach_pose.copy()
-            bottom[2] = self.lower_limit_z
             # The object was picked up at the reach pose: near that height the table is
             # close, so slow down and let the release debounce cost little extra push.
             near = snap.p_palm_world[2] - self.reach_pose[2] < s.lower_slow_zone_m
-            self._move_palm_toward(bottom, s.lower_slow_speed_m_s if near else s.lower_speed_m_s)
+            self._move_palm_toward(self.lower_bottom, s.lower_slow_speed_m_s if near else s.lower_speed_m_s)
         elif state == "release":
             # Back the pads off along their closing vectors: swinging straight to the open
             # posture can sweep a fingertip (the LEAP thumb) into the table beside the object.

@@ -9,10 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from grasp_ctrl import jit
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.pad_ik import PadIK
+from grasp_ctrl.limits import step_toward
 
 
 IK_DAMPING = 0.002
@@ -97,17 +99,17 @@ class FingertipMotion:
     def advance_all(self, distances_m: np.ndarray) -> None:
         """Move every fingertip's goal along its closing vector by its distance (finger
         order; 0 leaves a finger as it is), one IK step per moving finger."""
-        move = np.asarray(distances_m, dtype=float) != 0.0
-        if not move.any():
-            return
         # Track an explicit pad target, so linearisation errors of the small IK steps
         # are corrected every tick instead of accumulating into a drift off the line.
-        self.targets = self.targets + self.task_vectors * np.asarray(distances_m, dtype=float)[:, None]
-        self._posture = None
-        self.ik.step(self.q_goal, self.targets, move, IK_DAMPING)
+        if self.ik.advance(self.q_goal, self.targets, self.task_vectors,
+                           np.ascontiguousarray(distances_m, dtype=float), IK_DAMPING):
+            self._posture = None
 
     def next_goal(self) -> np.ndarray:
         """The goal to send this tick: toward q_goal, at most max_step per joint."""
+        if jit.JIT:
+            step_toward(self.q_goal, self._q_sent, self.max_step, self.lower, self.upper)
+            return self._q_sent.copy()
         # np.minimum/np.maximum: np.clip's result at a fraction of its call overhead.
         step = np.minimum(np.maximum(self.q_goal - self._q_sent, -self.max_step), self.max_step)
         self._q_sent = np.minimum(np.maximum(self._q_sent + step, self.lower), self.upper)

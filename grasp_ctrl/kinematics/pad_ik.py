@@ -176,6 +176,43 @@ def sensor_rotations_kernel(q, starts, counts, R_base, p_base, R_org, p_org, K, 
                 out[f, r, c] = R[r, 0] * R_tip[f, 0, c] + R[r, 1] * R_tip[f, 1, c] + R[r, 2] * R_tip[f, 2, c]
 
 
+@njit
+def advance_pads_kernel(q, targets, task_vectors, distances, starts, counts, R_base, p_base, R_org, p_org, K, K2,
+                        axes, R_tip, p_tip, point, damping, lower, upper):
+    """Move each finger's pad target along its task vector by its distance (0: stays)
+    and take one IK step for the fingers that moved (``step_pads_kernel``); ``q`` and
+    ``targets`` in place. False when no finger moves (nothing changed)."""
+    F = len(distances)
+    move = np.empty(F, dtype=np.bool_)
+    moved = False
+    for f in range(F):
+        move[f] = distances[f] != 0.0
+        moved = moved or move[f]
+    if not moved:
+        return False
+    for f in range(F):
+        for r in range(3):
+            targets[f, r] = targets[f, r] + task_vectors[f, r] * distances[f]
+    step_pads_kernel(q, targets, move, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
+                     point, damping, lower, upper)
+    return True
+
+
+@njit
+def sensor_forces_kernel(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
+                         f_sensor, f_hand, grip):
+    """Sensor-frame forces (F, 3) into the hand frame (``f_hand``, F x 3) and their part
+    across the hand's z axis (``grip``, F). Each product sums its terms in the order
+    ``np.einsum("nij,nj->ni", ...)`` does ((0 + a0 b0 + a2 b2) + a1 b1), so the result,
+    signed zeros included, is bit-identical to the numpy path."""
+    R = np.empty((len(starts), 3, 3))
+    sensor_rotations_kernel(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, R)
+    for f in range(len(starts)):
+        for r in range(3):
+            f_hand[f, r] = ((0.0 + R[f, r, 0] * f_sensor[f, 0]) + R[f, r, 2] * f_sensor[f, 2]) + R[f, r, 1] * f_sensor[f, 1]
+        grip[f] = math.sqrt(f_hand[f, 0] * f_hand[f, 0] + f_hand[f, 1] * f_hand[f, 1])
+
+
 class PadIK:
     """Pad points and IK steps of all fingers of one hand (hand-file finger order)."""
 
@@ -225,6 +262,33 @@ class PadIK:
             sensor_rotations_kernel(np.ascontiguousarray(q_all, dtype=float), *self._arrays, out)
             return out
         return self._batched.sensor_frames(q_all)[0]
+
+    def sensor_forces(self, q_all: np.ndarray, f_sensor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Forces (F, 3) from the sensor frames to the hand frame, and each one's size
+        across the hand's z axis (F,): ``(f_hand, grip)``."""
+        if self.compiled:
+            f_hand = np.empty((len(self.names), 3))
+            grip = np.empty(len(self.names))
+            sensor_forces_kernel(np.ascontiguousarray(q_all, dtype=float), *self._arrays,
+                                 np.ascontiguousarray(f_sensor, dtype=float), f_hand, grip)
+            return f_hand, grip
+        f_hand = np.einsum("nij,nj->ni", self.sensor_rotations(q_all), f_sensor)
+        return f_hand, np.sqrt(f_hand[:, 0] ** 2 + f_hand[:, 1] ** 2)
+
+    def advance(self, q_all: np.ndarray, targets: np.ndarray, task_vectors: np.ndarray, distances: np.ndarray,
+                damping: float) -> bool:
+        """Move the pad ``targets`` (F, 3, in place) along ``task_vectors`` (F, 3) by
+        ``distances`` (F,) and take one DLS step for the fingers that moved (``q_all``
+        in place); False when every distance is 0 (nothing changes)."""
+        if self.compiled:
+            return bool(advance_pads_kernel(q_all, targets, task_vectors, distances, *self._arrays, self.point,
+                                            damping, self.lower, self.upper))
+        move = distances != 0.0
+        if not move.any():
+            return False
+        targets += task_vectors * distances[:, None]
+        self.step(q_all, targets, move, damping)
+        return True
 
     def step(self, q_all: np.ndarray, targets: np.ndarray, move: np.ndarray, damping: float) -> None:
         """One DLS step toward ``targets`` (F, 3) for the fingers with ``move``; ``q_all`` in place."""

@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from grasp_ctrl import jit
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import HardwareError
+from grasp_ctrl.finite import all_finite
 from grasp_ctrl.hardware.base import JointState, TactileFrame
+from grasp_ctrl.limits import limit_goal
 from grasp_ctrl.sim.world import MockWorld
 
 
@@ -43,9 +46,14 @@ class MockHand:
 
     def write_goals(self, q_goal: np.ndarray) -> None:
         q_goal = np.asarray(q_goal, dtype=float)
-        if q_goal.shape != self.lower.shape or not np.isfinite(q_goal).all():
+        if q_goal.shape != self.lower.shape or not all_finite(q_goal):
             raise HardwareError(f"bad goal vector of shape {q_goal.shape}")
         prev = self.world.q_goal
+        if jit.JIT:
+            q = np.empty_like(self.lower)
+            limit_goal(q_goal, prev, self.max_step, self.lower, self.upper, q)
+            self.world.q_goal = q
+            return
         q = np.minimum(np.maximum(q_goal, prev - self.max_step), prev + self.max_step)   # = np.clip, cheaper
         self.world.q_goal = np.minimum(np.maximum(q, self.lower), self.upper)
 
@@ -98,10 +106,10 @@ class MockSensors:
 
     def _refresh(self) -> None:
         w = self.world
-        for i, sid in enumerate(w.sensor_ids):
-            if sid in self.paused:
-                continue
-            self._latest[sid] = TactileFrame(sensor_id=sid, seq=w.seq, t_recv=w.t, values=w.raw[i])
+        raw, seq, t, paused, latest = w.raw, w.seq, w.t, self.paused, self._latest
+        for sid, values in zip(w.sensor_ids, raw):
+            if not paused or sid not in paused:
+                latest[sid] = TactileFrame(sensor_id=sid, seq=seq, t_recv=t, values=values)
 
     def read_latest(self) -> dict[int, TactileFrame]:
         self._refresh()

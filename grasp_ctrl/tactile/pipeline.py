@@ -12,10 +12,14 @@ from typing import Sequence
 
 import numpy as np
 
+from grasp_ctrl import jit
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.tactile.frames import validate_frames
-from grasp_ctrl.tactile.tare import ContactGate, Tare
+from grasp_ctrl.tactile.layout import FRAME_LEN
+from grasp_ctrl.tactile.tare import ContactGate, Tare, tare_and_gate
+
+_FLOAT64 = np.dtype(np.float64)
 
 
 @dataclass(frozen=True)
@@ -50,16 +54,35 @@ class TactilePipeline:
 
     def step(self, raw: np.ndarray) -> TipForces:
         """One raw frame per fingertip (n_tips, 44) -> tared signals, contact flags, forces."""
-        raw = validate_frames(raw, self.fingers) if self.validate else np.asarray(raw, dtype=float)
-        tared = self.tare.apply(raw)
-        contact = self.gate.update(tared)
         n = len(self.fingers)
-        f_sensor = np.zeros((n, 3))
+        tared = np.empty((n, FRAME_LEN))
+        contact = np.empty(n, dtype=bool)
+        touching = -1
+        if (jit.JIT and self.validate and type(raw) is np.ndarray and raw.dtype is _FLOAT64
+                and raw.shape == (n, FRAME_LEN) and raw.flags.c_contiguous):
+            touching = tare_and_gate(raw, self.tare.baseline, self.gate.count, self.gate.threshold,
+                                     self.gate.frames, tared, contact)
+        if touching < 0:   # the numpy path (and the one that names a bad value)
+            raw = validate_frames(raw, self.fingers) if self.validate else np.asarray(raw, dtype=float)
+            tared = self.tare.apply(raw)
+            contact = self.gate.update(tared)
+            touching = int(np.count_nonzero(contact))
         variance = np.zeros((n, 3)) if self.estimator.has_variance else None
-        idx = np.flatnonzero(contact)
-        if idx.size:
-            est = self.estimator.estimate(tared[idx], [self.fingers[i] for i in idx])
-            f_sensor[idx] = est.f_sensor
+        if touching == n and n:
+            # Every fingertip in contact: no gather, no scatter.
+            est = self.estimator.estimate(tared, list(self.fingers))
+            f_sensor = np.array(est.f_sensor, dtype=float)   # own copy, as the scatter below makes
+            if f_sensor.shape != (n, 3):   # let the scatter broadcast or name the bad shape
+                f_sensor = np.zeros((n, 3))
+                f_sensor[:] = est.f_sensor
             if variance is not None and est.variance is not None:
-                variance[idx] = est.variance
+                variance[:] = est.variance
+        else:
+            f_sensor = np.zeros((n, 3))
+            if touching:
+                idx = np.flatnonzero(contact)
+                est = self.estimator.estimate(tared[idx], [self.fingers[i] for i in idx.tolist()])
+                f_sensor[idx] = est.f_sensor
+                if variance is not None and est.variance is not None:
+                    variance[idx] = est.variance
         return TipForces(tared, contact, f_sensor, variance)

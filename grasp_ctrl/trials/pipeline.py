@@ -10,6 +10,7 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.errors import FrameError, SensorStaleError
 from grasp_ctrl.estimators.base import ForceEstimator
+from grasp_ctrl.finite import all_finite
 from grasp_ctrl.hardware.base import JointState, TactileFrame
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.pad_ik import PadIK
@@ -86,19 +87,16 @@ class SensingPipeline:
                 fault, fault_detail = reason, detail
 
         q = np.asarray(joints.q, dtype=float)
-        if q.shape != self._last_q.shape or not np.all(np.isfinite(q)):
+        if q.shape != self._last_q.shape or not all_finite(q):
             bad = [j for j, v in zip(self.joint_names, np.ravel(q)) if not np.isfinite(v)] if q.shape == self._last_q.shape else []
             note("sensor_invalid", f"joint angles not finite ({', '.join(bad) or f'shape {q.shape}'})")
             q = self._last_q.copy()
         self._last_q = q
         p_palm_world = np.asarray(p_palm_world, dtype=float)
-        if p_palm_world.shape != (3,) or not np.all(np.isfinite(p_palm_world)):
+        if p_palm_world.shape != (3,) or not all_finite(p_palm_world):
             note("sensor_invalid", f"arm position not finite ({p_palm_world.tolist()})")
             p_palm_world = self._last_palm.copy()
         self._last_palm = p_palm_world
-        tared = np.zeros_like(raw, dtype=float)
-        in_contact = np.zeros(n, dtype=bool)
-        f_sensor = np.zeros((n, 3))
         variance = None
         try:
             tare_ready = self.collect_tare(raw) if collecting_tare else self.tactile.tare.ready
@@ -106,26 +104,31 @@ class SensingPipeline:
                 tips = self.tactile.step(raw)
                 tared, in_contact, f_sensor, variance = tips.tared, tips.in_contact, tips.f_sensor, tips.variance
         except FrameError as exc:
-            tare_ready = self.tactile.tare.ready
+            tare_ready = False
             note("sensor_invalid", str(exc))
+        if not tare_ready:   # before the baseline, or a frame that failed: no contact, no force
+            tare_ready = self.tactile.tare.ready
+            tared = np.zeros_like(raw, dtype=float)
+            in_contact = np.zeros(n, dtype=bool)
+            f_sensor = np.zeros((n, 3))
+            variance = None
         f_sensor = np.asarray(f_sensor, dtype=float)
-        bad_f = ~np.all(np.isfinite(f_sensor), axis=1)
-        bad_v = ~np.all(np.isfinite(variance), axis=1) if variance is not None else np.zeros(n, dtype=bool)
-        if bad_f.any() or bad_v.any():
-            tips_bad = [self.names[i] for i in np.flatnonzero(bad_f | bad_v)]
-            what = "force" if bad_f.any() else "variance"
-            note("estimate_invalid", f"policy {getattr(self.estimator, 'name', '?')!r} returned a non-finite "
-                                     f"{what} for fingertip(s) {', '.join(tips_bad)}")
-            f_sensor = np.where(np.isfinite(f_sensor), f_sensor, 0.0)
-            if variance is not None:
-                variance = np.where(np.isfinite(variance), variance, 0.0)
+        if not (all_finite(f_sensor) and (variance is None or all_finite(variance))):
+            bad_f = ~np.all(np.isfinite(f_sensor), axis=1)
+            bad_v = ~np.all(np.isfinite(variance), axis=1) if variance is not None else np.zeros(n, dtype=bool)
+            if bad_f.any() or bad_v.any():
+                tips_bad = [self.names[i] for i in np.flatnonzero(bad_f | bad_v)]
+                what = "force" if bad_f.any() else "variance"
+                note("estimate_invalid", f"policy {getattr(self.estimator, 'name', '?')!r} returned a non-finite "
+                                         f"{what} for fingertip(s) {', '.join(tips_bad)}")
+                f_sensor = np.where(np.isfinite(f_sensor), f_sensor, 0.0)
+                if variance is not None:
+                    variance = np.where(np.isfinite(variance), variance, 0.0)
         self.tared = tared
-        R = self.fast_kin.sensor_rotations(q)
-        f_hand = np.einsum("nij,nj->ni", R, f_sensor)
-        f_world = f_hand  # the arm translates the hand: hand axes = world axes
         # Grip = the squeeze: the force across the lift direction (world z). Along z
         # the fingertips also carry the object's weight, which must not count as grip.
-        grip = np.sqrt(f_world[:, 0] ** 2 + f_world[:, 1] ** 2)
+        f_hand, grip = self.fast_kin.sensor_forces(q, f_sensor)
+        f_world = f_hand  # the arm translates the hand: hand axes = world axes
         return Snapshot(
             t=joints.t,
             q=q,

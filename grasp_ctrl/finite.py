@@ -1,0 +1,33 @@
+"""``all_finite``: the per-tick check that an array holds no NaN or inf, cheaply.
+
+``np.isfinite(a).all()`` costs two numpy calls of a few microseconds each, and
+the control loop makes several such checks per tick; with the ``sim`` extra a
+float64 array is checked by one compiled loop instead (grasp_ctrl/jit.py).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from grasp_ctrl import jit
+from grasp_ctrl.jit import njit
+
+
+_FLOAT64 = np.dtype(np.float64)   # native float64: a singleton, so an identity test finds it
+
+
+@njit
+def _finite_floats(flat: np.ndarray) -> bool:
+    for v in flat:
+        if not math.isfinite(v):
+            return False
+    return True
+
+
+def all_finite(a: np.ndarray) -> bool:
+    """True when every value of ``a`` is finite (the answer of ``np.isfinite(a).all()``)."""
+    if jit.JIT and a.dtype is _FLOAT64:
+        return bool(_finite_floats(a.ravel()))
+    return bool(np.isfinite(a).all())
