@@ -26,7 +26,7 @@ from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.sim.biotac_model import BioTacParams, BioTacSensorModel
 from grasp_ctrl.sim.mujoco_contacts import read_contacts, skin_point_and_normal
 from grasp_ctrl.sim.mujoco_scene import PlacedObject, SceneParams, build_scene
-from grasp_ctrl.sim.world import GRAVITY, NOISE_BLOCK, WorldEvent
+from grasp_ctrl.sim.world import GRAVITY, NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
 
 FALL_SPEED_M_S = 0.1      # landing on the table faster than this is a drop (placing is slower)
 AIRBORNE_M = 0.002        # above this the object has left the table
@@ -230,41 +230,15 @@ class MuJoCoWorld:
 
     @palm_target.setter
     def palm_target(self, p: np.ndarray) -> None:
-        target = np.array(p, dtype=float).reshape(3)
-        if not np.all(np.isfinite(target)):
-            raise ValueError(f"palm target must be finite, got {target}")
-        self._palm_target = target
+        self._palm_target = checked_palm_target(p)
 
-    @property
-    def normal_n(self) -> np.ndarray:
-        """Normal force of the object on each fingertip (N)."""
-        return self._normal_n
-
-    @property
-    def in_contact(self) -> np.ndarray:
-        return self._in_contact
-
-    @property
-    def slip_speed(self) -> np.ndarray:
-        return self._slip_speed
-
-    @property
-    def f_world(self) -> np.ndarray:
-        """Force ON each sensor skin, world frame (N)."""
-        return self._f_world
-
-    @property
-    def f_sensor(self) -> np.ndarray:
-        """Force ON each sensor skin, sensor frame (N)."""
-        return self._f_sensor
-
-    @property
-    def contact_sensor(self) -> np.ndarray:
-        return self._contact_sensor
-
-    @property
-    def skin_normal_sensor(self) -> np.ndarray:
-        return self._skin_normal_sensor
+    normal_n = in_place_view("_normal_n", "normal force of the object on each fingertip (N)")
+    in_contact = in_place_view("_in_contact", "whether each fingertip touches the object")
+    slip_speed = in_place_view("_slip_speed", "slip speed of each contact (m/s)")
+    f_world = in_place_view("_f_world", "force ON each sensor skin, world frame (N)")
+    f_sensor = in_place_view("_f_sensor", "force ON each sensor skin, sensor frame (N)")
+    contact_sensor = in_place_view("_contact_sensor", "where each fingertip touches, sensor frame (m)")
+    skin_normal_sensor = in_place_view("_skin_normal_sensor", "outward skin normal there, sensor frame")
 
     @property
     def obj_xy(self) -> np.ndarray:

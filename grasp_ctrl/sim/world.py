@@ -85,9 +85,17 @@ def pad_tables(hand: HandConfig) -> tuple[np.ndarray, np.ndarray]:
     return mk.take, mk.point_table(np.tile(PAD_POINT_SENSOR, (mk.F, 1)))
 
 
-def _in_place(name: str, doc: str) -> property:
-    """A read-only view of an array the step kernel updates in place."""
+def in_place_view(name: str, doc: str) -> property:
+    """A read-only view of an array the world's step updates in place (also MuJoCoWorld's)."""
     return property(lambda self: getattr(self, name), doc=doc)
+
+
+def checked_palm_target(p: np.ndarray) -> np.ndarray:
+    """A wrist target as a (3,) float array; ValueError unless every coordinate is finite."""
+    target = np.array(p, dtype=float).reshape(3)
+    if not all_finite(target):
+        raise ValueError(f"palm target must be finite, got {target}")
+    return target
 
 
 class MockWorld:
@@ -203,16 +211,16 @@ class MockWorld:
     def palm_world(self) -> np.ndarray:
         return self._palm
 
-    normal_n = _in_place("_normal_n", "normal force of each fingertip (N)")
-    tangential_up_n = _in_place("_tangential_up_n", "upward force of each finger on the object (N)")
-    in_contact = _in_place("_in_contact", "whether each fingertip touches the object")
-    stick_offset = _in_place("_stick_offset", "contact height minus object height at stick (m)")
-    slip_speed = _in_place("_slip_speed", "slip speed of each contact (m/s)")
-    f_world = _in_place("_f_world", "force ON each sensor skin, world frame (N)")
-    f_sensor = _in_place("_f_sensor", "force ON each sensor skin, sensor frame (N)")
-    n_out_world = _in_place("_n_out_world", "object's outward surface normal at each contact")
-    contact_sensor = _in_place("_contact_sensor", "where each fingertip touches, sensor frame (m)")
-    skin_normal_sensor = _in_place("_skin_normal_sensor", "outward skin normal there, sensor frame")
+    normal_n = in_place_view("_normal_n", "normal force of each fingertip (N)")
+    tangential_up_n = in_place_view("_tangential_up_n", "upward force of each finger on the object (N)")
+    in_contact = in_place_view("_in_contact", "whether each fingertip touches the object")
+    stick_offset = in_place_view("_stick_offset", "contact height minus object height at stick (m)")
+    slip_speed = in_place_view("_slip_speed", "slip speed of each contact (m/s)")
+    f_world = in_place_view("_f_world", "force ON each sensor skin, world frame (N)")
+    f_sensor = in_place_view("_f_sensor", "force ON each sensor skin, sensor frame (N)")
+    n_out_world = in_place_view("_n_out_world", "object's outward surface normal at each contact")
+    contact_sensor = in_place_view("_contact_sensor", "where each fingertip touches, sensor frame (m)")
+    skin_normal_sensor = in_place_view("_skin_normal_sensor", "outward skin normal there, sensor frame")
 
     @property
     def palm_target(self) -> np.ndarray:
@@ -220,10 +228,7 @@ class MockWorld:
 
     @palm_target.setter
     def palm_target(self, p: np.ndarray) -> None:
-        target = np.array(p, dtype=float).reshape(3)
-        if not all_finite(target):
-            raise ValueError(f"palm target must be finite, got {target}")
-        self._palm_target = target
+        self._palm_target = checked_palm_target(p)
 
     @property
     def obj_xy(self) -> np.ndarray:
