@@ -21,6 +21,8 @@ from transitions import Machine
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.motion import FingertipMotion
+from grasp_ctrl.kinematics.pad_ik import Facing
+from grasp_ctrl.kinematics.preshape import preshape
 from grasp_ctrl.controller.ramp_settle import RampSettle
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.controller.snapshot import Command, Snapshot
@@ -140,18 +142,30 @@ class GraspController:
 
     # ----- helpers ----------------------------------------------------------
     def _reach_posture(self) -> np.ndarray:
-        """The pregrasp posture; with a capped object, its cap finger's pad raised to
-        the cap's contact height (the others close at ``grasp_height_m``)."""
+        """The pregrasp posture, or with ``settings.preshape`` the object's preshape
+        (pads facing the object where closing along the task vectors meets it:
+        kinematics/preshape.py); with a capped object, its cap finger's pad raised to the cap's
+        contact height (the others close at ``grasp_height_m``)."""
+        q = self.motion.pregrasp_q.copy()
+        if self.s.preshape:
+            shape = preshape(self.hand, self.obj, self.s.preshape_standoff_m)
+            q = shape.q
+            facing = np.array([n is not None for n in shape.pad_normals_hand])
+            normals = np.array([n if n is not None else np.zeros(3) for n in shape.pad_normals_hand])
+            self.motion.facing = Facing(facing, normals) if facing.any() else None
         cap = self.obj.cap
         if cap is None:
-            return self.motion.pregrasp_q.copy()
+            return q
         where = f"object {self.obj.name!r}"
         if cap.finger not in self.names or not self.grasp_mask[self.names.index(cap.finger)]:
             raise ConfigError(where, "cap.finger", f"a grasping finger of hand {self.hand.name!r} (got {cap.finger!r})")
         try:
-            return raised_reach_posture(self.hand, cap.finger, cap.contact_height_m - self.obj.grasp_height_m)
+            raised = raised_reach_posture(self.hand, cap.finger, cap.contact_height_m - self.obj.grasp_height_m)
         except ValueError as exc:
             raise ConfigError(where, "cap.contact_height_m", f"a height the finger can reach ({exc})") from None
+        cap_joints = self.kin.slices[cap.finger]
+        q[cap_joints] = raised[cap_joints]
+        return q
 
     @property
     def terminal(self) -> bool:

@@ -13,7 +13,7 @@ from grasp_ctrl import jit
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
-from grasp_ctrl.kinematics.pad_ik import PadIK
+from grasp_ctrl.kinematics.pad_ik import Facing, PadIK
 from grasp_ctrl.limits import step_toward
 
 
@@ -33,6 +33,7 @@ class FingertipMotion:
         self.index = {name: i for i, name in enumerate(self.names)}
         self.task_vectors = np.array([f.task_vector_hand for f in hand.fingers], dtype=float)   # (F, 3)
         self.ik = PadIK(kin, PAD_POINT_SENSOR)
+        self.facing: Facing | None = None          # pads kept facing these ways while moving
         self.q_goal = self.open_q.copy()
         self._q_sent = self.open_q.copy()
         self._posture: np.ndarray | None = None   # the posture the targets were last reset to
@@ -102,7 +103,7 @@ class FingertipMotion:
         # Track an explicit pad target, so linearisation errors of the small IK steps
         # are corrected every tick instead of accumulating into a drift off the line.
         if self.ik.advance(self.q_goal, self.targets, self.task_vectors,
-                           np.ascontiguousarray(distances_m, dtype=float), IK_DAMPING):
+                           np.ascontiguousarray(distances_m, dtype=float), IK_DAMPING, self.facing):
             self._posture = None
 
     def next_goal(self) -> np.ndarray:

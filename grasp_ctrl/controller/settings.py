@@ -32,5 +32,7 @@ class ControllerSettings:
     open_s: float = 0.4                    # time to open the fingers on release
     release_back_off_m_s: float = 0.05     # release: pads back off along their closing vectors
     retreat_m: float = 0.05
+    preshape: bool = True                  # reach in a posture whose pads face the object, close along
+    preshape_standoff_m: float = 0.01      #   its surface normals (kinematics/preshape.py), this far off
     low_confidence_slowdown: bool = False  # slow the ramp when the policy's variance is high
     variance_scale_n2: float = 0.05        # variance at which the ramp runs at half speed

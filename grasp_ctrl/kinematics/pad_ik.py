@@ -13,13 +13,14 @@ so any serial-chain geometry works.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from grasp_ctrl import jit
 from grasp_ctrl.kinematics.batched import BatchedKinematics
-from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.kinematics.fingertip import PAD_POINT_SENSOR
+from grasp_ctrl.kinematics.chain import FingerChain, HandKinematics
+from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.jit import njit
 
 
@@ -77,6 +78,105 @@ def _pad_and_jacobian(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, axes,
         J[2, i] = a0 * b1 - a1 * b0
 
 
+#: Largest turn per joint and step that keeping a pad's facing may add (rad): the
+#: turn is a slow correction, not a jump, so the position task stays accurate.
+MAX_TURN_RAD = 0.01
+
+
+@njit
+def _pad_normal_and_jacobian(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, normal_s,
+                             nrm, Jn):
+    """Pad normal (hand frame) of finger ``f`` into ``nrm`` (3,) and its Jacobian
+    d(normal)/dq = axis x normal into Jn (3, n)."""
+    R = R_base[f].copy()
+    Rs = np.empty((n, 3, 3))
+    tmp = np.empty((3, 3))
+    rot = np.empty((3, 3))
+    for i in range(n):
+        _times(R, R_org[f, i], tmp)
+        Rs[i] = R
+        _joint_turn(q[start + i], K[f, i], K2[f, i], rot)
+        _times(R, rot, tmp)
+    for r in range(3):
+        acc = 0.0
+        for c in range(3):
+            R_s_rc = R[r, 0] * R_tip[f, 0, c] + R[r, 1] * R_tip[f, 1, c] + R[r, 2] * R_tip[f, 2, c]
+            acc += R_s_rc * normal_s[c]
+        nrm[r] = acc
+    for i in range(n):
+        a0 = Rs[i, 0, 0] * axes[f, i, 0] + Rs[i, 0, 1] * axes[f, i, 1] + Rs[i, 0, 2] * axes[f, i, 2]
+        a1 = Rs[i, 1, 0] * axes[f, i, 0] + Rs[i, 1, 1] * axes[f, i, 1] + Rs[i, 1, 2] * axes[f, i, 2]
+        a2 = Rs[i, 2, 0] * axes[f, i, 0] + Rs[i, 2, 1] * axes[f, i, 1] + Rs[i, 2, 2] * axes[f, i, 2]
+        Jn[0, i] = a1 * nrm[2] - a2 * nrm[1]
+        Jn[1, i] = a2 * nrm[0] - a0 * nrm[2]
+        Jn[2, i] = a0 * nrm[1] - a1 * nrm[0]
+
+
+@njit
+def _inverse3(A):
+    """The inverse of a symmetric positive definite 3x3 A (by columns, ``_solve3``)."""
+    out = np.empty((3, 3))
+    e = np.zeros(3)
+    for c in range(3):
+        e[:] = 0.0
+        e[c] = 1.0
+        out[:, c] = _solve3(A, e)
+    return out
+
+
+@njit
+def _facing_step(J, Jn, dn, active, n, damping, orient_damping, dq1, dq):
+    """``dq`` <- dq1 plus the step in the position task's null space that turns the
+    pad normal by ``dn`` (minus what dq1 already turns it) as far as the spare joints
+    allow: N Jn^T (Jn N Jn^T + mu^2 I)^-1 (dn - Jn dq1), N = I - J^T (J J^T + l^2 I)^-1 J,
+    inactive joints (columns of J and Jn) left out."""
+    A = np.zeros((3, 3))
+    for r in range(3):
+        A[r, r] = damping * damping
+    for i in range(n):
+        if active[i]:
+            for r in range(3):
+                for c in range(3):
+                    A[r, c] += J[r, i] * J[c, i]
+    Ainv = _inverse3(A)
+    N = np.zeros((n, n))
+    for i in range(n):
+        for k in range(n):
+            acc = 0.0
+            if active[i] and active[k]:
+                for r in range(3):
+                    for c in range(3):
+                        acc += J[r, i] * Ainv[r, c] * J[c, k]
+            N[i, k] = (1.0 if i == k else 0.0) - acc
+    W = np.zeros((n, 3))         # N Jn^T, active columns only
+    for i in range(n):
+        for r in range(3):
+            acc = 0.0
+            for k in range(n):
+                if active[k]:
+                    acc += N[i, k] * Jn[r, k]
+            W[i, r] = acc if active[i] else 0.0
+    C = np.zeros((3, 3))
+    for r in range(3):
+        C[r, r] = orient_damping * orient_damping
+        for c in range(3):
+            acc = 0.0
+            for i in range(n):
+                if active[i]:
+                    acc += Jn[r, i] * W[i, c]
+            C[r, c] += acc
+    e = np.empty(3)
+    for r in range(3):
+        acc = dn[r]
+        for i in range(n):
+            if active[i]:
+                acc -= Jn[r, i] * dq1[i]
+        e[r] = acc
+    y = _solve3(C, e)
+    for i in range(n):
+        dq[i] = dq1[i] + (W[i, 0] * y[0] + W[i, 1] * y[1] + W[i, 2] * y[2])
+
+
 @njit
 def _solve3(A, b):
     """x with A x = b for a 3x3 A (Gaussian elimination, partial pivoting)."""
@@ -106,10 +206,13 @@ def _solve3(A, b):
 
 @njit
 def step_pads_kernel(q, targets, move, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
-                     point, damping, lower, upper):
+                     point, damping, lower, upper, normal_s, normal_targets, facing, orient_damping):
     """One damped least-squares step per finger with ``move[f]`` toward its pad target
-    (the arithmetic of FingerChain.point_and_jacobian + dls_step); updates ``q`` in place."""
+    (the arithmetic of FingerChain.point_and_jacobian + dls_step); updates ``q`` in place.
+    Fingers with ``facing[f]`` also turn their pad normal toward ``normal_targets[f]``
+    with the joints the position task leaves spare (``_facing_step``)."""
     pad = np.empty(3)
+    nrm = np.empty(3)
     for f in range(len(move)):
         if not move[f]:
             continue
@@ -120,6 +223,14 @@ def step_pads_kernel(q, targets, move, starts, counts, R_base, p_base, R_org, p_
         dp = np.empty(3)
         for r in range(3):
             dp[r] = targets[f, r] - pad[r]
+        Jn = np.empty((3, n))
+        dn = np.empty(3)
+        dq1 = np.empty(n)
+        if facing[f]:
+            _pad_normal_and_jacobian(q, f, s, n, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, normal_s,
+                                     nrm, Jn)
+            for r in range(3):
+                dn[r] = normal_targets[f, r] - nrm[r]
         active = np.ones(n, dtype=np.bool_)
         dq = np.zeros(n)
         for _ in range(2):
@@ -145,8 +256,30 @@ def step_pads_kernel(q, targets, move, starts, counts, R_base, p_base, R_org, p_
             if not active.any():
                 dq[:] = 0.0
                 break
+        if facing[f] and active.any():
+            dq1[:] = dq
+            _facing_step(J, Jn, dn, active, n, damping, orient_damping, dq1, dq)
+            _keep_within(q, s, n, dq1, dq, lower, upper)
         for i in range(n):
             q[s + i] = min(max(q[s + i] + dq[i], lower[s + i]), upper[s + i])
+
+
+@njit
+def _keep_within(q, s, n, dq1, dq, lower, upper):
+    """Shrink the secondary part of ``dq`` (dq - dq1) so that it is at most
+    MAX_TURN_RAD per joint and takes no joint past a limit that dq1 alone keeps."""
+    scale = 1.0
+    for i in range(n):
+        extra = dq[i] - dq1[i]
+        if abs(extra) > MAX_TURN_RAD:
+            scale = min(scale, MAX_TURN_RAD / abs(extra))
+        qi = q[s + i] + dq1[i]
+        if extra > 0.0 and qi + extra > upper[s + i]:
+            scale = min(scale, max(upper[s + i] - qi, 0.0) / extra)
+        elif extra < 0.0 and qi + extra < lower[s + i]:
+            scale = min(scale, max(lower[s + i] - qi, 0.0) / extra)
+    for i in range(n):
+        dq[i] = dq1[i] + scale * (dq[i] - dq1[i])
 
 
 @njit
@@ -178,7 +311,8 @@ def sensor_rotations_kernel(q, starts, counts, R_base, p_base, R_org, p_org, K, 
 
 @njit
 def advance_pads_kernel(q, targets, task_vectors, distances, starts, counts, R_base, p_base, R_org, p_org, K, K2,
-                        axes, R_tip, p_tip, point, damping, lower, upper):
+                        axes, R_tip, p_tip, point, damping, lower, upper, normal_s, normal_targets, facing,
+                        orient_damping):
     """Move each finger's pad target along its task vector by its distance (0: stays)
     and take one IK step for the fingers that moved (``step_pads_kernel``); ``q`` and
     ``targets`` in place. False when no finger moves (nothing changed)."""
@@ -194,7 +328,7 @@ def advance_pads_kernel(q, targets, task_vectors, distances, starts, counts, R_b
         for r in range(3):
             targets[f, r] = targets[f, r] + task_vectors[f, r] * distances[f]
     step_pads_kernel(q, targets, move, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
-                     point, damping, lower, upper)
+                     point, damping, lower, upper, normal_s, normal_targets, facing, orient_damping)
     return True
 
 
@@ -221,6 +355,7 @@ class PadIK:
         self.kin = kin
         self.names = list(kin.chains)
         self.point = np.ascontiguousarray(point_sensor, dtype=float)
+        self.normal = np.ascontiguousarray(PAD_NORMAL_SENSOR, dtype=float)
         chains = [kin.chains[n] for n in self.names]
         n_joints = max(sl.stop for sl in kin.slices.values())
         self.lower, self.upper = np.full(n_joints, -np.inf), np.full(n_joints, np.inf)
@@ -241,6 +376,7 @@ class PadIK:
         )
         assert self._arrays[2].shape == (F, 3, 3)
         self._batched = BatchedKinematics(kin)
+        self._no_facing = Facing.none(F)
 
     def pad_points(self, q_all: np.ndarray) -> np.ndarray:
         """(F, 3) pad points, hand frame."""
@@ -275,28 +411,99 @@ class PadIK:
         f_hand = np.einsum("nij,nj->ni", self.sensor_rotations(q_all), f_sensor)
         return f_hand, np.sqrt(f_hand[:, 0] ** 2 + f_hand[:, 1] ** 2)
 
+    def pad_normals(self, q_all: np.ndarray) -> np.ndarray:
+        """(F, 3) outward pad normals, hand frame."""
+        return np.einsum("nij,j->ni", self.sensor_rotations(q_all), self.normal)
+
     def advance(self, q_all: np.ndarray, targets: np.ndarray, task_vectors: np.ndarray, distances: np.ndarray,
-                damping: float) -> bool:
+                damping: float, facing: Facing | None = None) -> bool:
         """Move the pad ``targets`` (F, 3, in place) along ``task_vectors`` (F, 3) by
         ``distances`` (F,) and take one DLS step for the fingers that moved (``q_all``
-        in place); False when every distance is 0 (nothing changes)."""
+        in place); False when every distance is 0 (nothing changes). With ``facing``,
+        its fingers also turn their pads toward its normals (``step``)."""
+        facing = facing or self._no_facing
         if self.compiled:
             return bool(advance_pads_kernel(q_all, targets, task_vectors, distances, *self._arrays, self.point,
-                                            damping, self.lower, self.upper))
+                                            damping, self.lower, self.upper, self.normal, facing.normals_hand,
+                                            facing.fingers, facing.damping))
         move = distances != 0.0
         if not move.any():
             return False
         targets += task_vectors * distances[:, None]
-        self.step(q_all, targets, move, damping)
+        self.step(q_all, targets, move, damping, facing)
         return True
 
-    def step(self, q_all: np.ndarray, targets: np.ndarray, move: np.ndarray, damping: float) -> None:
-        """One DLS step toward ``targets`` (F, 3) for the fingers with ``move``; ``q_all`` in place."""
+    def step(self, q_all: np.ndarray, targets: np.ndarray, move: np.ndarray, damping: float,
+             facing: Facing | None = None) -> None:
+        """One DLS step toward ``targets`` (F, 3) for the fingers with ``move``; ``q_all``
+        in place. Fingers in ``facing`` also turn their pad normal toward its target
+        with the joints the position task leaves spare (its null space), so the pad
+        keeps facing the object while it moves along the closing vector."""
+        facing = facing or self._no_facing
         if self.compiled:
-            step_pads_kernel(q_all, targets, move, *self._arrays, self.point, damping, self.lower, self.upper)
+            step_pads_kernel(q_all, targets, move, *self._arrays, self.point, damping, self.lower, self.upper,
+                             self.normal, facing.normals_hand, facing.fingers, facing.damping)
             return
         for f, name in enumerate(self.names):
-            if move[f]:
-                chain, sl = self.kin.chains[name], self.kin.slices[name]
-                pad, J = chain.point_and_jacobian(q_all[sl], self.point)
+            if not move[f]:
+                continue
+            chain, sl = self.kin.chains[name], self.kin.slices[name]
+            pad, J = chain.point_and_jacobian(q_all[sl], self.point)
+            if not facing.fingers[f]:
                 q_all[sl] = chain.dls_step(q_all[sl], J, targets[f] - pad, damping)
+                continue
+            q_all[sl] = facing_dls_step(chain, q_all[sl], J, targets[f] - pad, self.normal, facing.normals_hand[f],
+                                        damping, facing.damping)
+
+
+@dataclass
+class Facing:
+    """Which fingers keep their pads facing a direction while they move, and which
+    direction (outward pad normals, hand frame, (F, 3)); ``damping`` of that
+    secondary task (its errors are unit-vector differences)."""
+
+    fingers: np.ndarray          # (F,) bool
+    normals_hand: np.ndarray     # (F, 3)
+    damping: float = 0.1
+
+    @classmethod
+    def none(cls, n_fingers: int) -> "Facing":
+        return cls(np.zeros(n_fingers, dtype=bool), np.zeros((n_fingers, 3)))
+
+
+def facing_dls_step(chain: FingerChain, q: np.ndarray, J: np.ndarray, dp_hand: np.ndarray, normal_sensor: np.ndarray,
+                    normal_target_hand: np.ndarray, damping: float, orient_damping: float) -> np.ndarray:
+    """``FingerChain.dls_step`` plus the null-space turn of the pad normal toward
+    ``normal_target_hand`` (numpy form of the compiled ``_facing_step``)."""
+    R_s = chain.fk_rp(q)[0]
+    normal = R_s @ normal_sensor
+    axes_hand = chain.joint_axes_and_origins(q)[0]
+    Jn = np.cross(axes_hand, normal).T                  # (3, n): d(normal)/dq
+    dn = normal_target_hand - normal
+    active = np.ones(chain.n, dtype=bool)
+    for _ in range(2):
+        Ja = J * active                                # inactive joints: zero columns
+        A = Ja @ Ja.T + damping**2 * np.eye(3)
+        dq1 = Ja.T @ np.linalg.solve(A, dp_hand)
+        blocked = ((q + dq1 < chain.lower) & (dq1 < 0)) | ((q + dq1 > chain.upper) & (dq1 > 0))
+        if not blocked.any():
+            break
+        active &= ~blocked
+        if not active.any():
+            return np.clip(q, chain.lower, chain.upper)
+    Ja, Jna = J * active, Jn * active
+    A = Ja @ Ja.T + damping**2 * np.eye(3)
+    N = np.eye(chain.n) - Ja.T @ np.linalg.inv(A) @ Ja
+    W = (N @ Jna.T) * active[:, None]
+    C = Jna @ W + orient_damping**2 * np.eye(3)
+    extra = W @ np.linalg.solve(C, dn - Jna @ dq1)
+    scale = 1.0
+    for i in range(chain.n):
+        if abs(extra[i]) > MAX_TURN_RAD:
+            scale = min(scale, MAX_TURN_RAD / abs(extra[i]))
+        qi = q[i] + dq1[i]
+        if extra[i] > 0.0 and qi + extra[i] > chain.upper[i]:
+            scale = min(scale, max(chain.upper[i] - qi, 0.0) / extra[i])
+        elif extra[i] < 0.0 and qi + extra[i] < chain.lower[i]:
+            scale = min(scale, max(chain.lower[i] - qi, 0.0) / extra[i])
+    return np.clip(q + dq1 + scale * extra, chain.lower, chain.upper)
