@@ -14,7 +14,11 @@ A grasp planner instead shapes the hand for the object. Here, per grasping finge
    bounded least-squares fit; 1 rad of facing weighs like ``FACING_WEIGHT_M``).
 
 Fingers whose closing line misses the object, the finger placed on a cap and
-fingers that cannot reach their preshape keep the hand file's pregrasp angles.
+fingers that cannot reach their preshape (within 2 mm, facing within 10 degrees)
+keep the hand file's pregrasp angles. On the LEAP Hand that leaves the 65-75 mm
+cylinders (a pad facing their side would have to yaw ~37 degrees, and the LEAP
+abduction joint yaws the pad the other way as it moves it sideways) and the
+thumb on the large boxes (it reaches them only tilted ~18 degrees down).
 The controller then keeps each pad facing that way while it closes
 (``PadIK.step`` with a ``Facing``).
 """
@@ -37,8 +41,10 @@ FACING_WEIGHT_M = 0.01
 #: Sliding along the surface from the expected contact weighs this much of the
 #: same distance off the surface or off the contact height.
 SLIDE_WEIGHT = 1.0
-#: A preshape whose pad misses its height or standoff by more than this is not used (m).
+#: A preshape whose pad misses its height or standoff by more than this, or faces
+#: the surface worse than this, is not used (m, degrees).
 MAX_MISS_M = 0.002
+MAX_FACING_ERROR_DEG = 10.0
 
 
 @dataclass(frozen=True)
@@ -147,6 +153,8 @@ def solve_preshape(hand: HandConfig, obj: ObjectProfile, standoff_m: float,
         fit = least_squares(residual, q[sl], bounds=(chain.lower, chain.upper))
         if float(np.linalg.norm(fit.fun[:2])) > MAX_MISS_M:
             continue
+        if float(np.linalg.norm(fit.fun[3:])) / FACING_WEIGHT_M > math.radians(MAX_FACING_ERROR_DEG):
+            continue   # the finger cannot face the object there: the pregrasp posture is as good
         q[sl] = fit.x
         R, p = chain.fk_rp(fit.x)
         pad = R @ PAD_POINT_SENSOR + p
