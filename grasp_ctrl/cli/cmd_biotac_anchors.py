@@ -22,7 +22,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.errors import UsageError
-    from grasp_ctrl.evaluation.biotac_anchors import anchor_report, format_report
+    from grasp_ctrl.evaluation.biotac_anchors import (
+        PAD_SCAN_FORCES_N, PAD_SCAN_X_M, anchor_report, format_pad_scan, format_report, pad_press_ratios)
 
     if args.n < 50:
         raise UsageError("--n: at least 50 samples per source")
@@ -33,6 +34,11 @@ def run(args: argparse.Namespace) -> int:
     except KeyError as exc:
         raise UsageError(str(exc.args[0])) from None
     print(format_report(report))
+    ratios = pad_press_ratios()
+    print()
+    print(format_pad_scan(ratios))
     if args.json:
-        Path(args.json).write_text(json.dumps(asdict(report), indent=2) + "\n", encoding="utf-8")
+        figures = asdict(report) | {"pad_scan": {"x_m": list(PAD_SCAN_X_M), "forces_n": list(PAD_SCAN_FORCES_N),
+                                                 "ratio": ratios.tolist()}}
+        Path(args.json).write_text(json.dumps(figures, indent=2) + "\n", encoding="utf-8")
     return 0

@@ -193,3 +193,50 @@ def format_report(report: AnchorReport) -> str:
         sim, real = getattr(report.simulated, key), getattr(report.real_b, key)
         lines.append(f"  {key:40s} {sim:10.3g} {real:10.3g}")
     return "\n".join(lines)
+
+
+#: Normal presses along the pad's midline (sensor x, m) and their forces (N) for ``pad_press_ratios``;
+#: -3 mm is the pad point the fingertip IK and the mock world's pad-centre contact use.
+PAD_SCAN_X_M = (-0.012, -0.009, -0.006, -0.003, 0.0, 0.003)
+PAD_SCAN_FORCES_N = (0.5, 1.0, 2.0, 3.0)
+
+
+def pad_press_ratios(params: object | None = None, policy: str = "icra19_official", hold_s: float = 1.0,
+                     seed: int = 0) -> np.ndarray:
+    """|f_est| / |f| of ``policy`` for steady normal presses on the simulated pad: rows
+    PAD_SCAN_X_M, columns PAD_SCAN_FORCES_N. A grasp presses the pad near one spot with
+    about tau = 2 N, so this is the read the controller gets; the pooled anchor figures
+    average it over the press locations of the training sources."""
+    from grasp_ctrl.estimators.registry import load_policy
+    from grasp_ctrl.kinematics.fingertip import SKIN_RADIUS_M
+    from grasp_ctrl.sim.biotac_model import DEFAULT_PARAMS, BioTacSensorModel
+
+    net = load_policy(policy)
+    model = BioTacSensorModel(1, np.random.default_rng(seed), params or DEFAULT_PARAMS)  # type: ignore[arg-type]
+    dt, zeros, free = 0.01, np.zeros((1, 3)), np.zeros(1, dtype=bool)
+    steps = max(1, int(round(hold_s / dt)))
+    rest = np.mean([model.frames(zeros, zeros, zeros, free, np.zeros(1), dt) for _ in range(50)], axis=0)
+    normal_sensor = np.array([[0.0, 0.0, -1.0]])
+    ratios = np.empty((len(PAD_SCAN_X_M), len(PAD_SCAN_FORCES_N)))
+    for i, x in enumerate(PAD_SCAN_X_M):
+        for j, force in enumerate(PAD_SCAN_FORCES_N):
+            point = np.array([[x, 0.0, -SKIN_RADIUS_M]])
+            f_sensor = np.array([[0.0, 0.0, force]])
+            for _ in range(steps):
+                frame = model.frames(point, f_sensor, normal_sensor, ~free, np.zeros(1), dt)
+            est = net.estimate(frame - rest, ["sim"]).f_sensor[0]
+            ratios[i, j] = float(np.linalg.norm(est)) / force
+            for _ in range(3 * steps):    # let the slow part of the load decay before the next press
+                model.frames(zeros, zeros, zeros, free, np.zeros(1), dt)
+    return ratios
+
+
+def format_pad_scan(ratios: np.ndarray, policy: str = "icra19_official") -> str:
+    forces = "  ".join(f"{f:>5.1f} N" for f in PAD_SCAN_FORCES_N)
+    lines = [f"{policy} on steady normal pad presses, |f_est| / |f| (sensor x along the pad midline):",
+             f"  x (mm)   {forces}"]
+    for x, row in zip(PAD_SCAN_X_M, ratios):
+        lines.append(f"  {x * 1000:+6.0f}   " + "  ".join(f"{r:7.2f}" for r in row))
+    within = float(np.mean((ratios >= 0.5) & (ratios <= 2.0)))
+    lines.append(f"  median {np.median(ratios):.2f}; within 0.5-2: {within:.0%}")
+    return "\n".join(lines)
