@@ -34,7 +34,7 @@ def control_tick(
         check_stale = getattr(sensors, "check_stale", None)
         if check_stale is not None:   # the serial backend can also tell an unplugged port
             check_stale(now)
-        raw = pipeline.frames_matrix(sensors.read_latest(), now)
+        raw = pipeline.read_frames(sensors, now)
     except HardwareError as exc:
         if fault is None:
             fault, detail = exc.reason, str(exc)   # the record names what failed
