@@ -42,6 +42,19 @@ def checked_limit_goal(goal: np.ndarray, prev: np.ndarray, max_step: float, lowe
     return True
 
 
+@njit
+def clamped_arm_target(p: np.ndarray, z_min: float, z_max: float, out: np.ndarray) -> None:
+    """``out`` = ``p`` with its height clamped as ``MockArm.command``'s Python
+    ``min(max(z, z_min), z_max)`` clamps it (NaN stays NaN)."""
+    out[0], out[1] = p[0], p[1]
+    z = p[2]
+    if z_min > z:
+        z = z_min
+    if z_max < z:
+        z = z_max
+    out[2] = z
+
+
 class SimClock:
     def __init__(self, world: MockWorld) -> None:
         self.world = world
@@ -108,11 +121,17 @@ class MockArm:
         self.world = world
         self.z_min = hand.arm.z_min_m
         self.z_max = hand.arm.z_max_m
+        self._z_min, self._z_max = float(self.z_min), float(self.z_max)
 
     def connect(self) -> None:
         pass
 
     def command(self, p_world: np.ndarray) -> None:
+        if jit.JIT and type(p_world) is np.ndarray and p_world.dtype is _FLOAT64 and p_world.shape == (3,):
+            p = np.empty(3)
+            clamped_arm_target(p_world, self._z_min, self._z_max, p)
+            self.world.palm_target = p
+            return
         p = np.array(p_world, dtype=float)
         p[2] = min(max(float(p[2]), self.z_min), self.z_max)
         self.world.palm_target = p

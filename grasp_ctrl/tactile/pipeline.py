@@ -66,6 +66,13 @@ class TactilePipeline:
 
     def step(self, raw: np.ndarray) -> TipForces:
         """One raw frame per fingertip (n_tips, 44) -> tared signals, contact flags, forces."""
+        tared, contact, bits = self.gate_frames(raw)
+        return TipForces(tared, contact, *self.forces(tared, bits))
+
+    def gate_frames(self, raw: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+        """Validate, tare and gate one raw frame per fingertip (the gate's counters
+        advance): ``(tared, in_contact, bits)``, bit i of ``bits`` set when fingertip i
+        is in contact."""
         n = len(self.fingers)
         tared = np.empty((n, FRAME_LEN))
         contact = np.empty(n, dtype=bool)
@@ -79,6 +86,12 @@ class TactilePipeline:
             tared = self.tare.apply(raw)
             contact = self.gate.update(tared)
             bits = sum(1 << i for i in np.flatnonzero(contact).tolist())
+        return tared, contact, bits
+
+    def forces(self, tared: np.ndarray, bits: int) -> tuple[np.ndarray, np.ndarray | None]:
+        """``(f_sensor, variance)`` of the fingertips: one batched estimate for those in
+        contact (``bits``, from ``gate_frames``), zero for the others."""
+        n = len(self.fingers)
         variance = np.zeros((n, 3)) if self.estimator.has_variance else None
         if bits == self._all_bits and n:
             # Every fingertip in contact: no gather, no scatter.
@@ -102,4 +115,4 @@ class TactilePipeline:
                     f_sensor[idx] = rows
                 if variance is not None and est.variance is not None:
                     variance[idx] = est.variance
-        return TipForces(tared, contact, f_sensor, variance)
+        return f_sensor, variance

@@ -8,11 +8,46 @@ Without numba the callers keep their numpy code.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from grasp_ctrl.jit import njit
+from grasp_ctrl.kinematics.pad_ik import sensor_forces_kernel
 from grasp_ctrl.limits import _maximum
 from grasp_ctrl.tactile.layout import FRAME_LEN, PDC
+from grasp_ctrl.tactile.tare import tare_and_gate_bits
+
+
+@njit
+def sense_inputs(q: np.ndarray, palm: np.ndarray, raw: np.ndarray, baseline: np.ndarray, count: np.ndarray,
+                 threshold: float, frames: int, tared: np.ndarray, contact: np.ndarray) -> int:
+    """The first half of a snapshot: check the joint angles and the palm position, then
+    tare and gate the frames (``tare.tare_and_gate_bits``: the contact bits, or -1 for
+    a frame that is not a finite count in range). -2 when an angle or coordinate is
+    not finite. Nothing changes unless the result is >= 0."""
+    for v in q:
+        if not math.isfinite(v):
+            return -2
+    for v in palm:
+        if not math.isfinite(v):
+            return -2
+    return tare_and_gate_bits(raw, baseline, count, threshold, frames, tared, contact)
+
+
+@njit
+def sense_forces(q, f_sensor, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,  # noqa: ANN001
+                 f_hand, grip) -> bool:  # noqa: ANN001
+    """The second half: the estimated forces (F, 3) into the hand frame and their grip
+    (``pad_ik.sensor_forces_kernel``), when every one is finite; False (nothing
+    written) when one is not."""
+    for i in range(f_sensor.shape[0]):
+        for k in range(f_sensor.shape[1]):
+            if not math.isfinite(f_sensor[i, k]):
+                return False
+    sensor_forces_kernel(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
+                         f_sensor, f_hand, grip)
+    return True
 
 
 @njit
