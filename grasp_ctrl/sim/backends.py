@@ -76,6 +76,7 @@ class MockHand:
         self._q_prev = world.q.copy()   # for the velocity estimate of read()
         p = world.params
         self._stiffness, self._torque_per_amp = p.servo_stiffness_nm_per_rad, p.torque_per_amp_nm
+        self._n_joints = len(self.lower)
 
     def connect(self) -> None:
         self.connected = True
@@ -83,9 +84,10 @@ class MockHand:
     def read(self) -> JointState:
         w = self.world
         if jit.JIT:
-            q, dq, current = np.empty_like(self._q_prev), np.empty_like(self._q_prev), np.empty_like(self._q_prev)
+            n = self._n_joints
+            q, dq, current = np.empty(n), np.empty(n), np.empty(n)
             joint_state_kernel(w.q, self._q_prev, w.q_servo, w.dt, self._stiffness, self._torque_per_amp, q, dq, current)
-            return JointState(q=q, dq=dq, current_a=current, t=w.t)
+            return JointState(q, dq, current, w.t)
         dq = (w.q - self._q_prev) / w.dt
         self._q_prev = w.q.copy()
         p = w.params
@@ -95,7 +97,7 @@ class MockHand:
     def write_goals(self, q_goal: np.ndarray) -> None:
         q_goal = np.asarray(q_goal, dtype=float)
         if jit.JIT and q_goal.shape == self.lower.shape:
-            q = np.empty_like(self.lower)
+            q = np.empty(self._n_joints)
             if checked_limit_goal(q_goal, self.world.q_goal, self.max_step, self.lower, self.upper, q):
                 self.world.q_goal = q
                 return

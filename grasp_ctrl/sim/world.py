@@ -223,7 +223,7 @@ class MockWorld:
     def q_goal(self, q: np.ndarray) -> None:
         # Goals inside the joint limits keep the servos' first-order steps inside them too.
         if jit.JIT and type(q) is np.ndarray and q.dtype is _FLOAT64 and q.shape == self.lower.shape:
-            goal = np.empty_like(self.lower)
+            goal = np.empty(self.lower.shape[0])
             _clip_into(q, self.lower, self.upper, goal)
             self._q_goal = goal
             return

@@ -35,6 +35,7 @@ class SensingPipeline:
         self.tactile = TactilePipeline.from_hand(hand, estimator)
         self._tare_window: list[np.ndarray] = []
         self._frame_shape = (n, FRAME_LEN)
+        self._stale_after_s = hand.tactile.stale_after_s
         self.raw = np.zeros((n, FRAME_LEN))
         self.tared = np.zeros((n, FRAME_LEN))
         self.joint_names = [j.name for j in hand.joints]
@@ -49,7 +50,7 @@ class SensingPipeline:
         latest_matrix = getattr(sensors, "latest_matrix", None)
         if latest_matrix is not None:
             got = latest_matrix(self.sensor_ids)
-            if got is not None and now - got[1] <= self.hand.tactile.stale_after_s:
+            if got is not None and now - got[1] <= self._stale_after_s:
                 return got[0]   # (a stale one goes the long way, which names the fingertip)
         return self.frames_matrix(sensors.read_latest(), now)
 
