@@ -31,3 +31,15 @@ def all_finite(a: np.ndarray) -> bool:
     if jit.JIT and a.dtype is _FLOAT64:
         return bool(_finite_floats(a.ravel()))
     return bool(np.isfinite(a).all())
+
+
+@njit
+def _finite_pair(a: np.ndarray, b: np.ndarray) -> bool:
+    return _finite_floats(a) and _finite_floats(b)
+
+
+def both_finite(a: np.ndarray, b: np.ndarray) -> bool:
+    """``all_finite(a) and all_finite(b)`` in one call (two per-tick checks of the same kind)."""
+    if jit.JIT and a.dtype is _FLOAT64 and b.dtype is _FLOAT64:
+        return bool(_finite_pair(a.ravel(), b.ravel()))
+    return all_finite(a) and all_finite(b)

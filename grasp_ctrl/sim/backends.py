@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from grasp_ctrl import jit
@@ -9,8 +11,48 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import HardwareError
 from grasp_ctrl.finite import all_finite
 from grasp_ctrl.hardware.base import JointState, TactileFrame
+from grasp_ctrl.jit import njit
 from grasp_ctrl.limits import limit_goal
 from grasp_ctrl.sim.world import MockWorld
+
+_FLOAT64 = np.dtype(np.float64)
+
+
+@njit
+def joint_state_kernel(q: np.ndarray, q_prev: np.ndarray, q_servo: np.ndarray, dt: float, stiffness: float,
+                       torque_per_amp: float, q_out: np.ndarray, dq_out: np.ndarray, current_out: np.ndarray) -> None:
+    """``MockHand.read``'s arithmetic in one pass (the same operations per element as
+    its numpy code, so the same bits); ``q_prev`` becomes ``q``."""
+    for j in range(q.shape[0]):
+        dq_out[j] = (q[j] - q_prev[j]) / dt
+        q_out[j] = q[j]
+        q_prev[j] = q[j]
+        current_out[j] = stiffness * (q_servo[j] - q[j]) / torque_per_amp
+
+
+@njit
+def checked_limit_goal(goal: np.ndarray, prev: np.ndarray, max_step: float, lower: np.ndarray, upper: np.ndarray,
+                       out: np.ndarray) -> bool:
+    """``limits.limit_goal`` into ``out`` when every goal is finite; False (``out``
+    unset) when one is not."""
+    for j in range(goal.shape[0]):
+        if not math.isfinite(goal[j]):
+            return False
+    limit_goal(goal, prev, max_step, lower, upper, out)
+    return True
+
+
+@njit
+def clamped_arm_target(p: np.ndarray, z_min: float, z_max: float, out: np.ndarray) -> None:
+    """``out`` = ``p`` with its height clamped as ``MockArm.command``'s Python
+    ``min(max(z, z_min), z_max)`` clamps it (NaN stays NaN)."""
+    out[0], out[1] = p[0], p[1]
+    z = p[2]
+    if z_min > z:
+        z = z_min
+    if z_max < z:
+        z = z_max
+    out[2] = z
 
 
 class SimClock:
@@ -32,12 +74,20 @@ class MockHand:
         self.connected = False
         self.fault: str | None = None   # tests inject e.g. "overload"
         self._q_prev = world.q.copy()   # for the velocity estimate of read()
+        p = world.params
+        self._stiffness, self._torque_per_amp = p.servo_stiffness_nm_per_rad, p.torque_per_amp_nm
+        self._n_joints = len(self.lower)
 
     def connect(self) -> None:
         self.connected = True
 
     def read(self) -> JointState:
         w = self.world
+        if jit.JIT:
+            n = self._n_joints
+            q, dq, current = np.empty(n), np.empty(n), np.empty(n)
+            joint_state_kernel(w.q, self._q_prev, w.q_servo, w.dt, self._stiffness, self._torque_per_amp, q, dq, current)
+            return JointState(q, dq, current, w.t)
         dq = (w.q - self._q_prev) / w.dt
         self._q_prev = w.q.copy()
         p = w.params
@@ -46,14 +96,14 @@ class MockHand:
 
     def write_goals(self, q_goal: np.ndarray) -> None:
         q_goal = np.asarray(q_goal, dtype=float)
+        if jit.JIT and q_goal.shape == self.lower.shape:
+            q = np.empty(self._n_joints)
+            if checked_limit_goal(q_goal, self.world.q_goal, self.max_step, self.lower, self.upper, q):
+                self.world.q_goal = q
+                return
         if q_goal.shape != self.lower.shape or not all_finite(q_goal):
             raise HardwareError(f"bad goal vector of shape {q_goal.shape}")
         prev = self.world.q_goal
-        if jit.JIT:
-            q = np.empty_like(self.lower)
-            limit_goal(q_goal, prev, self.max_step, self.lower, self.upper, q)
-            self.world.q_goal = q
-            return
         q = np.minimum(np.maximum(q_goal, prev - self.max_step), prev + self.max_step)   # = np.clip, cheaper
         self.world.q_goal = np.minimum(np.maximum(q, self.lower), self.upper)
 
@@ -73,11 +123,17 @@ class MockArm:
         self.world = world
         self.z_min = hand.arm.z_min_m
         self.z_max = hand.arm.z_max_m
+        self._z_min, self._z_max = float(self.z_min), float(self.z_max)
 
     def connect(self) -> None:
         pass
 
     def command(self, p_world: np.ndarray) -> None:
+        if jit.JIT and type(p_world) is np.ndarray and p_world.dtype is _FLOAT64 and p_world.shape == (3,):
+            p = np.empty(3)
+            clamped_arm_target(p_world, self._z_min, self._z_max, p)
+            self.world.palm_target = p
+            return
         p = np.array(p_world, dtype=float)
         p[2] = min(max(float(p[2]), self.z_min), self.z_max)
         self.world.palm_target = p
@@ -100,13 +156,33 @@ class MockSensors:
         self.world = world
         self.paused: set[int] = set()
         self._latest: dict[int, TactileFrame] = {}
+        # The world's frames last delivered to every sensor at once by latest_matrix,
+        # (raw, seq, t): turned into _latest's TactileFrames only when they are asked for.
+        self._delivered: tuple[np.ndarray, int, float] | None = None
 
     def start(self) -> None:
         self._refresh()
 
+    def latest_matrix(self, sensor_ids: list[int]) -> tuple[np.ndarray, float] | None:
+        """The newest frames of ``sensor_ids`` as one (n, 44) float matrix in that order,
+        and the time they were received: what ``read_latest`` would deliver, without a
+        TactileFrame each. Only when the ids are the world's own, in its order, and no
+        sensor is paused; otherwise None (then ``read_latest``)."""
+        w = self.world
+        if self.paused or sensor_ids != w.sensor_ids:
+            return None
+        raw = w.raw
+        self._delivered = (raw, w.seq, w.t)
+        return raw.astype(float), w.t
+
     def _refresh(self) -> None:
         w = self.world
         raw, seq, t, paused, latest = w.raw, w.seq, w.t, self.paused, self._latest
+        if self._delivered is not None:   # what latest_matrix delivered, before this refresh
+            last_raw, last_seq, last_t = self._delivered
+            for sid, values in zip(w.sensor_ids, last_raw):
+                latest[sid] = TactileFrame(sensor_id=sid, seq=last_seq, t_recv=last_t, values=values)
+            self._delivered = None
         for sid, values in zip(w.sensor_ids, raw):
             if not paused or sid not in paused:
                 latest[sid] = TactileFrame(sensor_id=sid, seq=seq, t_recv=t, values=values)

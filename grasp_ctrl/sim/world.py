@@ -36,12 +36,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from grasp_ctrl import jit
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.finite import all_finite
+from grasp_ctrl.jit import njit
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.multilinear import MultilinearKinematics, contract
+from grasp_ctrl.limits import clamp
 from grasp_ctrl.sim import world_step as ws
 from grasp_ctrl.sim.biotac_model import BioTacParams, BioTacSensorModel
 from grasp_ctrl.sim.shapes import shape_params
@@ -49,6 +52,7 @@ from grasp_ctrl.sim.shapes import shape_params
 GRAVITY = 9.81
 NEAR_M = 0.01   # fingertips further than this from the object cannot touch it this step
 NOISE_BLOCK = 128   # sensor noise is drawn for this many steps at a time
+_FLOAT64 = np.dtype(np.float64)
 
 
 @dataclass(frozen=True)
@@ -90,8 +94,30 @@ def in_place_view(name: str, doc: str) -> property:
     return property(lambda self: getattr(self, name), doc=doc)
 
 
+@njit
+def _finite_copy(p: np.ndarray, out: np.ndarray) -> bool:
+    """``out[:] = p`` when every value is finite; False (``out`` unset) otherwise."""
+    for k in range(p.shape[0]):
+        if not math.isfinite(p[k]):
+            return False
+    for k in range(p.shape[0]):
+        out[k] = p[k]
+    return True
+
+
+@njit
+def _clip_into(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, out: np.ndarray) -> None:
+    """``out`` = ``np.minimum(np.maximum(q, lower), upper)``."""
+    for j in range(q.shape[0]):
+        out[j] = clamp(q[j], lower[j], upper[j])
+
+
 def checked_palm_target(p: np.ndarray) -> np.ndarray:
-    """A wrist target as a (3,) float array; ValueError unless every coordinate is finite."""
+    """A wrist target as a (3,) float array (a copy); ValueError unless every coordinate is finite."""
+    if jit.JIT and type(p) is np.ndarray and p.dtype is _FLOAT64 and p.shape == (3,):
+        target = np.empty(3)
+        if _finite_copy(p, target):
+            return target
     target = np.array(p, dtype=float).reshape(3)
     if not all_finite(target):
         raise ValueError(f"palm target must be finite, got {target}")
@@ -196,6 +222,11 @@ class MockWorld:
     @q_goal.setter
     def q_goal(self, q: np.ndarray) -> None:
         # Goals inside the joint limits keep the servos' first-order steps inside them too.
+        if jit.JIT and type(q) is np.ndarray and q.dtype is _FLOAT64 and q.shape == self.lower.shape:
+            goal = np.empty(self.lower.shape[0])
+            _clip_into(q, self.lower, self.upper, goal)
+            self._q_goal = goal
+            return
         self._q_goal = np.minimum(np.maximum(np.asarray(q, dtype=float), self.lower), self.upper)   # = np.clip, cheaper
 
     # Updated in place by the step kernel, so read-only here.

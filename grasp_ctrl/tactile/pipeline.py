@@ -7,8 +7,7 @@ zero variance), as the paper did.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Sequence
+from typing import NamedTuple, Sequence
 
 import numpy as np
 
@@ -17,13 +16,14 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.tactile.frames import validate_frames
 from grasp_ctrl.tactile.layout import FRAME_LEN
-from grasp_ctrl.tactile.tare import ContactGate, Tare, tare_and_gate
+from grasp_ctrl.tactile.tare import ContactGate, Tare, scatter_rows, tare_and_gate_bits
 
 _FLOAT64 = np.dtype(np.float64)
 
 
-@dataclass(frozen=True)
-class TipForces:
+class TipForces(NamedTuple):
+    """One tick's tactile results (an immutable tuple: cheap to make every tick)."""
+
     tared: np.ndarray              # (n_tips, 44) counts
     in_contact: np.ndarray         # (n_tips,) bool
     f_sensor: np.ndarray           # (n_tips, 3) N, zero where not in contact
@@ -38,6 +38,11 @@ class TactilePipeline:
         self.tare = Tare(len(self.fingers))
         self.gate = ContactGate(len(self.fingers), threshold, frames)
         self.validate = validate
+        n = len(self.fingers)
+        self._frame_shape = (n, FRAME_LEN)
+        self._all_bits = (1 << n) - 1
+        # contact bits -> (rows in contact, their names): a handful of subsets, each made once
+        self._subsets: dict[int, tuple[np.ndarray, tuple[str, ...]]] = {}
 
     @classmethod
     def from_hand(cls, hand: HandConfig, estimator: ForceEstimator, validate: bool = True) -> "TactilePipeline":
@@ -52,25 +57,45 @@ class TactilePipeline:
         self.tare.set_baseline(frames)
         self.gate.reset()
 
+    def _subset(self, bits: int) -> tuple[np.ndarray, tuple[str, ...]]:
+        got = self._subsets.get(bits)
+        if got is None:
+            idx = np.array([i for i in range(len(self.fingers)) if bits >> i & 1], dtype=np.intp)
+            got = self._subsets[bits] = (idx, tuple(self.fingers[i] for i in idx.tolist()))
+        return got
+
     def step(self, raw: np.ndarray) -> TipForces:
         """One raw frame per fingertip (n_tips, 44) -> tared signals, contact flags, forces."""
+        tared, contact, bits = self.gate_frames(raw)
+        return TipForces(tared, contact, *self.forces(tared, bits))
+
+    def gate_frames(self, raw: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+        """Validate, tare and gate one raw frame per fingertip (the gate's counters
+        advance): ``(tared, in_contact, bits)``, bit i of ``bits`` set when fingertip i
+        is in contact."""
         n = len(self.fingers)
         tared = np.empty((n, FRAME_LEN))
         contact = np.empty(n, dtype=bool)
-        touching = -1
+        bits = -1
         if (jit.JIT and self.validate and type(raw) is np.ndarray and raw.dtype is _FLOAT64
-                and raw.shape == (n, FRAME_LEN) and raw.flags.c_contiguous):
-            touching = tare_and_gate(raw, self.tare.baseline, self.gate.count, self.gate.threshold,
-                                     self.gate.frames, tared, contact)
-        if touching < 0:   # the numpy path (and the one that names a bad value)
+                and raw.shape == self._frame_shape and raw.flags.c_contiguous and n <= 62):
+            bits = tare_and_gate_bits(raw, self.tare.baseline, self.gate.count, self.gate.threshold,
+                                      self.gate.frames, tared, contact)
+        if bits < 0:   # the numpy path (and the one that names a bad value)
             raw = validate_frames(raw, self.fingers) if self.validate else np.asarray(raw, dtype=float)
             tared = self.tare.apply(raw)
             contact = self.gate.update(tared)
-            touching = int(np.count_nonzero(contact))
+            bits = sum(1 << i for i in np.flatnonzero(contact).tolist())
+        return tared, contact, bits
+
+    def forces(self, tared: np.ndarray, bits: int) -> tuple[np.ndarray, np.ndarray | None]:
+        """``(f_sensor, variance)`` of the fingertips: one batched estimate for those in
+        contact (``bits``, from ``gate_frames``), zero for the others."""
+        n = len(self.fingers)
         variance = np.zeros((n, 3)) if self.estimator.has_variance else None
-        if touching == n and n:
+        if bits == self._all_bits and n:
             # Every fingertip in contact: no gather, no scatter.
-            est = self.estimator.estimate(tared, list(self.fingers))
+            est = self.estimator.estimate(tared, self.fingers)
             f_sensor = np.array(est.f_sensor, dtype=float)   # own copy, as the scatter below makes
             if f_sensor.shape != (n, 3):   # let the scatter broadcast or name the bad shape
                 f_sensor = np.zeros((n, 3))
@@ -79,10 +104,15 @@ class TactilePipeline:
                 variance[:] = est.variance
         else:
             f_sensor = np.zeros((n, 3))
-            if touching:
-                idx = np.flatnonzero(contact)
-                est = self.estimator.estimate(tared[idx], [self.fingers[i] for i in idx.tolist()])
-                f_sensor[idx] = est.f_sensor
+            if bits:
+                idx, names = self._subset(bits)
+                est = self.estimator.estimate(tared[idx], names)
+                rows = est.f_sensor
+                if (jit.JIT and type(rows) is np.ndarray and rows.dtype is _FLOAT64 and rows.shape == (len(idx), 3)
+                        and rows.flags.c_contiguous):
+                    scatter_rows(rows, bits, f_sensor)
+                else:
+                    f_sensor[idx] = rows
                 if variance is not None and est.variance is not None:
                     variance[idx] = est.variance
-        return TipForces(tared, contact, f_sensor, variance)
+        return f_sensor, variance

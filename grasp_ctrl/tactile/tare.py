@@ -76,3 +76,29 @@ def tare_and_gate(raw: np.ndarray, baseline: np.ndarray, count: np.ndarray, thre
         contact[i] = count[i] >= frames
         touching += contact[i]
     return touching
+
+
+@njit
+def tare_and_gate_bits(raw: np.ndarray, baseline: np.ndarray, count: np.ndarray, threshold: float, frames: int,
+                       tared: np.ndarray, contact: np.ndarray) -> int:
+    """``tare_and_gate``, returning which fingertips are in contact as bits (bit i:
+    fingertip i; at most 62 fingertips) instead of how many; -1 likewise."""
+    if tare_and_gate(raw, baseline, count, threshold, frames, tared, contact) < 0:
+        return -1
+    bits = 0
+    for i in range(contact.shape[0]):
+        if contact[i]:
+            bits |= 1 << i
+    return bits
+
+
+@njit
+def scatter_rows(rows: np.ndarray, bits: int, out: np.ndarray) -> None:
+    """``out[idx] = rows`` with ``idx`` the set bits of ``bits`` in increasing order
+    (the rows of the fingertips in contact back in their places)."""
+    k = 0
+    for i in range(out.shape[0]):
+        if bits >> i & 1:
+            for c in range(out.shape[1]):
+                out[i, c] = rows[k, c]
+            k += 1

@@ -11,11 +11,14 @@ from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.errors import FrameError, SensorStaleError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.finite import all_finite
-from grasp_ctrl.hardware.base import JointState, TactileFrame
+from grasp_ctrl.hardware.base import JointState, SensorBackend, TactileFrame
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.pad_ik import PadIK
 from grasp_ctrl.tactile.layout import FRAME_LEN
 from grasp_ctrl.tactile.pipeline import TactilePipeline
+from grasp_ctrl.trials.tick_kernels import sense_forces, sense_inputs
+
+_FLOAT64 = np.dtype(np.float64)
 
 
 class SensingPipeline:
@@ -23,18 +26,33 @@ class SensingPipeline:
         self.hand = hand
         self.kin = kin
         self.fast_kin = PadIK(kin)   # sensor rotations, compiled with the sim extra
+        self._compiled = self.fast_kin.compiled   # the compiled halves of a snapshot (trials/tick_kernels.py)
+        self._kin_arrays = self.fast_kin._arrays
         self.estimator = estimator
         self.names = [f.name for f in hand.fingers]
         self.sensor_ids = [f.sensor_id for f in hand.fingers]
         n = len(self.names)
         self.tactile = TactilePipeline.from_hand(hand, estimator)
         self._tare_window: list[np.ndarray] = []
+        self._frame_shape = (n, FRAME_LEN)
+        self._stale_after_s = hand.tactile.stale_after_s
         self.raw = np.zeros((n, FRAME_LEN))
         self.tared = np.zeros((n, FRAME_LEN))
         self.joint_names = [j.name for j in hand.joints]
         # the last finite joint angles and palm position (used when a reading is not finite)
         self._last_q = np.array([j.open_rad for j in hand.joints])
         self._last_palm = np.zeros(3)
+
+    def read_frames(self, sensors: SensorBackend, now: float) -> np.ndarray:
+        """(n_tips, 44) raw counts in finger order from ``sensors``: ``frames_matrix`` of
+        ``read_latest``, or the same matrix in one piece from a backend that offers
+        ``latest_matrix`` (the mock's sensors); a missing or old frame is a fault."""
+        latest_matrix = getattr(sensors, "latest_matrix", None)
+        if latest_matrix is not None:
+            got = latest_matrix(self.sensor_ids)
+            if got is not None and now - got[1] <= self._stale_after_s:
+                return got[0]   # (a stale one goes the long way, which names the fingertip)
+        return self.frames_matrix(sensors.read_latest(), now)
 
     def frames_matrix(self, frames: dict[int, TactileFrame], now: float) -> np.ndarray:
         """(n_tips, 44) raw counts in finger order; a missing or old frame is a fault."""
@@ -76,58 +94,82 @@ class SensingPipeline:
         fault_detail: str | None = None,
     ) -> Snapshot:
         """Non-finite or malformed inputs and outputs become the snapshot's fault
-        (``sensor_invalid``, ``estimate_invalid``) and are replaced by finite values
-        (zero force, the last good joint angles) so the safe action stays finite."""
+        (``sensor_invalid``, ``estimate_invalid``; the first one found is kept) and are
+        replaced by finite values (zero force, the last good joint angles) so the safe
+        action stays finite."""
         n = len(self.names)
         self.raw = raw
-
-        def note(reason: str, detail: str) -> None:
-            nonlocal fault, fault_detail
-            if fault is None:
-                fault, fault_detail = reason, detail
-
         q = np.asarray(joints.q, dtype=float)
-        if q.shape != self._last_q.shape or not all_finite(q):
-            bad = [j for j, v in zip(self.joint_names, np.ravel(q)) if not np.isfinite(v)] if q.shape == self._last_q.shape else []
-            note("sensor_invalid", f"joint angles not finite ({', '.join(bad) or f'shape {q.shape}'})")
-            q = self._last_q.copy()
-        self._last_q = q
         p_palm_world = np.asarray(p_palm_world, dtype=float)
-        if p_palm_world.shape != (3,) or not all_finite(p_palm_world):
-            note("sensor_invalid", f"arm position not finite ({p_palm_world.tolist()})")
-            p_palm_world = self._last_palm.copy()
+        tactile = self.tactile
+        gated = None
+        nd = np.ndarray
+        if (self._compiled and not collecting_tare and tactile.tare.ready and tactile.validate
+                and q.shape == self._last_q.shape and p_palm_world.shape == (3,) and type(raw) is nd
+                and raw.dtype is _FLOAT64 and raw.shape == self._frame_shape and raw.flags.c_contiguous):
+            # The usual tick in one compiled call: inputs finite, frames tared and gated.
+            tared, in_contact = np.empty(self._frame_shape), np.empty(n, dtype=bool)
+            bits = sense_inputs(q, p_palm_world, raw, tactile.tare.baseline, tactile.gate.count,
+                                tactile.gate.threshold, tactile.gate.frames, tared, in_contact)
+            if bits >= 0:
+                gated = tared, in_contact, bits
+        if gated is None:   # the long way, which also names what is wrong
+            if q.shape != self._last_q.shape or not all_finite(q):
+                bad = [j for j, v in zip(self.joint_names, np.ravel(q)) if not np.isfinite(v)] if q.shape == self._last_q.shape else []
+                if fault is None:
+                    fault, fault_detail = "sensor_invalid", f"joint angles not finite ({', '.join(bad) or f'shape {q.shape}'})"
+                q = self._last_q.copy()
+            if p_palm_world.shape != (3,) or not all_finite(p_palm_world):
+                if fault is None:
+                    fault, fault_detail = "sensor_invalid", f"arm position not finite ({p_palm_world.tolist()})"
+                p_palm_world = self._last_palm.copy()
+        self._last_q = q
         self._last_palm = p_palm_world
         variance = None
-        try:
-            tare_ready = self.collect_tare(raw) if collecting_tare else self.tactile.tare.ready
-            if tare_ready:
-                tips = self.tactile.step(raw)
-                tared, in_contact, f_sensor, variance = tips.tared, tips.in_contact, tips.f_sensor, tips.variance
-        except FrameError as exc:
-            tare_ready = False
-            note("sensor_invalid", str(exc))
-        if not tare_ready:   # before the baseline, or a frame that failed: no contact, no force
-            tare_ready = self.tactile.tare.ready
-            tared = np.zeros_like(raw, dtype=float)
-            in_contact = np.zeros(n, dtype=bool)
-            f_sensor = np.zeros((n, 3))
-            variance = None
-        f_sensor = np.asarray(f_sensor, dtype=float)
-        if not (all_finite(f_sensor) and (variance is None or all_finite(variance))):
-            bad_f = ~np.all(np.isfinite(f_sensor), axis=1)
-            bad_v = ~np.all(np.isfinite(variance), axis=1) if variance is not None else np.zeros(n, dtype=bool)
-            if bad_f.any() or bad_v.any():
-                tips_bad = [self.names[i] for i in np.flatnonzero(bad_f | bad_v)]
-                what = "force" if bad_f.any() else "variance"
-                note("estimate_invalid", f"policy {getattr(self.estimator, 'name', '?')!r} returned a non-finite "
-                                         f"{what} for fingertip(s) {', '.join(tips_bad)}")
-                f_sensor = np.where(np.isfinite(f_sensor), f_sensor, 0.0)
-                if variance is not None:
-                    variance = np.where(np.isfinite(variance), variance, 0.0)
+        if gated is not None:
+            tared, in_contact, bits = gated
+            f_sensor, variance = tactile.forces(tared, bits)
+            tare_ready = True
+        else:
+            try:
+                tare_ready = self.collect_tare(raw) if collecting_tare else tactile.tare.ready
+                if tare_ready:
+                    tared, in_contact, f_sensor, variance = tactile.step(raw)
+            except FrameError as exc:
+                tare_ready = False
+                if fault is None:
+                    fault, fault_detail = "sensor_invalid", str(exc)
+            if not tare_ready:   # before the baseline, or a frame that failed: no contact, no force
+                tare_ready = tactile.tare.ready
+                tared = np.zeros_like(raw, dtype=float)
+                in_contact = np.zeros(n, dtype=bool)
+                f_sensor = np.zeros((n, 3))
+                variance = None
         self.tared = tared
         # Grip = the squeeze: the force across the lift direction (world z). Along z
         # the fingertips also carry the object's weight, which must not count as grip.
-        f_hand, grip = self.fast_kin.sensor_forces(q, f_sensor)
+        f_hand = None
+        if (self._compiled and variance is None and type(f_sensor) is nd and f_sensor.dtype is _FLOAT64
+                and f_sensor.shape == (n, 3) and f_sensor.flags.c_contiguous and q.flags.c_contiguous):
+            f_hand, grip = np.empty((n, 3)), np.empty(n)
+            if not sense_forces(q, f_sensor, *self._kin_arrays, f_hand, grip):
+                f_hand = None   # a force is not finite: the long way
+        if f_hand is None:
+            f_sensor = np.asarray(f_sensor, dtype=float)
+            if not (all_finite(f_sensor) and (variance is None or all_finite(variance))):
+                bad_f = ~np.all(np.isfinite(f_sensor), axis=1)
+                bad_v = ~np.all(np.isfinite(variance), axis=1) if variance is not None else np.zeros(n, dtype=bool)
+                if bad_f.any() or bad_v.any():
+                    tips_bad = [self.names[i] for i in np.flatnonzero(bad_f | bad_v)]
+                    what = "force" if bad_f.any() else "variance"
+                    if fault is None:
+                        fault = "estimate_invalid"
+                        fault_detail = (f"policy {getattr(self.estimator, 'name', '?')!r} returned a non-finite "
+                                        f"{what} for fingertip(s) {', '.join(tips_bad)}")
+                    f_sensor = np.where(np.isfinite(f_sensor), f_sensor, 0.0)
+                    if variance is not None:
+                        variance = np.where(np.isfinite(variance), variance, 0.0)
+            f_hand, grip = self.fast_kin.sensor_forces(q, f_sensor)
         f_world = f_hand  # the arm translates the hand: hand axes = world axes
         return Snapshot(
             t=joints.t,

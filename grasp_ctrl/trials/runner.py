@@ -26,6 +26,7 @@ from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 
+from grasp_ctrl import jit
 from grasp_ctrl.config.checks import check_objects_for_hand
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
@@ -50,6 +51,7 @@ from grasp_ctrl.trials.storage import (
     ticks_path, write_json,
 )
 from grasp_ctrl.trials.summary import summarize
+from grasp_ctrl.trials.tick_kernels import track_peaks
 from grasp_ctrl.trials.ticklog import TickLog
 from grasp_ctrl.trials.workers import worker_context
 
@@ -209,10 +211,13 @@ def run_mock_trial(
             world.step()
             world.set_phase(ctrl.state)  # type: ignore[attr-defined]
             snap, cmd, raw = control_tick(hand_backend, arm, sensors, pipeline, ctrl, world.t)
-            f = snap.f_sensor
-            np.maximum(tip_force_sq, np.add.reduce(f * f, axis=1), out=tip_force_sq)
-            np.maximum(tip_grip, snap.grip_n, out=tip_grip)
-            np.maximum(tip_true, world.normal_n, out=tip_true)
+            if jit.JIT:
+                track_peaks(snap.f_sensor, snap.grip_n, world.normal_n, tip_force_sq, tip_grip, tip_true)
+            else:
+                f = snap.f_sensor
+                np.maximum(tip_force_sq, np.add.reduce(f * f, axis=1), out=tip_force_sq)
+                np.maximum(tip_grip, snap.grip_n, out=tip_grip)
+                np.maximum(tip_true, world.normal_n, out=tip_true)
             if log:
                 log.append(ctrl.state, snap, cmd, pipeline.tared, world.f_sensor, world.obj_z, world.table_n,  # type: ignore[attr-defined]
                            raw=raw, grip_target_n=ctrl.tau)

@@ -12,7 +12,7 @@ import numpy as np
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import FrameError, HardwareError
-from grasp_ctrl.finite import all_finite
+from grasp_ctrl.finite import both_finite
 from grasp_ctrl.hardware.base import ArmBackend, HandBackend, SensorBackend
 from grasp_ctrl.trials.pipeline import SensingPipeline
 
@@ -34,7 +34,7 @@ def control_tick(
         check_stale = getattr(sensors, "check_stale", None)
         if check_stale is not None:   # the serial backend can also tell an unplugged port
             check_stale(now)
-        raw = pipeline.frames_matrix(sensors.read_latest(), now)
+        raw = pipeline.read_frames(sensors, now)
     except HardwareError as exc:
         if fault is None:
             fault, detail = exc.reason, str(exc)   # the record names what failed
@@ -43,7 +43,7 @@ def control_tick(
             fault, detail = "sensor_invalid", str(exc)
     snap = pipeline.snapshot(raw, hand.read(), arm.position(), ctrl.state == "tare", fault, detail)  # type: ignore[attr-defined]
     cmd = ctrl.tick(snap)
-    if not (all_finite(np.asarray(cmd.q_goal)) and all_finite(np.asarray(cmd.p_palm_world))):
+    if not both_finite(np.asarray(cmd.q_goal), np.asarray(cmd.p_palm_world)):
         # Never send a non-finite goal: fault, and command the safe action from the measured pose.
         if not ctrl.terminal:
             ctrl.fail(reason="goal_invalid", detail=f"controller computed a non-finite goal in state {ctrl.state!r}")  # type: ignore[attr-defined]

@@ -21,10 +21,12 @@ from pathlib import Path
 
 import numpy as np
 
+from grasp_ctrl import jit
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PAC, PDC, TDC
 from grasp_ctrl.trials.storage import atomic_writer
+from grasp_ctrl.trials.tick_kernels import log_row
 
 # Per-fingertip raw-signal summary columns (raw counts, before tare).
 RAW_COLUMNS = ("raw_pdc", "raw_tdc", "raw_pac_std", "raw_e_mean")
@@ -76,18 +78,33 @@ class TickLog:
         self._n = 0
         self._states: list[str] = []
         F = len(self.fingers)
-        self._shapes: dict[str, tuple[int, ...]] = {
+        # One float64 block, a row per tick: each field's values (C order) in its columns, in this order.
+        shapes: dict[str, tuple[int, ...]] = {
             "t": (), "palm": (3,), "palm_target_z": (), "grip_target": (), "raw": (F, FRAME_LEN),
             "contact": (F,), "pdc_tared": (F,), "grip": (F,), "f_sensor": (F, 3), "f_world": (F, 3),
             "q": (n_joints,), "q_goal": (n_joints,),
         }
         if truth:
-            self._shapes.update({"true_f": (F, 3), "object_z": (), "table_force": ()})
-        self._buf = {k: np.full((_CHUNK, *s), np.nan) for k, s in self._shapes.items()}
+            shapes.update({"true_f": (F, 3), "object_z": (), "table_force": ()})
+        self._shapes = shapes
+        self._fields: dict[str, tuple[int, int]] = {}   # name -> (first column, width)
+        width = 0
+        for name, shape in shapes.items():
+            size = int(np.prod(shape, dtype=np.int64))
+            self._fields[name] = (width, size)
+            width += size
+        self._block = np.full((_CHUNK, width), np.nan)
+        self._buf = self._views(self._block)
+        self._compiled = jit.JIT and truth
+
+    def _views(self, rows: np.ndarray) -> dict[str, np.ndarray]:
+        """Each field of ``rows`` (a block's rows) as an (n, *shape) view."""
+        return {name: rows[:, c0:c0 + size].reshape(len(rows), *self._shapes[name])
+                for name, (c0, size) in self._fields.items()}
 
     def _grow(self) -> None:
-        for k, a in self._buf.items():
-            self._buf[k] = np.concatenate([a, np.full((_CHUNK, *self._shapes[k]), np.nan)])
+        self._block = np.concatenate([self._block, np.full((_CHUNK, self._block.shape[1]), np.nan)])
+        self._buf = self._views(self._block)
 
     def append(
         self,
@@ -102,9 +119,20 @@ class TickLog:
         grip_target_n: float = float("nan"),
     ) -> None:
         i = self._n
-        b = self._buf
-        if i == len(b["t"]):
+        if i == len(self._block):
             self._grow()
+        nd = np.ndarray
+        if (self._compiled and type(raw) is nd and type(true_f_sensor) is nd and type(tared) is nd
+                and type(snap.p_palm_world) is nd and type(cmd.p_palm_world) is nd and type(snap.in_contact) is nd
+                and type(snap.grip_n) is nd and type(snap.f_sensor) is nd and type(snap.f_world) is nd
+                and type(snap.q) is nd and type(cmd.q_goal) is nd
+                and log_row(self._block, i, snap.t, snap.p_palm_world, cmd.p_palm_world, grip_target_n, raw,
+                            snap.in_contact, tared, snap.grip_n, snap.f_sensor, snap.f_world, snap.q, cmd.q_goal,
+                            true_f_sensor, object_z, table_force)):
+            self._states.append(state)
+            self._n = i + 1
+            return
+        b = self._buf
         b["t"][i] = snap.t
         b["palm"][i] = snap.p_palm_world
         b["palm_target_z"][i] = cmd.p_palm_world[2]
@@ -130,37 +158,46 @@ class TickLog:
         import pyarrow as pa
 
         n = self._n
-        b = {k: a[:n] for k, a in self._buf.items()}
+        b = self._views(self._block[:n])
         summary = raw_summary(b["raw"])
-        f32 = lambda a: pa.array(rounded_float32(a))  # noqa: E731
-        data: dict[str, pa.Array] = {
-            "t": pa.array(b["t"]),
-            "state": pa.array(self._states, type=pa.string()).dictionary_encode(),
-            "palm_x_world": f32(b["palm"][:, 0]), "palm_y_world": f32(b["palm"][:, 1]),
-            "palm_z_world": f32(b["palm"][:, 2]), "palm_target_z_world": f32(b["palm_target_z"]),
-            "grip_target_n": f32(b["grip_target"]),
-        }
+        # Every float32 column in file order, rounded in one pass over a (columns, ticks) block.
+        f32_names: list[str] = ["palm_x_world", "palm_y_world", "palm_z_world", "palm_target_z_world", "grip_target_n"]
+        f32_values: list[np.ndarray] = [b["palm"][:, 0], b["palm"][:, 1], b["palm"][:, 2], b["palm_target_z"],
+                                        b["grip_target"]]
         for i, f in enumerate(self.fingers):
             for k, c in enumerate(RAW_COLUMNS):
-                data[f"{f}_{c}"] = f32(summary[:, i, k])
-            data[f"{f}_contact"] = pa.array(b["contact"][:, i] > 0.5)
-            data[f"{f}_pdc_tared"] = f32(b["pdc_tared"][:, i])
-            data[f"{f}_grip_n"] = f32(b["grip"][:, i])
-            for a, axis in enumerate("xyz"):
-                data[f"{f}_f{axis}_sensor"] = f32(b["f_sensor"][:, i, a])
-            for a, axis in enumerate("xyz"):
-                data[f"{f}_f{axis}_world"] = f32(b["f_world"][:, i, a])
-            if self.truth:
+                f32_names.append(f"{f}_{c}")
+                f32_values.append(summary[:, i, k])
+            f32_names += [f"{f}_pdc_tared", f"{f}_grip_n"]
+            f32_values += [b["pdc_tared"][:, i], b["grip"][:, i]]
+            for key, label in (("f_sensor", "_f{}_sensor"), ("f_world", "_f{}_world")) + (
+                    (("true_f", "_true_f{}_sensor"),) if self.truth else ()):
                 for a, axis in enumerate("xyz"):
-                    data[f"{f}_true_f{axis}_sensor"] = f32(b["true_f"][:, i, a])
-        for j in range(b["q"].shape[1]):
-            data[f"q{j}"] = f32(b["q"][:, j])
-        for j in range(b["q_goal"].shape[1]):
-            data[f"q_goal{j}"] = f32(b["q_goal"][:, j])
+                    f32_names.append(f + label.format(axis))
+                    f32_values.append(b[key][:, i, a])
+        for key, label in (("q", "q{}"), ("q_goal", "q_goal{}")):
+            for j in range(b[key].shape[1]):
+                f32_names.append(label.format(j))
+                f32_values.append(b[key][:, j])
         if self.truth:
-            data["object_z_world"] = f32(b["object_z"])
-            data["table_force_n"] = f32(b["table_force"])
-        assert list(data) == self.columns
+            f32_names += ["object_z_world", "table_force_n"]
+            f32_values += [b["object_z"], b["table_force"]]
+        stacked = np.empty((len(f32_values), n))
+        for k, values in enumerate(f32_values):
+            stacked[k] = values
+        rounded = rounded_float32(stacked)
+        f32 = dict(zip(f32_names, rounded))
+        data: dict[str, pa.Array] = {}
+        for name in self.columns:
+            if name == "t":
+                data[name] = pa.array(b["t"])
+            elif name == "state":
+                data[name] = pa.array(self._states, type=pa.string()).dictionary_encode()
+            elif name.endswith("_contact"):
+                data[name] = pa.array(b["contact"][:, self.fingers.index(name[:-len("_contact")])] > 0.5)
+            else:
+                data[name] = pa.array(f32.pop(name))
+        assert not f32, sorted(f32)   # every rounded column has its place in the file
         return pa.table(data)
 
     def close(self) -> None:

@@ -2,29 +2,49 @@
 
 Importing the trial code and loading its compiled kernels take about as long as
 a few trials; done here once, every worker process forked from the server starts
-with both ready. Only the kernels are touched (one world step, IK step, goal
-step, force rotation, finiteness check and tare on the default hand), and the
-reach postures of the default objects with a cap are fitted (scipy's least
-squares, kept per hand); no policy is loaded, so no inference session or thread
-is shared by the forked workers.
+with both ready. Only the kernels are touched (the first control ticks of a mock
+trial on the default hand, with a stand-in policy and a tick log that is never
+written, and the kernels those ticks do not reach), and the reach postures of the
+default objects with a cap are fitted (scipy's least squares, kept per hand); no
+policy is loaded, so no inference session or thread is shared by the forked workers.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Sequence
+
 import numpy as np
+
+
+class _NoForce:
+    """A stand-in policy for the warm-up ticks: no force."""
+
+    name = "warm-up"
+    has_variance = False
+
+    def estimate(self, tared: np.ndarray, fingers: Sequence[str]):  # noqa: ANN201
+        from grasp_ctrl.estimators.base import Estimate
+
+        return Estimate(f_sensor=np.zeros((len(fingers), 3)))
 
 
 def warm_kernels() -> None:
     from grasp_ctrl.config import load_hand, load_objects
-    from grasp_ctrl.controller.machine import raised_reach_posture
+    from grasp_ctrl.controller.machine import GraspController, raised_reach_posture
     from grasp_ctrl.controller.motion import FingertipMotion
     from grasp_ctrl.finite import all_finite
     from grasp_ctrl.kinematics.chain import HandKinematics
     from grasp_ctrl.limits import limit_goal
     from grasp_ctrl.paths import default_hand_file, default_objects_file
+    from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
     from grasp_ctrl.sim.world import MockWorld
     from grasp_ctrl.tactile.layout import FRAME_LEN
-    from grasp_ctrl.tactile.tare import tare_and_gate
+    from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate
+    from grasp_ctrl.trials.pipeline import SensingPipeline
+    from grasp_ctrl.trials.tick import control_tick
+    from grasp_ctrl.trials.tick_kernels import track_peaks
+    from grasp_ctrl.trials.ticklog import TickLog
 
     hand = load_hand(default_hand_file())
     objects = load_objects(default_objects_file())
@@ -32,18 +52,30 @@ def warm_kernels() -> None:
     for capped in objects.values():   # the reach postures of capped objects: a scipy fit each, kept per hand
         if capped.cap is not None:
             raised_reach_posture(hand, capped.cap.finger, capped.cap.contact_height_m - capped.grasp_height_m)
-    MockWorld(hand, obj, 0).step()
     kin = HandKinematics(hand)
+    world = MockWorld(hand, obj, 0)
+    hand_backend, sensors, arm = MockHand(world, hand), MockSensors(world), MockArm(world, hand)
+    sensors.start()
+    pipeline = SensingPipeline(hand, kin, _NoForce())
+    ctrl = GraspController(hand, obj, world.reach_pose_world(), kin=kin)
+    n = len(hand.fingers)
+    log = TickLog(Path("unwritten_ticks.parquet"), pipeline.names, len(hand.joints), truth=True)   # never closed
+    peaks = np.zeros((3, n))
+    for _ in range(hand.tactile.tare_frames + 3):   # past the tare: the tick's compiled halves
+        world.step()
+        snap, cmd, raw = control_tick(hand_backend, arm, sensors, pipeline, ctrl, world.t)
+        track_peaks(snap.f_sensor, snap.grip_n, world.normal_n, peaks[0], peaks[1], peaks[2])
+        log.append(ctrl.state, snap, cmd, pipeline.tared, world.f_sensor, world.obj_z, world.table_n, raw=raw,
+                   grip_target_n=ctrl.tau)
     motion = FingertipMotion(hand, kin)
-    motion.advance_all(np.full(len(hand.fingers), 1e-4))
+    motion.advance_all(np.full(n, 1e-4))
     motion.next_goal()
-    motion.ik.sensor_forces(motion.q_goal, np.zeros((len(hand.fingers), 3)))
+    motion.ik.sensor_forces(motion.q_goal, np.zeros((n, 3)))
     limit_goal(motion.q_goal, motion.q_goal, 0.1, motion.lower, motion.upper, np.empty_like(motion.q_goal))
     all_finite(motion.q_goal)
-    n = len(hand.fingers)
     tare_and_gate(np.zeros((n, FRAME_LEN)), np.zeros((n, FRAME_LEN)), np.zeros(n, dtype=np.int64), 10.0, 10,
                   np.empty((n, FRAME_LEN)), np.empty(n, dtype=bool))
-
+    scatter_rows(np.zeros((1, 3)), 1, np.zeros((n, 3)))   # some fingertips in contact
 
 try:
     warm_kernels()

@@ -1,0 +1,111 @@
+"""Compiled per-tick bookkeeping of a trial (grasp_ctrl/jit.py): the tick log's row
+and the running force peaks of the record.
+
+Each replaces a dozen numpy calls on 3- to 176-element arrays, whose call overhead
+was most of their cost; the numbers are the same bit for bit (tests/test_tick_kernels.py).
+Without numba the callers keep their numpy code.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from grasp_ctrl.jit import njit
+from grasp_ctrl.kinematics.pad_ik import sensor_forces_kernel
+from grasp_ctrl.limits import _maximum
+from grasp_ctrl.tactile.layout import FRAME_LEN, PDC
+from grasp_ctrl.tactile.tare import tare_and_gate_bits
+
+
+@njit
+def sense_inputs(q: np.ndarray, palm: np.ndarray, raw: np.ndarray, baseline: np.ndarray, count: np.ndarray,
+                 threshold: float, frames: int, tared: np.ndarray, contact: np.ndarray) -> int:
+    """The first half of a snapshot: check the joint angles and the palm position, then
+    tare and gate the frames (``tare.tare_and_gate_bits``: the contact bits, or -1 for
+    a frame that is not a finite count in range). -2 when an angle or coordinate is
+    not finite. Nothing changes unless the result is >= 0."""
+    for v in q:
+        if not math.isfinite(v):
+            return -2
+    for v in palm:
+        if not math.isfinite(v):
+            return -2
+    return tare_and_gate_bits(raw, baseline, count, threshold, frames, tared, contact)
+
+
+@njit
+def sense_forces(q, f_sensor, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,  # noqa: ANN001
+                 f_hand, grip) -> bool:  # noqa: ANN001
+    """The second half: the estimated forces (F, 3) into the hand frame and their grip
+    (``pad_ik.sensor_forces_kernel``), when every one is finite; False (nothing
+    written) when one is not."""
+    for i in range(f_sensor.shape[0]):
+        for k in range(f_sensor.shape[1]):
+            if not math.isfinite(f_sensor[i, k]):
+                return False
+    sensor_forces_kernel(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
+                         f_sensor, f_hand, grip)
+    return True
+
+
+@njit
+def track_peaks(f_sensor: np.ndarray, grip: np.ndarray, true_normal: np.ndarray, force_sq_peak: np.ndarray,
+                grip_peak: np.ndarray, true_peak: np.ndarray) -> None:
+    """Per fingertip, in place: the peak of |f_sensor|^2, of the grip and of the true
+    normal force. The same as ``np.maximum(peak, np.add.reduce(f * f, axis=1), out=peak)``
+    (which sums a row's squares left to right) and ``np.maximum(peak, x, out=peak)``."""
+    for i in range(f_sensor.shape[0]):
+        sq = 0.0
+        for k in range(f_sensor.shape[1]):
+            v = f_sensor[i, k] * f_sensor[i, k]
+            sq = v if k == 0 else sq + v
+        force_sq_peak[i] = _maximum(force_sq_peak[i], sq)
+        grip_peak[i] = _maximum(grip_peak[i], grip[i])
+        true_peak[i] = _maximum(true_peak[i], true_normal[i])
+
+
+@njit
+def _put(row: np.ndarray, at: int, values: np.ndarray) -> int:
+    flat = values.ravel()
+    for k in range(flat.shape[0]):
+        row[at + k] = flat[k]
+    return at + flat.shape[0]
+
+
+@njit
+def log_row(block: np.ndarray, i: int, t: float, palm: np.ndarray, palm_target: np.ndarray, grip_target: float,
+            raw: np.ndarray, contact: np.ndarray, tared: np.ndarray, grip: np.ndarray, f_sensor: np.ndarray,
+            f_world: np.ndarray, q: np.ndarray, q_goal: np.ndarray, true_f: np.ndarray, object_z: float,
+            table_force: float) -> bool:
+    """Row ``i`` of the tick log's block with truth columns (``ticklog.layout`` order):
+    what ``TickLog.append`` stores, in one pass (values as numpy's assignment casts
+    them). False, with nothing written, when a size does not fit (the caller's numpy
+    path then names it)."""
+    F, J = grip.size, q.size
+    if not (palm.size == 3 and palm_target.size == 3 and raw.size == F * FRAME_LEN and contact.size == F
+            and tared.size == F * FRAME_LEN and f_sensor.size == 3 * F and f_world.size == 3 * F
+            and q_goal.size == J and true_f.size == 3 * F
+            and block.shape[1] == 6 + F * (FRAME_LEN + 12) + 2 * J + 2 and 0 <= i < block.shape[0]):
+        return False
+    row = block[i]
+    row[0] = t
+    at = _put(row, 1, palm)
+    row[at] = palm_target.ravel()[2]
+    row[at + 1] = grip_target
+    at = _put(row, at + 2, raw)
+    at = _put(row, at, contact)
+    flat = tared.ravel()
+    for k in range(F):
+        row[at + k] = flat[k * FRAME_LEN + PDC]
+    at += F
+    at = _put(row, at, grip)
+    at = _put(row, at, f_sensor)
+    at = _put(row, at, f_world)
+    at = _put(row, at, q)
+    at = _put(row, at, q_goal)
+    at = _put(row, at, true_f)
+    row[at] = object_z
+    row[at + 1] = table_force
+    return True
