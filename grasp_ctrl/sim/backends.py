@@ -74,8 +74,10 @@ class MockHand:
         self.connected = False
         self.fault: str | None = None   # tests inject e.g. "overload"
         self._q_prev = world.q.copy()   # for the velocity estimate of read()
+        # The mock world's servo model (MuJoCoHand, a subclass, reads its state from MuJoCo instead).
         p = world.params
-        self._stiffness, self._torque_per_amp = p.servo_stiffness_nm_per_rad, p.torque_per_amp_nm
+        self._stiffness = getattr(p, "servo_stiffness_nm_per_rad", float("nan"))
+        self._torque_per_amp = getattr(p, "torque_per_amp_nm", float("nan"))
         self._n_joints = len(self.lower)
 
     def connect(self) -> None:
