@@ -24,6 +24,11 @@ class ConfigError(GraspCtrlError):
         self.expected = expected
         super().__init__(f"{self.path}: {key}: {expected}")
 
+    def __reduce__(self):  # type: ignore[no-untyped-def]
+        # Raised in a trial worker process, it must cross back intact: the default
+        # pickling calls __init__ with the message alone and breaks the process pool.
+        return (type(self), (self.path, self.key, self.expected))
+
 
 class UsageError(GraspCtrlError):
     """Bad command-line input that argparse cannot catch by itself."""
@@ -47,6 +52,10 @@ class HardwareError(GraspCtrlError):
     def __init__(self, message: str, reason: str = "hardware_error") -> None:
         self.reason = reason
         super().__init__(message)
+
+    def __reduce__(self):  # type: ignore[no-untyped-def]
+        return (HardwareError, (str(self), self.reason)) if type(self) is HardwareError else \
+            (type(self), (str(self),))
 
 
 class SensorStaleError(HardwareError):

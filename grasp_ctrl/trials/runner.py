@@ -32,7 +32,7 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.settings import ControllerSettings
-from grasp_ctrl.errors import GraspCtrlError, UsageError
+from grasp_ctrl.errors import ConfigError, GraspCtrlError, UsageError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
@@ -434,6 +434,12 @@ def run_series(
     # on resume the profiles come from run.json, on a new run from the object file
     source = str(run_dir / RUN_FILE) if resume or not plan.object_file else plan.object_file
     check_objects_for_hand(plan.objects, hand, source)
+    kin = HandKinematics(hand)
+    for obj in plan.objects:   # the reach postures (preshape, a cap the finger must reach) fit this hand
+        try:
+            GraspController(hand, obj, np.zeros(3), plan.settings, kin)
+        except ConfigError as exc:
+            raise ConfigError(source, f"object {obj.name!r}: {exc.key}", exc.expected) from None
     other_world = {} if plan.backend == "mock" else {"backend": plan.backend}   # e.g. mujoco
     run_trial = trial_fn or mock_trial_fn(hand, policies, plan.settings, threads, **other_world)  # bad policies fail here
 
