@@ -74,8 +74,6 @@ class MockHand:
         self.connected = False
         self.fault: str | None = None   # tests inject e.g. "overload"
         self._q_prev = world.q.copy()   # for the velocity estimate of read()
-        p = world.params
-        self._stiffness, self._torque_per_amp = p.servo_stiffness_nm_per_rad, p.torque_per_amp_nm
         self._n_joints = len(self.lower)
 
     def connect(self) -> None:
@@ -86,7 +84,9 @@ class MockHand:
         if jit.JIT:
             n = self._n_joints
             q, dq, current = np.empty(n), np.empty(n), np.empty(n)
-            joint_state_kernel(w.q, self._q_prev, w.q_servo, w.dt, self._stiffness, self._torque_per_amp, q, dq, current)
+            p = w.params
+            joint_state_kernel(w.q, self._q_prev, w.q_servo, w.dt, p.servo_stiffness_nm_per_rad, p.torque_per_amp_nm,
+                               q, dq, current)
             return JointState(q, dq, current, w.t)
         dq = (w.q - self._q_prev) / w.dt
         self._q_prev = w.q.copy()

@@ -109,10 +109,11 @@ class SensingPipeline:
                 and raw.dtype is _FLOAT64 and raw.shape == self._frame_shape and raw.flags.c_contiguous):
             # The usual tick in one compiled call: inputs finite, frames tared and gated.
             tared, in_contact = np.empty(self._frame_shape), np.empty(n, dtype=bool)
+            touching = np.empty(self._frame_shape)
             bits = sense_inputs(q, p_palm_world, raw, tactile.tare.baseline, tactile.gate.count,
-                                tactile.gate.threshold, tactile.gate.frames, tared, in_contact)
+                                tactile.gate.threshold, tactile.gate.frames, tared, in_contact, touching)
             if bits >= 0:
-                gated = tared, in_contact, bits
+                gated = tared, in_contact, bits, touching
         if gated is None:   # the long way, which also names what is wrong
             if q.shape != self._last_q.shape or not all_finite(q):
                 bad = [j for j, v in zip(self.joint_names, np.ravel(q)) if not np.isfinite(v)] if q.shape == self._last_q.shape else []
@@ -127,8 +128,8 @@ class SensingPipeline:
         self._last_palm = p_palm_world
         variance = None
         if gated is not None:
-            tared, in_contact, bits = gated
-            f_sensor, variance = tactile.forces(tared, bits)
+            tared, in_contact, bits, touching = gated
+            f_sensor, variance = tactile.forces(tared, bits, touching)
             tare_ready = True
         else:
             try:
