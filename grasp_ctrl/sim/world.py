@@ -81,11 +81,17 @@ class WorldEvent:
 
 
 @functools.lru_cache(maxsize=8)
+def hand_kinematics(hand: HandConfig) -> HandKinematics:
+    """The kinematics of a hand, built once and shared by its worlds (which only read them)."""
+    return HandKinematics(hand)
+
+
+@functools.lru_cache(maxsize=8)
 def pad_tables(hand: HandConfig) -> tuple[np.ndarray, np.ndarray]:
     """The multilinear kinematics of every finger's pad point (``take``, ``W``): built
     once per hand (milliseconds, a noticeable share of a short trial) and shared by
     its worlds, whose step kernel only reads them."""
-    mk = MultilinearKinematics(HandKinematics(hand))
+    mk = MultilinearKinematics(hand_kinematics(hand))
     return mk.take, mk.point_table(np.tile(PAD_POINT_SENSOR, (mk.F, 1)))
 
 
@@ -135,7 +141,7 @@ class MockWorld:
         self.hand = hand
         self.params = p = params or WorldParams()
         self.rng = np.random.default_rng(seed)
-        self.kin = HandKinematics(hand)
+        self.kin = hand_kinematics(hand)
         self._take, self._W = pad_tables(hand)
         self.dt = hand.dt
         self.t = 0.0

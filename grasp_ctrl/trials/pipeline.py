@@ -4,6 +4,8 @@ contact gate, estimator) -> forces in sensor, hand and world frames -> Snapshot
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
@@ -21,11 +23,17 @@ from grasp_ctrl.trials.tick_kernels import sense_forces, sense_inputs
 _FLOAT64 = np.dtype(np.float64)
 
 
+@functools.lru_cache(maxsize=8)
+def _pad_ik(kin: HandKinematics) -> PadIK:
+    """The force rotations of a hand's kinematics, set up once for all its trials (only read)."""
+    return PadIK(kin)
+
+
 class SensingPipeline:
     def __init__(self, hand: HandConfig, kin: HandKinematics, estimator: ForceEstimator) -> None:
         self.hand = hand
         self.kin = kin
-        self.fast_kin = PadIK(kin)   # sensor rotations, compiled with the sim extra
+        self.fast_kin = _pad_ik(kin)   # sensor rotations, compiled with the sim extra
         self._compiled = self.fast_kin.compiled   # the compiled halves of a snapshot (trials/tick_kernels.py)
         self._kin_arrays = self.fast_kin._arrays
         self.estimator = estimator
