@@ -18,7 +18,7 @@ from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
 from grasp_ctrl.hardware.base import JointState
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.sim.backends import MockSensors, checked_limit_goal, clamped_arm_target, joint_state_kernel
-from grasp_ctrl.sim.world import MockWorld, _clip_into, _finite_copy
+from grasp_ctrl.sim.world import MockWorld, _clamped_target, _clip_into, _finite_copy, _limited_goal
 from grasp_ctrl.tactile.layout import FRAME_LEN, PDC
 from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate_bits
 from grasp_ctrl.trials.pipeline import SensingPipeline
@@ -58,6 +58,10 @@ def test_arm_target_clamps_like_python_min_max(p, z_min, z_max):
     got = np.empty(3)
     clamped_arm_target(p, z_min, z_max, got)
     assert same_bits(got, expected)
+    got = np.full(3, 7.0)   # the mock world's one-pass command: also refuses a non-finite target
+    finite = bool(np.isfinite(expected).all())
+    assert _clamped_target(p, z_min, z_max, got) == finite
+    assert same_bits(got, expected if finite else np.full(3, 7.0))
 
 
 @settings(max_examples=150, deadline=None)
@@ -78,6 +82,14 @@ def test_goal_clip_copy_and_limit_equal_numpy(goal, prev):
         assert same_bits(out, np.minimum(np.maximum(q, lower), upper))
     else:
         assert np.all(out == 7.0)
+    # the mock world's one-pass write: the same, then the world's own joint limits
+    joint_lower, joint_upper = np.full(6, -0.5), np.full(6, 0.5)
+    got = np.full(6, 7.0)
+    assert _limited_goal(goal, prev, 0.05, lower, upper, joint_lower, joint_upper, got) == finite
+    if finite:
+        assert same_bits(got, np.minimum(np.maximum(out, joint_lower), joint_upper))
+    else:
+        assert np.all(got == 7.0)
 
 
 def test_joint_state_kernel_is_the_numpy_arithmetic():
@@ -217,3 +229,45 @@ def test_tick_log_row_kernel_refuses_a_shape_that_does_not_fit():
     assert not log_row(block, 1, 0.0, *args, np.zeros((3, 3)), 0.0, 0.0)   # truth for 3 fingertips
     assert not log_row(block, 2, 0.0, *args, np.zeros((2, 3)), 0.0, 0.0)   # past the block
     assert np.all(block[1] == 5.0)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_zero_force_turns_into_zeros(hand, seed):
+    """The snapshot's shortcut without contact: +0.0 forces through the compiled rotation give +0.0."""
+    from grasp_ctrl.kinematics.pad_ik import PadIK
+
+    ik = PadIK(HandKinematics(hand), compiled=True)
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(ik.lower, ik.upper) * rng.choice([1.0, -0.0], len(ik.lower))
+    f_hand, grip = ik.sensor_forces(q, np.zeros((len(ik.names), 3)))
+    assert same_bits(f_hand, np.zeros_like(f_hand)) and same_bits(grip, np.zeros_like(grip))
+
+
+def test_mock_backends_write_like_the_long_way(hand, objects):
+    """MockHand and MockArm through the world's one-pass writes and through the generic path."""
+    from grasp_ctrl.errors import HardwareError
+    from grasp_ctrl.sim.backends import MockArm, MockHand
+
+    worlds = [MockWorld(hand, objects["chips_can"], 1) for _ in range(2)]
+    hands = [MockHand(w, hand) for w in worlds]
+    arms = [MockArm(w, hand) for w in worlds]
+    hands[1]._write_limited = None
+    arms[1]._set_clamped = None
+    rng = np.random.default_rng(2)
+    for _ in range(20):
+        goal = worlds[0].q_goal + rng.normal(0, 0.2, len(hand.joints))
+        target = rng.normal(0, 0.3, 3)
+        for h, a in zip(hands, arms):
+            h.write_goals(goal)
+            a.command(target)
+        assert same_bits(worlds[0].q_goal, worlds[1].q_goal)
+        assert same_bits(worlds[0].palm_target, worlds[1].palm_target)
+    bad = worlds[0].q_goal.copy()
+    bad[2] = np.nan
+    for h, a, w in zip(hands, arms, worlds):
+        before = w.q_goal.copy()
+        with pytest.raises(HardwareError, match="bad goal vector"):
+            h.write_goals(bad)
+        with pytest.raises(ValueError, match="palm target must be finite"):
+            a.command(np.array([0.0, np.inf, 0.1]))
+        assert same_bits(w.q_goal, before)

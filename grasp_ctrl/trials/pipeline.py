@@ -135,10 +135,12 @@ class SensingPipeline:
         self._last_q = q
         self._last_palm = p_palm_world
         variance = None
+        no_force = False   # f_sensor is our own zeros (no fingertip in contact, or no tare yet)
         if gated is not None:
             tared, in_contact, bits, touching = gated
             f_sensor, variance = tactile.forces(tared, bits, touching)
             tare_ready = True
+            no_force = bits == 0
         else:
             try:
                 tare_ready = self.collect_tare(raw) if collecting_tare else tactile.tare.ready
@@ -154,11 +156,17 @@ class SensingPipeline:
                 in_contact = np.zeros(n, dtype=bool)
                 f_sensor = np.zeros((n, 3))
                 variance = None
+                no_force = True
         self.tared = tared
         # Grip = the squeeze: the force across the lift direction (world z). Along z
         # the fingertips also carry the object's weight, which must not count as grip.
         f_hand = None
-        if (self._compiled and variance is None and type(f_sensor) is nd and f_sensor.dtype is _FLOAT64
+        if self._compiled and no_force and variance is None:
+            # Zero forces (+0.0) turned by the sensor rotations, finite at finite angles, sum
+            # to +0.0 in every term the kernel adds (+0.0 + -0.0 is +0.0): all zeros, as
+            # sense_forces would compute them.
+            f_hand, grip = np.zeros((n, 3)), np.zeros(n)
+        elif (self._compiled and variance is None and type(f_sensor) is nd and f_sensor.dtype is _FLOAT64
                 and f_sensor.shape == (n, 3) and f_sensor.flags.c_contiguous and q.flags.c_contiguous):
             f_hand, grip = np.empty((n, 3)), np.empty(n)
             if not sense_forces(q, f_sensor, *self._kin_arrays, f_hand, grip):
