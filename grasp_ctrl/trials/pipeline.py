@@ -123,15 +123,7 @@ class SensingPipeline:
             if bits >= 0:
                 gated = tared, in_contact, bits, touching
         if gated is None:   # the long way, which also names what is wrong
-            if q.shape != self._last_q.shape or not all_finite(q):
-                bad = [j for j, v in zip(self.joint_names, np.ravel(q)) if not np.isfinite(v)] if q.shape == self._last_q.shape else []
-                if fault is None:
-                    fault, fault_detail = "sensor_invalid", f"joint angles not finite ({', '.join(bad) or f'shape {q.shape}'})"
-                q = self._last_q.copy()
-            if p_palm_world.shape != (3,) or not all_finite(p_palm_world):
-                if fault is None:
-                    fault, fault_detail = "sensor_invalid", f"arm position not finite ({p_palm_world.tolist()})"
-                p_palm_world = self._last_palm.copy()
+            q, p_palm_world, fault, fault_detail = self._checked_pose(q, p_palm_world, fault, fault_detail)
         self._last_q = q
         self._last_palm = p_palm_world
         variance = None
@@ -171,21 +163,8 @@ class SensingPipeline:
             f_hand, grip = np.empty((n, 3)), np.empty(n)
             if not sense_forces(q, f_sensor, *self._kin_arrays, f_hand, grip):
                 f_hand = None   # a force is not finite: the long way
-        if f_hand is None:
-            f_sensor = np.asarray(f_sensor, dtype=float)
-            if not (all_finite(f_sensor) and (variance is None or all_finite(variance))):
-                bad_f = ~np.all(np.isfinite(f_sensor), axis=1)
-                bad_v = ~np.all(np.isfinite(variance), axis=1) if variance is not None else np.zeros(n, dtype=bool)
-                if bad_f.any() or bad_v.any():
-                    tips_bad = [self.names[i] for i in np.flatnonzero(bad_f | bad_v)]
-                    what = "force" if bad_f.any() else "variance"
-                    if fault is None:
-                        fault = "estimate_invalid"
-                        fault_detail = (f"policy {getattr(self.estimator, 'name', '?')!r} returned a non-finite "
-                                        f"{what} for fingertip(s) {', '.join(tips_bad)}")
-                    f_sensor = np.where(np.isfinite(f_sensor), f_sensor, 0.0)
-                    if variance is not None:
-                        variance = np.where(np.isfinite(variance), variance, 0.0)
+        if f_hand is None:   # the long way, which also names a non-finite estimate
+            f_sensor, variance, fault, fault_detail = self._checked_estimate(f_sensor, variance, fault, fault_detail)
             f_hand, grip = self.fast_kin.sensor_forces(q, f_sensor)
         f_world = f_hand  # the arm translates the hand: hand axes = world axes
         return Snapshot(
@@ -202,3 +181,39 @@ class SensingPipeline:
             fault=fault,
             fault_detail=fault_detail,
         )
+
+    def _checked_pose(self, q: np.ndarray, p_palm_world: np.ndarray, fault: str | None, detail: str | None,
+                      ) -> tuple[np.ndarray, np.ndarray, str | None, str | None]:
+        """Joint angles and palm position, each replaced by the last good one (and the
+        fault noted, unless one is already) when it is not finite or has the wrong shape."""
+        if q.shape != self._last_q.shape or not all_finite(q):
+            bad = [j for j, v in zip(self.joint_names, np.ravel(q)) if not np.isfinite(v)] if q.shape == self._last_q.shape else []
+            if fault is None:
+                fault, detail = "sensor_invalid", f"joint angles not finite ({', '.join(bad) or f'shape {q.shape}'})"
+            q = self._last_q.copy()
+        if p_palm_world.shape != (3,) or not all_finite(p_palm_world):
+            if fault is None:
+                fault, detail = "sensor_invalid", f"arm position not finite ({p_palm_world.tolist()})"
+            p_palm_world = self._last_palm.copy()
+        return q, p_palm_world, fault, detail
+
+    def _checked_estimate(self, f_sensor: np.ndarray, variance: np.ndarray | None, fault: str | None,
+                          detail: str | None) -> tuple[np.ndarray, np.ndarray | None, str | None, str | None]:
+        """The policy's forces (and variances) with non-finite values replaced by 0, the
+        fault noted (unless one is already) naming the fingertips."""
+        n = len(self.names)
+        f_sensor = np.asarray(f_sensor, dtype=float)
+        if not (all_finite(f_sensor) and (variance is None or all_finite(variance))):
+            bad_f = ~np.all(np.isfinite(f_sensor), axis=1)
+            bad_v = ~np.all(np.isfinite(variance), axis=1) if variance is not None else np.zeros(n, dtype=bool)
+            if bad_f.any() or bad_v.any():
+                tips_bad = [self.names[i] for i in np.flatnonzero(bad_f | bad_v)]
+                what = "force" if bad_f.any() else "variance"
+                if fault is None:
+                    fault = "estimate_invalid"
+                    detail = (f"policy {getattr(self.estimator, 'name', '?')!r} returned a non-finite "
+                              f"{what} for fingertip(s) {', '.join(tips_bad)}")
+                f_sensor = np.where(np.isfinite(f_sensor), f_sensor, 0.0)
+                if variance is not None:
+                    variance = np.where(np.isfinite(variance), variance, 0.0)
+        return f_sensor, variance, fault, detail
