@@ -24,11 +24,6 @@ class ConfigError(GraspCtrlError):
         self.expected = expected
         super().__init__(f"{self.path}: {key}: {expected}")
 
-    def __reduce__(self):  # noqa: ANN204
-        # Rebuilt from its own arguments (the default would pass the message alone): a
-        # trial worker of ``run --jobs N`` sends it back to the parent pickled.
-        return type(self), (self.path, self.key, self.expected)
-
 
 class UsageError(GraspCtrlError):
     """Bad command-line input that argparse cannot catch by itself."""
@@ -53,15 +48,9 @@ class HardwareError(GraspCtrlError):
         self.reason = reason
         super().__init__(message)
 
-    def __reduce__(self):  # noqa: ANN204
-        return HardwareError, (str(self), self.reason)
-
 
 class SensorStaleError(HardwareError):
     """A fingertip delivered no valid frame for longer than ``stale_after_s``."""
 
     def __init__(self, message: str) -> None:
         super().__init__(message, reason="sensor_stale")
-
-    def __reduce__(self):  # noqa: ANN204
-        return SensorStaleError, (str(self),)
