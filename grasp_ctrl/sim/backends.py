@@ -74,6 +74,10 @@ class MockHand:
         self.connected = False
         self.fault: str | None = None   # tests inject e.g. "overload"
         self._q_prev = world.q.copy()   # for the velocity estimate of read()
+        # The mock world's servo model (MuJoCoHand, a subclass, reads its state from MuJoCo instead).
+        p = world.params
+        self._stiffness = getattr(p, "servo_stiffness_nm_per_rad", float("nan"))
+        self._torque_per_amp = getattr(p, "torque_per_amp_nm", float("nan"))
         self._n_joints = len(self.lower)
         self._write_limited = getattr(world, "write_limited_goal", None) if jit.JIT else None
 
@@ -85,9 +89,7 @@ class MockHand:
         if jit.JIT:
             n = self._n_joints
             q, dq, current = np.empty(n), np.empty(n), np.empty(n)
-            p = w.params
-            joint_state_kernel(w.q, self._q_prev, w.q_servo, w.dt, p.servo_stiffness_nm_per_rad, p.torque_per_amp_nm,
-                               q, dq, current)
+            joint_state_kernel(w.q, self._q_prev, w.q_servo, w.dt, self._stiffness, self._torque_per_amp, q, dq, current)
             return JointState(q, dq, current, w.t)
         dq = (w.q - self._q_prev) / w.dt
         self._q_prev = w.q.copy()
