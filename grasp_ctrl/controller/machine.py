@@ -10,7 +10,6 @@ ticks, no timer threads), so tests can drive it tick by tick.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
 from typing import Any
@@ -312,7 +311,7 @@ class GraspController:
         self.motion.sync(q)
         self.palm_target = np.array(p, dtype=float)
         if self.terminal:
-            self._safe_action(dataclasses.replace(snap, q=q, p_palm_world=self.palm_target.copy()))
+            self._safe_action(snap._replace(q=q, p_palm_world=self.palm_target.copy()))
         return Command(q_goal=self.motion.next_goal(), p_palm_world=self.palm_target.copy(), torque_on=self.torque_on)
 
     # ----- actions per state --------------------------------------------------

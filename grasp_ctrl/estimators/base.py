@@ -8,14 +8,12 @@ in the sensor frame (DESIGN.md 4). A pad press gives mostly +z.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Protocol, Sequence, runtime_checkable
+from typing import NamedTuple, Protocol, Sequence, runtime_checkable
 
 import numpy as np
 
 
-@dataclass(frozen=True)
-class Estimate:
+class Estimate(NamedTuple):   # immutable, and cheap to make every tick
     f_sensor: np.ndarray               # (n, 3) N
     variance: np.ndarray | None = None  # (n, 3) N^2, when the policy provides it
 

@@ -36,6 +36,9 @@ class LinearEstimator:
         self.W = W
         self.b = b
         self.name = name
+        self._W_T = W.T   # the transpose the product uses, made once
 
     def estimate(self, tared: np.ndarray, fingers: Sequence[str]) -> Estimate:
-        return Estimate(f_sensor=np.asarray(tared, dtype=float)[:, ELECTRODES] @ self.W.T + self.b)
+        f_sensor = np.asarray(tared, dtype=float)[:, ELECTRODES] @ self._W_T
+        f_sensor += self.b   # = (... @ W.T) + b, without a second array
+        return Estimate(f_sensor=f_sensor)

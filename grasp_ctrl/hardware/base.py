@@ -8,13 +8,12 @@ All quantities are SI; joint vectors follow the hand file's joint order.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
 
-@dataclass(frozen=True)
-class JointState:
+class JointState(NamedTuple):   # immutable, and cheap to make every tick
     q: np.ndarray          # rad
     dq: np.ndarray         # rad/s
     current_a: np.ndarray  # A (signed, as reported)

@@ -79,6 +79,7 @@ class MockHand:
         self._stiffness = getattr(p, "servo_stiffness_nm_per_rad", float("nan"))
         self._torque_per_amp = getattr(p, "torque_per_amp_nm", float("nan"))
         self._n_joints = len(self.lower)
+        self._write_limited = getattr(world, "write_limited_goal", None) if jit.JIT else None
 
     def connect(self) -> None:
         self.connected = True
@@ -99,6 +100,10 @@ class MockHand:
     def write_goals(self, q_goal: np.ndarray) -> None:
         q_goal = np.asarray(q_goal, dtype=float)
         if jit.JIT and q_goal.shape == self.lower.shape:
+            if self._write_limited is not None:   # the mock world's own one-pass write
+                if self._write_limited(q_goal, self.max_step, self.lower, self.upper):
+                    return
+                raise HardwareError(f"bad goal vector of shape {q_goal.shape}")
             q = np.empty(self._n_joints)
             if checked_limit_goal(q_goal, self.world.q_goal, self.max_step, self.lower, self.upper, q):
                 self.world.q_goal = q
@@ -126,16 +131,21 @@ class MockArm:
         self.z_min = hand.arm.z_min_m
         self.z_max = hand.arm.z_max_m
         self._z_min, self._z_max = float(self.z_min), float(self.z_max)
+        self._set_clamped = getattr(world, "set_clamped_palm_target", None) if jit.JIT else None
 
     def connect(self) -> None:
         pass
 
     def command(self, p_world: np.ndarray) -> None:
         if jit.JIT and type(p_world) is np.ndarray and p_world.dtype is _FLOAT64 and p_world.shape == (3,):
-            p = np.empty(3)
-            clamped_arm_target(p_world, self._z_min, self._z_max, p)
-            self.world.palm_target = p
-            return
+            if self._set_clamped is not None:   # the mock world's own one-pass command
+                if self._set_clamped(p_world, self._z_min, self._z_max):
+                    return
+            else:
+                p = np.empty(3)
+                clamped_arm_target(p_world, self._z_min, self._z_max, p)
+                self.world.palm_target = p
+                return
         p = np.array(p_world, dtype=float)
         p[2] = min(max(float(p[2]), self.z_min), self.z_max)
         self.world.palm_target = p

@@ -150,8 +150,15 @@ class BioTacSensorModel:
         frame is built on in place (a new block of noise when one is spent)."""
         self.t += dt
         if self._next >= len(self._noisy_base):
-            noise = self._noise_std * self.rng.standard_normal((self.noise_block, self.n, FRAME_LEN))
-            self._noisy_base = noise + self.baseline
+            # In place, the same numbers as noise_std * standard_normal(...) + baseline; the
+            # block's rows are handed out once each, so a new block can reuse the buffer.
+            block = self._noisy_base
+            if block.shape != (self.noise_block, self.n, FRAME_LEN):
+                block = np.empty((self.noise_block, self.n, FRAME_LEN))
+            self.rng.standard_normal(out=block)
+            block *= self._noise_std
+            block += self.baseline
+            self._noisy_base = block
             self._next = 0
         i = self._next
         self._next += 1

@@ -81,11 +81,17 @@ class WorldEvent:
 
 
 @functools.lru_cache(maxsize=8)
+def hand_kinematics(hand: HandConfig) -> HandKinematics:
+    """The kinematics of a hand, built once and shared by its worlds (which only read them)."""
+    return HandKinematics(hand)
+
+
+@functools.lru_cache(maxsize=8)
 def pad_tables(hand: HandConfig) -> tuple[np.ndarray, np.ndarray]:
     """The multilinear kinematics of every finger's pad point (``take``, ``W``): built
     once per hand (milliseconds, a noticeable share of a short trial) and shared by
     its worlds, whose step kernel only reads them."""
-    mk = MultilinearKinematics(HandKinematics(hand))
+    mk = MultilinearKinematics(hand_kinematics(hand))
     return mk.take, mk.point_table(np.tile(PAD_POINT_SENSOR, (mk.F, 1)))
 
 
@@ -112,6 +118,36 @@ def _clip_into(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, out: np.ndar
         out[j] = clamp(q[j], lower[j], upper[j])
 
 
+@njit
+def _limited_goal(goal: np.ndarray, prev: np.ndarray, max_step: float, lower: np.ndarray, upper: np.ndarray,
+                  joint_lower: np.ndarray, joint_upper: np.ndarray, out: np.ndarray) -> bool:
+    """``out`` = ``goal`` within ``max_step`` of ``prev``, then within [lower, upper], then
+    within [joint_lower, joint_upper] (``limits.limit_goal`` then ``_clip_into``), when
+    every goal is finite; False (``out`` unset) when one is not."""
+    for j in range(goal.shape[0]):
+        if not math.isfinite(goal[j]):
+            return False
+    for j in range(goal.shape[0]):
+        out[j] = clamp(clamp(clamp(goal[j], prev[j] - max_step, prev[j] + max_step), lower[j], upper[j]),
+                       joint_lower[j], joint_upper[j])
+    return True
+
+
+@njit
+def _clamped_target(p: np.ndarray, z_min: float, z_max: float, out: np.ndarray) -> bool:
+    """``out`` = ``p`` with its height clamped as Python's ``min(max(z, z_min), z_max)``
+    clamps it, when every coordinate of the result is finite; False otherwise."""
+    z = p[2]
+    if z_min > z:
+        z = z_min
+    if z_max < z:
+        z = z_max
+    if not (math.isfinite(p[0]) and math.isfinite(p[1]) and math.isfinite(z)):
+        return False
+    out[0], out[1], out[2] = p[0], p[1], z
+    return True
+
+
 def checked_palm_target(p: np.ndarray) -> np.ndarray:
     """A wrist target as a (3,) float array (a copy); ValueError unless every coordinate is finite."""
     if jit.JIT and type(p) is np.ndarray and p.dtype is _FLOAT64 and p.shape == (3,):
@@ -135,7 +171,7 @@ class MockWorld:
         self.hand = hand
         self.params = p = params or WorldParams()
         self.rng = np.random.default_rng(seed)
-        self.kin = HandKinematics(hand)
+        self.kin = hand_kinematics(hand)
         self._take, self._W = pad_tables(hand)
         self.dt = hand.dt
         self.t = 0.0
@@ -230,6 +266,27 @@ class MockWorld:
         self._q_goal = np.minimum(np.maximum(np.asarray(q, dtype=float), self.lower), self.upper)   # = np.clip, cheaper
 
     # Updated in place by the step kernel, so read-only here.
+    def write_limited_goal(self, goal: np.ndarray, max_step: float, lower: np.ndarray, upper: np.ndarray) -> bool:
+        """The mock hand's goal write in one compiled pass (sim/backends.py): ``goal``
+        (float64, one per joint) within ``max_step`` of the current goal and within
+        [lower, upper], then the ``q_goal`` setter's clamp to the joint limits. False,
+        with nothing changed, when a goal is not finite."""
+        out = np.empty(self.lower.shape[0])
+        if not _limited_goal(goal, self._q_goal, max_step, lower, upper, self.lower, self.upper, out):
+            return False
+        self._q_goal = out
+        return True
+
+    def set_clamped_palm_target(self, p: np.ndarray, z_min: float, z_max: float) -> bool:
+        """The mock arm's command in one compiled pass (sim/backends.py): ``p`` (float64,
+        (3,)) with its height clamped to [z_min, z_max] becomes the wrist target when it
+        is finite; False, with nothing changed, when it is not."""
+        out = np.empty(3)
+        if not _clamped_target(p, z_min, z_max, out):
+            return False
+        self._palm_target = out
+        return True
+
     @property
     def q(self) -> np.ndarray:
         return self._q

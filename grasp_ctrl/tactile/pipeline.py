@@ -88,9 +88,12 @@ class TactilePipeline:
             bits = sum(1 << i for i in np.flatnonzero(contact).tolist())
         return tared, contact, bits
 
-    def forces(self, tared: np.ndarray, bits: int) -> tuple[np.ndarray, np.ndarray | None]:
+    def forces(self, tared: np.ndarray, bits: int, touching: np.ndarray | None = None,
+               ) -> tuple[np.ndarray, np.ndarray | None]:
         """``(f_sensor, variance)`` of the fingertips: one batched estimate for those in
-        contact (``bits``, from ``gate_frames``), zero for the others."""
+        contact (``bits``, from ``gate_frames``), zero for the others. ``touching``, when
+        given, holds their tared rows in order in its first rows (``tared[idx]``, already
+        gathered: the policy gets a view of them)."""
         n = len(self.fingers)
         variance = np.zeros((n, 3)) if self.estimator.has_variance else None
         if bits == self._all_bits and n:
@@ -106,7 +109,7 @@ class TactilePipeline:
             f_sensor = np.zeros((n, 3))
             if bits:
                 idx, names = self._subset(bits)
-                est = self.estimator.estimate(tared[idx], names)
+                est = self.estimator.estimate(tared[idx] if touching is None else touching[:len(idx)], names)
                 rows = est.f_sensor
                 if (jit.JIT and type(rows) is np.ndarray and rows.dtype is _FLOAT64 and rows.shape == (len(idx), 3)
                         and rows.flags.c_contiguous):

@@ -4,6 +4,8 @@ contact gate, estimator) -> forces in sensor, hand and world frames -> Snapshot
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
@@ -21,11 +23,17 @@ from grasp_ctrl.trials.tick_kernels import sense_forces, sense_inputs
 _FLOAT64 = np.dtype(np.float64)
 
 
+@functools.lru_cache(maxsize=8)
+def _pad_ik(kin: HandKinematics) -> PadIK:
+    """The force rotations of a hand's kinematics, set up once for all its trials (only read)."""
+    return PadIK(kin)
+
+
 class SensingPipeline:
     def __init__(self, hand: HandConfig, kin: HandKinematics, estimator: ForceEstimator) -> None:
         self.hand = hand
         self.kin = kin
-        self.fast_kin = PadIK(kin)   # sensor rotations, compiled with the sim extra
+        self.fast_kin = _pad_ik(kin)   # sensor rotations, compiled with the sim extra
         self._compiled = self.fast_kin.compiled   # the compiled halves of a snapshot (trials/tick_kernels.py)
         self._kin_arrays = self.fast_kin._arrays
         self.estimator = estimator
@@ -109,27 +117,22 @@ class SensingPipeline:
                 and raw.dtype is _FLOAT64 and raw.shape == self._frame_shape and raw.flags.c_contiguous):
             # The usual tick in one compiled call: inputs finite, frames tared and gated.
             tared, in_contact = np.empty(self._frame_shape), np.empty(n, dtype=bool)
+            touching = np.empty(self._frame_shape)
             bits = sense_inputs(q, p_palm_world, raw, tactile.tare.baseline, tactile.gate.count,
-                                tactile.gate.threshold, tactile.gate.frames, tared, in_contact)
+                                tactile.gate.threshold, tactile.gate.frames, tared, in_contact, touching)
             if bits >= 0:
-                gated = tared, in_contact, bits
+                gated = tared, in_contact, bits, touching
         if gated is None:   # the long way, which also names what is wrong
-            if q.shape != self._last_q.shape or not all_finite(q):
-                bad = [j for j, v in zip(self.joint_names, np.ravel(q)) if not np.isfinite(v)] if q.shape == self._last_q.shape else []
-                if fault is None:
-                    fault, fault_detail = "sensor_invalid", f"joint angles not finite ({', '.join(bad) or f'shape {q.shape}'})"
-                q = self._last_q.copy()
-            if p_palm_world.shape != (3,) or not all_finite(p_palm_world):
-                if fault is None:
-                    fault, fault_detail = "sensor_invalid", f"arm position not finite ({p_palm_world.tolist()})"
-                p_palm_world = self._last_palm.copy()
+            q, p_palm_world, fault, fault_detail = self._checked_pose(q, p_palm_world, fault, fault_detail)
         self._last_q = q
         self._last_palm = p_palm_world
         variance = None
+        no_force = False   # f_sensor is our own zeros (no fingertip in contact, or no tare yet)
         if gated is not None:
-            tared, in_contact, bits = gated
-            f_sensor, variance = tactile.forces(tared, bits)
+            tared, in_contact, bits, touching = gated
+            f_sensor, variance = tactile.forces(tared, bits, touching)
             tare_ready = True
+            no_force = bits == 0
         else:
             try:
                 tare_ready = self.collect_tare(raw) if collecting_tare else tactile.tare.ready
@@ -145,30 +148,23 @@ class SensingPipeline:
                 in_contact = np.zeros(n, dtype=bool)
                 f_sensor = np.zeros((n, 3))
                 variance = None
+                no_force = True
         self.tared = tared
         # Grip = the squeeze: the force across the lift direction (world z). Along z
         # the fingertips also carry the object's weight, which must not count as grip.
         f_hand = None
-        if (self._compiled and variance is None and type(f_sensor) is nd and f_sensor.dtype is _FLOAT64
+        if self._compiled and no_force and variance is None:
+            # Zero forces (+0.0) turned by the sensor rotations, finite at finite angles, sum
+            # to +0.0 in every term the kernel adds (+0.0 + -0.0 is +0.0): all zeros, as
+            # sense_forces would compute them.
+            f_hand, grip = np.zeros((n, 3)), np.zeros(n)
+        elif (self._compiled and variance is None and type(f_sensor) is nd and f_sensor.dtype is _FLOAT64
                 and f_sensor.shape == (n, 3) and f_sensor.flags.c_contiguous and q.flags.c_contiguous):
             f_hand, grip = np.empty((n, 3)), np.empty(n)
             if not sense_forces(q, f_sensor, *self._kin_arrays, f_hand, grip):
                 f_hand = None   # a force is not finite: the long way
-        if f_hand is None:
-            f_sensor = np.asarray(f_sensor, dtype=float)
-            if not (all_finite(f_sensor) and (variance is None or all_finite(variance))):
-                bad_f = ~np.all(np.isfinite(f_sensor), axis=1)
-                bad_v = ~np.all(np.isfinite(variance), axis=1) if variance is not None else np.zeros(n, dtype=bool)
-                if bad_f.any() or bad_v.any():
-                    tips_bad = [self.names[i] for i in np.flatnonzero(bad_f | bad_v)]
-                    what = "force" if bad_f.any() else "variance"
-                    if fault is None:
-                        fault = "estimate_invalid"
-                        fault_detail = (f"policy {getattr(self.estimator, 'name', '?')!r} returned a non-finite "
-                                        f"{what} for fingertip(s) {', '.join(tips_bad)}")
-                    f_sensor = np.where(np.isfinite(f_sensor), f_sensor, 0.0)
-                    if variance is not None:
-                        variance = np.where(np.isfinite(variance), variance, 0.0)
+        if f_hand is None:   # the long way, which also names a non-finite estimate
+            f_sensor, variance, fault, fault_detail = self._checked_estimate(f_sensor, variance, fault, fault_detail)
             f_hand, grip = self.fast_kin.sensor_forces(q, f_sensor)
         f_world = f_hand  # the arm translates the hand: hand axes = world axes
         return Snapshot(
@@ -185,3 +181,39 @@ class SensingPipeline:
             fault=fault,
             fault_detail=fault_detail,
         )
+
+    def _checked_pose(self, q: np.ndarray, p_palm_world: np.ndarray, fault: str | None, detail: str | None,
+                      ) -> tuple[np.ndarray, np.ndarray, str | None, str | None]:
+        """Joint angles and palm position, each replaced by the last good one (and the
+        fault noted, unless one is already) when it is not finite or has the wrong shape."""
+        if q.shape != self._last_q.shape or not all_finite(q):
+            bad = [j for j, v in zip(self.joint_names, np.ravel(q)) if not np.isfinite(v)] if q.shape == self._last_q.shape else []
+            if fault is None:
+                fault, detail = "sensor_invalid", f"joint angles not finite ({', '.join(bad) or f'shape {q.shape}'})"
+            q = self._last_q.copy()
+        if p_palm_world.shape != (3,) or not all_finite(p_palm_world):
+            if fault is None:
+                fault, detail = "sensor_invalid", f"arm position not finite ({p_palm_world.tolist()})"
+            p_palm_world = self._last_palm.copy()
+        return q, p_palm_world, fault, detail
+
+    def _checked_estimate(self, f_sensor: np.ndarray, variance: np.ndarray | None, fault: str | None,
+                          detail: str | None) -> tuple[np.ndarray, np.ndarray | None, str | None, str | None]:
+        """The policy's forces (and variances) with non-finite values replaced by 0, the
+        fault noted (unless one is already) naming the fingertips."""
+        n = len(self.names)
+        f_sensor = np.asarray(f_sensor, dtype=float)
+        if not (all_finite(f_sensor) and (variance is None or all_finite(variance))):
+            bad_f = ~np.all(np.isfinite(f_sensor), axis=1)
+            bad_v = ~np.all(np.isfinite(variance), axis=1) if variance is not None else np.zeros(n, dtype=bool)
+            if bad_f.any() or bad_v.any():
+                tips_bad = [self.names[i] for i in np.flatnonzero(bad_f | bad_v)]
+                what = "force" if bad_f.any() else "variance"
+                if fault is None:
+                    fault = "estimate_invalid"
+                    detail = (f"policy {getattr(self.estimator, 'name', '?')!r} returned a non-finite "
+                              f"{what} for fingertip(s) {', '.join(tips_bad)}")
+                f_sensor = np.where(np.isfinite(f_sensor), f_sensor, 0.0)
+                if variance is not None:
+                    variance = np.where(np.isfinite(variance), variance, 0.0)
+        return f_sensor, variance, fault, detail

@@ -21,18 +21,27 @@ from grasp_ctrl.tactile.tare import tare_and_gate_bits
 
 @njit
 def sense_inputs(q: np.ndarray, palm: np.ndarray, raw: np.ndarray, baseline: np.ndarray, count: np.ndarray,
-                 threshold: float, frames: int, tared: np.ndarray, contact: np.ndarray) -> int:
+                 threshold: float, frames: int, tared: np.ndarray, contact: np.ndarray, touching: np.ndarray) -> int:
     """The first half of a snapshot: check the joint angles and the palm position, then
     tare and gate the frames (``tare.tare_and_gate_bits``: the contact bits, or -1 for
-    a frame that is not a finite count in range). -2 when an angle or coordinate is
-    not finite. Nothing changes unless the result is >= 0."""
+    a frame that is not a finite count in range) and copy the tared rows of the
+    fingertips in contact, in order, to the first rows of ``touching`` (the policy's
+    input). -2 when an angle or coordinate is not finite. Nothing changes unless the
+    result is >= 0."""
     for v in q:
         if not math.isfinite(v):
             return -2
     for v in palm:
         if not math.isfinite(v):
             return -2
-    return tare_and_gate_bits(raw, baseline, count, threshold, frames, tared, contact)
+    bits = tare_and_gate_bits(raw, baseline, count, threshold, frames, tared, contact)
+    k = 0
+    for i in range(tared.shape[0]):
+        if contact[i]:
+            for c in range(tared.shape[1]):
+                touching[k, c] = tared[i, c]
+            k += 1
+    return bits
 
 
 @njit

@@ -93,7 +93,7 @@ class TickLog:
             size = int(np.prod(shape, dtype=np.int64))
             self._fields[name] = (width, size)
             width += size
-        self._block = np.full((_CHUNK, width), np.nan)
+        self._block = np.empty((_CHUNK, width))   # every field of a row is written when it is appended
         self._buf = self._views(self._block)
         self._compiled = jit.JIT and truth
 
@@ -103,7 +103,7 @@ class TickLog:
                 for name, (c0, size) in self._fields.items()}
 
     def _grow(self) -> None:
-        self._block = np.concatenate([self._block, np.full((_CHUNK, self._block.shape[1]), np.nan)])
+        self._block = np.concatenate([self._block, np.empty((_CHUNK, self._block.shape[1]))])
         self._buf = self._views(self._block)
 
     def append(
@@ -137,8 +137,7 @@ class TickLog:
         b["palm"][i] = snap.p_palm_world
         b["palm_target_z"][i] = cmd.p_palm_world[2]
         b["grip_target"][i] = grip_target_n
-        if raw is not None:
-            b["raw"][i] = raw
+        b["raw"][i] = np.nan if raw is None else raw
         b["contact"][i] = snap.in_contact
         b["pdc_tared"][i] = tared[:, PDC]
         b["grip"][i] = snap.grip_n
