@@ -132,6 +132,15 @@ class FingerChain:
 
     def dls_step(self, q: np.ndarray, J: np.ndarray, dp_hand: np.ndarray, damping: float = 0.01) -> np.ndarray:
         """The step of ``ik_step`` for a Jacobian the caller already has."""
+        step = self.dls_delta(q, J, dp_hand, damping)
+        if step is None:
+            return np.clip(q, self.lower, self.upper)
+        return np.clip(q + step[0], self.lower, self.upper)
+
+    def dls_delta(self, q: np.ndarray, J: np.ndarray, dp_hand: np.ndarray,
+                  damping: float = 0.01) -> tuple[np.ndarray, np.ndarray] | None:
+        """The joint change of ``dls_step`` (unclamped) and the joints that carry it;
+        None when every joint is blocked at a limit."""
         # Joints at a limit that the step would push further are frozen, so the
         # remaining joints carry the motion instead of it being clipped away.
         active = np.ones(self.n, dtype=bool)
@@ -145,8 +154,8 @@ class FingerChain:
                 break
             active &= ~blocked
             if not active.any():
-                return np.clip(q, self.lower, self.upper)
-        return np.clip(q + dq, self.lower, self.upper)
+                return None
+        return dq, active
 
 
 class HandKinematics:

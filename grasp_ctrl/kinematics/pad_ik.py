@@ -45,8 +45,11 @@ def _joint_turn(angle, K, K2, rot):
 
 
 @njit
-def _pad_and_jacobian(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, pad, J):
-    """Pad point (hand frame) of finger ``f`` into ``pad`` (3,) and its Jacobian into J (3, n)."""
+def _pad_and_jacobian(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, pad, J,
+                      normal_s, nrm, Jn):
+    """Pad point (hand frame) of finger ``f`` into ``pad`` (3,) and its Jacobian into J (3, n);
+    the pad normal ``normal_s`` (sensor frame) turned into the hand frame into ``nrm`` (3,)
+    and its Jacobian d(normal)/dq = axis x normal into Jn (3, n)."""
     R = R_base[f].copy()
     p = p_base[f].copy()
     Rs = np.empty((n, 3, 3))
@@ -68,6 +71,7 @@ def _pad_and_jacobian(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, axes,
     for r in range(3):
         p_s = p[r] + (R[r, 0] * p_tip[f, 0] + R[r, 1] * p_tip[f, 1] + R[r, 2] * p_tip[f, 2])
         pad[r] = (R_s[r, 0] * point[0] + R_s[r, 1] * point[1] + R_s[r, 2] * point[2]) + p_s
+        nrm[r] = ((0.0 + R_s[r, 0] * normal_s[0]) + R_s[r, 1] * normal_s[1]) + R_s[r, 2] * normal_s[2]
     for i in range(n):
         a0 = Rs[i, 0, 0] * axes[f, i, 0] + Rs[i, 0, 1] * axes[f, i, 1] + Rs[i, 0, 2] * axes[f, i, 2]
         a1 = Rs[i, 1, 0] * axes[f, i, 0] + Rs[i, 1, 1] * axes[f, i, 1] + Rs[i, 1, 2] * axes[f, i, 2]
@@ -76,6 +80,9 @@ def _pad_and_jacobian(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, axes,
         J[0, i] = a1 * b2 - a2 * b1
         J[1, i] = a2 * b0 - a0 * b2
         J[2, i] = a0 * b1 - a1 * b0
+        Jn[0, i] = a1 * nrm[2] - a2 * nrm[1]
+        Jn[1, i] = a2 * nrm[0] - a0 * nrm[2]
+        Jn[2, i] = a0 * nrm[1] - a1 * nrm[0]
 
 
 #: Largest turn per joint and step that keeping a pad's facing may add (rad): the
@@ -84,32 +91,17 @@ MAX_TURN_RAD = 0.01
 
 
 @njit
-def _pad_normal_and_jacobian(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, normal_s,
-                             nrm, Jn):
-    """Pad normal (hand frame) of finger ``f`` into ``nrm`` (3,) and its Jacobian
-    d(normal)/dq = axis x normal into Jn (3, n)."""
-    R = R_base[f].copy()
-    Rs = np.empty((n, 3, 3))
-    tmp = np.empty((3, 3))
-    rot = np.empty((3, 3))
-    for i in range(n):
-        _times(R, R_org[f, i], tmp)
-        Rs[i] = R
-        _joint_turn(q[start + i], K[f, i], K2[f, i], rot)
-        _times(R, rot, tmp)
+def _damped_gram(J, active, n, damping):
+    """J J^T + damping^2 I over the active joints' columns of J (3, n)."""
+    A = np.zeros((3, 3))
     for r in range(3):
-        acc = 0.0
-        for c in range(3):
-            R_s_rc = R[r, 0] * R_tip[f, 0, c] + R[r, 1] * R_tip[f, 1, c] + R[r, 2] * R_tip[f, 2, c]
-            acc += R_s_rc * normal_s[c]
-        nrm[r] = acc
+        A[r, r] = damping * damping
     for i in range(n):
-        a0 = Rs[i, 0, 0] * axes[f, i, 0] + Rs[i, 0, 1] * axes[f, i, 1] + Rs[i, 0, 2] * axes[f, i, 2]
-        a1 = Rs[i, 1, 0] * axes[f, i, 0] + Rs[i, 1, 1] * axes[f, i, 1] + Rs[i, 1, 2] * axes[f, i, 2]
-        a2 = Rs[i, 2, 0] * axes[f, i, 0] + Rs[i, 2, 1] * axes[f, i, 1] + Rs[i, 2, 2] * axes[f, i, 2]
-        Jn[0, i] = a1 * nrm[2] - a2 * nrm[1]
-        Jn[1, i] = a2 * nrm[0] - a0 * nrm[2]
-        Jn[2, i] = a0 * nrm[1] - a1 * nrm[0]
+        if active[i]:
+            for r in range(3):
+                for c in range(3):
+                    A[r, c] += J[r, i] * J[c, i]
+    return A
 
 
 @njit
@@ -130,15 +122,7 @@ def _facing_step(J, Jn, dn, active, n, damping, orient_damping, dq1, dq):
     pad normal by ``dn`` (minus what dq1 already turns it) as far as the spare joints
     allow: N Jn^T (Jn N Jn^T + mu^2 I)^-1 (dn - Jn dq1), N = I - J^T (J J^T + l^2 I)^-1 J,
     inactive joints (columns of J and Jn) left out."""
-    A = np.zeros((3, 3))
-    for r in range(3):
-        A[r, r] = damping * damping
-    for i in range(n):
-        if active[i]:
-            for r in range(3):
-                for c in range(3):
-                    A[r, c] += J[r, i] * J[c, i]
-    Ainv = _inverse3(A)
+    Ainv = _inverse3(_damped_gram(J, active, n, damping))
     N = np.zeros((n, n))
     for i in range(n):
         for k in range(n):
@@ -219,30 +203,19 @@ def step_pads_kernel(q, targets, move, starts, counts, R_base, p_base, R_org, p_
         s = starts[f]
         n = counts[f]
         J = np.empty((3, n))
-        _pad_and_jacobian(q, f, s, n, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, pad, J)
+        Jn = np.empty((3, n))
+        _pad_and_jacobian(q, f, s, n, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, pad, J,
+                          normal_s, nrm, Jn)
         dp = np.empty(3)
+        dn = np.empty(3)
         for r in range(3):
             dp[r] = targets[f, r] - pad[r]
-        Jn = np.empty((3, n))
-        dn = np.empty(3)
+            dn[r] = normal_targets[f, r] - nrm[r]
         dq1 = np.empty(n)
-        if facing[f]:
-            _pad_normal_and_jacobian(q, f, s, n, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, normal_s,
-                                     nrm, Jn)
-            for r in range(3):
-                dn[r] = normal_targets[f, r] - nrm[r]
         active = np.ones(n, dtype=np.bool_)
         dq = np.zeros(n)
         for _ in range(2):
-            A = np.zeros((3, 3))
-            for r in range(3):
-                A[r, r] = damping * damping
-            for i in range(n):
-                if active[i]:
-                    for r in range(3):
-                        for c in range(3):
-                            A[r, c] += J[r, i] * J[c, i]
-            x = _solve3(A, dp)
+            x = _solve3(_damped_gram(J, active, n, damping), dp)
             any_blocked = False
             for i in range(n):
                 dq[i] = (J[0, i] * x[0] + J[1, i] * x[1] + J[2, i] * x[2]) if active[i] else 0.0
@@ -286,10 +259,12 @@ def _keep_within(q, s, n, dq1, dq, lower, upper):
 def pad_points_kernel(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, out):
     """Every finger's pad point (hand frame) into ``out`` (F, 3)."""
     pad = np.empty(3)
+    no_normal, nrm = np.zeros(3), np.empty(3)
     for f in range(len(starts)):
         J = np.empty((3, counts[f]))
+        Jn = np.empty((3, counts[f]))
         _pad_and_jacobian(q, f, starts[f], counts[f], R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
-                          point, pad, J)
+                          point, pad, J, no_normal, nrm, Jn)
         out[f] = pad
 
 
@@ -480,30 +455,15 @@ def facing_dls_step(chain: FingerChain, q: np.ndarray, J: np.ndarray, dp_hand: n
     axes_hand = chain.joint_axes_and_origins(q)[0]
     Jn = np.cross(axes_hand, normal).T                  # (3, n): d(normal)/dq
     dn = normal_target_hand - normal
-    active = np.ones(chain.n, dtype=bool)
-    for _ in range(2):
-        Ja = J * active                                # inactive joints: zero columns
-        A = Ja @ Ja.T + damping**2 * np.eye(3)
-        dq1 = Ja.T @ np.linalg.solve(A, dp_hand)
-        blocked = ((q + dq1 < chain.lower) & (dq1 < 0)) | ((q + dq1 > chain.upper) & (dq1 > 0))
-        if not blocked.any():
-            break
-        active &= ~blocked
-        if not active.any():
-            return np.clip(q, chain.lower, chain.upper)
-    Ja, Jna = J * active, Jn * active
+    step = chain.dls_delta(q, J, dp_hand, damping)
+    if step is None:
+        return np.clip(q, chain.lower, chain.upper)
+    dq1, active = step
+    Ja, Jna = J * active, Jn * active                # inactive joints: zero columns
     A = Ja @ Ja.T + damping**2 * np.eye(3)
     N = np.eye(chain.n) - Ja.T @ np.linalg.inv(A) @ Ja
     W = (N @ Jna.T) * active[:, None]
     C = Jna @ W + orient_damping**2 * np.eye(3)
-    extra = W @ np.linalg.solve(C, dn - Jna @ dq1)
-    scale = 1.0
-    for i in range(chain.n):
-        if abs(extra[i]) > MAX_TURN_RAD:
-            scale = min(scale, MAX_TURN_RAD / abs(extra[i]))
-        qi = q[i] + dq1[i]
-        if extra[i] > 0.0 and qi + extra[i] > chain.upper[i]:
-            scale = min(scale, max(chain.upper[i] - qi, 0.0) / extra[i])
-        elif extra[i] < 0.0 and qi + extra[i] < chain.lower[i]:
-            scale = min(scale, max(chain.lower[i] - qi, 0.0) / extra[i])
-    return np.clip(q + dq1 + scale * extra, chain.lower, chain.upper)
+    dq = dq1 + W @ np.linalg.solve(C, dn - Jna @ dq1)
+    _keep_within(q, 0, chain.n, dq1, dq, chain.lower, chain.upper)
+    return np.clip(q + dq, chain.lower, chain.upper)
