@@ -1,5 +1,11 @@
 """``fit-mock-policies``: fit the analytic (Lin et al.) and linear-regression
-policies on simulated presses of the mock world's BioTac model."""
+policies on simulated presses of the mock world's BioTac model.
+
+Both are fitted on pad-centre presses (the shipped files). ``--linear-presses mixed``
+fits the linear policy on those and as many presses again anywhere a grasp's contact
+lands (``sim/presses.skin_presses``: the whole pad, its sides and the tip cap, shear up
+to the normal force), where MuJoCo's contacts sit; measured in docs/mujoco.md.
+"""
 
 from __future__ import annotations
 
@@ -20,6 +26,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
     p.add_argument("--samples", type=int, default=20000, help="simulated presses (default 20000)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--linear-presses", choices=("pad", "mixed"), default="pad",
+                   help="linear policy's training presses: pad (pad centre, the shipped fit) or mixed "
+                        "(as many again anywhere on the skin where grasp contacts land; docs/mujoco.md)")
     p.add_argument("--out-dir", default=str(policies_dir()), help="directory for analytic_mock.json and linear_mock.json")
 
 
@@ -55,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.estimators.analytic import AnalyticEstimator, fit_gains
     from grasp_ctrl.estimators.linear import LinearEstimator, fit_linear
-    from grasp_ctrl.sim.presses import pad_presses
+    from grasp_ctrl.sim.presses import pad_presses, skin_presses
 
     if args.samples < 100:
         raise UsageError("--samples: at least 100")
@@ -73,12 +82,23 @@ def run(args: argparse.Namespace) -> int:
     analytic["gains_n_per_count"] = [float(g) for g in gains]
     analytic["metrics"] = _metrics(AnalyticEstimator(gains).estimate(tared[test], []).f_sensor, f[test])
 
-    W, b = fit_linear(tared[train], f[train])
     linear = _common("linear_mock", "linear",
                      "linear regression on the 19 tared electrodes, f = W e + b (ridge least squares)", n_train, args.seed)
+    if args.linear_presses == "mixed":
+        skin_tared, skin_f = skin_presses(args.samples, args.seed + 1)
+        W, b = fit_linear(np.vstack([tared[train], skin_tared[train]]), np.vstack([f[train], skin_f[train]]))
+        linear["training_data"] = (f"{n_train} simulated pad-centre presses and {n_train} presses anywhere a grasp's "
+                                   f"contact lands (pad, sides, tip cap; shear up to the normal force) from the mock "
+                                   f"BioTac model (seeds {args.seed}, {args.seed + 1})")
+        linear["provenance"] = "fitted by `python launch.py fit-mock-policies --linear-presses mixed`"
+    else:
+        W, b = fit_linear(tared[train], f[train])
     linear["weights_n_per_count"] = W.tolist()
     linear["bias_n"] = b.tolist()
     linear["metrics"] = _metrics(LinearEstimator(W, b).estimate(tared[test], []).f_sensor, f[test])
+    if args.linear_presses == "mixed":
+        linear["metrics_skin_presses"] = _metrics(LinearEstimator(W, b).estimate(skin_tared[test], []).f_sensor,
+                                                  skin_f[test])
 
     for meta in (analytic, linear):
         path = out_dir / f"{meta['name']}.json"

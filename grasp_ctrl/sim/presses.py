@@ -37,3 +37,51 @@ def pad_presses(n: int, seed: int, params: BioTacParams | None = None) -> tuple[
         raw = model.frames(p, f[start:stop], nrm, np.ones(m, dtype=bool), np.zeros(m), 0.01)
         tared[start:stop] = raw - model.baseline
     return tared, f
+
+
+def random_skin_points(n: int, rng: np.random.Generator, max_angle_deg: float = 60.0,
+                       cap_share: float = 0.2) -> tuple[np.ndarray, np.ndarray]:
+    """Contact points where a grasp's contacts land (sensor frame) and the outward skin
+    normals there: along the whole pad (PAD_X_MIN_M <= x <= 0) up to ``max_angle_deg``
+    from its centre line toward either side, and on the lower part of the tip cap."""
+    from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M
+
+    a = np.deg2rad(max_angle_deg) * rng.uniform(-1.0, 1.0, n)
+    normals = np.stack([np.zeros(n), np.sin(a), -np.cos(a)], axis=1)
+    x = rng.uniform(PAD_X_MIN_M, 0.0, n)
+    on_cap = rng.uniform(0.0, 1.0, n) < cap_share
+    # On the cap: a direction tilted from the pad's normal toward the tip by up to 60 degrees.
+    tilt = np.deg2rad(60.0) * np.sqrt(rng.uniform(0.0, 1.0, n))
+    cap_normals = np.stack([np.sin(tilt), np.cos(tilt) * np.sin(a), -np.cos(tilt) * np.cos(a)], axis=1)
+    normals[on_cap] = cap_normals[on_cap]
+    points = SKIN_RADIUS_M * normals
+    points[~on_cap, 0] = x[~on_cap]
+    return points, normals
+
+
+def skin_presses(n: int, seed: int, max_shear_ratio: float = 1.0,
+                 params: BioTacParams | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(tared frames (n, 44), f_sensor labels (n, 3)) for presses anywhere a grasp's
+    contact lands (``random_skin_points``), each pressing into the skin along its normal
+    with a shear of up to ``max_shear_ratio`` times the normal force in a random
+    direction (within a friction cone of the objects' mu <= 1); each on a freshly drawn
+    simulated sensor."""
+    rng = np.random.default_rng(seed)
+    points, normals = random_skin_points(n, rng)
+    normal_n = rng.uniform(0.1, 6.0, n)
+    ratio = max_shear_ratio * rng.uniform(0.0, 1.0, n)
+    # A tangent direction: a random vector with its normal part removed.
+    t = rng.standard_normal((n, 3))
+    t -= np.sum(t * normals, axis=1, keepdims=True) * normals
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    f = normal_n[:, None] * (-normals + ratio[:, None] * t)
+    tared = np.empty((n, 44))
+    batch = 256
+    for start in range(0, n, batch):
+        stop = min(n, start + batch)
+        m = stop - start
+        model = BioTacSensorModel(m, rng, params or BioTacParams())
+        raw = model.frames(points[start:stop], f[start:stop], normals[start:stop], np.ones(m, dtype=bool),
+                           np.zeros(m), 0.01)
+        tared[start:stop] = raw - model.baseline
+    return tared, f
