@@ -35,7 +35,7 @@ class SensingPipeline:
         self.kin = kin
         self.fast_kin = _pad_ik(kin)   # sensor rotations, compiled with the sim extra
         self._compiled = self.fast_kin.compiled   # the compiled halves of a snapshot (trials/tick_kernels.py)
-        self._kin_arrays = self.fast_kin._arrays
+        self._geometry, self._layout = self.fast_kin.geometry, self.fast_kin.layout
         self.estimator = estimator
         self.names = [f.name for f in hand.fingers]
         self.sensor_ids = [f.sensor_id for f in hand.fingers]
@@ -161,7 +161,7 @@ class SensingPipeline:
         elif (self._compiled and variance is None and type(f_sensor) is nd and f_sensor.dtype is _FLOAT64
                 and f_sensor.shape == (n, 3) and f_sensor.flags.c_contiguous and q.flags.c_contiguous):
             f_hand, grip = np.empty((n, 3)), np.empty(n)
-            if not sense_forces(q, f_sensor, *self._kin_arrays, f_hand, grip):
+            if not sense_forces(q, f_sensor, self._geometry, self._layout, f_hand, grip):
                 f_hand = None   # a force is not finite: the long way
         if f_hand is None:   # the long way, which also names a non-finite estimate
             f_sensor, variance, fault, fault_detail = self._checked_estimate(f_sensor, variance, fault, fault_detail)
