@@ -18,7 +18,7 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.pad_ik import PadIK
 from grasp_ctrl.tactile.layout import FRAME_LEN
 from grasp_ctrl.tactile.pipeline import TactilePipeline
-from grasp_ctrl.trials.tick_kernels import sense_forces, sense_inputs
+from grasp_ctrl.trials.tick_kernels import place_forces, sense_forces, sense_inputs
 
 _FLOAT64 = np.dtype(np.float64)
 
@@ -50,6 +50,7 @@ class SensingPipeline:
         # the last finite joint angles and palm position (used when a reading is not finite)
         self._last_q = np.array([j.open_rad for j in hand.joints])
         self._last_palm = np.zeros(3)
+        self._tips: dict[int, tuple[np.ndarray, tuple[str, ...]]] = {}   # contact bits -> (rows, finger names)
 
     def read_frames(self, sensors: SensorBackend, now: float) -> np.ndarray:
         """(n_tips, 44) raw counts in finger order from ``sensors``: ``frames_matrix`` of
@@ -128,11 +129,16 @@ class SensingPipeline:
         self._last_palm = p_palm_world
         variance = None
         no_force = False   # f_sensor is our own zeros (no fingertip in contact, or no tare yet)
+        f_hand = None
         if gated is not None:
             tared, in_contact, bits, touching = gated
-            f_sensor, variance = tactile.forces(tared, bits, touching)
             tare_ready = True
-            no_force = bits == 0
+            estimator = tactile.estimator
+            if bits and not estimator.has_variance and q.flags.c_contiguous:
+                f_sensor, f_hand, grip = self._estimate_and_turn(estimator, q, tared, touching, bits)
+            else:
+                f_sensor, variance = tactile.forces(tared, bits, touching)
+                no_force = bits == 0
         else:
             try:
                 tare_ready = self.collect_tare(raw) if collecting_tare else tactile.tare.ready
@@ -152,8 +158,9 @@ class SensingPipeline:
         self.tared = tared
         # Grip = the squeeze: the force across the lift direction (world z). Along z
         # the fingertips also carry the object's weight, which must not count as grip.
-        f_hand = None
-        if self._compiled and no_force and variance is None:
+        if f_hand is not None:
+            pass   # estimated and turned in one go (_estimate_and_turn)
+        elif self._compiled and no_force and variance is None:
             # Zero forces (+0.0) turned by the sensor rotations, finite at finite angles, sum
             # to +0.0 in every term the kernel adds (+0.0 + -0.0 is +0.0): all zeros, as
             # sense_forces would compute them.
@@ -181,6 +188,41 @@ class SensingPipeline:
             fault=fault,
             fault_detail=fault_detail,
         )
+
+    def _estimate_and_turn(self, estimator: ForceEstimator, q: np.ndarray, tared: np.ndarray, touching: np.ndarray,
+                           bits: int) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """``TactilePipeline.forces`` for a policy without variance and the fingertips in
+        contact (``bits``, their tared rows first in ``touching``), then the forces into the
+        hand frame, the rows placed and turned in one compiled call (``place_forces``):
+        ``(f_sensor, f_hand, grip)``; f_hand and grip are None when a force is not finite
+        (or the rows have an odd type or shape), for the long way to name it."""
+        n = len(self.names)
+        got = self._tips.get(bits)
+        if got is None:
+            idx = np.array([i for i in range(n) if bits >> i & 1], dtype=np.intp)
+            got = self._tips[bits] = (idx, self.tactile.fingers if idx.size == n else
+                                      tuple(self.tactile.fingers[i] for i in idx.tolist()))
+        idx, names = got
+        k = idx.size
+        # the same call TactilePipeline.forces makes: every tared row, or those in contact
+        rows = estimator.estimate(tared if k == n else touching[:k], names).f_sensor
+        f_sensor = np.empty((n, 3))
+        if (type(rows) is np.ndarray and rows.dtype is _FLOAT64 and rows.shape == (k, 3)
+                and rows.flags.c_contiguous):
+            f_hand, grip = np.empty((n, 3)), np.empty(n)
+            if place_forces(rows, bits, q, self._geometry, self._layout, f_sensor, f_hand, grip):
+                return f_sensor, f_hand, grip
+            return f_sensor, None, None
+        # TactilePipeline.forces' own placing (which names a bad shape)
+        if k == n:
+            f_sensor = np.array(rows, dtype=float)
+            if f_sensor.shape != (n, 3):
+                f_sensor = np.zeros((n, 3))
+                f_sensor[:] = rows
+        else:
+            f_sensor = np.zeros((n, 3))
+            f_sensor[idx] = rows
+        return f_sensor, None, None
 
     def _checked_pose(self, q: np.ndarray, p_palm_world: np.ndarray, fault: str | None, detail: str | None,
                       ) -> tuple[np.ndarray, np.ndarray, str | None, str | None]:
