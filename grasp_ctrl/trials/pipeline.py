@@ -107,7 +107,6 @@ class SensingPipeline:
         replaced by finite values (zero force, the last good joint angles) so the safe
         action stays finite."""
         n = len(self.names)
-        self.raw = raw
         q = np.asarray(joints.q, dtype=float)
         p_palm_world = np.asarray(p_palm_world, dtype=float)
         tactile = self.tactile
@@ -125,6 +124,23 @@ class SensingPipeline:
                 gated = tared, in_contact, bits, touching
         if gated is None:   # the long way, which also names what is wrong
             q, p_palm_world, fault, fault_detail = self._checked_pose(q, p_palm_world, fault, fault_detail)
+        return self._snapshot(raw, q, p_palm_world, joints.t, gated, collecting_tare, fault, fault_detail)
+
+    def snapshot_gated(self, raw: np.ndarray, q: np.ndarray, p_palm_world: np.ndarray, t: float, tared: np.ndarray,
+                       in_contact: np.ndarray, bits: int, touching: np.ndarray) -> Snapshot:
+        """``snapshot`` after its first compiled half (``sense_inputs``, made by the caller:
+        finite float64 angles and palm position, frames tared and gated into ``tared``,
+        ``in_contact``, ``bits`` >= 0 and ``touching``), for the mock trial's fused inputs
+        (trials/mock_tick.py)."""
+        return self._snapshot(raw, q, p_palm_world, t, (tared, in_contact, bits, touching), False, None, None)
+
+    def _snapshot(self, raw: np.ndarray, q: np.ndarray, p_palm_world: np.ndarray, t: float,
+                  gated: tuple[np.ndarray, np.ndarray, int, np.ndarray] | None, collecting_tare: bool,
+                  fault: str | None, fault_detail: str | None) -> Snapshot:
+        n = len(self.names)
+        self.raw = raw
+        tactile = self.tactile
+        nd = np.ndarray
         self._last_q = q
         self._last_palm = p_palm_world
         variance = None
@@ -175,7 +191,7 @@ class SensingPipeline:
             f_hand, grip = self.fast_kin.sensor_forces(q, f_sensor)
         f_world = f_hand  # the arm translates the hand: hand axes = world axes
         return Snapshot(
-            t=joints.t,
+            t=t,
             q=q,
             p_palm_world=p_palm_world,
             tare_ready=tare_ready,
