@@ -350,7 +350,7 @@ class GraspController:
                         self.step()
                         break
         self._act(snap)
-        return Command(q_goal=self.motion.next_goal(), p_palm_world=self.palm_target.copy(), torque_on=self.torque_on)
+        return Command(self.motion.next_goal(), self.palm_target.copy(), self.torque_on)   # (positional: cheaper)
 
     def safe_command(self, snap: Snapshot) -> Command:
         """The safe action from the measured pose, discarding the motion state (after a
