@@ -14,7 +14,7 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.controller.tick_kernels import squeeze_pads
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
-from grasp_ctrl.kinematics.pad_ik import Facing, PadIK
+from grasp_ctrl.kinematics.pad_ik import Facing, shared_pad_ik
 from grasp_ctrl.limits import step_toward
 
 
@@ -33,7 +33,7 @@ class FingertipMotion:
         self.names = [f.name for f in hand.fingers]
         self.index = {name: i for i, name in enumerate(self.names)}
         self.task_vectors = np.array([f.task_vector_hand for f in hand.fingers], dtype=float)   # (F, 3)
-        self.ik = PadIK(kin, PAD_POINT_SENSOR)
+        self.ik = shared_pad_ik(kin)   # pad points are PAD_POINT_SENSOR
         self.facing: Facing | None = None          # pads kept facing these ways while moving
         self.q_goal = self.open_q.copy()
         self._q_sent = self.open_q.copy()

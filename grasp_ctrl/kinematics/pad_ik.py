@@ -12,6 +12,7 @@ so any serial-chain geometry works.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -568,6 +569,13 @@ class PadIK:
                 continue
             q_all[sl] = facing_dls_step(chain, q_all[sl], J, targets[f] - pad, self.normal, facing.normals_hand[f],
                                         damping, facing.damping)
+
+
+@functools.lru_cache(maxsize=8)
+def shared_pad_ik(kin: HandKinematics) -> PadIK:
+    """The PadIK of a hand's kinematics (pad point PAD_POINT_SENSOR), set up once for all
+    its controllers and sensing pipelines (they only read it)."""
+    return PadIK(kin)
 
 
 @dataclass

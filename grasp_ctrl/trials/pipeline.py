@@ -4,8 +4,6 @@ contact gate, estimator) -> forces in sensor, hand and world frames -> Snapshot
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
@@ -15,7 +13,7 @@ from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.finite import all_finite
 from grasp_ctrl.hardware.base import JointState, SensorBackend, TactileFrame
 from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.kinematics.pad_ik import PadIK
+from grasp_ctrl.kinematics.pad_ik import shared_pad_ik
 from grasp_ctrl.tactile.layout import FRAME_LEN
 from grasp_ctrl.tactile.pipeline import TactilePipeline
 from grasp_ctrl.trials.tick_kernels import place_forces, sense_forces, sense_inputs
@@ -23,17 +21,11 @@ from grasp_ctrl.trials.tick_kernels import place_forces, sense_forces, sense_inp
 _FLOAT64 = np.dtype(np.float64)
 
 
-@functools.lru_cache(maxsize=8)
-def _pad_ik(kin: HandKinematics) -> PadIK:
-    """The force rotations of a hand's kinematics, set up once for all its trials (only read)."""
-    return PadIK(kin)
-
-
 class SensingPipeline:
     def __init__(self, hand: HandConfig, kin: HandKinematics, estimator: ForceEstimator) -> None:
         self.hand = hand
         self.kin = kin
-        self.fast_kin = _pad_ik(kin)   # sensor rotations, compiled with the sim extra
+        self.fast_kin = shared_pad_ik(kin)   # sensor rotations, compiled with the sim extra
         self._compiled = self.fast_kin.compiled   # the compiled halves of a snapshot (trials/tick_kernels.py)
         self._geometry, self._layout = self.fast_kin.geometry, self.fast_kin.layout
         self.estimator = estimator
