@@ -8,7 +8,7 @@ import pytest
 from grasp_ctrl.config import load_hand
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_POINT_SENSOR
-from grasp_ctrl.kinematics.pad_ik import PadIK
+from grasp_ctrl.kinematics.pad_ik import Facing, PadIK, shared_pad_ik
 from grasp_ctrl.paths import default_hand_file
 
 
@@ -48,3 +48,25 @@ def test_steps_converge_to_a_reachable_target(kin):
     for _ in range(60):
         ik.step(q, targets, np.ones(len(ik.names), dtype=bool), 0.002)
     assert np.max(np.linalg.norm(ik.pad_points(q) - targets, axis=1)) < 1e-5
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_facing_steps_match_the_numpy_methods(kin, seed):
+    """The null-space turn of the pad normals (compiled ``_facing_step``) against facing_dls_step."""
+    rng = np.random.default_rng(seed)
+    fast, slow = PadIK(kin, PAD_POINT_SENSOR, compiled=True), PadIK(kin, PAD_POINT_SENSOR, compiled=False)
+    q = rng.uniform(fast.lower, fast.upper)
+    F = len(fast.names)
+    normals = fast.pad_normals(q) + rng.normal(0.0, 0.2, (F, 3))
+    facing = Facing(rng.random(F) < 0.6, normals / np.linalg.norm(normals, axis=1, keepdims=True))
+    targets = fast.pad_points(q) + rng.normal(0.0, 0.003, (F, 3))
+    q_fast, q_slow = q.copy(), q.copy()
+    for _ in range(4):
+        fast.step(q_fast, targets, np.ones(F, dtype=bool), 0.002, facing)
+        slow.step(q_slow, targets, np.ones(F, dtype=bool), 0.002, facing)
+        np.testing.assert_allclose(q_fast, q_slow, atol=1e-10)
+
+
+def test_one_pad_ik_per_kinematics(kin):
+    assert shared_pad_ik(kin) is shared_pad_ik(kin)
+    assert shared_pad_ik(HandKinematics(load_hand(default_hand_file()))) is not shared_pad_ik(kin)

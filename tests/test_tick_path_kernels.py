@@ -22,7 +22,7 @@ from grasp_ctrl.sim.world import MockWorld, _clamped_target, _clip_into, _finite
 from grasp_ctrl.tactile.layout import FRAME_LEN, PDC
 from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate_bits
 from grasp_ctrl.trials.pipeline import SensingPipeline
-from grasp_ctrl.trials.tick_kernels import log_row, sense_inputs, track_peaks
+from grasp_ctrl.trials.tick_kernels import log_row, place_forces, sense_forces, sense_inputs, track_peaks
 from grasp_ctrl.trials.ticklog import TickLog
 
 
@@ -271,3 +271,28 @@ def test_mock_backends_write_like_the_long_way(hand, objects):
         with pytest.raises(ValueError, match="palm target must be finite"):
             a.command(np.array([0.0, np.inf, 0.1]))
         assert same_bits(w.q_goal, before)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_placed_forces_equal_the_scatter_then_rotation(hand, seed):
+    """place_forces: the policy's rows into their fingertips' places (zeros elsewhere), then
+    the compiled rotation; a non-finite row: False, the placed forces still written."""
+    from grasp_ctrl.kinematics.pad_ik import PadIK
+
+    ik = PadIK(HandKinematics(hand), compiled=True)
+    rng = np.random.default_rng(seed)
+    F = len(ik.names)
+    q = rng.uniform(ik.lower, ik.upper)
+    bits = int(rng.integers(1, 2**F))
+    k = bin(bits).count("1")
+    rows = rng.normal(0, 2, (k, 3)) * rng.choice([1.0, -0.0], (k, 3))
+    expected = np.zeros((F, 3))
+    scatter_rows(rows, bits, expected)
+    f_hand, grip = np.empty((F, 3)), np.empty(F)
+    assert sense_forces(q, expected, ik.geometry, ik.layout, f_hand, grip)
+    got, got_hand, got_grip = np.full((F, 3), 9.0), np.empty((F, 3)), np.empty(F)
+    assert place_forces(rows, bits, q, ik.geometry, ik.layout, got, got_hand, got_grip)
+    assert same_bits(got, expected) and same_bits(got_hand, f_hand) and same_bits(got_grip, grip)
+    rows[0, 1] = np.nan
+    assert not place_forces(rows, bits, q, ik.geometry, ik.layout, got, got_hand, got_grip)
+    assert np.isnan(got).sum() == 1

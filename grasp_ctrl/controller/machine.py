@@ -23,6 +23,7 @@ from grasp_ctrl.controller.motion import FingertipMotion
 from grasp_ctrl.kinematics.pad_ik import Facing
 from grasp_ctrl.kinematics.preshape import preshape
 from grasp_ctrl.controller.ramp_settle import RampSettle
+from grasp_ctrl.controller import tick_kernels as tk
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import ConfigError
@@ -31,6 +32,7 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 STATES = ["tare", "reach", "close", "ramp", "lift", "hold", "lower", "release", "retreat", "done", "fault"]
 ACTIVE = STATES[:-2]
 TERMINAL = ("done", "fault")
+_FLOAT64 = np.dtype(np.float64)
 
 # (source, dest, guard, reason-if-fault); checked in order on every tick.
 TRANSITIONS: list[tuple[str, str, str, str | None]] = [
@@ -114,6 +116,11 @@ class GraspController:
         # Per-finger arithmetic on a handful of fingers runs on Python lists: a numpy
         # call costs more than the whole loop at this size.
         self._grasping = [bool(g) for g in self.grasp_mask]
+        # With the sim extra, the per-tick counters, force checks and squeeze run compiled
+        # (controller/tick_kernels.py); the Python code below stays the reference.
+        self._compiled = self.motion.ik.compiled
+        self._force_shape = (len(self.names), 3)
+        self._tip_shape = (len(self.names),)
         self.release_idx = self.names.index(hand.grasp.release_finger)
         self.reach_pose = np.asarray(reach_pose_world, dtype=float)
         self.reach_q = self._reach_posture()
@@ -130,7 +137,7 @@ class GraspController:
         self.release_count = 0
         self.settle_count = 0
         self.ramp_settle = RampSettle(self.s)
-        self.lost_count = [0] * len(self.names)      # ticks each fingertip has seemed to slip
+        self._lost = np.zeros(len(self.names), dtype=np.int64)   # ticks each fingertip has seemed to slip
         self.snap: Snapshot | None = None
         self.history: list[tuple[float, str, str]] = []   # (t, from, to)
 
@@ -188,6 +195,15 @@ class GraspController:
         self.ramp_settle.reset()
         self.release_count = 0
         self.lost_count = [0] * len(self.names)
+
+    @property
+    def lost_count(self) -> list[int]:
+        """Ticks each fingertip has seemed to slip (finger order)."""
+        return self._lost.tolist()
+
+    @lost_count.setter
+    def lost_count(self, counts: list[int]) -> None:
+        self._lost[:] = counts
 
     def _elapsed(self) -> float:
         return self.ticks_in_state * self.dt
@@ -273,6 +289,39 @@ class GraspController:
         below = self.release_force_n(snap) < -self.obj.release_threshold_n
         self.release_count = self.release_count + 1 if below else 0
 
+    @staticmethod
+    def _force_sq(snap: Snapshot) -> list[float]:
+        # squared norms (no sqrt unless a limit is crossed), summed in the order
+        # np.einsum("ij,ij->i") sums them, which this code used before
+        return [((0.0 + x * x) + z * z) + y * y for x, y, z in snap.f_sensor.tolist()]
+
+    def _force_checks(self, snap: Snapshot, limit: float) -> int:
+        """``tk.FORCE_NOT_FINITE`` or ``tk.OVERFORCE`` (the largest |f_sensor| above ``limit``), or 0."""
+        force_sq = self._force_sq(snap)
+        if not all(map(math.isfinite, force_sq)):
+            return tk.FORCE_NOT_FINITE
+        return tk.OVERFORCE if max(force_sq, default=0.0) > limit * limit else 0
+
+    def _compiled_checks(self, snap: Snapshot, limit: float) -> int:
+        """``_update_counters`` then ``_force_checks`` in one compiled call (``tk.tick_checks``)
+        for a snapshot of float64 arrays of the usual shapes; -1 (nothing done) otherwise."""
+        nd = np.ndarray
+        grip, f_sensor, f_world, contact = snap.grip_n, snap.f_sensor, snap.f_world, snap.in_contact
+        if not (self._compiled and type(grip) is nd and type(f_sensor) is nd and type(f_world) is nd
+                and type(contact) is nd and grip.dtype is _FLOAT64 and f_sensor.dtype is _FLOAT64
+                and f_world.dtype is _FLOAT64 and grip.shape == self._tip_shape and contact.shape == self._tip_shape
+                and f_sensor.shape == self._force_shape and f_world.shape == self._force_shape):
+            return -1
+        tau = self.tau
+        flags = tk.tick_checks(grip, contact, f_sensor, f_world, self.grasp_mask, tau, self.s.ramp_tolerance_n,
+                               self.s.grip_lost_fraction * tau, self.release_idx, self.obj.release_threshold_n,
+                               limit, self._lost)
+        self.settle_count = self.settle_count + 1 if flags & tk.WITHIN_TOLERANCE else 0
+        if self.state == "ramp":  # type: ignore[attr-defined]
+            self.ramp_settle.update(tau - grip[self.grasp_mask])
+        self.release_count = self.release_count + 1 if flags & tk.RELEASE_BELOW else 0
+        return flags & (tk.FORCE_NOT_FINITE | tk.OVERFORCE)
+
     def tick(self, snap: Snapshot) -> Command:
         self.snap = snap
         if self.palm_target is None:
@@ -280,17 +329,18 @@ class GraspController:
             self.motion.sync(snap.q)
         if not self.terminal:
             self.ticks_in_state += 1
-            self._update_counters(snap)
-            # squared norms (no sqrt unless a limit is crossed), summed in the order
-            # np.einsum("ij,ij->i") sums them, which this code used before
-            force_sq = [((0.0 + x * x) + z * z) + y * y for x, y, z in snap.f_sensor.tolist()]
             limit = self.hand.safety.max_fingertip_force_n
+            checks = self._compiled_checks(snap, limit)
+            if checks < 0:   # the Python way
+                self._update_counters(snap)
+                checks = self._force_checks(snap, limit)
             if snap.fault:
                 self.fail(reason=snap.fault, detail=snap.fault_detail)
-            elif not all(map(math.isfinite, force_sq)):
+            elif checks & tk.FORCE_NOT_FINITE:
                 # never let NaN slip past the over-force comparison (NaN > x is False)
                 self.fail(reason="estimate_invalid", detail="non-finite estimated force in the snapshot")
-            elif max(force_sq, default=0.0) > limit * limit:   # all finite here
+            elif checks & tk.OVERFORCE:   # all finite here
+                force_sq = self._force_sq(snap)
                 i = force_sq.index(max(force_sq))
                 self.fail(reason="overforce",
                           detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {math.sqrt(force_sq[i]):.2f} N > {limit:g} N")
@@ -300,7 +350,7 @@ class GraspController:
                         self.step()
                         break
         self._act(snap)
-        return Command(q_goal=self.motion.next_goal(), p_palm_world=self.palm_target.copy(), torque_on=self.torque_on)
+        return Command(self.motion.next_goal(), self.palm_target.copy(), self.torque_on)   # (positional: cheaper)
 
     def safe_command(self, snap: Snapshot) -> Command:
         """The safe action from the measured pose, discarding the motion state (after a
@@ -325,7 +375,12 @@ class GraspController:
     def _squeeze(self, snap: Snapshot, gain: float, max_speed: float) -> None:
         """Per-finger force control along the closing vectors toward tau."""
         tau = self.tau
-        speed = [min(max(gain * (tau - g), -max_speed), max_speed) for g in snap.grip_n.tolist()]
+        grip = snap.grip_n
+        if (self._compiled and not (self.s.low_confidence_slowdown and snap.variance is not None)
+                and type(grip) is np.ndarray and grip.dtype is _FLOAT64 and grip.shape == self._tip_shape):
+            self.motion.squeeze(grip, self.grasp_mask, tau, gain, max_speed, self.dt)   # the same, compiled
+            return
+        speed = [min(max(gain * (tau - g), -max_speed), max_speed) for g in grip.tolist()]
         if self.s.low_confidence_slowdown and snap.variance is not None:
             speed = (np.array(speed) / (1.0 + np.max(snap.variance, axis=1) / self.s.variance_scale_n2)).tolist()
         dt = self.dt

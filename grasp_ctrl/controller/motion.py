@@ -11,9 +11,10 @@ import numpy as np
 
 from grasp_ctrl import jit
 from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.controller.tick_kernels import squeeze_pads
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
-from grasp_ctrl.kinematics.pad_ik import Facing, PadIK
+from grasp_ctrl.kinematics.pad_ik import Facing, shared_pad_ik
 from grasp_ctrl.limits import step_toward
 
 
@@ -32,12 +33,13 @@ class FingertipMotion:
         self.names = [f.name for f in hand.fingers]
         self.index = {name: i for i, name in enumerate(self.names)}
         self.task_vectors = np.array([f.task_vector_hand for f in hand.fingers], dtype=float)   # (F, 3)
-        self.ik = PadIK(kin, PAD_POINT_SENSOR)
+        self.ik = shared_pad_ik(kin)   # pad points are PAD_POINT_SENSOR
         self.facing: Facing | None = None          # pads kept facing these ways while moving
         self.q_goal = self.open_q.copy()
         self._q_sent = self.open_q.copy()
         self._posture: np.ndarray | None = None   # the posture the targets were last reset to
         self.targets = np.zeros((len(self.names), 3))   # pad targets, hand frame, finger order
+        self._distances = np.zeros(len(self.names))     # squeeze's scratch
         self._reset_targets()
 
     def _reset_targets(self) -> None:
@@ -104,6 +106,18 @@ class FingertipMotion:
         # are corrected every tick instead of accumulating into a drift off the line.
         if self.ik.advance(self.q_goal, self.targets, self.task_vectors,
                            np.ascontiguousarray(distances_m, dtype=float), IK_DAMPING, self.facing):
+            self._posture = None
+
+    def squeeze(self, grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float, max_speed: float,
+                dt: float) -> None:
+        """``advance_all`` by each grasping fingertip's force-control step toward ``tau``:
+        ``min(max(gain (tau - grip), -max_speed), max_speed) * dt`` (GraspController._squeeze),
+        in one compiled call (``grip``: float64, one per finger)."""
+        facing = self.facing or self.ik._no_facing
+        ik = self.ik
+        if squeeze_pads(grip, grasping, tau, gain, max_speed, dt, self.q_goal, self.targets, self.task_vectors,
+                        ik.geometry, ik.layout, IK_DAMPING, facing.normals_hand, facing.fingers, facing.damping,
+                        self._distances):
             self._posture = None
 
     def next_goal(self) -> np.ndarray:

@@ -41,4 +41,4 @@ class LinearEstimator:
     def estimate(self, tared: np.ndarray, fingers: Sequence[str]) -> Estimate:
         f_sensor = np.asarray(tared, dtype=float)[:, ELECTRODES] @ self._W_T
         f_sensor += self.b   # = (... @ W.T) + b, without a second array
-        return Estimate(f_sensor=f_sensor)
+        return Estimate(f_sensor)

@@ -12,6 +12,7 @@ so any serial-chain geometry works.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -25,53 +26,56 @@ from grasp_ctrl.jit import njit
 
 
 @njit
-def _times(R, M, tmp):
-    """R <- R M for 3x3 matrices (``tmp`` is scratch)."""
+def _chain_frames(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, R, p, Rs, ps, tmp, rot):
+    """Forward kinematics of finger ``f`` with its joints ``q[start:start + n]``: each
+    joint's frame before its own turn into ``Rs[i]``, ``ps[i]`` (hand frame), the last
+    link's frame into ``R``, ``p`` (the sensor frame then follows from the tip pose).
+    Plain element loops (no array views or copies: their bookkeeping cost more than
+    the arithmetic); joint turns by Rodrigues, I + sin K + (1 - cos) K^2."""
     for r in range(3):
+        p[r] = p_base[f, r]
         for c in range(3):
-            tmp[r, c] = R[r, 0] * M[0, c] + R[r, 1] * M[1, c] + R[r, 2] * M[2, c]
-    R[:, :] = tmp
-
-
-@njit
-def _joint_turn(angle, K, K2, rot):
-    """``rot`` <- the rotation by ``angle`` about a joint axis with cross-product matrix K
-    (Rodrigues: I + sin K + (1 - cos) K^2)."""
-    s = math.sin(angle)
-    c1 = 1.0 - math.cos(angle)
-    for r in range(3):
-        for c in range(3):
-            rot[r, c] = (1.0 if r == c else 0.0) + s * K[r, c] + c1 * K2[r, c]
+            R[r, c] = R_base[f, r, c]
+    for i in range(n):
+        for r in range(3):
+            p[r] = p[r] + (R[r, 0] * p_org[f, i, 0] + R[r, 1] * p_org[f, i, 1] + R[r, 2] * p_org[f, i, 2])
+        for r in range(3):
+            for c in range(3):
+                tmp[r, c] = R[r, 0] * R_org[f, i, 0, c] + R[r, 1] * R_org[f, i, 1, c] + R[r, 2] * R_org[f, i, 2, c]
+        for r in range(3):
+            ps[i, r] = p[r]
+            for c in range(3):
+                R[r, c] = tmp[r, c]
+                Rs[i, r, c] = tmp[r, c]
+        angle = q[start + i]
+        s = math.sin(angle)
+        c1 = 1.0 - math.cos(angle)
+        for r in range(3):
+            for c in range(3):
+                rot[r, c] = (1.0 if r == c else 0.0) + s * K[f, i, r, c] + c1 * K2[f, i, r, c]
+        for r in range(3):
+            for c in range(3):
+                tmp[r, c] = R[r, 0] * rot[0, c] + R[r, 1] * rot[1, c] + R[r, 2] * rot[2, c]
+        for r in range(3):
+            for c in range(3):
+                R[r, c] = tmp[r, c]
 
 
 @njit
 def _pad_and_jacobian(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, pad, J,
-                      normal_s, nrm, Jn):
+                      normal_s, nrm, Jn, R, p, Rs, ps, tmp, rot):
     """Pad point (hand frame) of finger ``f`` into ``pad`` (3,) and its Jacobian into J (3, n);
     the pad normal ``normal_s`` (sensor frame) turned into the hand frame into ``nrm`` (3,)
-    and its Jacobian d(normal)/dq = axis x normal into Jn (3, n)."""
-    R = R_base[f].copy()
-    p = p_base[f].copy()
-    Rs = np.empty((n, 3, 3))
-    ps = np.empty((n, 3))
-    tmp = np.empty((3, 3))
-    rot = np.empty((3, 3))
-    for i in range(n):
-        for r in range(3):
-            p[r] = p[r] + (R[r, 0] * p_org[f, i, 0] + R[r, 1] * p_org[f, i, 1] + R[r, 2] * p_org[f, i, 2])
-        _times(R, R_org[f, i], tmp)
-        Rs[i] = R
-        ps[i] = p
-        _joint_turn(q[start + i], K[f, i], K2[f, i], rot)
-        _times(R, rot, tmp)
-    R_s = np.empty((3, 3))
+    and its Jacobian d(normal)/dq = axis x normal into Jn (3, n). ``R`` .. ``tmp``: scratch
+    (``_chain_frames``); J and Jn may have more columns than n (only the first n are written)."""
+    _chain_frames(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, R, p, Rs, ps, tmp, rot)
     for r in range(3):
         for c in range(3):
-            R_s[r, c] = R[r, 0] * R_tip[f, 0, c] + R[r, 1] * R_tip[f, 1, c] + R[r, 2] * R_tip[f, 2, c]
+            tmp[r, c] = R[r, 0] * R_tip[f, 0, c] + R[r, 1] * R_tip[f, 1, c] + R[r, 2] * R_tip[f, 2, c]
     for r in range(3):
         p_s = p[r] + (R[r, 0] * p_tip[f, 0] + R[r, 1] * p_tip[f, 1] + R[r, 2] * p_tip[f, 2])
-        pad[r] = (R_s[r, 0] * point[0] + R_s[r, 1] * point[1] + R_s[r, 2] * point[2]) + p_s
-        nrm[r] = ((0.0 + R_s[r, 0] * normal_s[0]) + R_s[r, 1] * normal_s[1]) + R_s[r, 2] * normal_s[2]
+        pad[r] = (tmp[r, 0] * point[0] + tmp[r, 1] * point[1] + tmp[r, 2] * point[2]) + p_s
+        nrm[r] = ((0.0 + tmp[r, 0] * normal_s[0]) + tmp[r, 1] * normal_s[1]) + tmp[r, 2] * normal_s[2]
     for i in range(n):
         a0 = Rs[i, 0, 0] * axes[f, i, 0] + Rs[i, 0, 1] * axes[f, i, 1] + Rs[i, 0, 2] * axes[f, i, 2]
         a1 = Rs[i, 1, 0] * axes[f, i, 0] + Rs[i, 1, 1] * axes[f, i, 1] + Rs[i, 1, 2] * axes[f, i, 2]
@@ -85,6 +89,14 @@ def _pad_and_jacobian(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, axes,
         Jn[2, i] = a0 * nrm[1] - a1 * nrm[0]
 
 
+@njit
+def _frames_scratch(nmax):
+    """Scratch arrays of ``_chain_frames`` for chains of up to ``nmax`` joints."""
+    return (np.empty((3, 3)), np.empty(3), np.empty((nmax, 3, 3)), np.empty((nmax, 3)), np.empty((3, 3)),
+            np.empty((3, 3)))
+
+
+
 #: Largest turn per joint and step that keeping a pad's facing may add (rad): the
 #: turn is a slow correction, not a jump, so the position task stays accurate.
 MAX_TURN_RAD = 0.01
@@ -93,7 +105,17 @@ MAX_TURN_RAD = 0.01
 @njit
 def _damped_gram(J, active, n, damping):
     """J J^T + damping^2 I over the active joints' columns of J (3, n)."""
-    A = np.zeros((3, 3))
+    A = np.empty((3, 3))
+    _damped_gram_into(J, active, n, damping, A)
+    return A
+
+
+@njit
+def _damped_gram_into(J, active, n, damping, A):
+    """``_damped_gram`` into A (3, 3)."""
+    for r in range(3):
+        for c in range(3):
+            A[r, c] = 0.0
     for r in range(3):
         A[r, r] = damping * damping
     for i in range(n):
@@ -101,7 +123,6 @@ def _damped_gram(J, active, n, damping):
             for r in range(3):
                 for c in range(3):
                     A[r, c] += J[r, i] * J[c, i]
-    return A
 
 
 @njit
@@ -164,8 +185,19 @@ def _facing_step(J, Jn, dn, active, n, damping, orient_damping, dq1, dq):
 @njit
 def _solve3(A, b):
     """x with A x = b for a 3x3 A (Gaussian elimination, partial pivoting)."""
-    M = A.copy()
-    x = b.copy()
+    M = np.empty((3, 3))
+    x = np.empty(3)
+    _solve3_into(A, b, M, x)
+    return x
+
+
+@njit
+def _solve3_into(A, b, M, x):
+    """``_solve3`` into x (3,); M (3, 3) is scratch."""
+    for r in range(3):
+        x[r] = b[r]
+        for c in range(3):
+            M[r, c] = A[r, c]
     for k in range(3):
         piv = k
         for r in range(k + 1, 3):
@@ -185,37 +217,42 @@ def _solve3(A, b):
         for c in range(k + 1, 3):
             acc -= M[k, c] * x[c]
         x[k] = acc / M[k, k]
-    return x
 
 
 @njit
-def step_pads_kernel(q, targets, move, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
+def _step_pads(q, targets, move, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
                      point, damping, lower, upper, normal_s, normal_targets, facing, orient_damping):
     """One damped least-squares step per finger with ``move[f]`` toward its pad target
     (the arithmetic of FingerChain.point_and_jacobian + dls_step); updates ``q`` in place.
     Fingers with ``facing[f]`` also turn their pad normal toward ``normal_targets[f]``
-    with the joints the position task leaves spare (``_facing_step``)."""
-    pad = np.empty(3)
-    nrm = np.empty(3)
+    with the joints the position task leaves spare (``_facing_step``). Scratch arrays
+    are made once per call, sized for the longest finger."""
+    nmax = 0
+    for f in range(len(move)):
+        nmax = max(nmax, counts[f])
+    R, p, Rs, ps, tmp, rot = _frames_scratch(nmax)
+    pad, nrm, dp, dn = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    J, Jn = np.empty((3, nmax)), np.empty((3, nmax))
+    dq1, dq = np.empty(nmax), np.empty(nmax)
+    active = np.empty(nmax, dtype=np.bool_)
+    A, M, x = np.empty((3, 3)), np.empty((3, 3)), np.empty(3)
     for f in range(len(move)):
         if not move[f]:
             continue
         s = starts[f]
         n = counts[f]
-        J = np.empty((3, n))
-        Jn = np.empty((3, n))
         _pad_and_jacobian(q, f, s, n, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, pad, J,
-                          normal_s, nrm, Jn)
-        dp = np.empty(3)
-        dn = np.empty(3)
+                          normal_s, nrm, Jn, R, p, Rs, ps, tmp, rot)
         for r in range(3):
             dp[r] = targets[f, r] - pad[r]
             dn[r] = normal_targets[f, r] - nrm[r]
-        dq1 = np.empty(n)
-        active = np.ones(n, dtype=np.bool_)
-        dq = np.zeros(n)
+        for i in range(n):
+            active[i] = True
+            dq[i] = 0.0
+        any_active = n > 0
         for _ in range(2):
-            x = _solve3(_damped_gram(J, active, n, damping), dp)
+            _damped_gram_into(J, active, n, damping, A)
+            _solve3_into(A, dp, M, x)
             any_blocked = False
             for i in range(n):
                 dq[i] = (J[0, i] * x[0] + J[1, i] * x[1] + J[2, i] * x[2]) if active[i] else 0.0
@@ -226,11 +263,16 @@ def step_pads_kernel(q, targets, move, starts, counts, R_base, p_base, R_org, p_
                     any_blocked = True
             if not any_blocked:
                 break
-            if not active.any():
-                dq[:] = 0.0
+            any_active = False
+            for i in range(n):
+                any_active = any_active or active[i]
+            if not any_active:
+                for i in range(n):
+                    dq[i] = 0.0
                 break
-        if facing[f] and active.any():
-            dq1[:] = dq
+        if facing[f] and any_active:
+            for i in range(n):
+                dq1[i] = dq[i]
             _facing_step(J, Jn, dn, active, n, damping, orient_damping, dq1, dq)
             _keep_within(q, s, n, dq1, dq, lower, upper)
         for i in range(n):
@@ -256,40 +298,42 @@ def _keep_within(q, s, n, dq1, dq, lower, upper):
 
 
 @njit
-def pad_points_kernel(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, out):
+def _pad_points(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, out):
     """Every finger's pad point (hand frame) into ``out`` (F, 3)."""
+    nmax = 0
+    for f in range(len(starts)):
+        nmax = max(nmax, counts[f])
+    R, p, Rs, ps, tmp, rot = _frames_scratch(nmax)
     pad = np.empty(3)
     no_normal, nrm = np.zeros(3), np.empty(3)
+    J, Jn = np.empty((3, nmax)), np.empty((3, nmax))
     for f in range(len(starts)):
-        J = np.empty((3, counts[f]))
-        Jn = np.empty((3, counts[f]))
         _pad_and_jacobian(q, f, starts[f], counts[f], R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
-                          point, pad, J, no_normal, nrm, Jn)
-        out[f] = pad
+                          point, pad, J, no_normal, nrm, Jn, R, p, Rs, ps, tmp, rot)
+        for r in range(3):
+            out[f, r] = pad[r]
 
 
 @njit
-def sensor_rotations_kernel(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, out):
+def _sensor_rotations(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, out):
     """Every finger's sensor-frame rotation (hand frame) into ``out`` (F, 3, 3)."""
-    tmp = np.empty((3, 3))
-    rot = np.empty((3, 3))
+    nmax = 0
     for f in range(len(starts)):
-        R = R_base[f].copy()
-        for i in range(counts[f]):
-            _times(R, R_org[f, i], tmp)
-            _joint_turn(q[starts[f] + i], K[f, i], K2[f, i], rot)
-            _times(R, rot, tmp)
+        nmax = max(nmax, counts[f])
+    R, p, Rs, ps, tmp, rot = _frames_scratch(nmax)
+    for f in range(len(starts)):
+        _chain_frames(q, f, starts[f], counts[f], R_base, p_base, R_org, p_org, K, K2, R, p, Rs, ps, tmp, rot)
         for r in range(3):
             for c in range(3):
                 out[f, r, c] = R[r, 0] * R_tip[f, 0, c] + R[r, 1] * R_tip[f, 1, c] + R[r, 2] * R_tip[f, 2, c]
 
 
 @njit
-def advance_pads_kernel(q, targets, task_vectors, distances, starts, counts, R_base, p_base, R_org, p_org, K, K2,
+def _advance_pads(q, targets, task_vectors, distances, starts, counts, R_base, p_base, R_org, p_org, K, K2,
                         axes, R_tip, p_tip, point, damping, lower, upper, normal_s, normal_targets, facing,
                         orient_damping):
     """Move each finger's pad target along its task vector by its distance (0: stays)
-    and take one IK step for the fingers that moved (``step_pads_kernel``); ``q`` and
+    and take one IK step for the fingers that moved (``_step_pads``); ``q`` and
     ``targets`` in place. False when no finger moves (nothing changed)."""
     F = len(distances)
     move = np.empty(F, dtype=np.bool_)
@@ -302,24 +346,128 @@ def advance_pads_kernel(q, targets, task_vectors, distances, starts, counts, R_b
     for f in range(F):
         for r in range(3):
             targets[f, r] = targets[f, r] + task_vectors[f, r] * distances[f]
-    step_pads_kernel(q, targets, move, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
+    _step_pads(q, targets, move, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
                      point, damping, lower, upper, normal_s, normal_targets, facing, orient_damping)
     return True
 
 
 @njit
-def sensor_forces_kernel(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
+def _sensor_forces(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
                          f_sensor, f_hand, grip):
     """Sensor-frame forces (F, 3) into the hand frame (``f_hand``, F x 3) and their part
     across the hand's z axis (``grip``, F). Each product sums its terms in the order
     ``np.einsum("nij,nj->ni", ...)`` does ((0 + a0 b0 + a2 b2) + a1 b1), so the result,
     signed zeros included, is bit-identical to the numpy path."""
     R = np.empty((len(starts), 3, 3))
-    sensor_rotations_kernel(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, R)
+    _sensor_rotations(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, R)
     for f in range(len(starts)):
         for r in range(3):
             f_hand[f, r] = ((0.0 + R[f, r, 0] * f_sensor[f, 0]) + R[f, r, 2] * f_sensor[f, 2]) + R[f, r, 1] * f_sensor[f, 1]
         grip[f] = math.sqrt(f_hand[f, 0] * f_hand[f, 0] + f_hand[f, 1] * f_hand[f, 1])
+
+
+
+# ----- the kernels PadIK calls: the chains' geometry packed into two arrays ---------
+# (a compiled call costs about 65 ns per array argument: two instead of fifteen)
+
+
+def pack_geometry(chains: list[FingerChain], starts: np.ndarray, point: np.ndarray, normal: np.ndarray,
+                  lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(geometry, layout)``: every chain's base pose, joint origins, axes and tip pose
+    (fingers with fewer joints than the longest padded with zeros), the pad point and
+    normal (sensor frame) and the joint limits, as one float64 array; the sizes and
+    each finger's first joint and joint count as one int64 array (``_unpack``)."""
+    nmax = max(c.n for c in chains)
+
+    def padded(get):
+        return np.array([np.concatenate([get(c), np.zeros((nmax - c.n, *get(c).shape[1:]))]) for c in chains])
+
+    parts = [np.array([c._R_base for c in chains]), np.array([c._p_base for c in chains]),
+             padded(lambda c: c._R_org), padded(lambda c: c._p_org), padded(lambda c: c._K),
+             padded(lambda c: c._K2), padded(lambda c: c.axes), np.array([c._R_tip for c in chains]),
+             np.array([c._p_tip for c in chains]), point, normal, lower, upper]
+    geometry = np.concatenate([np.ascontiguousarray(p, dtype=float).ravel() for p in parts])
+    layout = np.concatenate([[len(chains), nmax, len(lower)], starts, [c.n for c in chains]]).astype(np.int64)
+    return geometry, layout
+
+
+@njit
+def _unpack(geometry, layout):
+    """Views of ``pack_geometry``'s arrays: starts, counts, R_base, p_base, R_org, p_org,
+    K, K2, axes, R_tip, p_tip, point, normal, lower, upper."""
+    F, nmax, J = layout[0], layout[1], layout[2]
+    o = 0
+    R_base = geometry[o:o + 9 * F].reshape((F, 3, 3))
+    o += 9 * F
+    p_base = geometry[o:o + 3 * F].reshape((F, 3))
+    o += 3 * F
+    R_org = geometry[o:o + 9 * F * nmax].reshape((F, nmax, 3, 3))
+    o += 9 * F * nmax
+    p_org = geometry[o:o + 3 * F * nmax].reshape((F, nmax, 3))
+    o += 3 * F * nmax
+    K = geometry[o:o + 9 * F * nmax].reshape((F, nmax, 3, 3))
+    o += 9 * F * nmax
+    K2 = geometry[o:o + 9 * F * nmax].reshape((F, nmax, 3, 3))
+    o += 9 * F * nmax
+    axes = geometry[o:o + 3 * F * nmax].reshape((F, nmax, 3))
+    o += 3 * F * nmax
+    R_tip = geometry[o:o + 9 * F].reshape((F, 3, 3))
+    o += 9 * F
+    p_tip = geometry[o:o + 3 * F].reshape((F, 3))
+    o += 3 * F
+    point = geometry[o:o + 3]
+    normal = geometry[o + 3:o + 6]
+    lower = geometry[o + 6:o + 6 + J]
+    upper = geometry[o + 6 + J:o + 6 + 2 * J]
+    return (layout[3:3 + F], layout[3 + F:3 + 2 * F], R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
+            point, normal, lower, upper)
+
+
+@njit
+def pad_points_kernel(q, geometry, layout, out):
+    """Every finger's pad point (hand frame) into ``out`` (F, 3)."""
+    starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, _n, _l, _u = _unpack(geometry, layout)
+    _pad_points(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, out)
+
+
+@njit
+def sensor_rotations_kernel(q, geometry, layout, out):
+    """Every finger's sensor-frame rotation (hand frame) into ``out`` (F, 3, 3)."""
+    starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, _p, _n, _l, _u = _unpack(geometry, layout)
+    _sensor_rotations(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, out)
+
+
+@njit
+def sensor_forces_kernel(q, geometry, layout, f_sensor, f_hand, grip):
+    """``_sensor_forces``: forces (F, 3) from the sensor frames into the hand frame, and their grip."""
+    starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, _p, _n, _l, _u = _unpack(geometry, layout)
+    _sensor_forces(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, f_sensor, f_hand, grip)
+
+
+@njit
+def step_pads_kernel(q, targets, move, geometry, layout, damping, normal_targets, facing, orient_damping):
+    """``_step_pads``: one DLS step per finger with ``move[f]`` (``q`` in place)."""
+    starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, normal, lower, upper = \
+        _unpack(geometry, layout)
+    _step_pads(q, targets, move, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point,
+               damping, lower, upper, normal, normal_targets, facing, orient_damping)
+
+
+@njit
+def advance_pads_kernel(q, targets, task_vectors, distances, geometry, layout, damping, normal_targets, facing,
+                        orient_damping):
+    """``_advance_pads``: targets moved along the task vectors, one DLS step for the fingers
+    that moved (``q`` and ``targets`` in place); False when none moves."""
+    moved = False
+    for f in range(distances.shape[0]):
+        moved = moved or distances[f] != 0.0
+    if not moved:
+        return False
+    starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, normal, lower, upper = \
+        _unpack(geometry, layout)
+    return _advance_pads(q, targets, task_vectors, distances, starts, counts, R_base, p_base, R_org, p_org, K, K2,
+                         axes, R_tip, p_tip, point, damping, lower, upper, normal, normal_targets, facing,
+                         orient_damping)
 
 
 class PadIK:
@@ -338,18 +486,11 @@ class PadIK:
             self.lower[kin.slices[name]] = chain.lower
             self.upper[kin.slices[name]] = chain.upper
         self.compiled = jit.JIT if compiled is None else compiled
-        F, nmax = len(chains), max(c.n for c in chains)
+        F = len(chains)
         self.starts = np.array([kin.slices[n].start for n in self.names], dtype=np.int64)
         self.counts = np.array([c.n for c in chains], dtype=np.int64)
-        pad3 = lambda get: np.array([np.concatenate([get(c), np.zeros((nmax - c.n, *get(c).shape[1:]))])  # noqa: E731
-                                     for c in chains])
-        self._arrays = (
-            self.starts, self.counts,
-            np.array([c._R_base for c in chains]), np.array([c._p_base for c in chains]),
-            pad3(lambda c: c._R_org), pad3(lambda c: c._p_org), pad3(lambda c: c._K), pad3(lambda c: c._K2),
-            pad3(lambda c: c.axes), np.array([c._R_tip for c in chains]), np.array([c._p_tip for c in chains]),
-        )
-        assert self._arrays[2].shape == (F, 3, 3)
+        # The kernels' view of the chains (only read): two arrays, so a call passes few arguments.
+        self.geometry, self.layout = pack_geometry(chains, self.starts, self.point, self.normal, self.lower, self.upper)
         self._batched = BatchedKinematics(kin)
         self._no_facing = Facing.none(F)
 
@@ -358,7 +499,7 @@ class PadIK:
         q = np.ascontiguousarray(q_all, dtype=float)
         if self.compiled:
             out = np.empty((len(self.names), 3))
-            pad_points_kernel(q, *self._arrays, self.point, out)
+            pad_points_kernel(q, self.geometry, self.layout, out)
             return out
         out = np.empty((len(self.names), 3))
         for f, name in enumerate(self.names):
@@ -370,7 +511,7 @@ class PadIK:
         """(F, 3, 3) sensor-frame rotations in the hand frame."""
         if self.compiled:
             out = np.empty((len(self.names), 3, 3))
-            sensor_rotations_kernel(np.ascontiguousarray(q_all, dtype=float), *self._arrays, out)
+            sensor_rotations_kernel(np.ascontiguousarray(q_all, dtype=float), self.geometry, self.layout, out)
             return out
         return self._batched.sensor_frames(q_all)[0]
 
@@ -380,7 +521,7 @@ class PadIK:
         if self.compiled:
             f_hand = np.empty((len(self.names), 3))
             grip = np.empty(len(self.names))
-            sensor_forces_kernel(np.ascontiguousarray(q_all, dtype=float), *self._arrays,
+            sensor_forces_kernel(np.ascontiguousarray(q_all, dtype=float), self.geometry, self.layout,
                                  np.ascontiguousarray(f_sensor, dtype=float), f_hand, grip)
             return f_hand, grip
         f_hand = np.einsum("nij,nj->ni", self.sensor_rotations(q_all), f_sensor)
@@ -398,9 +539,8 @@ class PadIK:
         its fingers also turn their pads toward its normals (``step``)."""
         facing = facing or self._no_facing
         if self.compiled:
-            return bool(advance_pads_kernel(q_all, targets, task_vectors, distances, *self._arrays, self.point,
-                                            damping, self.lower, self.upper, self.normal, facing.normals_hand,
-                                            facing.fingers, facing.damping))
+            return bool(advance_pads_kernel(q_all, targets, task_vectors, distances, self.geometry, self.layout,
+                                            damping, facing.normals_hand, facing.fingers, facing.damping))
         move = distances != 0.0
         if not move.any():
             return False
@@ -416,8 +556,8 @@ class PadIK:
         keeps facing the object while it moves along the closing vector."""
         facing = facing or self._no_facing
         if self.compiled:
-            step_pads_kernel(q_all, targets, move, *self._arrays, self.point, damping, self.lower, self.upper,
-                             self.normal, facing.normals_hand, facing.fingers, facing.damping)
+            step_pads_kernel(q_all, targets, move, self.geometry, self.layout, damping, facing.normals_hand,
+                             facing.fingers, facing.damping)
             return
         for f, name in enumerate(self.names):
             if not move[f]:
@@ -429,6 +569,13 @@ class PadIK:
                 continue
             q_all[sl] = facing_dls_step(chain, q_all[sl], J, targets[f] - pad, self.normal, facing.normals_hand[f],
                                         damping, facing.damping)
+
+
+@functools.lru_cache(maxsize=8)
+def shared_pad_ik(kin: HandKinematics) -> PadIK:
+    """The PadIK of a hand's kinematics (pad point PAD_POINT_SENSOR), set up once for all
+    its controllers and sensing pipelines (they only read it)."""
+    return PadIK(kin)
 
 
 @dataclass

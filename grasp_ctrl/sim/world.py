@@ -352,7 +352,9 @@ class MockWorld:
         prev_z = self._obj[ws.OZ]
         sens = self.sensors
         frame_base = sens.advance(self.dt)
-        self.raw = ws.world_step(self._q_goal, self._palm_target, frame_base, sens.t, *self._arrays)
+        raw = np.empty(self.raw.shape, dtype=self.raw.dtype)   # a new array each step: frames delivered earlier keep theirs
+        ws.world_step(self._q_goal, self._palm_target, frame_base, sens.t, raw, *self._arrays)
+        self.raw = raw
         self.seq = (self.seq + 1) & 0xFFFF
         self._record(prev_z)
 

@@ -70,7 +70,7 @@ def _move_servos(q_goal: np.ndarray, q_servo: np.ndarray, q: np.ndarray, reach: 
 
 @njit
 def world_step(
-    q_goal: np.ndarray, palm_target: np.ndarray, frame_base: np.ndarray, sensor_t: float,
+    q_goal: np.ndarray, palm_target: np.ndarray, frame_base: np.ndarray, sensor_t: float, frame_out: np.ndarray,
     q_servo: np.ndarray, q: np.ndarray, lower: np.ndarray, upper: np.ndarray,
     reach: np.ndarray, tau_max: np.ndarray, starts: np.ndarray, counts: np.ndarray,
     palm: np.ndarray, take: np.ndarray, W: np.ndarray, pad_local: np.ndarray,
@@ -79,9 +79,10 @@ def world_step(
     contact_z: np.ndarray, omega: np.ndarray, t_up: np.ndarray, f_world: np.ndarray, f_sensor: np.ndarray,
     rows: np.ndarray, c: np.ndarray,
     sensor_state: np.ndarray, gain: np.ndarray, sensor_consts: np.ndarray,
-) -> np.ndarray:
-    """Advance the world by one control period and return the fingertips' raw
-    frames (sim/biotac_model.py, built on ``frame_base``). The first four
+) -> None:
+    """Advance the world by one control period; the fingertips' raw frames
+    (sim/biotac_model.py, built on ``frame_base``) into ``frame_out`` (a new array
+    of the caller's, as returning one would cost more: boxing it). The first five
     arguments change from step to step; the rest are the world's own arrays,
     updated in place. ``obj[NEW_CONTACTS]`` flags (bit per finger) the contacts
     made in this step."""
@@ -92,8 +93,11 @@ def world_step(
               shape, obj, normal, touch, stick, n_out, contact_z, omega, rows, c)
     _object(obj, normal, touch, stick, slip, n_out, contact_z, t_up, c)
     _forces(normal, touch, n_out, t_up, omega, rows, f_world, f_sensor)
-    return frames_kernel(frame_base, contact_local, f_sensor, skin_normal, touch, slip,
-                         sensor_state, gain, sensor_consts, sensor_t, c[DT])
+    frame = frames_kernel(frame_base, contact_local, f_sensor, skin_normal, touch, slip,
+                          sensor_state, gain, sensor_consts, sensor_t, c[DT])
+    for i in range(frame.shape[0]):
+        for k in range(frame.shape[1]):
+            frame_out[i, k] = frame[i, k]
 
 
 @njit

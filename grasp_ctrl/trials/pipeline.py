@@ -4,8 +4,6 @@ contact gate, estimator) -> forces in sensor, hand and world frames -> Snapshot
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
@@ -15,27 +13,21 @@ from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.finite import all_finite
 from grasp_ctrl.hardware.base import JointState, SensorBackend, TactileFrame
 from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.kinematics.pad_ik import PadIK
+from grasp_ctrl.kinematics.pad_ik import shared_pad_ik
 from grasp_ctrl.tactile.layout import FRAME_LEN
 from grasp_ctrl.tactile.pipeline import TactilePipeline
-from grasp_ctrl.trials.tick_kernels import sense_forces, sense_inputs
+from grasp_ctrl.trials.tick_kernels import place_forces, sense_forces, sense_inputs
 
 _FLOAT64 = np.dtype(np.float64)
-
-
-@functools.lru_cache(maxsize=8)
-def _pad_ik(kin: HandKinematics) -> PadIK:
-    """The force rotations of a hand's kinematics, set up once for all its trials (only read)."""
-    return PadIK(kin)
 
 
 class SensingPipeline:
     def __init__(self, hand: HandConfig, kin: HandKinematics, estimator: ForceEstimator) -> None:
         self.hand = hand
         self.kin = kin
-        self.fast_kin = _pad_ik(kin)   # sensor rotations, compiled with the sim extra
+        self.fast_kin = shared_pad_ik(kin)   # sensor rotations, compiled with the sim extra
         self._compiled = self.fast_kin.compiled   # the compiled halves of a snapshot (trials/tick_kernels.py)
-        self._kin_arrays = self.fast_kin._arrays
+        self._geometry, self._layout = self.fast_kin.geometry, self.fast_kin.layout
         self.estimator = estimator
         self.names = [f.name for f in hand.fingers]
         self.sensor_ids = [f.sensor_id for f in hand.fingers]
@@ -50,6 +42,7 @@ class SensingPipeline:
         # the last finite joint angles and palm position (used when a reading is not finite)
         self._last_q = np.array([j.open_rad for j in hand.joints])
         self._last_palm = np.zeros(3)
+        self._tips: dict[int, tuple[np.ndarray, tuple[str, ...]]] = {}   # contact bits -> (rows, finger names)
 
     def read_frames(self, sensors: SensorBackend, now: float) -> np.ndarray:
         """(n_tips, 44) raw counts in finger order from ``sensors``: ``frames_matrix`` of
@@ -106,7 +99,6 @@ class SensingPipeline:
         replaced by finite values (zero force, the last good joint angles) so the safe
         action stays finite."""
         n = len(self.names)
-        self.raw = raw
         q = np.asarray(joints.q, dtype=float)
         p_palm_world = np.asarray(p_palm_world, dtype=float)
         tactile = self.tactile
@@ -124,15 +116,37 @@ class SensingPipeline:
                 gated = tared, in_contact, bits, touching
         if gated is None:   # the long way, which also names what is wrong
             q, p_palm_world, fault, fault_detail = self._checked_pose(q, p_palm_world, fault, fault_detail)
+        return self._snapshot(raw, q, p_palm_world, joints.t, gated, collecting_tare, fault, fault_detail)
+
+    def snapshot_gated(self, raw: np.ndarray, q: np.ndarray, p_palm_world: np.ndarray, t: float, tared: np.ndarray,
+                       in_contact: np.ndarray, bits: int, touching: np.ndarray) -> Snapshot:
+        """``snapshot`` after its first compiled half (``sense_inputs``, made by the caller:
+        finite float64 angles and palm position, frames tared and gated into ``tared``,
+        ``in_contact``, ``bits`` >= 0 and ``touching``), for the mock trial's fused inputs
+        (trials/mock_tick.py)."""
+        return self._snapshot(raw, q, p_palm_world, t, (tared, in_contact, bits, touching), False, None, None)
+
+    def _snapshot(self, raw: np.ndarray, q: np.ndarray, p_palm_world: np.ndarray, t: float,
+                  gated: tuple[np.ndarray, np.ndarray, int, np.ndarray] | None, collecting_tare: bool,
+                  fault: str | None, fault_detail: str | None) -> Snapshot:
+        n = len(self.names)
+        self.raw = raw
+        tactile = self.tactile
+        nd = np.ndarray
         self._last_q = q
         self._last_palm = p_palm_world
         variance = None
         no_force = False   # f_sensor is our own zeros (no fingertip in contact, or no tare yet)
+        f_hand = None
         if gated is not None:
             tared, in_contact, bits, touching = gated
-            f_sensor, variance = tactile.forces(tared, bits, touching)
             tare_ready = True
-            no_force = bits == 0
+            estimator = tactile.estimator
+            if bits and not estimator.has_variance and q.flags.c_contiguous:
+                f_sensor, f_hand, grip = self._estimate_and_turn(estimator, q, tared, touching, bits)
+            else:
+                f_sensor, variance = tactile.forces(tared, bits, touching)
+                no_force = bits == 0
         else:
             try:
                 tare_ready = self.collect_tare(raw) if collecting_tare else tactile.tare.ready
@@ -152,8 +166,9 @@ class SensingPipeline:
         self.tared = tared
         # Grip = the squeeze: the force across the lift direction (world z). Along z
         # the fingertips also carry the object's weight, which must not count as grip.
-        f_hand = None
-        if self._compiled and no_force and variance is None:
+        if f_hand is not None:
+            pass   # estimated and turned in one go (_estimate_and_turn)
+        elif self._compiled and no_force and variance is None:
             # Zero forces (+0.0) turned by the sensor rotations, finite at finite angles, sum
             # to +0.0 in every term the kernel adds (+0.0 + -0.0 is +0.0): all zeros, as
             # sense_forces would compute them.
@@ -161,26 +176,50 @@ class SensingPipeline:
         elif (self._compiled and variance is None and type(f_sensor) is nd and f_sensor.dtype is _FLOAT64
                 and f_sensor.shape == (n, 3) and f_sensor.flags.c_contiguous and q.flags.c_contiguous):
             f_hand, grip = np.empty((n, 3)), np.empty(n)
-            if not sense_forces(q, f_sensor, *self._kin_arrays, f_hand, grip):
+            if not sense_forces(q, f_sensor, self._geometry, self._layout, f_hand, grip):
                 f_hand = None   # a force is not finite: the long way
         if f_hand is None:   # the long way, which also names a non-finite estimate
             f_sensor, variance, fault, fault_detail = self._checked_estimate(f_sensor, variance, fault, fault_detail)
             f_hand, grip = self.fast_kin.sensor_forces(q, f_sensor)
         f_world = f_hand  # the arm translates the hand: hand axes = world axes
-        return Snapshot(
-            t=joints.t,
-            q=q,
-            p_palm_world=p_palm_world,
-            tare_ready=tare_ready,
-            in_contact=in_contact,
-            f_sensor=f_sensor,
-            f_hand=f_hand,
-            f_world=f_world,
-            grip_n=grip,
-            variance=variance,
-            fault=fault,
-            fault_detail=fault_detail,
-        )
+        # positional (Snapshot's field order): a third of the keyword call's cost, every tick
+        return Snapshot(t, q, p_palm_world, tare_ready, in_contact, f_sensor, f_hand, f_world, grip, variance, fault,
+                        fault_detail)
+
+    def _estimate_and_turn(self, estimator: ForceEstimator, q: np.ndarray, tared: np.ndarray, touching: np.ndarray,
+                           bits: int) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """``TactilePipeline.forces`` for a policy without variance and the fingertips in
+        contact (``bits``, their tared rows first in ``touching``), then the forces into the
+        hand frame, the rows placed and turned in one compiled call (``place_forces``):
+        ``(f_sensor, f_hand, grip)``; f_hand and grip are None when a force is not finite
+        (or the rows have an odd type or shape), for the long way to name it."""
+        n = len(self.names)
+        got = self._tips.get(bits)
+        if got is None:
+            idx = np.array([i for i in range(n) if bits >> i & 1], dtype=np.intp)
+            got = self._tips[bits] = (idx, self.tactile.fingers if idx.size == n else
+                                      tuple(self.tactile.fingers[i] for i in idx.tolist()))
+        idx, names = got
+        k = idx.size
+        # the same call TactilePipeline.forces makes: every tared row, or those in contact
+        rows = estimator.estimate(tared if k == n else touching[:k], names).f_sensor
+        f_sensor = np.empty((n, 3))
+        if (type(rows) is np.ndarray and rows.dtype is _FLOAT64 and rows.shape == (k, 3)
+                and rows.flags.c_contiguous):
+            f_hand, grip = np.empty((n, 3)), np.empty(n)
+            if place_forces(rows, bits, q, self._geometry, self._layout, f_sensor, f_hand, grip):
+                return f_sensor, f_hand, grip
+            return f_sensor, None, None
+        # TactilePipeline.forces' own placing (which names a bad shape)
+        if k == n:
+            f_sensor = np.array(rows, dtype=float)
+            if f_sensor.shape != (n, 3):
+                f_sensor = np.zeros((n, 3))
+                f_sensor[:] = rows
+        else:
+            f_sensor = np.zeros((n, 3))
+            f_sensor[idx] = rows
+        return f_sensor, None, None
 
     def _checked_pose(self, q: np.ndarray, p_palm_world: np.ndarray, fault: str | None, detail: str | None,
                       ) -> tuple[np.ndarray, np.ndarray, str | None, str | None]:

@@ -39,6 +39,7 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
 from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
 from grasp_ctrl.sim.world import MockWorld, WorldParams
+from grasp_ctrl.trials.mock_tick import MockTick
 from grasp_ctrl.trials.manifest import RunManifest, read_manifest, write_manifest
 from grasp_ctrl.trials.outcome import judge
 from grasp_ctrl.trials.pipeline import SensingPipeline
@@ -202,25 +203,31 @@ def run_mock_trial(
     grasp = np.array([f.grasp for f in hand.fingers])
     log = TickLog(log_path, names, len(hand.joints), truth=True) if log_path else None
     n = len(names)
-    tip_force_sq = np.zeros(n)   # the peak of |f_sensor|^2: its root at the end is the peak of |f_sensor|
-    tip_grip = np.zeros(n)
-    tip_true = np.zeros(n)
+    peaks = np.zeros((3, n))
+    # the peak of |f_sensor|^2 (its root at the end is the peak of |f_sensor|), of the grip and the true force
+    tip_force_sq, tip_grip, tip_true = peaks
+    # On the mock world's own backends the tick's input and output halves run fused (mock_tick.py).
+    fast = (MockTick(world, hand_backend, sensors, arm, pipeline, log, peaks)
+            if MockTick.usable(world, hand_backend, sensors, arm, pipeline, log) else None)
     settle_ticks = int(round(SETTLE_S / hand.dt))
     try:
         while world.t < MAX_TRIAL_S:
             world.step()
             world.set_phase(ctrl.state)  # type: ignore[attr-defined]
-            snap, cmd, raw = control_tick(hand_backend, arm, sensors, pipeline, ctrl, world.t)
-            if jit.JIT:
-                track_peaks(snap.f_sensor, snap.grip_n, world.normal_n, tip_force_sq, tip_grip, tip_true)
+            if fast is not None:   # the same tick, peaks and log row
+                fast.tick(ctrl)
             else:
-                f = snap.f_sensor
-                np.maximum(tip_force_sq, np.add.reduce(f * f, axis=1), out=tip_force_sq)
-                np.maximum(tip_grip, snap.grip_n, out=tip_grip)
-                np.maximum(tip_true, world.normal_n, out=tip_true)
-            if log:
-                log.append(ctrl.state, snap, cmd, pipeline.tared, world.f_sensor, world.obj_z, world.table_n,  # type: ignore[attr-defined]
-                           raw=raw, grip_target_n=ctrl.tau)
+                snap, cmd, raw = control_tick(hand_backend, arm, sensors, pipeline, ctrl, world.t)
+                if jit.JIT:
+                    track_peaks(snap.f_sensor, snap.grip_n, world.normal_n, tip_force_sq, tip_grip, tip_true)
+                else:
+                    f = snap.f_sensor
+                    np.maximum(tip_force_sq, np.add.reduce(f * f, axis=1), out=tip_force_sq)
+                    np.maximum(tip_grip, snap.grip_n, out=tip_grip)
+                    np.maximum(tip_true, world.normal_n, out=tip_true)
+                if log:
+                    log.append(ctrl.state, snap, cmd, pipeline.tared, world.f_sensor, world.obj_z, world.table_n,  # type: ignore[attr-defined]
+                               raw=raw, grip_target_n=ctrl.tau)
             if on_tick:
                 on_tick(world, ctrl)
             if ctrl.terminal:

@@ -42,7 +42,12 @@ def control_tick(
         if fault is None:
             fault, detail = "sensor_invalid", str(exc)
     snap = pipeline.snapshot(raw, hand.read(), arm.position(), ctrl.state == "tare", fault, detail)  # type: ignore[attr-defined]
-    cmd = ctrl.tick(snap)
+    cmd = send_command(hand, arm, ctrl, snap, ctrl.tick(snap))
+    return snap, cmd, raw
+
+
+def send_command(hand: HandBackend, arm: ArmBackend, ctrl: GraspController, snap: Snapshot, cmd: Command) -> Command:
+    """The controller's command to the hand and the arm; returns what was sent."""
     if not both_finite(np.asarray(cmd.q_goal), np.asarray(cmd.p_palm_world)):
         # Never send a non-finite goal: fault, and command the safe action from the measured pose.
         if not ctrl.terminal:
@@ -52,4 +57,4 @@ def control_tick(
         hand.set_torque(False)
     hand.write_goals(cmd.q_goal)
     arm.command(cmd.p_palm_world)
-    return snap, cmd, raw
+    return cmd

@@ -16,7 +16,7 @@ from grasp_ctrl.jit import njit
 from grasp_ctrl.kinematics.pad_ik import sensor_forces_kernel
 from grasp_ctrl.limits import _maximum
 from grasp_ctrl.tactile.layout import FRAME_LEN, PDC
-from grasp_ctrl.tactile.tare import tare_and_gate_bits
+from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate_bits
 
 
 @njit
@@ -45,18 +45,30 @@ def sense_inputs(q: np.ndarray, palm: np.ndarray, raw: np.ndarray, baseline: np.
 
 
 @njit
-def sense_forces(q, f_sensor, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,  # noqa: ANN001
-                 f_hand, grip) -> bool:  # noqa: ANN001
+def sense_forces(q: np.ndarray, f_sensor: np.ndarray, geometry: np.ndarray, layout: np.ndarray, f_hand: np.ndarray,
+                 grip: np.ndarray) -> bool:
     """The second half: the estimated forces (F, 3) into the hand frame and their grip
-    (``pad_ik.sensor_forces_kernel``), when every one is finite; False (nothing
-    written) when one is not."""
+    (``pad_ik.sensor_forces_kernel``; ``geometry``, ``layout``: the hand's ``PadIK``), when
+    every one is finite; False (nothing written) when one is not."""
     for i in range(f_sensor.shape[0]):
         for k in range(f_sensor.shape[1]):
             if not math.isfinite(f_sensor[i, k]):
                 return False
-    sensor_forces_kernel(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
-                         f_sensor, f_hand, grip)
+    sensor_forces_kernel(q, geometry, layout, f_sensor, f_hand, grip)
     return True
+
+
+@njit
+def place_forces(rows: np.ndarray, bits: int, q: np.ndarray, geometry: np.ndarray, layout: np.ndarray,
+                 f_sensor: np.ndarray, f_hand: np.ndarray, grip: np.ndarray) -> bool:
+    """The policy's rows (one per fingertip in contact, ``bits``) into ``f_sensor`` (F, 3),
+    zero for the others (``tare.scatter_rows``), then ``sense_forces``: False, f_hand and
+    grip unset, when a force is not finite."""
+    for i in range(f_sensor.shape[0]):
+        for c in range(f_sensor.shape[1]):
+            f_sensor[i, c] = 0.0
+    scatter_rows(rows, bits, f_sensor)
+    return sense_forces(q, f_sensor, geometry, layout, f_hand, grip)
 
 
 @njit

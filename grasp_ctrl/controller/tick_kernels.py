@@ -1,0 +1,78 @@
+"""The controller's per-tick arithmetic as compiled loops (grasp_ctrl/jit.py).
+
+Each replaces Python list arithmetic and several numpy calls on 4-element
+arrays (the fingertips) in ``GraspController``, whose own code stays the
+reference: the same operations in the same order, so the same bits
+(tests/test_controller_kernels.py). Python's ``min``/``max`` of two floats are
+spelled out (``max(a, b)`` is ``b if b > a else a``), so NaN passes through as it
+does in Python.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from grasp_ctrl.jit import njit
+from grasp_ctrl.kinematics.pad_ik import advance_pads_kernel
+
+#: ``tick_checks`` result bits.
+WITHIN_TOLERANCE = 1      # every grasping grip within the ramp tolerance of tau
+RELEASE_BELOW = 2         # the release fingertip's force below -release threshold
+FORCE_NOT_FINITE = 4      # an estimated |f_sensor|^2 is not finite
+OVERFORCE = 8             # the largest |f_sensor| is above the limit (all finite)
+
+
+@njit
+def tick_checks(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.ndarray, f_world: np.ndarray,
+                grasping: np.ndarray, tau: float, tolerance: float, floor: float, release_idx: int,
+                release_threshold: float, limit: float, lost: np.ndarray) -> int:
+    """``GraspController._update_counters``' flags and lost counts (``lost`` in place:
+    +1 for a fingertip out of contact or with its grip below ``floor``, else 0), then
+    the over-force check of ``tick``: squared norms summed as ((0 + x^2) + z^2) + y^2,
+    the largest above ``limit``^2. Returns the bits above."""
+    out = 0
+    within = True
+    for i in range(grip.shape[0]):
+        if grasping[i] and not abs(tau - grip[i]) <= tolerance:
+            within = False
+            break
+    if within:
+        out |= WITHIN_TOLERANCE
+    for i in range(grip.shape[0]):
+        lost[i] = lost[i] + 1 if not in_contact[i] or grip[i] < floor else 0
+    if -f_world[release_idx, 2] < -release_threshold:
+        out |= RELEASE_BELOW
+    largest = 0.0
+    for i in range(f_sensor.shape[0]):
+        x, y, z = f_sensor[i, 0], f_sensor[i, 1], f_sensor[i, 2]
+        sq = ((0.0 + x * x) + z * z) + y * y
+        if not math.isfinite(sq):
+            return out | FORCE_NOT_FINITE
+        if i == 0 or sq > largest:
+            largest = sq
+    if f_sensor.shape[0] and largest > limit * limit:
+        out |= OVERFORCE
+    return out
+
+
+@njit
+def squeeze_pads(grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float, max_speed: float, dt: float,
+                 q: np.ndarray, targets: np.ndarray, task_vectors: np.ndarray, geometry: np.ndarray,
+                 layout: np.ndarray, damping: float, normal_targets: np.ndarray, facing: np.ndarray,
+                 orient_damping: float, distances: np.ndarray) -> bool:
+    """``GraspController._squeeze`` without the variance slowdown: each grasping
+    fingertip's speed ``min(max(gain (tau - grip), -max_speed), max_speed)`` times dt
+    into ``distances``, then ``pad_ik.advance_pads_kernel`` (``q`` and ``targets`` in
+    place). True when a fingertip moved."""
+    low = -max_speed
+    for f in range(grip.shape[0]):
+        v = gain * (tau - grip[f])
+        if low > v:
+            v = low
+        if max_speed < v:
+            v = max_speed
+        distances[f] = v * dt if grasping[f] else 0.0
+    return advance_pads_kernel(q, targets, task_vectors, distances, geometry, layout, damping, normal_targets, facing,
+                               orient_damping)

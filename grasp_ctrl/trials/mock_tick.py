@@ -1,0 +1,193 @@
+"""The mock trial's tick with its input and output halves fused (grasp_ctrl/jit.py).
+
+``control_tick`` (trials/tick.py) reads the backends, builds the snapshot, runs the
+controller and writes the command; the runner then tracks the force peaks and
+appends the tick log's row. On the mock world's own backends most of those steps
+copy a few small arrays, and each Python call and compiled call costs more than
+its arithmetic, so ``MockTick`` does the same in two compiled calls around the
+estimator and the controller:
+
+- ``mock_inputs``: MockHand.read's angles (and its velocity reference),
+  MockArm.position, MockSensors.latest_matrix's frames as floats, then the
+  snapshot's first half (``sense_inputs``: checks, tare, contact gate);
+- ``mock_outputs``: control_tick's finiteness check of the command, MockHand.write_goals
+  and MockArm.command (the world's one-pass writes), the runner's force peaks
+  and the tick log's row.
+
+Whatever these shortcuts do not cover (the tare, a hardware fault, a paused
+sensor, a frame or angle that is not finite, a non-finite command, torque off,
+a log row that does not fit) goes the generic way for that tick, from the
+point where it departs, so every tick does what control_tick and the runner do,
+bit for bit (tests/test_mock_tick.py).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from grasp_ctrl import jit
+from grasp_ctrl.controller.machine import GraspController
+from grasp_ctrl.controller.snapshot import Command, Snapshot
+from grasp_ctrl.jit import njit
+from grasp_ctrl.sim import world_step as ws
+from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
+from grasp_ctrl.sim.world import MockWorld, _clamped_target, _limited_goal
+from grasp_ctrl.trials.pipeline import SensingPipeline
+from grasp_ctrl.trials.tick import control_tick, send_command
+from grasp_ctrl.trials.tick_kernels import log_row, sense_inputs, track_peaks
+from grasp_ctrl.trials.ticklog import TickLog
+
+_FLOAT64 = np.dtype(np.float64)
+
+
+@njit
+def mock_inputs(q_world: np.ndarray, q_prev: np.ndarray, palm_world: np.ndarray, frames_world: np.ndarray,
+                baseline: np.ndarray, count: np.ndarray, threshold: float, frames: int, q: np.ndarray,
+                palm: np.ndarray, raw: np.ndarray, tared: np.ndarray, contact: np.ndarray,
+                touching: np.ndarray) -> int:
+    """The angles into ``q`` and ``q_prev`` (MockHand.read), the palm position into
+    ``palm`` (MockArm.position), the world's frames as floats into ``raw``
+    (MockSensors.latest_matrix), then ``sense_inputs`` (its result: the contact bits,
+    or < 0 with the gate unchanged)."""
+    for j in range(q_world.shape[0]):
+        q[j] = q_world[j]
+        q_prev[j] = q_world[j]
+    for k in range(3):
+        palm[k] = palm_world[k]
+    for i in range(frames_world.shape[0]):
+        for c in range(frames_world.shape[1]):
+            raw[i, c] = frames_world[i, c]
+    return sense_inputs(q, palm, raw, baseline, count, threshold, frames, tared, contact, touching)
+
+
+#: ``mock_outputs`` results.
+WRITTEN = 0          # command written, peaks tracked, log row stored
+NOT_FINITE = 1       # a goal or the arm target is not finite: nothing done
+LOG_ROW_REFUSED = 2  # written and tracked, but the log row does not fit (the log's own append names why)
+
+
+@njit
+def mock_outputs(q_goal: np.ndarray, p_target: np.ndarray, prev_goal: np.ndarray, max_step: float,
+                 limits: np.ndarray, z_min: float, z_max: float, goal_out: np.ndarray, target_out: np.ndarray,
+                 f_sensor: np.ndarray, grip: np.ndarray, true_normal: np.ndarray, peaks: np.ndarray,
+                 block: np.ndarray, row: int, t: float, palm: np.ndarray, grip_target: float, raw: np.ndarray,
+                 contact: np.ndarray, tared: np.ndarray, f_world: np.ndarray, q: np.ndarray, true_f: np.ndarray,
+                 obj: np.ndarray) -> int:
+    """control_tick's ``both_finite`` check of the command (NOT_FINITE: nothing done),
+    MockHand.write_goals (``_limited_goal`` into ``goal_out``; ``limits``: the hand's
+    lower and upper goal limits, then the world's joint limits, (4, J)) and MockArm.command
+    (``_clamped_target`` into ``target_out``), the runner's ``track_peaks`` (``peaks``:
+    |f|^2, grip and true normal force, (3, F)) and the tick log's row ``row`` (-1: no
+    log) as ``TickLog.append`` stores it (``log_row``)."""
+    for j in range(q_goal.shape[0]):
+        if not math.isfinite(q_goal[j]):
+            return NOT_FINITE
+    for k in range(p_target.shape[0]):
+        if not math.isfinite(p_target[k]):
+            return NOT_FINITE
+    if not _limited_goal(q_goal, prev_goal, max_step, limits[0], limits[1], limits[2], limits[3], goal_out):
+        return NOT_FINITE
+    if not _clamped_target(p_target, z_min, z_max, target_out):
+        return NOT_FINITE
+    track_peaks(f_sensor, grip, true_normal, peaks[0], peaks[1], peaks[2])
+    if row >= 0 and not log_row(block, row, t, palm, p_target, grip_target, raw, contact, tared, grip, f_sensor,
+                                f_world, q, q_goal, true_f, obj[ws.OZ], obj[ws.TABLE_N]):
+        return LOG_ROW_REFUSED
+    return WRITTEN
+
+
+class MockTick:
+    """One trial's ticks on the mock world's own backends (``usable``), with fused I/O.
+
+    ``tick(ctrl)`` returns control_tick's ``(snapshot, command, raw frames)`` after the
+    force peaks (``peaks``, (3, F): |f_sensor|^2, grip, true normal force) are tracked
+    and the log row appended, exactly as the runner's generic tick does them.
+    """
+
+    def __init__(self, world: MockWorld, hand: MockHand, sensors: MockSensors, arm: MockArm,
+                 pipeline: SensingPipeline, log: TickLog | None, peaks: np.ndarray) -> None:
+        self.world, self.hand, self.sensors, self.arm = world, hand, sensors, arm
+        self.pipeline, self.log, self.peaks = pipeline, log, peaks
+        J = len(world.lower)
+        self._frame_shape = pipeline._frame_shape
+        self._limits = np.array([hand.lower, hand.upper, world.lower, world.upper], dtype=float)
+        self._log_rows = log is not None and log._compiled
+        self._no_block = np.empty((0, 0))
+        self._J = J
+
+    @staticmethod
+    def usable(world: Any, hand: Any, sensors: Any, arm: Any, pipeline: SensingPipeline, log: TickLog | None) -> bool:
+        """The mock world's own backends (exactly), compiled kernels, and a pipeline that
+        reads the world's sensors in its order and counts a frame of this tick as fresh."""
+        return (jit.JIT and type(world) is MockWorld and type(hand) is MockHand and type(sensors) is MockSensors
+                and type(arm) is MockArm and hand.world is world and sensors.world is world and arm.world is world
+                and pipeline._compiled and pipeline.sensor_ids == world.sensor_ids
+                and 0.0 <= pipeline._stale_after_s and hand._write_limited is not None
+                and arm._set_clamped is not None and (log is None or log.truth))
+
+    def tick(self, ctrl: GraspController, on_generic: Any = None) -> tuple[Snapshot, Command, np.ndarray]:
+        world, hand, sensors, arm, pipeline = self.world, self.hand, self.sensors, self.arm, self.pipeline
+        tactile = pipeline.tactile
+        snap = None
+        if (not hand.fault and not sensors.paused and ctrl.state != "tare" and tactile.tare.ready  # type: ignore[attr-defined]
+                and tactile.validate and type(world.raw) is np.ndarray and world.raw.shape == self._frame_shape):
+            n = self._frame_shape[0]
+            q, palm, raw = np.empty(self._J), np.empty(3), np.empty(self._frame_shape)
+            tared, in_contact, touching = np.empty(self._frame_shape), np.empty(n, dtype=bool), np.empty(self._frame_shape)
+            sensors._delivered = (world.raw, world.seq, world.t)   # what latest_matrix notes
+            bits = mock_inputs(world.q, hand._q_prev, world.palm_world, world.raw, tactile.tare.baseline,
+                               tactile.gate.count, tactile.gate.threshold, tactile.gate.frames, q, palm, raw, tared,
+                               in_contact, touching)
+            if bits >= 0:
+                snap = pipeline.snapshot_gated(raw, q, palm, world.t, tared, in_contact, bits, touching)
+        if snap is None:   # the generic tick (it reads the backends again: the same values)
+            snap, cmd, raw = control_tick(hand, arm, sensors, pipeline, ctrl, world.t)
+            self._track_and_log(ctrl, snap, cmd, raw)
+            return snap, cmd, raw
+        cmd = ctrl.tick(snap)
+        log = self.log
+        row = -1
+        block = self._no_block
+        if log is not None and self._log_rows:
+            row = log._n
+            if row == len(log._block):
+                log._grow()
+            block = log._block
+        goal, target = np.empty(self._J), np.empty(3)
+        q_goal, p_target = cmd.q_goal, cmd.p_palm_world
+        done = NOT_FINITE
+        if (cmd.torque_on and type(q_goal) is np.ndarray and type(p_target) is np.ndarray
+                and q_goal.dtype is _FLOAT64 and p_target.dtype is _FLOAT64 and q_goal.shape == (self._J,)
+                and p_target.shape == (3,)):
+            done = mock_outputs(q_goal, p_target, world.q_goal, hand.max_step, self._limits, arm._z_min, arm._z_max,
+                                goal, target, snap.f_sensor, snap.grip_n, world.normal_n, self.peaks, block, row,
+                                snap.t, snap.p_palm_world, ctrl.tau, raw, snap.in_contact, pipeline.tared,
+                                snap.f_world, snap.q, world.f_sensor, world._obj)
+        if done == NOT_FINITE:   # control_tick's own output half, then the runner's peaks and row
+            cmd = send_command(hand, arm, ctrl, snap, cmd)
+            self._track_and_log(ctrl, snap, cmd, raw)
+            return snap, cmd, raw
+        world._q_goal = goal
+        world._palm_target = target
+        if done == LOG_ROW_REFUSED:
+            self._append(ctrl, snap, cmd, raw)
+        elif row >= 0:
+            log._states.append(ctrl.state)  # type: ignore[union-attr, attr-defined]
+            log._n = row + 1  # type: ignore[union-attr]
+        elif log is not None:
+            self._append(ctrl, snap, cmd, raw)
+        return snap, cmd, raw
+
+    def _track_and_log(self, ctrl: GraspController, snap: Snapshot, cmd: Command, raw: np.ndarray) -> None:
+        track_peaks(snap.f_sensor, snap.grip_n, self.world.normal_n, self.peaks[0], self.peaks[1], self.peaks[2])
+        if self.log is not None:
+            self._append(ctrl, snap, cmd, raw)
+
+    def _append(self, ctrl: GraspController, snap: Snapshot, cmd: Command, raw: np.ndarray) -> None:
+        w = self.world
+        self.log.append(ctrl.state, snap, cmd, self.pipeline.tared, w.f_sensor, w.obj_z, w.table_n,  # type: ignore[union-attr, attr-defined]
+                        raw=raw, grip_target_n=ctrl.tau)
+
