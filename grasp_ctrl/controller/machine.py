@@ -367,6 +367,11 @@ class GraspController:
     # ----- actions per state --------------------------------------------------
     def _move_palm_toward(self, target: np.ndarray, speed: float) -> None:
         assert self.palm_target is not None
+        p = self.palm_target
+        if (self._compiled and type(p) is np.ndarray and type(target) is np.ndarray and p.dtype is _FLOAT64
+                and target.dtype is _FLOAT64 and p.shape == target.shape == (3,)):
+            tk.move_palm_toward(p, target, speed * self.dt)   # the same, compiled, in place (p is our own)
+            return
         delta = target - self.palm_target
         dist = math.sqrt(float(delta.dot(delta)))
         step = speed * self.dt

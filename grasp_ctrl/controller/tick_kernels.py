@@ -76,3 +76,19 @@ def squeeze_pads(grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float
         distances[f] = v * dt if grasping[f] else 0.0
     return advance_pads_kernel(q, targets, task_vectors, distances, geometry, layout, damping, normal_targets, facing,
                                orient_damping)
+
+
+@njit
+def move_palm_toward(palm: np.ndarray, target: np.ndarray, step: float) -> None:
+    """``GraspController._move_palm_toward`` in place: ``palm`` (3,) to ``target`` when
+    it is at most ``step`` away, else ``step`` along the straight line. The distance
+    is numpy's ``delta.dot(delta)``: 0 + a BLAS dot product, which sums a 3-vector's
+    squares left to right (tests/test_controller_kernels.py checks it on this machine's
+    BLAS)."""
+    d0, d1, d2 = target[0] - palm[0], target[1] - palm[1], target[2] - palm[2]
+    dist = math.sqrt(0.0 + ((d0 * d0 + d1 * d1) + d2 * d2))
+    if dist <= step:
+        palm[0], palm[1], palm[2] = target[0], target[1], target[2]
+        return
+    s = step / dist
+    palm[0], palm[1], palm[2] = palm[0] + d0 * s, palm[1] + d1 * s, palm[2] + d2 * s
