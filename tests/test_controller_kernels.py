@@ -90,10 +90,14 @@ def test_squeeze_kernel_equals_the_python_speeds(controllers, grip, gains, seed)
         ctrl.motion.sync(q)
     assert same_bits(fast.motion.targets, slow.motion.targets)
     snap = _snapshot(np.zeros((4, 3)), np.zeros((4, 3)), grip, np.ones(4, bool))
+    palm, goal = rng.normal(0.0, 0.05, 3), rng.normal(0.0, 0.05, 3)
+    for ctrl in (fast, slow):
+        ctrl.palm_target = palm.copy()
     with np.errstate(all="ignore"):
-        for _ in range(3):
-            fast._squeeze(snap, *gains)
-            slow._squeeze(snap, *gains)
+        for k in range(3):
+            for ctrl in (fast, slow):   # the lift and the lowering also move the palm
+                ctrl._squeeze(snap, *gains, *((goal, 0.4) if k else ()))
+    assert same_bits(fast.palm_target, slow.palm_target)
     assert same_bits(fast.motion.q_goal, slow.motion.q_goal)
     assert same_bits(fast.motion.targets, slow.motion.targets)
     assert (fast.motion._posture is None) == (slow.motion._posture is None)

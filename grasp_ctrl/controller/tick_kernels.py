@@ -61,11 +61,16 @@ def tick_checks(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.ndarray, 
 def squeeze_pads(grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float, max_speed: float, dt: float,
                  q: np.ndarray, targets: np.ndarray, task_vectors: np.ndarray, geometry: np.ndarray,
                  layout: np.ndarray, damping: float, normal_targets: np.ndarray, facing: np.ndarray,
-                 orient_damping: float, distances: np.ndarray) -> bool:
+                 orient_damping: float, distances: np.ndarray, move_palm: bool, palm: np.ndarray,
+                 palm_goal: np.ndarray, palm_step: float) -> bool:
     """``GraspController._squeeze`` without the variance slowdown: each grasping
     fingertip's speed ``min(max(gain (tau - grip), -max_speed), max_speed)`` times dt
     into ``distances``, then ``pad_ik.advance_pads_kernel`` (``q`` and ``targets`` in
-    place). True when a fingertip moved."""
+    place); with ``move_palm`` also ``move_palm_toward(palm, palm_goal, palm_step)``
+    (the lift and the lowering move the arm while they squeeze). True when a fingertip
+    moved."""
+    if move_palm:
+        move_palm_toward(palm, palm_goal, palm_step)
     low = -max_speed
     for f in range(grip.shape[0]):
         v = gain * (tau - grip[f])
