@@ -15,6 +15,7 @@ from hypothesis.extra import numpy as hnp
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.kinematics.pad_ik import PadIK
 
 edge = st.sampled_from([0.0, -0.0, 1.0, -1.0, 0.25, 2.0, 3e-9, -7.5, 14.9, 40.0, np.nan, np.inf, -np.inf])
 values = st.one_of(edge, st.floats(-30.0, 30.0))
@@ -35,11 +36,14 @@ def same_bits_any_nan(a, b) -> bool:
 
 @pytest.fixture(scope="module")
 def controllers(hand, objects):
-    """A compiled and a Python controller (its pad IK still compiled, as before the kernels)."""
+    """A controller with its kernels and one with its Python code; both with the kernel pad IK
+    (as before these kernels). Without numba the kernels run as plain Python."""
     kin = HandKinematics(hand)
     fast = GraspController(hand, objects["chips_can"], np.zeros(3), kin=kin)
     slow = GraspController(hand, objects["chips_can"], np.zeros(3), kin=kin)
-    slow._compiled = False
+    for ctrl, compiled in ((fast, True), (slow, False)):
+        ctrl.motion.ik = PadIK(kin, compiled=True)
+        ctrl._compiled = compiled
     return fast, slow
 
 

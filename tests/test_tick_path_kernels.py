@@ -325,6 +325,7 @@ def test_snapshot_after_fused_inputs_equals_the_snapshot(hand, mode):
     kin = HandKinematics(hand)
     policies = [_OddPolicy(mode), _OddPolicy(mode)]
     fused, plain = SensingPipeline(hand, kin, policies[0]), SensingPipeline(hand, kin, policies[1])
+    fused._compiled = plain._compiled = True   # (without numba: the kernels as plain Python in both)
     n, J = len(hand.fingers), len(hand.joints)
     rng = np.random.default_rng(7)
     baseline = rng.uniform(1500, 3000, (n, FRAME_LEN)).round()
