@@ -15,6 +15,7 @@ from hypothesis.extra import numpy as hnp
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.kinematics.pad_ik import PadIK
 
 edge = st.sampled_from([0.0, -0.0, 1.0, -1.0, 0.25, 2.0, 3e-9, -7.5, 14.9, 40.0, np.nan, np.inf, -np.inf])
 values = st.one_of(edge, st.floats(-30.0, 30.0))
@@ -25,13 +26,24 @@ def same_bits(a, b) -> bool:
     return a.shape == b.shape and np.array_equal(a.view(np.int64), b.view(np.int64))
 
 
+def same_bits_any_nan(a, b) -> bool:
+    """Bit for bit, except that a NaN's sign and payload are free (which operand's NaN an
+    operation passes on is the compiler's choice; nothing reads it)."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    nan = np.isnan(a)
+    return a.shape == b.shape and np.array_equal(nan, np.isnan(b)) and same_bits(a[~nan], b[~nan])
+
+
 @pytest.fixture(scope="module")
 def controllers(hand, objects):
-    """A compiled and a Python controller (its pad IK still compiled, as before the kernels)."""
+    """A controller with its kernels and one with its Python code; both with the kernel pad IK
+    (as before these kernels). Without numba the kernels run as plain Python."""
     kin = HandKinematics(hand)
     fast = GraspController(hand, objects["chips_can"], np.zeros(3), kin=kin)
     slow = GraspController(hand, objects["chips_can"], np.zeros(3), kin=kin)
-    slow._compiled = False
+    for ctrl, compiled in ((fast, True), (slow, False)):
+        ctrl.motion.ik = PadIK(kin, compiled=True)
+        ctrl._compiled = compiled
     return fast, slow
 
 
@@ -82,10 +94,38 @@ def test_squeeze_kernel_equals_the_python_speeds(controllers, grip, gains, seed)
         ctrl.motion.sync(q)
     assert same_bits(fast.motion.targets, slow.motion.targets)
     snap = _snapshot(np.zeros((4, 3)), np.zeros((4, 3)), grip, np.ones(4, bool))
+    palm, goal = rng.normal(0.0, 0.05, 3), rng.normal(0.0, 0.05, 3)
+    for ctrl in (fast, slow):
+        ctrl.palm_target = palm.copy()
     with np.errstate(all="ignore"):
-        for _ in range(3):
-            fast._squeeze(snap, *gains)
-            slow._squeeze(snap, *gains)
+        for k in range(3):
+            for ctrl in (fast, slow):   # the lift and the lowering also move the palm
+                ctrl._squeeze(snap, *gains, *((goal, 0.4) if k else ()))
+    assert same_bits(fast.palm_target, slow.palm_target)
     assert same_bits(fast.motion.q_goal, slow.motion.q_goal)
     assert same_bits(fast.motion.targets, slow.motion.targets)
     assert (fast.motion._posture is None) == (slow.motion._posture is None)
+
+
+palm_values = st.one_of(st.sampled_from([0.0, -0.0, 1e-4, -3e-4, 0.5, np.nan, np.inf]), st.floats(-1.0, 1.0))
+
+
+@settings(max_examples=300, deadline=None)
+@given(hnp.arrays(np.float64, 3, elements=palm_values), hnp.arrays(np.float64, 3, elements=palm_values),
+       st.sampled_from([0.0, 0.01, 0.04, 0.005]))
+def test_palm_move_kernel_equals_the_numpy_step(controllers, palm, target, speed):
+    """The compiled straight-line palm step against numpy's (its distance: ndarray.dot, BLAS)."""
+    fast, slow = controllers
+    for ctrl in (fast, slow):
+        ctrl.palm_target = palm.copy()
+    with np.errstate(all="ignore"):
+        fast._move_palm_toward(target, speed)
+        slow._move_palm_toward(target, speed)
+    assert same_bits_any_nan(fast.palm_target, slow.palm_target)
+
+
+def test_palm_distance_sums_like_numpy_dot():
+    rng = np.random.default_rng(0)
+    d = rng.normal(0.0, 1.0, (20000, 3)) * rng.choice([1e-4, 1.0, 30.0], (20000, 3))
+    plain = 0.0 + ((d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]) + d[:, 2] * d[:, 2])
+    assert same_bits(plain, [v.dot(v) for v in d])

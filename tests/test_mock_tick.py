@@ -12,7 +12,6 @@ import pyarrow.parquet as pq
 import pytest
 
 from grasp_ctrl import jit
-from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.sim.backends import MockHand, MockSensors

@@ -296,3 +296,53 @@ def test_placed_forces_equal_the_scatter_then_rotation(hand, seed):
     rows[0, 1] = np.nan
     assert not place_forces(rows, bits, q, ik.geometry, ik.layout, got, got_hand, got_grip)
     assert np.isnan(got).sum() == 1
+
+
+class _OddPolicy:
+    """A policy without variance whose rows are sometimes not finite or of another type."""
+
+    has_variance = False
+    name = "odd"
+
+    def __init__(self, mode: str) -> None:
+        self.mode, self.calls = mode, 0
+
+    def estimate(self, tared, fingers):
+        from grasp_ctrl.estimators.base import Estimate
+
+        self.calls += 1
+        rows = np.asarray(tared, dtype=float)[:, :3] / 100.0
+        if self.mode == "nan":
+            rows[0, 1] = np.nan
+        return Estimate(rows.astype(np.float32) if self.mode == "float32" else rows.tolist() if self.mode == "list"
+                        else rows)
+
+
+@pytest.mark.parametrize("mode", ["plain", "nan", "float32", "list"])
+def test_snapshot_after_fused_inputs_equals_the_snapshot(hand, mode):
+    """SensingPipeline.snapshot_gated (mock_tick's inputs) against snapshot: the same snapshot,
+    gate and policy calls (one per tick), a non-finite or odd estimate included."""
+    kin = HandKinematics(hand)
+    policies = [_OddPolicy(mode), _OddPolicy(mode)]
+    fused, plain = SensingPipeline(hand, kin, policies[0]), SensingPipeline(hand, kin, policies[1])
+    fused._compiled = plain._compiled = True   # (without numba: the kernels as plain Python in both)
+    n, J = len(hand.fingers), len(hand.joints)
+    rng = np.random.default_rng(7)
+    baseline = rng.uniform(1500, 3000, (n, FRAME_LEN)).round()
+    for p in (fused, plain):
+        p.tactile.set_baseline(baseline[None])
+    for k in range(30):
+        raw = np.rint(baseline + rng.normal(0, 5, (n, FRAME_LEN)))
+        raw[:, PDC] += np.where((np.arange(n) != 2) | (rng.random(n) < 0.5), 80.0, 0.0)   # pressed, one flickering
+        q, palm = rng.uniform(-0.3, 1.0, J), rng.normal(0, 0.1, 3)
+        tac = fused.tactile
+        tared, contact, touching = np.empty((n, FRAME_LEN)), np.empty(n, dtype=bool), np.empty((n, FRAME_LEN))
+        bits = sense_inputs(q, palm, raw, tac.tare.baseline, tac.gate.count, tac.gate.threshold, tac.gate.frames,
+                            tared, contact, touching)
+        assert bits >= 0
+        a = fused.snapshot_gated(raw, q, palm, 0.01 * k, tared, contact, bits, touching)
+        b = plain.snapshot(raw.copy(), JointState(q.copy(), 0 * q, 0 * q, 0.01 * k), palm.copy(), False)
+        assert _snapshots_agree(a, b), k
+        assert same_bits(fused.tared, plain.tared) and same_bits(fused.raw, plain.raw)
+        assert policies[0].calls == policies[1].calls
+    assert policies[0].calls > 10

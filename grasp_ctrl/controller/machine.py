@@ -121,6 +121,7 @@ class GraspController:
         self._compiled = self.motion.ik.compiled
         self._force_shape = (len(self.names), 3)
         self._tip_shape = (len(self.names),)
+        self._no_palm = np.zeros(3)   # squeeze's palm arguments when the palm stays
         self.release_idx = self.names.index(hand.grasp.release_finger)
         self.reach_pose = np.asarray(reach_pose_world, dtype=float)
         self.reach_q = self._reach_posture()
@@ -367,19 +368,43 @@ class GraspController:
     # ----- actions per state --------------------------------------------------
     def _move_palm_toward(self, target: np.ndarray, speed: float) -> None:
         assert self.palm_target is not None
+        p = self.palm_target
+        if (self._compiled and type(p) is np.ndarray and type(target) is np.ndarray and p.dtype is _FLOAT64
+                and target.dtype is _FLOAT64 and p.shape == target.shape == (3,)):
+            tk.move_palm_toward(p, target, speed * self.dt)   # the same, compiled, in place (p is our own)
+            return
         delta = target - self.palm_target
         dist = math.sqrt(float(delta.dot(delta)))
         step = speed * self.dt
         self.palm_target = target.copy() if dist <= step else self.palm_target + delta * (step / dist)
 
-    def _squeeze(self, snap: Snapshot, gain: float, max_speed: float) -> None:
-        """Per-finger force control along the closing vectors toward tau."""
+    def _squeeze(self, snap: Snapshot, gain: float, max_speed: float, palm_goal: np.ndarray | None = None,
+                 palm_speed: float = 0.0) -> None:
+        """Per-finger force control along the closing vectors toward tau; with ``palm_goal``,
+        the palm moves toward it at ``palm_speed`` too (``_move_palm_toward``)."""
         tau = self.tau
         grip = snap.grip_n
+        p = self.palm_target
         if (self._compiled and not (self.s.low_confidence_slowdown and snap.variance is not None)
-                and type(grip) is np.ndarray and grip.dtype is _FLOAT64 and grip.shape == self._tip_shape):
-            self.motion.squeeze(grip, self.grasp_mask, tau, gain, max_speed, self.dt)   # the same, compiled
+                and type(grip) is np.ndarray and grip.dtype is _FLOAT64 and grip.shape == self._tip_shape
+                and (palm_goal is None or (type(p) is np.ndarray and type(palm_goal) is np.ndarray
+                                           and p.dtype is _FLOAT64 and palm_goal.dtype is _FLOAT64
+                                           and p.shape == palm_goal.shape == (3,)))):
+            # the same, compiled: one call (the palm in place: palm_target is our own array)
+            if palm_goal is None:
+                self.motion.squeeze(grip, self.grasp_mask, tau, gain, max_speed, self.dt, False, self._no_palm,
+                                    self._no_palm, 0.0)
+            else:
+                self.motion.squeeze(grip, self.grasp_mask, tau, gain, max_speed, self.dt, True, p, palm_goal,
+                                    palm_speed * self.dt)
             return
+        self._squeeze_python(snap, gain, max_speed)
+        if palm_goal is not None:
+            self._move_palm_toward(palm_goal, palm_speed)
+
+    def _squeeze_python(self, snap: Snapshot, gain: float, max_speed: float) -> None:
+        tau = self.tau
+        grip = snap.grip_n
         speed = [min(max(gain * (tau - g), -max_speed), max_speed) for g in grip.tolist()]
         if self.s.low_confidence_slowdown and snap.variance is not None:
             speed = (np.array(speed) / (1.0 + np.max(snap.variance, axis=1) / self.s.variance_scale_n2)).tolist()
@@ -400,16 +425,16 @@ class GraspController:
                                               for grasping, touching in zip(self._grasping, snap.in_contact.tolist())]))
         elif state == "ramp":
             self._squeeze(snap, s.ramp_gain_m_s_per_n, s.ramp_max_speed_m_s)
-        elif state in ("lift", "hold"):
+        elif state == "hold":
             self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s)
-            if state == "lift":
-                self._move_palm_toward(self.lift_top, s.lift_speed_m_s)
+        elif state == "lift":
+            self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s, self.lift_top, s.lift_speed_m_s)
         elif state == "lower":
-            self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s)
             # The object was picked up at the reach pose: near that height the table is
             # close, so slow down and let the release debounce cost little extra push.
             near = snap.p_palm_world[2] - self.reach_pose[2] < s.lower_slow_zone_m
-            self._move_palm_toward(self.lower_bottom, s.lower_slow_speed_m_s if near else s.lower_speed_m_s)
+            self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s, self.lower_bottom,
+                          s.lower_slow_speed_m_s if near else s.lower_speed_m_s)
         elif state == "release":
             # Back the pads off along their closing vectors: swinging straight to the open
             # posture can sweep a fingertip (the LEAP thumb) into the table beside the object.

@@ -109,15 +109,17 @@ class FingertipMotion:
             self._posture = None
 
     def squeeze(self, grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float, max_speed: float,
-                dt: float) -> None:
+                dt: float, move_palm: bool, palm: np.ndarray, palm_goal: np.ndarray, palm_step: float) -> None:
         """``advance_all`` by each grasping fingertip's force-control step toward ``tau``:
         ``min(max(gain (tau - grip), -max_speed), max_speed) * dt`` (GraspController._squeeze),
-        in one compiled call (``grip``: float64, one per finger)."""
+        in one compiled call (``grip``: float64, one per finger); with ``move_palm``
+        the same call moves ``palm`` (in place) toward ``palm_goal`` by at most that much
+        (GraspController._move_palm_toward; float64 (3,) arrays)."""
         facing = self.facing or self.ik._no_facing
         ik = self.ik
         if squeeze_pads(grip, grasping, tau, gain, max_speed, dt, self.q_goal, self.targets, self.task_vectors,
                         ik.geometry, ik.layout, IK_DAMPING, facing.normals_hand, facing.fingers, facing.damping,
-                        self._distances):
+                        self._distances, move_palm, palm, palm_goal, palm_step):
             self._posture = None
 
     def next_goal(self) -> np.ndarray:

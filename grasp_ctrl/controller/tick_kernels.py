@@ -61,11 +61,16 @@ def tick_checks(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.ndarray, 
 def squeeze_pads(grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float, max_speed: float, dt: float,
                  q: np.ndarray, targets: np.ndarray, task_vectors: np.ndarray, geometry: np.ndarray,
                  layout: np.ndarray, damping: float, normal_targets: np.ndarray, facing: np.ndarray,
-                 orient_damping: float, distances: np.ndarray) -> bool:
+                 orient_damping: float, distances: np.ndarray, move_palm: bool, palm: np.ndarray,
+                 palm_goal: np.ndarray, palm_step: float) -> bool:
     """``GraspController._squeeze`` without the variance slowdown: each grasping
     fingertip's speed ``min(max(gain (tau - grip), -max_speed), max_speed)`` times dt
     into ``distances``, then ``pad_ik.advance_pads_kernel`` (``q`` and ``targets`` in
-    place). True when a fingertip moved."""
+    place); with ``move_palm`` also ``move_palm_toward(palm, palm_goal, palm_step)``
+    (the lift and the lowering move the arm while they squeeze). True when a fingertip
+    moved."""
+    if move_palm:
+        move_palm_toward(palm, palm_goal, palm_step)
     low = -max_speed
     for f in range(grip.shape[0]):
         v = gain * (tau - grip[f])
@@ -76,3 +81,19 @@ def squeeze_pads(grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float
         distances[f] = v * dt if grasping[f] else 0.0
     return advance_pads_kernel(q, targets, task_vectors, distances, geometry, layout, damping, normal_targets, facing,
                                orient_damping)
+
+
+@njit
+def move_palm_toward(palm: np.ndarray, target: np.ndarray, step: float) -> None:
+    """``GraspController._move_palm_toward`` in place: ``palm`` (3,) to ``target`` when
+    it is at most ``step`` away, else ``step`` along the straight line. The distance
+    is numpy's ``delta.dot(delta)``: 0 + a BLAS dot product, which sums a 3-vector's
+    squares left to right (tests/test_controller_kernels.py checks it on this machine's
+    BLAS)."""
+    d0, d1, d2 = target[0] - palm[0], target[1] - palm[1], target[2] - palm[2]
+    dist = math.sqrt(0.0 + ((d0 * d0 + d1 * d1) + d2 * d2))
+    if dist <= step:
+        palm[0], palm[1], palm[2] = target[0], target[1], target[2]
+        return
+    s = step / dist
+    palm[0], palm[1], palm[2] = palm[0] + d0 * s, palm[1] + d1 * s, palm[2] + d2 * s

@@ -90,10 +90,16 @@ def contract(q: np.ndarray, take: np.ndarray, W: np.ndarray, rows: np.ndarray) -
     vals[1:J + 1] = np.cos(q)
     vals[J + 1:2 * J + 1] = np.sin(q)
     vals[2 * J + 1] = 0.0
-    g = np.take(vals, take)
-    m = g[0].copy()
-    for i in range(1, take.shape[0]):
-        m *= g[i]
+    # The monomials: vals gathered by take, multiplied slot by slot in order (what
+    # np.take and in-place products computed, without their (n, F, 3^n) temporaries).
+    n, F, M = take.shape
+    m = np.empty((F, M))
+    for f in range(F):
+        for j in range(M):
+            v = vals[take[0, f, j]]
+            for i in range(1, n):
+                v *= vals[take[i, f, j]]
+            m[f, j] = v
     for f in range(W.shape[0]):
         rows[f] = np.dot(m[f], W[f])
 

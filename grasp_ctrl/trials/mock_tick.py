@@ -128,7 +128,7 @@ class MockTick:
                 and 0.0 <= pipeline._stale_after_s and hand._write_limited is not None
                 and arm._set_clamped is not None and (log is None or log.truth))
 
-    def tick(self, ctrl: GraspController, on_generic: Any = None) -> tuple[Snapshot, Command, np.ndarray]:
+    def tick(self, ctrl: GraspController) -> tuple[Snapshot, Command, np.ndarray]:
         world, hand, sensors, arm, pipeline = self.world, self.hand, self.sensors, self.arm, self.pipeline
         tactile = pipeline.tactile
         snap = None

@@ -124,11 +124,23 @@ class SensingPipeline:
         finite float64 angles and palm position, frames tared and gated into ``tared``,
         ``in_contact``, ``bits`` >= 0 and ``touching``), for the mock trial's fused inputs
         (trials/mock_tick.py)."""
-        return self._snapshot(raw, q, p_palm_world, t, (tared, in_contact, bits, touching), False, None, None)
+        gated = tared, in_contact, bits, touching
+        estimator = self.tactile.estimator
+        if not (bits and not estimator.has_variance and q.flags.c_contiguous):
+            return self._snapshot(raw, q, p_palm_world, t, gated, False, None, None)
+        # _snapshot's usual course without its branches: fingertips in contact, a policy without variance
+        self.raw, self._last_q, self._last_palm = raw, q, p_palm_world
+        f_sensor, f_hand, grip = self._estimate_and_turn(estimator, q, tared, touching, bits)
+        if f_hand is None:   # an odd or non-finite estimate: the rest of _snapshot (not estimating again)
+            return self._snapshot(raw, q, p_palm_world, t, gated, False, None, None, f_sensor)
+        self.tared = tared
+        return Snapshot(t, q, p_palm_world, True, in_contact, f_sensor, f_hand, f_hand, grip, None, None, None)
 
     def _snapshot(self, raw: np.ndarray, q: np.ndarray, p_palm_world: np.ndarray, t: float,
                   gated: tuple[np.ndarray, np.ndarray, int, np.ndarray] | None, collecting_tare: bool,
-                  fault: str | None, fault_detail: str | None) -> Snapshot:
+                  fault: str | None, fault_detail: str | None, estimated: np.ndarray | None = None) -> Snapshot:
+        """``snapshot``'s second half; ``estimated``: the forces of the fingertips in contact
+        (gated) already estimated and placed (``_estimate_and_turn``)."""
         n = len(self.names)
         self.raw = raw
         tactile = self.tactile
@@ -142,7 +154,9 @@ class SensingPipeline:
             tared, in_contact, bits, touching = gated
             tare_ready = True
             estimator = tactile.estimator
-            if bits and not estimator.has_variance and q.flags.c_contiguous:
+            if estimated is not None:
+                f_sensor = estimated
+            elif bits and not estimator.has_variance and q.flags.c_contiguous:
                 f_sensor, f_hand, grip = self._estimate_and_turn(estimator, q, tared, touching, bits)
             else:
                 f_sensor, variance = tactile.forces(tared, bits, touching)
