@@ -21,9 +21,10 @@ from pathlib import Path
 from typing import Sequence
 
 import numpy as np
+from scipy.stats import spearmanr
 
 from grasp_ctrl.evaluation.robotic_finger import read_trials
-from grasp_ctrl.tactile.layout import ELECTRODES, PDC
+from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PDC
 
 #: The two long trials of the real recordings (A: 7,106 rows, B: 6,469 rows).
 TRIAL_A = "15330_1571242563995"
@@ -148,10 +149,6 @@ class PressureResponse:
         return self.median_n_by_bin[-1] / self.median_n_by_bin[0]
 
 
-def _ranks(a: np.ndarray) -> np.ndarray:
-    return np.argsort(np.argsort(a, kind="stable"), kind="stable").astype(float)
-
-
 def pressure_response(f_est: np.ndarray, pdc: np.ndarray) -> PressureResponse:
     mag = np.linalg.norm(f_est, axis=1)
     medians = []
@@ -161,12 +158,12 @@ def pressure_response(f_est: np.ndarray, pdc: np.ndarray) -> PressureResponse:
     # over the bins' range only: the real recordings reach pdc 500-700, simulated presses 3000
     span = (pdc >= PRESSURE_BINS[0][0]) & (pdc < PRESSURE_BINS[-1][1])
     return PressureResponse(frames=int(span.sum()), median_n_by_bin=tuple(medians),
-                            rank_corr=float(np.corrcoef(_ranks(mag[span]), _ranks(pdc[span]))[0, 1]))
+                            rank_corr=float(spearmanr(mag[span], pdc[span]).statistic))
 
 
 def tared_frames(e: np.ndarray, pdc: np.ndarray) -> np.ndarray:
     """(k, 44) tared frames holding only electrodes and pdc (what the networks read)."""
-    frames = np.zeros((len(e), 44))
+    frames = np.zeros((len(e), FRAME_LEN))
     frames[:, ELECTRODES] = e
     frames[:, PDC] = pdc
     return frames

@@ -26,17 +26,25 @@ def pad_presses(n: int, seed: int, params: BioTacParams | None = None) -> tuple[
     each on a freshly drawn simulated sensor (so gain spread is in the data)."""
     rng = np.random.default_rng(seed)
     f = random_pad_forces(n, rng)
+    points = np.broadcast_to(PAD_POINT_SENSOR, (n, 3))
+    normals = np.broadcast_to(PAD_NORMAL_SENSOR, (n, 3))
+    return _tared_presses(points, f, normals, rng, params), f
+
+
+def _tared_presses(points: np.ndarray, f: np.ndarray, normals: np.ndarray, rng: np.random.Generator,
+                   params: BioTacParams | None) -> np.ndarray:
+    """Tared frames (n, 44) of steady presses, in batches of 256 on freshly drawn sensors."""
+    n = len(f)
     tared = np.empty((n, 44))
     batch = 256
     for start in range(0, n, batch):
         stop = min(n, start + batch)
         m = stop - start
         model = BioTacSensorModel(m, rng, params or BioTacParams())
-        p = np.broadcast_to(PAD_POINT_SENSOR, (m, 3))
-        nrm = np.broadcast_to(PAD_NORMAL_SENSOR, (m, 3))
-        raw = model.frames(p, f[start:stop], nrm, np.ones(m, dtype=bool), np.zeros(m), 0.01)
+        raw = model.frames(points[start:stop], f[start:stop], normals[start:stop], np.ones(m, dtype=bool),
+                           np.zeros(m), 0.01)
         tared[start:stop] = raw - model.baseline
-    return tared, f
+    return tared
 
 
 def random_skin_points(n: int, rng: np.random.Generator, max_angle_deg: float = 60.0,
@@ -75,13 +83,4 @@ def skin_presses(n: int, seed: int, max_shear_ratio: float = 1.0,
     t -= np.sum(t * normals, axis=1, keepdims=True) * normals
     t /= np.linalg.norm(t, axis=1, keepdims=True)
     f = normal_n[:, None] * (-normals + ratio[:, None] * t)
-    tared = np.empty((n, 44))
-    batch = 256
-    for start in range(0, n, batch):
-        stop = min(n, start + batch)
-        m = stop - start
-        model = BioTacSensorModel(m, rng, params or BioTacParams())
-        raw = model.frames(points[start:stop], f[start:stop], normals[start:stop], np.ones(m, dtype=bool),
-                           np.zeros(m), 0.01)
-        tared[start:stop] = raw - model.baseline
-    return tared, f
+    return _tared_presses(points, f, normals, rng, params), f
