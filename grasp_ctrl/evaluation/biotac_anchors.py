@@ -295,3 +295,74 @@ def format_pad_scan(ratios: np.ndarray, policy: str = "icra19_official") -> str:
     within = float(np.mean((ratios >= 0.5) & (ratios <= 2.0)))
     lines.append(f"  median {np.median(ratios):.2f}; within 0.5-2: {within:.0%}")
     return "\n".join(lines)
+
+
+#: Press locations of the location scan (sensor x along the pad, m): from the back of the pad to the
+#: tip cap. The real recordings press at the front: their drop-weighted electrode centroid has
+#: median x = 1.4 mm, quartiles 0 to 3 mm, which simulated contacts at x = 0 to +5 mm reproduce.
+LOCATION_SCAN_X_M = (-0.012, -0.008, -0.004, 0.0, 0.003, 0.006)
+LOCATION_SCAN_PRESSES = 400
+
+
+@dataclass(frozen=True)
+class LocationShare:
+    """Share of simulated pressed-frame variance inside real A's top-5 components, per press location."""
+
+    x_m: tuple[float, ...]
+    share: tuple[float, ...]
+    real_centroid_x_m: tuple[float, float, float]   # real A's drop centroid: quartiles (m)
+
+
+def drop_centroid_x(e: np.ndarray) -> np.ndarray:
+    """Sensor x (m) of the drop-weighted electrode centroid of each tared frame (k, 19)."""
+    from grasp_ctrl.tactile.geometry import ELECTRODE_POSITIONS_SENSOR
+
+    w = np.clip(-e, 0.0, None)
+    total = w.sum(axis=1)
+    x = np.full(len(e), np.nan)
+    x[total > 0] = (w[total > 0] @ ELECTRODE_POSITIONS_SENSOR[:, 0]) / total[total > 0]
+    return x
+
+
+def location_shares(real_path: str | Path, params: object | None = None, seed: int = 0) -> LocationShare:
+    """How much of the variance of steady presses at each LOCATION_SCAN_X_M (up to 60 degrees to
+    either side of the pad centre, 0.5-6 N, tangential part up to 0.3 of the normal force) real
+    A's top-5 principal components capture. The anchor figure pools the training sources' press
+    locations; this splits it by where the skin is pressed."""
+    from grasp_ctrl.learning.features import surface_point_and_normal
+    from grasp_ctrl.sim.biotac_model import DEFAULT_PARAMS, N_GAIN, pack_params, static_frames
+    from grasp_ctrl.tactile.geometry import SURFACE_RADIUS_M
+
+    ((real_a, _, _),) = real_pressed(real_path, (TRIAL_A,))
+    components = top_components(real_a)
+    constants = pack_params(params or DEFAULT_PARAMS)  # type: ignore[arg-type]
+    rng = np.random.default_rng(seed)
+    n = LOCATION_SCAN_PRESSES
+    shares = []
+    for x in LOCATION_SCAN_X_M:
+        angle = rng.uniform(-np.pi / 3, np.pi / 3, n)
+        radial = np.stack([x + rng.normal(0.0, 1e-3, n), np.sin(angle), -np.cos(angle)], axis=1)
+        radial[:, 1:] *= SURFACE_RADIUS_M
+        points, normals = surface_point_and_normal(radial)
+        tangent = rng.standard_normal((n, 3))
+        tangent -= np.sum(tangent * normals, axis=1, keepdims=True) * normals
+        tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
+        magnitude = np.exp(rng.uniform(np.log(0.5), np.log(6.0), n))
+        f_sensor = magnitude[:, None] * (-normals + rng.uniform(0.0, 0.3, (n, 1)) * tangent)
+        out = static_frames(np.ascontiguousarray(points), np.ascontiguousarray(normals),
+                            np.ascontiguousarray(f_sensor), np.ones((n, N_GAIN)), constants)
+        pressed = out[:, 19] > PRESSED_PDC
+        shares.append(variance_share(out[pressed, :19], components))
+    quartiles = np.nanpercentile(drop_centroid_x(real_a), [25, 50, 75])
+    return LocationShare(x_m=LOCATION_SCAN_X_M, share=tuple(shares),
+                         real_centroid_x_m=(float(quartiles[0]), float(quartiles[1]), float(quartiles[2])))
+
+
+def format_location_shares(scan: LocationShare) -> str:
+    q = [v * 1000 for v in scan.real_centroid_x_m]
+    lines = ["variance of simulated presses inside real A's top-5 components, by press location "
+             "(real B: see above):",
+             "  x (mm)  " + "".join(f"{x * 1000:>7.0f}" for x in scan.x_m),
+             "  share   " + "".join(f"{s:7.2f}" for s in scan.share),
+             f"  real A presses at the front: drop centroid x quartiles {q[0]:.1f} / {q[1]:.1f} / {q[2]:.1f} mm"]
+    return "\n".join(lines)
