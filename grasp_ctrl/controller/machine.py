@@ -110,7 +110,7 @@ class GraspController:
         self.s = settings or ControllerSettings()
         self.dt = hand.dt
         self.kin = kin or HandKinematics(hand)
-        self.motion = FingertipMotion(hand, self.kin)
+        self.motion = FingertipMotion(hand, self.kin, self.s.stiffness_aware_squeeze)
         self.names = [f.name for f in hand.fingers]
         self.grasp_mask = np.array([f.grasp for f in hand.fingers])
         # Per-finger arithmetic on a handful of fingers runs on Python lists: a numpy
@@ -409,7 +409,7 @@ class GraspController:
         if self.s.low_confidence_slowdown and snap.variance is not None:
             speed = (np.array(speed) / (1.0 + np.max(snap.variance, axis=1) / self.s.variance_scale_n2)).tolist()
         dt = self.dt
-        self.motion.advance_all(np.array([v * dt if grasping else 0.0 for v, grasping in zip(speed, self._grasping)]))
+        self.motion.squeeze_all(np.array([v * dt if grasping else 0.0 for v, grasping in zip(speed, self._grasping)]))
 
     def _act(self, snap: Snapshot) -> None:
         state = self.state  # type: ignore[attr-defined]

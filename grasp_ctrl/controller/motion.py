@@ -3,6 +3,15 @@
 The joint goal (not the measured angles) is integrated: under contact the
 measured finger lags its goal and the servo's position error is what squeezes.
 Every goal is clamped to the joint limits and to the per-tick step limit.
+
+Closing (free space) moves each pad's target along its closing vector. The
+squeeze (ramp, lift, hold, lower) is stiffness-aware: a pad held by the object
+does not move, the servos' position error is what pushes, and through each
+joint's stiffness a goal moved along the closing vector pushes the pad off it
+(on the LEAP fingers about 45 degrees down). So the squeeze moves each pad's
+goal along the direction whose spring force is along the closing vector
+(``PadIK.squeeze_directions``), from the hand file's servo gains
+(``controller/joint_stiffness.py``); without them, along the closing vector.
 """
 
 from __future__ import annotations
@@ -11,6 +20,7 @@ import numpy as np
 
 from grasp_ctrl import jit
 from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.controller.joint_stiffness import joint_stiffness
 from grasp_ctrl.controller.tick_kernels import squeeze_pads
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
@@ -22,7 +32,7 @@ IK_DAMPING = 0.002
 
 
 class FingertipMotion:
-    def __init__(self, hand: HandConfig, kin: HandKinematics) -> None:
+    def __init__(self, hand: HandConfig, kin: HandKinematics, stiffness_aware: bool = True) -> None:
         self.hand = hand
         self.kin = kin
         self.lower = np.array([j.lower_rad for j in hand.joints])
@@ -35,6 +45,16 @@ class FingertipMotion:
         self.task_vectors = np.array([f.task_vector_hand for f in hand.fingers], dtype=float)   # (F, 3)
         self.ik = shared_pad_ik(kin)   # pad points are PAD_POINT_SENSOR
         self.facing: Facing | None = None          # pads kept facing these ways while moving
+        stiffness = joint_stiffness(hand)
+        # The squeeze's joint compliance (rad per N m; empty: squeeze along the closing vectors).
+        self.compliance = stiffness.compliance_rad_per_nm if stiffness_aware else np.zeros(0)
+        if not stiffness_aware:
+            self.squeeze_mode = "closing vector (ControllerSettings.stiffness_aware_squeeze = False)"
+        elif stiffness.kp_nm_per_rad is None:
+            self.squeeze_mode = f"closing vector: joint stiffness unknown, {stiffness.reason}"
+        else:
+            self.squeeze_mode = f"stiffness-aware ({stiffness.reason})"
+        self._directions = np.zeros((len(self.names), 3))   # squeeze's scratch
         self.q_goal = self.open_q.copy()
         self._q_sent = self.open_q.copy()
         self._posture: np.ndarray | None = None   # the posture the targets were last reset to
@@ -108,9 +128,19 @@ class FingertipMotion:
                            np.ascontiguousarray(distances_m, dtype=float), IK_DAMPING, self.facing):
             self._posture = None
 
+    def squeeze_all(self, distances_m: np.ndarray) -> None:
+        """``advance_all`` for a squeeze: each pad's goal moves by its distance along the
+        closing vector, plus what keeps its joint-spring force along that vector
+        (``PadIK.squeeze_directions``; the plain closing vectors without a stiffness)."""
+        distances = np.ascontiguousarray(distances_m, dtype=float)
+        directions = (self.ik.squeeze_directions(self.q_goal, self.task_vectors, distances, self.compliance)
+                      if self.compliance.size else self.task_vectors)
+        if self.ik.advance(self.q_goal, self.targets, directions, distances, IK_DAMPING, self.facing):
+            self._posture = None
+
     def squeeze(self, grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float, max_speed: float,
                 dt: float, move_palm: bool, palm: np.ndarray, palm_goal: np.ndarray, palm_step: float) -> None:
-        """``advance_all`` by each grasping fingertip's force-control step toward ``tau``:
+        """``squeeze_all`` by each grasping fingertip's force-control step toward ``tau``:
         ``min(max(gain (tau - grip), -max_speed), max_speed) * dt`` (GraspController._squeeze),
         in one compiled call (``grip``: float64, one per finger); with ``move_palm``
         the same call moves ``palm`` (in place) toward ``palm_goal`` by at most that much
@@ -119,7 +149,7 @@ class FingertipMotion:
         ik = self.ik
         if squeeze_pads(grip, grasping, tau, gain, max_speed, dt, self.q_goal, self.targets, self.task_vectors,
                         ik.geometry, ik.layout, IK_DAMPING, facing.normals_hand, facing.fingers, facing.damping,
-                        self._distances, move_palm, palm, palm_goal, palm_step):
+                        self._distances, move_palm, palm, palm_goal, palm_step, self.compliance, self._directions):
             self._posture = None
 
     def next_goal(self) -> np.ndarray:

@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from grasp_ctrl.jit import njit
-from grasp_ctrl.kinematics.pad_ik import advance_pads_kernel
+from grasp_ctrl.kinematics.pad_ik import advance_pads_kernel, squeeze_directions_kernel
 
 #: ``tick_checks`` result bits.
 WITHIN_TOLERANCE = 1      # every grasping grip within the ramp tolerance of tau
@@ -62,13 +62,15 @@ def squeeze_pads(grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float
                  q: np.ndarray, targets: np.ndarray, task_vectors: np.ndarray, geometry: np.ndarray,
                  layout: np.ndarray, damping: float, normal_targets: np.ndarray, facing: np.ndarray,
                  orient_damping: float, distances: np.ndarray, move_palm: bool, palm: np.ndarray,
-                 palm_goal: np.ndarray, palm_step: float) -> bool:
+                 palm_goal: np.ndarray, palm_step: float, compliance: np.ndarray, directions: np.ndarray) -> bool:
     """``GraspController._squeeze`` without the variance slowdown: each grasping
     fingertip's speed ``min(max(gain (tau - grip), -max_speed), max_speed)`` times dt
     into ``distances``, then ``pad_ik.advance_pads_kernel`` (``q`` and ``targets`` in
-    place); with ``move_palm`` also ``move_palm_toward(palm, palm_goal, palm_step)``
-    (the lift and the lowering move the arm while they squeeze). True when a fingertip
-    moved."""
+    place) along the stiffness-aware squeeze directions (``pad_ik.squeeze_directions_kernel``
+    into ``directions``, from the joints' ``compliance``; along the task vectors when
+    ``compliance`` is empty: the stiffness is unknown); with ``move_palm`` also
+    ``move_palm_toward(palm, palm_goal, palm_step)`` (the lift and the lowering move the
+    arm while they squeeze). True when a fingertip moved."""
     if move_palm:
         move_palm_toward(palm, palm_goal, palm_step)
     low = -max_speed
@@ -79,6 +81,10 @@ def squeeze_pads(grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float
         if max_speed < v:
             v = max_speed
         distances[f] = v * dt if grasping[f] else 0.0
+    if compliance.shape[0] > 0:
+        squeeze_directions_kernel(q, task_vectors, distances, compliance, geometry, layout, directions)
+        return advance_pads_kernel(q, targets, directions, distances, geometry, layout, damping, normal_targets,
+                                   facing, orient_damping)
     return advance_pads_kernel(q, targets, task_vectors, distances, geometry, layout, damping, normal_targets, facing,
                                orient_damping)
 
