@@ -55,6 +55,10 @@ class FingertipMotion:
         else:
             self.squeeze_mode = f"stiffness-aware ({stiffness.reason})"
         self._directions = np.zeros((len(self.names), 3))   # squeeze's scratch
+        self._pads = np.zeros((len(self.names), 3))         # squeeze's scratch
+        # Each pad's measured position along its closing vector at the last squeeze tick
+        # (NaN: none since the goals were last set otherwise).
+        self._pad_along = np.full(len(self.names), np.nan)
         self.q_goal = self.open_q.copy()
         self._q_sent = self.open_q.copy()
         self._posture: np.ndarray | None = None   # the posture the targets were last reset to
@@ -64,6 +68,7 @@ class FingertipMotion:
 
     def _reset_targets(self) -> None:
         self.targets = self.ik.pad_points(self.q_goal)
+        self._pad_along[:] = np.nan
 
     def pad_position(self, finger: str, q_all: np.ndarray) -> np.ndarray:
         R, p = self.kin.chains[finger].fk_rp(q_all[self.kin.slices[finger]])
@@ -124,32 +129,41 @@ class FingertipMotion:
         order; 0 leaves a finger as it is), one IK step per moving finger."""
         # Track an explicit pad target, so linearisation errors of the small IK steps
         # are corrected every tick instead of accumulating into a drift off the line.
+        self._pad_along[:] = np.nan   # a position move: the next squeeze starts afresh
         if self.ik.advance(self.q_goal, self.targets, self.task_vectors,
                            np.ascontiguousarray(distances_m, dtype=float), IK_DAMPING, self.facing):
             self._posture = None
 
-    def squeeze_all(self, distances_m: np.ndarray) -> None:
-        """``advance_all`` for a squeeze: each pad's goal moves by its distance along the
-        closing vector, plus what keeps its joint-spring force along that vector
-        (``PadIK.squeeze_directions``; the plain closing vectors without a stiffness)."""
+    def squeeze_all(self, distances_m: np.ndarray, q_measured: np.ndarray, max_cross_m: float) -> None:
+        """Move every pad's goal by its distance along its closing vector for a squeeze
+        (force control): with the joints' stiffness known, plus the cross part that keeps
+        the joint springs' force along the closing vector (``PadIK.squeeze_targets``, from
+        the measured angles ``q_measured``; at most ``max_cross_m`` a tick), then one IK
+        step; without it, ``advance_all``."""
         distances = np.ascontiguousarray(distances_m, dtype=float)
-        directions = (self.ik.squeeze_directions(self.q_goal, self.task_vectors, distances, self.compliance)
-                      if self.compliance.size else self.task_vectors)
-        if self.ik.advance(self.q_goal, self.targets, directions, distances, IK_DAMPING, self.facing):
+        if not self.compliance.size:
+            self.advance_all(distances)
+            return
+        if self.ik.squeeze_targets(self.q_goal, q_measured, self.targets, self.task_vectors, distances,
+                                   self.compliance, self._pad_along, max_cross_m):
+            self.ik.step(self.q_goal, self.targets, distances != 0.0, IK_DAMPING, self.facing)
             self._posture = None
 
     def squeeze(self, grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float, max_speed: float,
-                dt: float, move_palm: bool, palm: np.ndarray, palm_goal: np.ndarray, palm_step: float) -> None:
+                dt: float, move_palm: bool, palm: np.ndarray, palm_goal: np.ndarray, palm_step: float,
+                q_measured: np.ndarray) -> None:
         """``squeeze_all`` by each grasping fingertip's force-control step toward ``tau``:
         ``min(max(gain (tau - grip), -max_speed), max_speed) * dt`` (GraspController._squeeze),
         in one compiled call (``grip``: float64, one per finger); with ``move_palm``
         the same call moves ``palm`` (in place) toward ``palm_goal`` by at most that much
-        (GraspController._move_palm_toward; float64 (3,) arrays)."""
+        (GraspController._move_palm_toward; float64 (3,) arrays); ``q_measured``: the
+        measured joint angles (float64, every joint)."""
         facing = self.facing or self.ik._no_facing
         ik = self.ik
         if squeeze_pads(grip, grasping, tau, gain, max_speed, dt, self.q_goal, self.targets, self.task_vectors,
                         ik.geometry, ik.layout, IK_DAMPING, facing.normals_hand, facing.fingers, facing.damping,
-                        self._distances, move_palm, palm, palm_goal, palm_step, self.compliance, self._directions):
+                        self._distances, move_palm, palm, palm_goal, palm_step, self.compliance, q_measured,
+                        self._pad_along, self._directions, self._pads):
             self._posture = None
 
     def next_goal(self) -> np.ndarray:

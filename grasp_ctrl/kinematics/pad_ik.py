@@ -533,6 +533,40 @@ def squeeze_directions_kernel(q, task_vectors, distances, compliance, geometry, 
                         axes, R_tip, p_tip, point, lower, upper, out)
 
 
+@njit
+def squeeze_targets_kernel(q_goal, q_measured, targets, task_vectors, distances, compliance, pad_along, max_cross,
+                           geometry, layout, directions, pads):
+    """The stiffness-aware squeeze's pad targets (``targets`` in place): each finger with a
+    distance d moves its target by v d along its closing vector v plus (u - v) (d - s),
+    u its squeeze direction at ``q_goal`` (``_squeeze_directions``, v . u = 1), s how far
+    its measured pad (at ``q_measured``) moved along v since the last squeeze tick
+    (``pad_along`` (F,): each pad's last position along v, updated in place; NaN: none
+    yet, s = 0). The part of the advance that the pad followed (the object carrying it
+    along v) moves the goal along v only: the springs' cross force comes from the pad's
+    deflection, not from where it went. d - s is capped at +/- ``max_cross``.
+    ``directions``, ``pads``: (F, 3) scratch (the directions and the measured pads).
+    True when a finger moved."""
+    starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, _n, lower, upper = \
+        _unpack(geometry, layout)
+    _squeeze_directions(q_goal, task_vectors, distances, compliance, starts, counts, R_base, p_base, R_org, p_org, K,
+                        K2, axes, R_tip, p_tip, point, lower, upper, directions)
+    _pad_points(q_measured, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, pads)
+    moved = False
+    for f in range(distances.shape[0]):
+        along = (pads[f, 0] * task_vectors[f, 0] + pads[f, 1] * task_vectors[f, 1]) + pads[f, 2] * task_vectors[f, 2]
+        d = distances[f]
+        if d != 0.0:
+            moved = True
+            last = pad_along[f]
+            cross = d - (along - last) if last == last else d   # (NaN: no last position)
+            cross = min(max(cross, -max_cross), max_cross)
+            for r in range(3):
+                v = task_vectors[f, r]
+                targets[f, r] = targets[f, r] + (v * d + (directions[f, r] - v) * cross)
+        pad_along[f] = along
+    return moved
+
+
 class PadIK:
     """Pad points and IK steps of all fingers of one hand (hand-file finger order)."""
 
@@ -637,6 +671,28 @@ class PadIK:
             if along > 0.0 and float((u / along) @ (u / along)) <= MAX_SQUEEZE_STRETCH**2:
                 out[f] = u / along
         return out
+
+    def squeeze_targets(self, q_goal: np.ndarray, q_measured: np.ndarray, targets: np.ndarray,
+                        task_vectors: np.ndarray, distances: np.ndarray, compliance: np.ndarray,
+                        pad_along: np.ndarray, max_cross: float) -> bool:
+        """``squeeze_targets_kernel``: the stiffness-aware squeeze's pad ``targets`` and
+        ``pad_along`` (in place); True when a finger moved. The numpy form without numba."""
+        if self.compiled:
+            F = len(self.names)
+            return bool(squeeze_targets_kernel(
+                np.ascontiguousarray(q_goal, dtype=float), np.ascontiguousarray(q_measured, dtype=float), targets,
+                np.ascontiguousarray(task_vectors, dtype=float), np.ascontiguousarray(distances, dtype=float),
+                np.ascontiguousarray(compliance, dtype=float), pad_along, float(max_cross), self.geometry, self.layout,
+                np.empty((F, 3)), np.empty((F, 3))))
+        v = np.asarray(task_vectors, dtype=float)
+        u = self.squeeze_directions(q_goal, v, distances, compliance)
+        along = np.einsum("fr,fr->f", self.pad_points(q_measured), v)
+        moving = distances != 0.0
+        followed = np.where(np.isnan(pad_along), 0.0, along - pad_along)
+        cross = np.clip(distances - followed, -max_cross, max_cross)
+        targets[moving] += (v * distances[:, None] + (u - v) * cross[:, None])[moving]
+        pad_along[:] = along
+        return bool(moving.any())
 
     def step(self, q_all: np.ndarray, targets: np.ndarray, move: np.ndarray, damping: float,
              facing: Facing | None = None) -> None:
