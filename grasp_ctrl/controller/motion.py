@@ -31,6 +31,16 @@ from grasp_ctrl.limits import step_toward
 IK_DAMPING = 0.002
 
 
+def squeeze_mode(hand: HandConfig, stiffness_aware: bool) -> str:
+    """How the squeeze moves the pads' goals for this hand, and why (kept in each trial record)."""
+    if not stiffness_aware:
+        return "closing vector (ControllerSettings.stiffness_aware_squeeze = false)"
+    stiffness = joint_stiffness(hand)
+    if stiffness.kp_nm_per_rad is None:
+        return f"closing vector: the joint stiffness is unknown ({stiffness.reason})"
+    return f"stiffness-aware ({stiffness.reason})"
+
+
 class FingertipMotion:
     def __init__(self, hand: HandConfig, kin: HandKinematics, stiffness_aware: bool = True) -> None:
         self.hand = hand
@@ -45,15 +55,9 @@ class FingertipMotion:
         self.task_vectors = np.array([f.task_vector_hand for f in hand.fingers], dtype=float)   # (F, 3)
         self.ik = shared_pad_ik(kin)   # pad points are PAD_POINT_SENSOR
         self.facing: Facing | None = None          # pads kept facing these ways while moving
-        stiffness = joint_stiffness(hand)
         # The squeeze's joint compliance (rad per N m; empty: squeeze along the closing vectors).
-        self.compliance = stiffness.compliance_rad_per_nm if stiffness_aware else np.zeros(0)
-        if not stiffness_aware:
-            self.squeeze_mode = "closing vector (ControllerSettings.stiffness_aware_squeeze = False)"
-        elif stiffness.kp_nm_per_rad is None:
-            self.squeeze_mode = f"closing vector: joint stiffness unknown, {stiffness.reason}"
-        else:
-            self.squeeze_mode = f"stiffness-aware ({stiffness.reason})"
+        self.compliance = joint_stiffness(hand).compliance_rad_per_nm if stiffness_aware else np.zeros(0)
+        self.squeeze_mode = squeeze_mode(hand, stiffness_aware)
         self._directions = np.zeros((len(self.names), 3))   # squeeze's scratch
         self._pads = np.zeros((len(self.names), 3))         # squeeze's scratch
         # Each pad's measured position along its closing vector at the last squeeze tick
