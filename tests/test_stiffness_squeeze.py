@@ -51,8 +51,8 @@ def test_without_servo_gains_the_squeeze_moves_along_the_closing_vectors(hand, k
     no_gains = dataclasses.replace(hand, dynamixel=dataclasses.replace(hand.dynamixel, position_p_gain=None))
     assert joint_stiffness(no_gains).kp_nm_per_rad is None
     assert "position_p_gain" in squeeze_mode(no_gains, True) and "closing vector" in squeeze_mode(no_gains, True)
-    plain, aware_off = FingertipMotion(no_gains, kin), FingertipMotion(hand, kin, stiffness_aware=False)
-    reference = FingertipMotion(hand, kin, stiffness_aware=False)
+    plain, aware_off = FingertipMotion(no_gains, kin, stiffness_aware=True), FingertipMotion(hand, kin)
+    reference = FingertipMotion(hand, kin)
     assert plain.compliance.size == 0 and aware_off.compliance.size == 0
     distances = np.array([1e-3, 1e-3, 0.0, 1e-3])
     for m in (plain, aware_off, reference):
@@ -124,7 +124,8 @@ def test_a_joint_at_its_limit_is_left_out(hand, kin, compiled):
 @given(st.integers(0, 2**31 - 1), st.floats(-2e-4, 2e-4), st.booleans())
 def test_squeezing_keeps_joint_goals_within_limits(hand, kin, seed, distance, at_limits):
     rng = np.random.default_rng(seed)
-    motion = FingertipMotion(hand, kin)
+    motion = FingertipMotion(hand, kin, stiffness_aware=True)
+    assert motion.compliance.size
     q = rng.uniform(motion.lower, motion.upper)
     if at_limits:
         pick = rng.random(q.size) < 0.4

@@ -4,14 +4,15 @@ The joint goal (not the measured angles) is integrated: under contact the
 measured finger lags its goal and the servo's position error is what squeezes.
 Every goal is clamped to the joint limits and to the per-tick step limit.
 
-Closing (free space) moves each pad's target along its closing vector. The
-squeeze (ramp, lift, hold, lower) is stiffness-aware: a pad held by the object
-does not move, the servos' position error is what pushes, and through each
-joint's stiffness a goal moved along the closing vector pushes the pad off it
-(on the LEAP fingers about 45 degrees down). So the squeeze moves each pad's
-goal along the direction whose spring force is along the closing vector
-(``PadIK.squeeze_directions``), from the hand file's servo gains
-(``controller/joint_stiffness.py``); without them, along the closing vector.
+Closing (free space) and, by default, the squeeze (ramp, lift, hold, lower) move
+each pad's target along its closing vector. A pad held by the object does not
+move, though: the servos' position error is what pushes, and through each joint's
+stiffness a goal moved along the closing vector pushes the pad off it (on the
+LEAP fingers about 45 degrees down). With ``stiffness_aware`` the squeeze moves
+each pad's goal along the direction whose spring force is along the closing
+vector (``PadIK.squeeze_directions`` / ``squeeze_targets``), from the hand file's
+servo gains (``controller/joint_stiffness.py``); without gains, along the closing
+vector. Measured in docs/mujoco.md.
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ def squeeze_mode(hand: HandConfig, stiffness_aware: bool) -> str:
 
 
 class FingertipMotion:
-    def __init__(self, hand: HandConfig, kin: HandKinematics, stiffness_aware: bool = True) -> None:
+    def __init__(self, hand: HandConfig, kin: HandKinematics, stiffness_aware: bool = False) -> None:
         self.hand = hand
         self.kin = kin
         self.lower = np.array([j.lower_rad for j in hand.joints])
