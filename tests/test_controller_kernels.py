@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from grasp_ctrl.controller.machine import GraspController
+from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.pad_ik import PadIK
@@ -34,21 +35,24 @@ def same_bits_any_nan(a, b) -> bool:
     return a.shape == b.shape and np.array_equal(nan, np.isnan(b)) and same_bits(a[~nan], b[~nan])
 
 
-@pytest.fixture(scope="module")
-def controllers(hand, objects):
+@pytest.fixture(scope="module", params=[False, True], ids=["closing-vector", "stiffness-aware"])
+def controllers(request, hand, objects):
     """A controller with its kernels and one with its Python code; both with the kernel pad IK
-    (as before these kernels). Without numba the kernels run as plain Python."""
+    (as before these kernels), squeezing along the closing vectors or stiffness-aware. Without
+    numba the kernels run as plain Python."""
     kin = HandKinematics(hand)
-    fast = GraspController(hand, objects["chips_can"], np.zeros(3), kin=kin)
-    slow = GraspController(hand, objects["chips_can"], np.zeros(3), kin=kin)
+    s = ControllerSettings(stiffness_aware_squeeze=request.param)
+    fast = GraspController(hand, objects["chips_can"], np.zeros(3), s, kin=kin)
+    slow = GraspController(hand, objects["chips_can"], np.zeros(3), s, kin=kin)
     for ctrl, compiled in ((fast, True), (slow, False)):
         ctrl.motion.ik = PadIK(kin, compiled=True)
         ctrl._compiled = compiled
     return fast, slow
 
 
-def _snapshot(f_sensor, f_world, grip, contact) -> Snapshot:
-    return Snapshot(t=0.0, q=np.zeros(16), p_palm_world=np.zeros(3), tare_ready=True, in_contact=contact,
+def _snapshot(f_sensor, f_world, grip, contact, q=None) -> Snapshot:
+    q = np.zeros(16) if q is None else q
+    return Snapshot(t=0.0, q=q, p_palm_world=np.zeros(3), tare_ready=True, in_contact=contact,
                     f_sensor=f_sensor, f_hand=f_world, f_world=f_world, grip_n=grip)
 
 
@@ -93,7 +97,8 @@ def test_squeeze_kernel_equals_the_python_speeds(controllers, grip, gains, seed)
     for ctrl in (fast, slow):
         ctrl.motion.sync(q)
     assert same_bits(fast.motion.targets, slow.motion.targets)
-    snap = _snapshot(np.zeros((4, 3)), np.zeros((4, 3)), grip, np.ones(4, bool))
+    # the measured angles lag the goals (a squeezing hand)
+    snap = _snapshot(np.zeros((4, 3)), np.zeros((4, 3)), grip, np.ones(4, bool), q - rng.normal(0.0, 0.02, q.size))
     palm, goal = rng.normal(0.0, 0.05, 3), rng.normal(0.0, 0.05, 3)
     for ctrl in (fast, slow):
         ctrl.palm_target = palm.copy()
@@ -104,6 +109,7 @@ def test_squeeze_kernel_equals_the_python_speeds(controllers, grip, gains, seed)
     assert same_bits(fast.palm_target, slow.palm_target)
     assert same_bits(fast.motion.q_goal, slow.motion.q_goal)
     assert same_bits(fast.motion.targets, slow.motion.targets)
+    assert same_bits(fast.motion._pad_along, slow.motion._pad_along)
     assert (fast.motion._posture is None) == (slow.motion._posture is None)
 
 

@@ -150,10 +150,11 @@ def _resumed(args: argparse.Namespace, run_dir: Path) -> tuple[Any, Any]:
     # A run started through the Python API may not name its hand file: use the default one.
     hand_file = Path(manifest.hand_file) if manifest.hand_file else default_hand_file()
     if not hand_file.is_file():
-        raise UsageError(f"--resume: the run's hand file {hand_file} is gone")
+        raise UsageError(f"--resume: the run's hand file {hand_file} ({run_dir}/run.json: hand_file) is gone")
     hand = load_hand(hand_file)
     if hand.name != manifest.hand:
-        raise UsageError(f"--resume: {hand_file} describes hand {hand.name!r}, the run used {manifest.hand!r}")
+        raise UsageError(f"--resume: {hand_file} describes hand {hand.name!r}, the run used {manifest.hand!r} "
+                         f"({run_dir}/run.json: hand)")
     if manifest.hand_sha256 and file_sha256(hand_file) != manifest.hand_sha256:
         print(f"warning: {hand_file} changed since the run started", file=sys.stderr)
     return hand, manifest

@@ -110,7 +110,7 @@ class GraspController:
         self.s = settings or ControllerSettings()
         self.dt = hand.dt
         self.kin = kin or HandKinematics(hand)
-        self.motion = FingertipMotion(hand, self.kin)
+        self.motion = FingertipMotion(hand, self.kin, self.s.stiffness_aware_squeeze)
         self.names = [f.name for f in hand.fingers]
         self.grasp_mask = np.array([f.grasp for f in hand.fingers])
         # Per-finger arithmetic on a handful of fingers runs on Python lists: a numpy
@@ -384,19 +384,21 @@ class GraspController:
         the palm moves toward it at ``palm_speed`` too (``_move_palm_toward``)."""
         tau = self.tau
         grip = snap.grip_n
+        q = snap.q
         p = self.palm_target
         if (self._compiled and not (self.s.low_confidence_slowdown and snap.variance is not None)
                 and type(grip) is np.ndarray and grip.dtype is _FLOAT64 and grip.shape == self._tip_shape
+                and type(q) is np.ndarray and q.dtype is _FLOAT64 and q.shape == self.motion.q_goal.shape
                 and (palm_goal is None or (type(p) is np.ndarray and type(palm_goal) is np.ndarray
                                            and p.dtype is _FLOAT64 and palm_goal.dtype is _FLOAT64
                                            and p.shape == palm_goal.shape == (3,)))):
             # the same, compiled: one call (the palm in place: palm_target is our own array)
             if palm_goal is None:
                 self.motion.squeeze(grip, self.grasp_mask, tau, gain, max_speed, self.dt, False, self._no_palm,
-                                    self._no_palm, 0.0)
+                                    self._no_palm, 0.0, q)
             else:
                 self.motion.squeeze(grip, self.grasp_mask, tau, gain, max_speed, self.dt, True, p, palm_goal,
-                                    palm_speed * self.dt)
+                                    palm_speed * self.dt, q)
             return
         self._squeeze_python(snap, gain, max_speed)
         if palm_goal is not None:
@@ -409,7 +411,8 @@ class GraspController:
         if self.s.low_confidence_slowdown and snap.variance is not None:
             speed = (np.array(speed) / (1.0 + np.max(snap.variance, axis=1) / self.s.variance_scale_n2)).tolist()
         dt = self.dt
-        self.motion.advance_all(np.array([v * dt if grasping else 0.0 for v, grasping in zip(speed, self._grasping)]))
+        self.motion.squeeze_all(np.array([v * dt if grasping else 0.0 for v, grasping in zip(speed, self._grasping)]),
+                                np.asarray(snap.q, dtype=float), max_speed * dt)
 
     def _act(self, snap: Snapshot) -> None:
         state = self.state  # type: ignore[attr-defined]

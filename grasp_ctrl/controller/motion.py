@@ -3,6 +3,16 @@
 The joint goal (not the measured angles) is integrated: under contact the
 measured finger lags its goal and the servo's position error is what squeezes.
 Every goal is clamped to the joint limits and to the per-tick step limit.
+
+Closing (free space) and, by default, the squeeze (ramp, lift, hold, lower) move
+each pad's target along its closing vector. A pad held by the object does not
+move, though: the servos' position error is what pushes, and through each joint's
+stiffness a goal moved along the closing vector pushes the pad off it (on the
+LEAP fingers about 45 degrees down). With ``stiffness_aware`` the squeeze moves
+each pad's goal along the direction whose spring force is along the closing
+vector (``PadIK.squeeze_directions`` / ``squeeze_targets``), from the hand file's
+servo gains (``controller/joint_stiffness.py``); without gains, along the closing
+vector. Measured in docs/mujoco.md.
 """
 
 from __future__ import annotations
@@ -11,6 +21,7 @@ import numpy as np
 
 from grasp_ctrl import jit
 from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.controller.joint_stiffness import joint_stiffness
 from grasp_ctrl.controller.tick_kernels import squeeze_pads
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
@@ -21,8 +32,18 @@ from grasp_ctrl.limits import step_toward
 IK_DAMPING = 0.002
 
 
+def squeeze_mode(hand: HandConfig, stiffness_aware: bool) -> str:
+    """How the squeeze moves the pads' goals for this hand, and why (kept in each trial record)."""
+    if not stiffness_aware:
+        return "closing vector (ControllerSettings.stiffness_aware_squeeze = false)"
+    stiffness = joint_stiffness(hand)
+    if stiffness.kp_nm_per_rad is None:
+        return f"closing vector: the joint stiffness is unknown ({stiffness.reason})"
+    return f"stiffness-aware ({stiffness.reason})"
+
+
 class FingertipMotion:
-    def __init__(self, hand: HandConfig, kin: HandKinematics) -> None:
+    def __init__(self, hand: HandConfig, kin: HandKinematics, stiffness_aware: bool = False) -> None:
         self.hand = hand
         self.kin = kin
         self.lower = np.array([j.lower_rad for j in hand.joints])
@@ -35,6 +56,14 @@ class FingertipMotion:
         self.task_vectors = np.array([f.task_vector_hand for f in hand.fingers], dtype=float)   # (F, 3)
         self.ik = shared_pad_ik(kin)   # pad points are PAD_POINT_SENSOR
         self.facing: Facing | None = None          # pads kept facing these ways while moving
+        # The squeeze's joint compliance (rad per N m; empty: squeeze along the closing vectors).
+        self.compliance = joint_stiffness(hand).compliance_rad_per_nm if stiffness_aware else np.zeros(0)
+        self.squeeze_mode = squeeze_mode(hand, stiffness_aware)
+        self._directions = np.zeros((len(self.names), 3))   # squeeze's scratch
+        self._pads = np.zeros((len(self.names), 3))         # squeeze's scratch
+        # Each pad's measured position along its closing vector at the last squeeze tick
+        # (NaN: none since the goals were last set otherwise).
+        self._pad_along = np.full(len(self.names), np.nan)
         self.q_goal = self.open_q.copy()
         self._q_sent = self.open_q.copy()
         self._posture: np.ndarray | None = None   # the posture the targets were last reset to
@@ -44,6 +73,7 @@ class FingertipMotion:
 
     def _reset_targets(self) -> None:
         self.targets = self.ik.pad_points(self.q_goal)
+        self._pad_along[:] = np.nan
 
     def pad_position(self, finger: str, q_all: np.ndarray) -> np.ndarray:
         R, p = self.kin.chains[finger].fk_rp(q_all[self.kin.slices[finger]])
@@ -104,22 +134,41 @@ class FingertipMotion:
         order; 0 leaves a finger as it is), one IK step per moving finger."""
         # Track an explicit pad target, so linearisation errors of the small IK steps
         # are corrected every tick instead of accumulating into a drift off the line.
+        self._pad_along[:] = np.nan   # a position move: the next squeeze starts afresh
         if self.ik.advance(self.q_goal, self.targets, self.task_vectors,
                            np.ascontiguousarray(distances_m, dtype=float), IK_DAMPING, self.facing):
             self._posture = None
 
+    def squeeze_all(self, distances_m: np.ndarray, q_measured: np.ndarray, max_cross_m: float) -> None:
+        """Move every pad's goal by its distance along its closing vector for a squeeze
+        (force control): with the joints' stiffness known, plus the cross part that keeps
+        the joint springs' force along the closing vector (``PadIK.squeeze_targets``, from
+        the measured angles ``q_measured``; at most ``max_cross_m`` a tick), then one IK
+        step; without it, ``advance_all``."""
+        distances = np.ascontiguousarray(distances_m, dtype=float)
+        if not self.compliance.size:
+            self.advance_all(distances)
+            return
+        if self.ik.squeeze_targets(self.q_goal, q_measured, self.targets, self.task_vectors, distances,
+                                   self.compliance, self._pad_along, max_cross_m):
+            self.ik.step(self.q_goal, self.targets, distances != 0.0, IK_DAMPING, self.facing)
+            self._posture = None
+
     def squeeze(self, grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float, max_speed: float,
-                dt: float, move_palm: bool, palm: np.ndarray, palm_goal: np.ndarray, palm_step: float) -> None:
-        """``advance_all`` by each grasping fingertip's force-control step toward ``tau``:
+                dt: float, move_palm: bool, palm: np.ndarray, palm_goal: np.ndarray, palm_step: float,
+                q_measured: np.ndarray) -> None:
+        """``squeeze_all`` by each grasping fingertip's force-control step toward ``tau``:
         ``min(max(gain (tau - grip), -max_speed), max_speed) * dt`` (GraspController._squeeze),
         in one compiled call (``grip``: float64, one per finger); with ``move_palm``
         the same call moves ``palm`` (in place) toward ``palm_goal`` by at most that much
-        (GraspController._move_palm_toward; float64 (3,) arrays)."""
+        (GraspController._move_palm_toward; float64 (3,) arrays); ``q_measured``: the
+        measured joint angles (float64, every joint)."""
         facing = self.facing or self.ik._no_facing
         ik = self.ik
         if squeeze_pads(grip, grasping, tau, gain, max_speed, dt, self.q_goal, self.targets, self.task_vectors,
                         ik.geometry, ik.layout, IK_DAMPING, facing.normals_hand, facing.fingers, facing.damping,
-                        self._distances, move_palm, palm, palm_goal, palm_step):
+                        self._distances, move_palm, palm, palm_goal, palm_step, self.compliance, q_measured,
+                        self._pad_along, self._directions, self._pads):
             self._posture = None
 
     def next_goal(self) -> np.ndarray:

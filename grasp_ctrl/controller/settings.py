@@ -34,5 +34,8 @@ class ControllerSettings:
     retreat_m: float = 0.05
     preshape: bool = True                  # reach in a posture whose pads face the object, close along
     preshape_standoff_m: float = 0.01      #   its surface normals (kinematics/preshape.py), this far off
+    stiffness_aware_squeeze: bool = False  # True: move the pads' goals so the joints' springs push along the
+                                           #   closing vectors (controller/motion.py); off: on MuJoCo it
+                                           #   does not help yet (docs/mujoco.md)
     low_confidence_slowdown: bool = False  # slow the ramp when the policy's variance is high
     variance_scale_n2: float = 0.05        # variance at which the ramp runs at half speed

@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from grasp_ctrl.jit import njit
-from grasp_ctrl.kinematics.pad_ik import advance_pads_kernel
+from grasp_ctrl.kinematics.pad_ik import advance_pads_kernel, squeeze_targets_kernel, step_pads_kernel
 
 #: ``tick_checks`` result bits.
 WITHIN_TOLERANCE = 1      # every grasping grip within the ramp tolerance of tau
@@ -62,13 +62,18 @@ def squeeze_pads(grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float
                  q: np.ndarray, targets: np.ndarray, task_vectors: np.ndarray, geometry: np.ndarray,
                  layout: np.ndarray, damping: float, normal_targets: np.ndarray, facing: np.ndarray,
                  orient_damping: float, distances: np.ndarray, move_palm: bool, palm: np.ndarray,
-                 palm_goal: np.ndarray, palm_step: float) -> bool:
+                 palm_goal: np.ndarray, palm_step: float, compliance: np.ndarray, q_measured: np.ndarray,
+                 pad_along: np.ndarray, directions: np.ndarray, pads: np.ndarray) -> bool:
     """``GraspController._squeeze`` without the variance slowdown: each grasping
     fingertip's speed ``min(max(gain (tau - grip), -max_speed), max_speed)`` times dt
-    into ``distances``, then ``pad_ik.advance_pads_kernel`` (``q`` and ``targets`` in
-    place); with ``move_palm`` also ``move_palm_toward(palm, palm_goal, palm_step)``
-    (the lift and the lowering move the arm while they squeeze). True when a fingertip
-    moved."""
+    into ``distances``; then, with the joints' ``compliance``, the stiffness-aware pad
+    targets (``pad_ik.squeeze_targets_kernel`` from ``q_measured``, ``pad_along`` in place,
+    the cross part capped at ``max_speed`` dt; ``directions`` and ``pads`` (F, 3) scratch)
+    and one IK step (``pad_ik.step_pads_kernel``), or, when ``compliance`` is empty (the
+    stiffness is unknown), ``pad_ik.advance_pads_kernel`` along the task vectors (``q``
+    and ``targets`` in place either way); with ``move_palm`` also
+    ``move_palm_toward(palm, palm_goal, palm_step)`` (the lift and the lowering move the
+    arm while they squeeze). True when a fingertip moved."""
     if move_palm:
         move_palm_toward(palm, palm_goal, palm_step)
     low = -max_speed
@@ -79,6 +84,15 @@ def squeeze_pads(grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float
         if max_speed < v:
             v = max_speed
         distances[f] = v * dt if grasping[f] else 0.0
+    if compliance.shape[0] > 0:
+        if not squeeze_targets_kernel(q, q_measured, targets, task_vectors, distances, compliance, pad_along,
+                                      max_speed * dt, geometry, layout, directions, pads):
+            return False
+        move = np.empty(distances.shape[0], dtype=np.bool_)
+        for f in range(distances.shape[0]):
+            move[f] = distances[f] != 0.0
+        step_pads_kernel(q, targets, move, geometry, layout, damping, normal_targets, facing, orient_damping)
+        return True
     return advance_pads_kernel(q, targets, task_vectors, distances, geometry, layout, damping, normal_targets, facing,
                                orient_damping)
 

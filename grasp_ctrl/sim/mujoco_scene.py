@@ -31,24 +31,10 @@ from grasp_ctrl.config.hand import FingerConfig, HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M
 from grasp_ctrl.kinematics.transforms import rpy_matrix
-
-# Dynamixel XC330-M288-T (ROBOTIS e-manual): stall torque 0.93 N m at 1.8 A and 5 V, no-load
-# speed 103 rpm. The position controller's output is a PWM duty of (P/128) per encoder pulse
-# (4096 per turn) out of 885, and (D/16) per pulse per millisecond; full duty at stall gives
-# the stall torque. With the LEAP API's P = 600, D = 200: kp = 3.2 N m/rad (the LEAP
-# simulation and MuJoCo Menagerie use 3.0), kv = 0.0086 N m s/rad (Menagerie: 0.01).
-STALL_TORQUE_NM = 0.93
-NO_LOAD_SPEED_RAD_S = 103.0 * 2.0 * math.pi / 60.0
-PULSES_PER_RAD = 4096.0 / (2.0 * math.pi)
-PWM_FULL = 885.0
-
-
-def servo_kp_nm_per_rad(p_gain: float) -> float:
-    return (p_gain / 128.0) / PWM_FULL * PULSES_PER_RAD * STALL_TORQUE_NM
-
-
-def servo_kv_nm_s_per_rad(d_gain: float) -> float:
-    return (d_gain / 16.0) / PWM_FULL * PULSES_PER_RAD * 1e-3 * STALL_TORQUE_NM
+# The servos' PD gains in SI (XC330-M288-T), shared with the controller's stiffness-aware squeeze.
+from grasp_ctrl.controller.joint_stiffness import (  # noqa: F401  (re-exported for the scene's users)
+    NO_LOAD_SPEED_RAD_S, PULSES_PER_RAD, PWM_FULL, STALL_TORQUE_NM, servo_kp_nm_per_rad, servo_kv_nm_s_per_rad,
+)
 
 
 @dataclass(frozen=True)

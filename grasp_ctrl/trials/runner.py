@@ -31,6 +31,7 @@ from grasp_ctrl.config.checks import check_objects_for_hand
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.machine import GraspController
+from grasp_ctrl.controller.motion import squeeze_mode
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import ConfigError, GraspCtrlError, UsageError
 from grasp_ctrl.estimators.base import ForceEstimator
@@ -163,6 +164,7 @@ def trial_settings(hand: HandConfig, obj: ObjectProfile, settings: ControllerSet
         "on_fault": hand.safety.on_fault,
         "max_fingertip_force_n": hand.safety.max_fingertip_force_n,
         "controller": dataclasses.asdict(settings or ControllerSettings()),
+        "squeeze": squeeze_mode(hand, (settings or ControllerSettings()).stiffness_aware_squeeze),
     }
 
 

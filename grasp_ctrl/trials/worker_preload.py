@@ -69,6 +69,7 @@ def warm_kernels() -> None:
                    grip_target_n=ctrl.tau)
     motion = FingertipMotion(hand, kin)
     motion.advance_all(np.full(n, 1e-4))
+    FingertipMotion(hand, kin, stiffness_aware=True).squeeze_all(np.full(n, 1e-4), motion.q_goal.copy(), 1e-4)
     motion.next_goal()
     motion.ik.sensor_forces(motion.q_goal, np.zeros((n, 3)))
     limit_goal(motion.q_goal, motion.q_goal, 0.1, motion.lower, motion.upper, np.empty_like(motion.q_goal))

@@ -1,0 +1,63 @@
+"""Each joint's position stiffness (N m/rad) from the hand file's servo gains.
+
+A Dynamixel in (current-based) position mode is a spring about its goal: the
+squeeze's force on an object is that spring's torque, so the controller needs
+each joint's stiffness to turn a wanted fingertip force into goal changes
+(``kinematics/pad_ik.py``, the stiffness-aware squeeze; docs/mujoco.md).
+
+XC330-M288-T (ROBOTIS e-manual): stall torque 0.93 N m at 1.8 A and 5 V. The
+position controller's output is a PWM duty of (P/128) per encoder pulse (4096 per
+turn) out of 885, and (D/16) per pulse per millisecond; a full duty at stall gives
+the stall torque. With the LEAP API's P = 600, D = 200: kp = 3.2 N m/rad (the LEAP
+simulation and MuJoCo Menagerie use 3.0), kv = 0.0086 N m s/rad (Menagerie: 0.01).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from grasp_ctrl.config.hand import HandConfig
+
+STALL_TORQUE_NM = 0.93
+NO_LOAD_SPEED_RAD_S = 103.0 * 2.0 * math.pi / 60.0
+PULSES_PER_RAD = 4096.0 / (2.0 * math.pi)
+PWM_FULL = 885.0
+
+
+def servo_kp_nm_per_rad(p_gain: float) -> float:
+    return (p_gain / 128.0) / PWM_FULL * PULSES_PER_RAD * STALL_TORQUE_NM
+
+
+def servo_kv_nm_s_per_rad(d_gain: float) -> float:
+    return (d_gain / 16.0) / PWM_FULL * PULSES_PER_RAD * 1e-3 * STALL_TORQUE_NM
+
+
+@dataclass(frozen=True)
+class JointStiffness:
+    """Per joint (hand-file order) position stiffness, or None with the reason it is unknown."""
+
+    kp_nm_per_rad: np.ndarray | None
+    reason: str
+
+    @property
+    def compliance_rad_per_nm(self) -> np.ndarray:
+        """1 / kp per joint; empty when the stiffness is unknown (the kernels' "no stiffness")."""
+        if self.kp_nm_per_rad is None:
+            return np.zeros(0)
+        return 1.0 / self.kp_nm_per_rad
+
+
+def joint_stiffness(hand: HandConfig) -> JointStiffness:
+    """The joints' stiffness from ``[dynamixel] position_p_gain`` x each joint's ``gain_scale``."""
+    p_gain = hand.dynamixel.position_p_gain
+    if p_gain is None:
+        return JointStiffness(None, f"hand {hand.name!r} sets no [dynamixel] position_p_gain (the servos keep "
+                                    "gains this file does not know)")
+    if p_gain <= 0:
+        return JointStiffness(None, f"hand {hand.name!r}: [dynamixel] position_p_gain = {p_gain} (no position stiffness)")
+    kp = np.array([servo_kp_nm_per_rad(p_gain) * j.gain_scale for j in hand.joints])
+    return JointStiffness(kp, f"[dynamixel] position_p_gain = {p_gain} x gain_scale: kp "
+                              f"{kp.min():.3g} to {kp.max():.3g} N m/rad")
