@@ -19,7 +19,7 @@ import pytest
 
 from conftest import SHARED_DATA
 from grasp_ctrl.evaluation.biotac_anchors import (
-    LOCATION_SCAN_X_M, PAD_SCAN_FORCES_N, PAD_SCAN_X_M, anchor_report, location_shares, pad_press_ratios)
+    LOCATION_SCAN_X_M, PAD_SCAN_FORCES_N, PAD_SCAN_X_M, anchor_report, pad_press_ratios)
 
 
 @pytest.fixture(scope="module")
@@ -79,17 +79,15 @@ def test_simulated_patterns_target(report):
     assert sim.best_match_residual_median <= 0.35
 
 
-def test_variance_share_is_a_matter_of_where_the_skin_is_pressed():
+def test_variance_share_is_a_matter_of_where_the_skin_is_pressed(report):
     """Real A presses at the front of the sensor (drop centroid quartiles 0.1 / 1.4 / 2.9 mm). Simulated
     presses there lie inside real A's top-5 components as much as real B does (0.81); presses on the
     back of the pad, which the training sources add and real A never makes, do not. So the pooled
     anchor share (0.455) measures the sources' press locations as much as the patterns."""
-    if not SHARED_DATA.is_dir():
-        pytest.skip("../shared/data is not present beside the checkout")
-    scan = location_shares(SHARED_DATA / "robotic_finger" / "robotic_finger_tidy.csv")
+    scan = report.location_share
     share = dict(zip(LOCATION_SCAN_X_M, scan.share))
     assert 0.0 <= scan.real_centroid_x_m[1] <= 0.003
-    # measured 2026-11-23: 0.81 at x = 0, 0.92 at +3 mm, 0.91 at +6 mm; 0.22 / 0.19 at -12 / -8 mm
+    # measured 2026-11-23: 0.81 at x = 0, 0.92 at +3 mm, 0.91 at +6 mm; 0.22 / 0.18 at -12 / -8 mm
     assert min(share[0.0], share[0.003], share[0.006]) >= 0.69
     assert max(share[-0.012], share[-0.008]) < 0.5
 

@@ -24,7 +24,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.evaluation.biotac_anchors import (
         PAD_SCAN_FORCES_N, PAD_SCAN_X_M, anchor_report, format_location_shares, format_pad_scan, format_report,
-        location_shares, pad_press_ratios)
+        pad_press_ratios)
 
     if args.n < 50:
         raise UsageError("--n: at least 50 samples per source")
@@ -38,12 +38,10 @@ def run(args: argparse.Namespace) -> int:
     ratios = pad_press_ratios()
     print()
     print(format_pad_scan(ratios))
-    by_location = location_shares(args.data)
     print()
-    print(format_location_shares(by_location))
+    print(format_location_shares(report.location_share))
     if args.json:
         figures = asdict(report) | {"pad_scan": {"x_m": list(PAD_SCAN_X_M), "forces_n": list(PAD_SCAN_FORCES_N),
-                                                 "ratio": ratios.tolist()},
-                                    "location_share": asdict(by_location)}
+                                                 "ratio": ratios.tolist()}}
         Path(args.json).write_text(json.dumps(figures, indent=2) + "\n", encoding="utf-8")
     return 0

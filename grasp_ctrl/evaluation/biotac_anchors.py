@@ -177,6 +177,8 @@ class AnchorReport:
     real_b: PatternFigures            # the real-to-real reference (B against A)
     # (d): the network's magnitude against tared pdc: real A, real B, simulated rigid-ft
     pressure: dict[str, PressureResponse]
+    # (b) split by where the skin is pressed (``location_shares``)
+    location_share: LocationShare
 
 
 ANCHOR_SOURCES = ("rigid-ft", "ball-ft")
@@ -227,6 +229,7 @@ def anchor_report(real_path: str | Path, n_per_source: int = 1500, seed: int = 7
         # real B against A (matched among A's frames: among its own it would be 0)
         real_b=pattern_figures(real_b, pdc_b, rest_b, real_a, real_b, library=real_a),
         pressure=pressure,
+        location_share=location_shares(real_a, params),
     )
 
 
@@ -324,16 +327,17 @@ def drop_centroid_x(e: np.ndarray) -> np.ndarray:
     return x
 
 
-def location_shares(real_path: str | Path, params: object | None = None, seed: int = 0) -> LocationShare:
+def location_shares(real_a: np.ndarray, params: object | None = None, seed: int = 0) -> LocationShare:
     """How much of the variance of steady presses at each LOCATION_SCAN_X_M (up to 60 degrees to
-    either side of the pad centre, 0.5-6 N, tangential part up to 0.3 of the normal force) real
-    A's top-5 principal components capture. The anchor figure pools the training sources' press
-    locations; this splits it by where the skin is pressed."""
+    either side of the pad centre, 0.5-6 N, tangential part up to 0.3 of the normal force) the
+    top-5 principal components of real A's pressed electrodes ``real_a`` (k, 19) capture. The
+    anchor figure pools the training sources' press locations; this splits it by where the skin
+    is pressed."""
     from grasp_ctrl.learning.features import surface_point_and_normal
     from grasp_ctrl.sim.biotac_model import DEFAULT_PARAMS, N_GAIN, pack_params, static_frames
+    from grasp_ctrl.sim.presses import sheared_forces
     from grasp_ctrl.tactile.geometry import SURFACE_RADIUS_M
 
-    ((real_a, _, _),) = real_pressed(real_path, (TRIAL_A,))
     components = top_components(real_a)
     constants = pack_params(params or DEFAULT_PARAMS)  # type: ignore[arg-type]
     rng = np.random.default_rng(seed)
@@ -344,11 +348,8 @@ def location_shares(real_path: str | Path, params: object | None = None, seed: i
         radial = np.stack([x + rng.normal(0.0, 1e-3, n), np.sin(angle), -np.cos(angle)], axis=1)
         radial[:, 1:] *= SURFACE_RADIUS_M
         points, normals = surface_point_and_normal(radial)
-        tangent = rng.standard_normal((n, 3))
-        tangent -= np.sum(tangent * normals, axis=1, keepdims=True) * normals
-        tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
         magnitude = np.exp(rng.uniform(np.log(0.5), np.log(6.0), n))
-        f_sensor = magnitude[:, None] * (-normals + rng.uniform(0.0, 0.3, (n, 1)) * tangent)
+        f_sensor = sheared_forces(normals, magnitude, rng.uniform(0.0, 0.3, n), rng)
         out = static_frames(np.ascontiguousarray(points), np.ascontiguousarray(normals),
                             np.ascontiguousarray(f_sensor), np.ones((n, N_GAIN)), constants)
         pressed = out[:, 19] > PRESSED_PDC

@@ -32,8 +32,8 @@ from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M
 from grasp_ctrl.kinematics.transforms import rpy_matrix
 # The servos' PD gains in SI (XC330-M288-T), shared with the controller's stiffness-aware squeeze.
-from grasp_ctrl.controller.joint_stiffness import (  # noqa: F401  (re-exported for the scene's users)
-    NO_LOAD_SPEED_RAD_S, PULSES_PER_RAD, PWM_FULL, STALL_TORQUE_NM, servo_kp_nm_per_rad, servo_kv_nm_s_per_rad,
+from grasp_ctrl.controller.joint_stiffness import (
+    NO_LOAD_SPEED_RAD_S, STALL_TORQUE_NM, servo_kp_nm_per_rad, servo_kv_nm_s_per_rad,
 )
 
 

@@ -78,9 +78,16 @@ def skin_presses(n: int, seed: int, max_shear_ratio: float = 1.0,
     points, normals = random_skin_points(n, rng)
     normal_n = rng.uniform(0.1, 6.0, n)
     ratio = max_shear_ratio * rng.uniform(0.0, 1.0, n)
+    f = sheared_forces(normals, normal_n, ratio, rng)
+    return _tared_presses(points, f, normals, rng, params), f
+
+
+def sheared_forces(normals: np.ndarray, normal_n: np.ndarray, shear_ratio: np.ndarray,
+                   rng: np.random.Generator) -> np.ndarray:
+    """Forces on the skin (n, 3): ``normal_n`` pressing in along each outward normal plus
+    ``shear_ratio`` times that in a random tangent direction."""
     # A tangent direction: a random vector with its normal part removed.
-    t = rng.standard_normal((n, 3))
+    t = rng.standard_normal(normals.shape)
     t -= np.sum(t * normals, axis=1, keepdims=True) * normals
     t /= np.linalg.norm(t, axis=1, keepdims=True)
-    f = normal_n[:, None] * (-normals + ratio[:, None] * t)
-    return _tared_presses(points, f, normals, rng, params), f
+    return normal_n[:, None] * (-normals + shear_ratio[:, None] * t)
