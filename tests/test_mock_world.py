@@ -76,18 +76,51 @@ def test_oracle_succeeds_on_a_deformable_object(hand, objects):
 @given(
     anchors=st.lists(st.floats(-0.05, 0.05), min_size=1, max_size=4),
     caps=st.lists(st.floats(0.0, 5.0), min_size=4, max_size=4),
+    caps_down=st.lists(st.floats(0.0, 5.0), min_size=4, max_size=4),
     weight=st.floats(0.01, 10.0),
 )
-def test_object_height_is_an_equilibrium(anchors, caps, weight):
+def test_object_height_is_an_equilibrium(anchors, caps, caps_down, weight):
     a = np.array(anchors)
-    c = np.array(caps[: len(a)])
+    up, down = np.array(caps[: len(a)]), np.array(caps_down[: len(a)])
     kt = 400.0
-    z, table = solve_object_height(a, c, kt, weight)
-    t, _ = tangential_forces(a, c, kt, z)
+    z, table = solve_object_height(a, up, down, kt, weight)
+    t, _ = tangential_forces(a, up, down, kt, z)
     assert z >= 0.0 and table >= 0.0
     assert abs(sum(t) + table - weight) < 1e-6
+    assert np.all(t <= up + 1e-12) and np.all(t >= -down - 1e-12)
     if z > 0.0:
         assert table == 0.0
+
+
+@settings(max_examples=300, deadline=None)
+@given(normal=st.floats(0.01, 10.0), tilt=st.floats(-1.2, 1.2), mu=st.floats(0.1, 1.5))
+def test_friction_limits_put_the_contact_force_on_its_own_friction_cone(normal, tilt, mu):
+    """At either limit the finger's whole force on the object (normal push plus
+    vertical drag), split on the surface's own normal, is exactly mu times its
+    compressive part; on a wall both limits are mu N."""
+    from grasp_ctrl.sim.grip import friction_limits
+
+    n = np.array([np.cos(tilt), 0.0, np.sin(tilt)])     # outward surface normal, tilted up or down
+    up, down = friction_limits(normal, n[2], mu)
+    for t in (up, -down):
+        if np.sqrt(1 - n[2] ** 2) - mu * abs(n[2]) < 0.05:
+            continue                                       # a wedge: the capped factor, not the cone
+        f_on_object = -normal * n + t * np.array([0.0, 0.0, 1.0])
+        compressive = -f_on_object @ n
+        tangential = np.linalg.norm(f_on_object + compressive * n)
+        assert compressive > 0
+        assert tangential == pytest.approx(mu * compressive, rel=1e-9)
+    if tilt == 0.0:
+        assert up == pytest.approx(mu * normal) and down == pytest.approx(mu * normal)
+    if tilt > 1e-6:                                        # a cap facing up: lifting unloads it
+        assert up < down
+
+
+def test_friction_limits_of_a_wall_are_mu_n():
+    from grasp_ctrl.sim.grip import friction_limits
+
+    assert friction_limits(2.0, 0.0, 0.9) == pytest.approx((1.8, 1.8))
+    assert friction_limits(0.0, 0.3, 0.9) == (0.0, 0.0)
 
 
 def test_biotac_model_magnitudes_match_real_recordings(shared_data):

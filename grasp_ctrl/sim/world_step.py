@@ -17,7 +17,7 @@ from grasp_ctrl.jit import njit
 from grasp_ctrl.kinematics.fingertip import skin_contact_point
 from grasp_ctrl.kinematics.multilinear import contract
 from grasp_ctrl.sim.biotac_model import frames_kernel
-from grasp_ctrl.sim.grip import solve_object_height, tangential_forces
+from grasp_ctrl.sim.grip import friction_limits, solve_object_height, tangential_forces
 from grasp_ctrl.sim.shapes import penetration
 
 # Constants (c).
@@ -165,7 +165,8 @@ def _contacts(
         # Vertical stick spring of a contact that already sticks: it resists the pad
         # sliding up or down the object while the finger deflects.
         stretch = z_world - stick[i] - obj[OZ] if was else 0.0
-        sticking = was and abs(kt * stretch) < c[MU] * normal[i]
+        up, down = friction_limits(normal[i], nz, c[MU])
+        sticking = was and -down < kt * stretch < up
         if c[TORQUE_ON] == 0.0 or g11 < 1e-12:
             # A limp finger yields completely: no squeeze force.
             _retract(a, n, g11, d0, dq)
@@ -228,18 +229,20 @@ def _object(
 ) -> None:
     """The object's height: friction of the contacts against its weight and the table."""
     F = normal.shape[0]
-    capacity = np.empty(F)
+    cap_up = np.zeros(F)
+    cap_down = np.zeros(F)
     anchors = np.empty(F)
     load = c[WEIGHT]
     for i in range(F):
-        capacity[i] = c[MU] * normal[i] if touch[i] else 0.0
+        if touch[i]:
+            cap_up[i], cap_down[i] = friction_limits(normal[i], n_out[i, 2], c[MU])
         anchors[i] = contact_z[i] - stick[i]
         if touch[i]:
             # A contact on a tilted surface (the cap) also pushes the object down
             # with the vertical part of its normal force.
             load += normal[i] * n_out[i, 2]
-    z, table_n = solve_object_height(anchors, capacity, c[KT], load)
-    forces, slipping = tangential_forces(anchors, capacity, c[KT], z)
+    z, table_n = solve_object_height(anchors, cap_up, cap_down, c[KT], load)
+    forces, slipping = tangential_forces(anchors, cap_up, cap_down, c[KT], z)
     largest = 0.0
     for i in range(F):
         # Slipping contacts drag their anchor: the spring stays at the friction limit.
