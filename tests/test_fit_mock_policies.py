@@ -40,3 +40,16 @@ def test_the_linear_fit_reads_skin_presses_only_when_trained_on_them(tmp_path, p
     else:
         assert 0.8 < ratio < 1.25
         assert "metrics_skin_presses" in policy
+
+
+def test_the_mlp_fit_reads_skin_presses_and_is_repeatable(tmp_path):
+    pytest.importorskip("torch")
+    runs = []
+    for k in range(2):
+        out = tmp_path / str(k)
+        out.mkdir()
+        assert main(["fit-mock-policies", "--samples", "1000", "--out-dir", str(out)]) == 0
+        runs.append((out / "mlp_mock.json").read_text())
+    assert runs[0] == runs[1]                      # same seed, same weights
+    policy = json.loads(runs[0])
+    assert policy["kind"] == "mlp" and policy["metrics"]["median_angle_deg"] < 12.0   # 1000 presses: a small fit

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from conftest import copy_policy
 
+from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.cli import main
 from grasp_ctrl.config.objects import CapProfile, load_objects
 from grasp_ctrl.controller.machine import GraspController
@@ -241,13 +242,13 @@ def test_5_resume_is_refused_while_another_process_holds_the_run(tmp_path, capsy
     _fake_records(monkeypatch)
     run_dir = tmp_path / "run"
     assert main(["run", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
-    record_path(run_dir, "linear_mock", "lego", 0).unlink()
+    record_path(run_dir, DEFAULT_POLICY, "lego", 0).unlink()
     pid, proc = _child_pid(alive=True)
     try:
         (run_dir / LOCK_FILE).write_text(json.dumps({"pid": pid, "host": os.uname().nodename, "started": "x"}))
         assert main(["run", "--resume", str(run_dir), "--quiet"]) == 2
         assert f"in use by process {pid}" in _err_line(capsys)
-        assert not record_path(run_dir, "linear_mock", "lego", 0).exists()
+        assert not record_path(run_dir, DEFAULT_POLICY, "lego", 0).exists()
     finally:
         proc.kill()
         proc.wait()
@@ -257,15 +258,15 @@ def test_5_a_stale_lock_is_taken_over_with_a_warning(tmp_path, capsys, monkeypat
     _fake_records(monkeypatch)
     run_dir = tmp_path / "run"
     assert main(["run", "--objects", "lego", "--trials", "2", "--out", str(run_dir), "--quiet"]) == 0
-    record_path(run_dir, "linear_mock", "lego", 1).unlink()
+    record_path(run_dir, DEFAULT_POLICY, "lego", 1).unlink()
     pid, _ = _child_pid(alive=False)
     (run_dir / LOCK_FILE).write_text(json.dumps({"pid": pid, "host": os.uname().nodename, "started": "x"}))
-    leftover = temp_path(record_path(run_dir, "linear_mock", "lego", 1))
+    leftover = temp_path(record_path(run_dir, DEFAULT_POLICY, "lego", 1))
     leftover.write_text("{half a rec")           # a dead writer's temporary file
     capsys.readouterr()
     assert main(["run", "--resume", str(run_dir), "--quiet"]) == 0
     assert f"stale lock of process {pid}" in capsys.readouterr().err
-    assert record_path(run_dir, "linear_mock", "lego", 1).is_file()
+    assert record_path(run_dir, DEFAULT_POLICY, "lego", 1).is_file()
     assert not leftover.exists() and not (run_dir / LOCK_FILE).exists()
 
 
@@ -302,11 +303,11 @@ def test_6_a_bad_run_json_is_refused_on_resume_naming_the_field(tmp_path, capsys
     doc = json.loads((run_dir / "run.json").read_text())
     edit(doc)
     (run_dir / "run.json").write_text(json.dumps(doc))
-    record_path(run_dir, "linear_mock", "lego", 0).unlink()
+    record_path(run_dir, DEFAULT_POLICY, "lego", 0).unlink()
     assert main(["run", "--resume", str(run_dir), "--quiet"]) == 2
     line = _err_line(capsys)
     assert "run.json" in line and field in line
-    assert not record_path(run_dir, "linear_mock", "lego", 0).exists()
+    assert not record_path(run_dir, DEFAULT_POLICY, "lego", 0).exists()
 
 
 # ---------------------------------------------------------------- 7. policy files
@@ -500,9 +501,9 @@ def test_interrupted_run_of_every_default_object_resumes_to_the_same_summary(tmp
     assert main(["run", "--resume", str(cut), "--quiet"]) == 0
     a = json.loads((full / "summary.json").read_text())
     b = json.loads((cut / "summary.json").read_text())
-    assert set(b["policies"]["linear_mock"]["objects"]) == set(names)
+    assert set(b["policies"][DEFAULT_POLICY]["objects"]) == set(names)
     assert {k: v for k, v in a.items() if k != "run_dir"} == {k: v for k, v in b.items() if k != "run_dir"}
     for name in names:   # and trial by trial, the same outcome
-        ra = json.loads(record_path(full, "linear_mock", name, 0).read_text())
-        rb = json.loads(record_path(cut, "linear_mock", name, 0).read_text())
+        ra = json.loads(record_path(full, DEFAULT_POLICY, name, 0).read_text())
+        rb = json.loads(record_path(cut, DEFAULT_POLICY, name, 0).read_text())
         assert (ra["success"], ra["reason"], ra["sim_duration_s"]) == (rb["success"], rb["reason"], rb["sim_duration_s"])

@@ -243,7 +243,7 @@ def test_resume_with_a_hostile_run_json_continues_or_names_the_field(finished_ru
 
 # ------------------------------------------------------------------------ policy metadata
 @SETTINGS
-@given(name=st.sampled_from(["su_rigid_ft_mock", "icra19_official", "linear_mock", "analytic_mock"]),
+@given(name=st.sampled_from(["su_rigid_ft_mock", "icra19_official", "linear_mock", "analytic_mock", "mlp_mock"]),
        where=st.integers(0, 10_000), value=HOSTILE_JSON, delete=st.booleans())
 def test_policy_with_hostile_metadata_loads_or_is_one_line_policy_error(hand, name, where, value, delete) -> None:
     with sandbox() as root:

@@ -9,6 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.cli import main
 from grasp_ctrl.emulators.dxl_chain import DynamixelChainEmulator
 from grasp_ctrl.emulators.tactile_bridge import SyntheticSource, TactileBridgeEmulator
@@ -29,16 +30,16 @@ def test_one_emulated_trial_runs_like_the_mock(tmp_path, hand, objects, capsys):
     assert "pre-flight: 16 servos answered" in err and "4 fingertips streaming and tareable" in err
     summary = json.loads(summary_file.read_text())
     assert summary["backend"] == "dynamixel-emulated"
-    rec = json.loads((run_dir / "trials" / "linear_mock" / "chips_can" / "trial_000.json").read_text())
+    rec = json.loads((run_dir / "trials" / DEFAULT_POLICY / "chips_can" / "trial_000.json").read_text())
     assert rec["backend"] == "dynamixel-emulated" and rec["judged_by"] == "world"
-    assert (run_dir / "trials" / "linear_mock" / "chips_can" / "trial_000_ticks.parquet").stat().st_size > 10_000
+    assert (run_dir / "trials" / DEFAULT_POLICY / "chips_can" / "trial_000_ticks.parquet").stat().st_size > 10_000
     # run.json (revalidated on resume) accepts the emulated backend: the finished run resumes to itself
     assert read_manifest(run_dir).backend == "dynamixel-emulated"
     assert main(["run", "--resume", str(run_dir), "--yes", "--quiet", "--json", str(tmp_path / "again.json")]) == 0
     assert json.loads((tmp_path / "again.json").read_text())["policies"] == summary["policies"]
     # The same trial on the mock backends: the emulated links quantise goals and counts, nothing more.
-    mock = run_mock_trial(hand, objects["chips_can"], estimator_factory("linear_mock", hand),
-                          trial_seed(4, "chips_can", 0), "linear_mock")
+    mock = run_mock_trial(hand, objects["chips_can"], estimator_factory(DEFAULT_POLICY, hand),
+                          trial_seed(4, "chips_can", 0), DEFAULT_POLICY)
     assert rec["success"] == mock.success and rec["reason"] == mock.reason
     assert rec["sim_duration_s"] == pytest.approx(mock.sim_duration_s, abs=0.5)
     assert [b for _, _, b in rec["transitions"]] == [b for _, _, b in mock.transitions]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.cli import main
 
 
@@ -12,7 +13,7 @@ def main_job_trial(tmp_path_factory):
     """One trial of the main job (`run` with its defaults, one object, one trial)."""
     run_dir = tmp_path_factory.mktemp("main") / "run"
     assert main(["run", "--objects", "chips_can", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
-    return run_dir / "trials" / "linear_mock" / "chips_can" / "trial_000.json"
+    return run_dir / "trials" / DEFAULT_POLICY / "chips_can" / "trial_000.json"
 
 
 def test_plot_of_a_trial_is_a_nontrivial_png(main_job_trial, tmp_path, capsys):

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 from hypothesis import given, settings, strategies as st
 
+from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.cli import main
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.trials.manifest import read_manifest
@@ -223,7 +224,7 @@ def test_ctrl_c_keeps_finished_trials_and_resume_completes(tmp_path, monkeypatch
     # Off a terminal: the resume notice, no progress bar.
     assert captured.err.strip() == "resuming: 1 of 3 trials already recorded"
     assert calls == [("lego", 0), ("lego", 1), ("lego", 1), ("lego", 2)]
-    entry = _json(run_dir / "summary.json")["policies"]["linear_mock"]["objects"]["lego"]
+    entry = _json(run_dir / "summary.json")["policies"][DEFAULT_POLICY]["objects"]["lego"]
     assert (entry["successes"], entry["failures"]) == (2, {"slipped": 1})
 
 

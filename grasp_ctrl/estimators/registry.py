@@ -20,13 +20,14 @@ from grasp_ctrl.estimators.analytic import AnalyticEstimator
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.paths import policies_dir
 
-DEFAULT_POLICY = "linear_mock"
+DEFAULT_POLICY = "mlp_mock"
 
 # kind -> "module:function" taking (meta, json_path, hand, threads) and returning an estimator.
 # Loaders are imported lazily so that e.g. onnxruntime is only loaded when used.
 LOADERS: dict[str, str] = {
     "analytic": "grasp_ctrl.estimators.registry:load_analytic",
     "linear": "grasp_ctrl.estimators.registry:load_linear",
+    "mlp": "grasp_ctrl.estimators.registry:load_mlp",
     "onnx": "grasp_ctrl.estimators.onnx_estimator:load_onnx_policy",
     "calibrated": "grasp_ctrl.estimators.calibrated:load_calibrated_policy",
 }
@@ -80,6 +81,16 @@ def load_linear(meta: dict[str, Any], json_path: Path, hand: HandConfig | None, 
         return LinearEstimator(meta.get("weights_n_per_count"), meta.get("bias_n"), name=meta.get("name", json_path.stem))  # type: ignore[arg-type]
     except (TypeError, ValueError) as exc:
         raise PolicyError(f"{json_path}: weights_n_per_count/bias_n: {exc}") from None
+
+
+def load_mlp(meta: dict[str, Any], json_path: Path, hand: HandConfig | None, threads: int) -> ForceEstimator:
+    from grasp_ctrl.estimators.mlp import MlpEstimator
+
+    try:
+        return MlpEstimator(meta.get("input_channels"), meta.get("input_mean"), meta.get("input_scale"),
+                            meta.get("layers"), name=meta.get("name", json_path.stem))
+    except ValueError as exc:
+        raise PolicyError(f"{json_path}: {exc}") from None
 
 
 def load_policy(spec: str, hand: HandConfig | None = None, threads: int = 1) -> ForceEstimator:

@@ -67,9 +67,10 @@ class WorldParams:
     friction_jitter: float = 0.03
     stiffness_jitter: float = 0.05
     start_clearance_m: float = 0.05      # palm starts this far above the reach pose
-    # Contact on the skin point facing the object (cap or pad) instead of the pad centre.
-    # More faithful, but the shipped policies cannot yet detect placement with it: off.
-    skin_contact: bool = False
+    # Contact on the skin point facing the object (cap or pad), as on a real fingertip
+    # and in MuJoCo; False puts it at the pad centre whatever the tilt (the old model,
+    # whose force can leave the friction cone of the skin there: docs/mock_world.md).
+    skin_contact: bool = True
     biotac: BioTacParams = field(default_factory=BioTacParams)
 
 
