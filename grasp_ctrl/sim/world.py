@@ -148,6 +148,43 @@ def _clamped_target(p: np.ndarray, z_min: float, z_max: float, out: np.ndarray) 
     return True
 
 
+#: The world's own float arrays packed into one buffer (MockWorld._pack_state), in world_step's order.
+PACKED = ("_q_servo", "_q", "lower", "upper", "_reach", "tau_max", "_palm", "_pad_local", "_contact_sensor",
+          "_skin_normal_sensor", "_shape", "_obj", "_normal_n", "_stick_offset", "_slip_speed", "_n_out_world",
+          "_contact_z", "_omega", "_tangential_up_n", "_f_world", "_f_sensor", "_rows", "_consts")
+
+
+@njit
+def _part(state: np.ndarray, layout: np.ndarray, k: int) -> np.ndarray:
+    """Array ``k`` of a packed state: a one-dimensional view."""
+    return state[layout[k, 0]:layout[k, 0] + layout[k, 1]]
+
+
+@njit
+def _part2(state: np.ndarray, layout: np.ndarray, k: int) -> np.ndarray:
+    """Array ``k`` of a packed state: a (rows, columns) view."""
+    start, rows, cols = layout[k, 0], layout[k, 1], layout[k, 2]
+    return state[start:start + rows * cols].reshape((rows, cols))
+
+
+@njit
+def step_packed(q_goal: np.ndarray, palm_target: np.ndarray, frame_base: np.ndarray, sensor_t: float,
+                frame_out: np.ndarray, state: np.ndarray, layout: np.ndarray, take: np.ndarray, W: np.ndarray,
+                starts: np.ndarray, counts: np.ndarray, touch: np.ndarray, sensor_state: np.ndarray,
+                sensor_gain: np.ndarray, sensor_consts: np.ndarray) -> None:
+    """``world_step`` on a world whose float arrays are views of ``state`` (``PACKED``,
+    ``layout``: start, rows, columns of each)."""
+    ws.world_step(q_goal, palm_target, frame_base, sensor_t, frame_out,
+                  _part(state, layout, 0), _part(state, layout, 1), _part(state, layout, 2), _part(state, layout, 3),
+                  _part(state, layout, 4), _part(state, layout, 5), starts, counts, _part(state, layout, 6), take, W,
+                  _part(state, layout, 7), _part2(state, layout, 8), _part2(state, layout, 9),
+                  _part(state, layout, 10), _part(state, layout, 11), _part(state, layout, 12), touch,
+                  _part(state, layout, 13), _part(state, layout, 14), _part2(state, layout, 15),
+                  _part(state, layout, 16), _part2(state, layout, 17), _part(state, layout, 18),
+                  _part2(state, layout, 19), _part2(state, layout, 20), _part2(state, layout, 21),
+                  _part(state, layout, 22), sensor_state, sensor_gain, sensor_consts)
+
+
 def checked_palm_target(p: np.ndarray) -> np.ndarray:
     """A wrist target as a (3,) float array (a copy); ValueError unless every coordinate is finite."""
     if jit.JIT and type(p) is np.ndarray and p.dtype is _FLOAT64 and p.shape == (3,):
@@ -237,6 +274,7 @@ class MockWorld:
         contract(self._q_servo, self._take, self._W, self._rows)
         self.raw = self._sense()
         sens = self.sensors
+        self._pack_state()
         # The world's own arrays, bound once: the kernel updates them in place.
         self._arrays = (
             self._q_servo, self._q, self.lower, self.upper, self._reach, self.tau_max, self._starts, self._counts,
@@ -245,10 +283,31 @@ class MockWorld:
             self._n_out_world, self._contact_z, self._omega, self._tangential_up_n, self._f_world, self._f_sensor,
             self._rows, self._consts, sens.state, sens.gain, sens.consts,
         )
+        # What the packed step (step_packed) takes besides the state buffer and its layout.
+        self._packed_args = (self._take, self._W, self._starts, self._counts, self._in_contact, sens.state, sens.gain,
+                             sens.consts)
 
         self.events: list[WorldEvent] = []
         self.crushed = False
         self.knocked_over = False
+
+    def _pack_state(self) -> None:
+        """Move the world's own float arrays (``PACKED``, in that order) into one buffer,
+        each attribute becoming its view (same values, updated in place as before): the
+        compiled step then takes one array for 23 (``step_packed``), and a compiled
+        call's cost grows with the arrays it is handed."""
+        arrays = [getattr(self, name) for name in PACKED]
+        layout = np.zeros((len(arrays), 3), dtype=np.int64)   # start, rows, columns (0: one-dimensional)
+        at = 0
+        for k, a in enumerate(arrays):
+            layout[k] = at, a.shape[0], a.shape[1] if a.ndim == 2 else 0
+            at += a.size
+        state = np.empty(at)
+        for k, (name, a) in enumerate(zip(PACKED, arrays)):
+            view = state[layout[k, 0]:layout[k, 0] + a.size].reshape(a.shape)
+            view[...] = a
+            setattr(self, name, view)
+        self._state, self._layout = state, layout
 
     # ----- state --------------------------------------------------------------
     @property
@@ -353,7 +412,11 @@ class MockWorld:
         sens = self.sensors
         frame_base = sens.advance(self.dt)
         raw = np.empty(self.raw.shape, dtype=self.raw.dtype)   # a new array each step: frames delivered earlier keep theirs
-        ws.world_step(self._q_goal, self._palm_target, frame_base, sens.t, raw, *self._arrays)
+        if jit.JIT:   # the same kernel on the same arrays, handed over as one buffer (compiled: cheaper to call)
+            step_packed(self._q_goal, self._palm_target, frame_base, sens.t, raw, self._state, self._layout,
+                        *self._packed_args)
+        else:
+            ws.world_step(self._q_goal, self._palm_target, frame_base, sens.t, raw, *self._arrays)
         self.raw = raw
         self.seq = (self.seq + 1) & 0xFFFF
         self._record(prev_z)
