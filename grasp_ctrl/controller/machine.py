@@ -55,6 +55,10 @@ TRANSITIONS: list[tuple[str, str, str, str | None]] = [
 ]
 
 
+#: The states whose usual tick runs in one compiled call (GraspController._squeeze_state_tick).
+_SQUEEZE_STATES = {"lift": tk.LIFT, "hold": tk.HOLD, "lower": tk.LOWER}
+
+
 def _distance(a: np.ndarray, b: np.ndarray) -> float:
     d = a - b
     return math.sqrt(float(d.dot(d)))   # = np.linalg.norm(d), without its overhead
@@ -323,35 +327,114 @@ class GraspController:
         self.release_count = self.release_count + 1 if flags & tk.RELEASE_BELOW else 0
         return flags & (tk.FORCE_NOT_FINITE | tk.OVERFORCE)
 
+    def squeeze_plan(self, palm_z: float) -> tuple | None:
+        """In a squeeze state (lift, hold, lower) with the compiled kernels, the torque on
+        and a float64 (3,) palm target: every argument of ``tk.squeeze_state_tick`` after
+        the snapshot's arrays and its palm height ``palm_z`` (a float) for this tick
+        (``ticks_in_state`` counting it), so that a caller can run it, in one compiled call
+        with more (trials/mock_tick.py), before ``squeeze_done``. None otherwise."""
+        state = _SQUEEZE_STATES.get(self.state)  # type: ignore[attr-defined]
+        p = self.palm_target
+        if (state is None or not self._compiled or not self.torque_on or type(p) is not np.ndarray
+                or p.dtype is not _FLOAT64 or p.shape != (3,)):
+            return None
+        s, tau, dt = self.s, self.tau, self.dt
+        if state == tk.HOLD:
+            move, palm, goal, step = False, self._no_palm, self._no_palm, 0.0
+        else:
+            if state == tk.LIFT:
+                goal, speed = self.lift_top, s.lift_speed_m_s
+            else:
+                near = palm_z - self.reach_pose[2] < s.lower_slow_zone_m
+                goal, speed = self.lower_bottom, s.lower_slow_speed_m_s if near else s.lower_speed_m_s
+            if not (type(goal) is np.ndarray and goal.dtype is _FLOAT64 and goal.shape == (3,)):
+                return None
+            move, palm, step = True, p, speed * dt
+        goals, steps = self.motion.squeeze_arrays()
+        obj = self.obj
+        return (self.grasp_mask, tau, s.ramp_tolerance_n, s.grip_lost_fraction * tau, self.release_idx,
+                obj.release_threshold_n, self.hand.safety.max_fingertip_force_n, self._lost, state,
+                self.ticks_in_state + 1, dt, s.contact_lost_s, self.release_count, obj.release_debounce, obj.hold_s,
+                float(self.lift_top[2]), s.reach_tolerance_m, float(self.lower_limit_z), s.hold_gain_m_s_per_n,
+                s.hold_max_speed_m_s, *goals, move, palm, goal, step, *steps)
+
+    def squeeze_done(self, snap: Snapshot, flags: int) -> Command | None:
+        """The rest of ``tick(snap)`` after ``tk.squeeze_state_tick`` ran on its snapshot
+        with ``squeeze_plan``'s arguments (``flags``: its result): the counters, then, with
+        ``tk.TICK_DONE``, None (the command is the motion's ``sent_goal`` and the palm
+        target); without it, the tick's failure checks, guards and action as ``tick`` has
+        them, and its command."""
+        self.snap = snap
+        self.ticks_in_state += 1
+        self.settle_count = self.settle_count + 1 if flags & tk.WITHIN_TOLERANCE else 0
+        self.release_count = self.release_count + 1 if flags & tk.RELEASE_BELOW else 0
+        if flags & tk.PADS_MOVED:
+            self.motion.squeezed()
+        if flags & tk.TICK_DONE:
+            return None
+        self._decide(snap, flags & (tk.FORCE_NOT_FINITE | tk.OVERFORCE), self.hand.safety.max_fingertip_force_n)
+        self._act(snap)
+        return Command(self.motion.next_goal(), self.palm_target.copy(), self.torque_on)  # type: ignore[union-attr]
+
+    def _squeeze_state_tick(self, snap: Snapshot) -> Command | None:
+        """``tick`` in a squeeze state through ``squeeze_plan``, ``tk.squeeze_state_tick`` and
+        ``squeeze_done``, for a snapshot without fault or variance whose arrays
+        ``_compiled_checks`` and ``_squeeze`` would take; None (nothing done) otherwise."""
+        nd = np.ndarray
+        grip, f_sensor, f_world, contact, q = snap.grip_n, snap.f_sensor, snap.f_world, snap.in_contact, snap.q
+        if not (snap.fault is None and snap.variance is None and type(grip) is nd and type(f_sensor) is nd
+                and type(f_world) is nd and type(contact) is nd and type(q) is nd and grip.dtype is _FLOAT64
+                and f_sensor.dtype is _FLOAT64 and f_world.dtype is _FLOAT64 and q.dtype is _FLOAT64
+                and grip.shape == self._tip_shape and contact.shape == self._tip_shape
+                and f_sensor.shape == self._force_shape and f_world.shape == self._force_shape
+                and q.shape == self.motion.q_goal.shape):
+            return None
+        palm_z = float(snap.p_palm_world[2])
+        plan = self.squeeze_plan(palm_z)
+        if plan is None:
+            return None
+        flags = tk.squeeze_state_tick(grip, contact, f_sensor, f_world, q, palm_z, *plan)
+        cmd = self.squeeze_done(snap, flags)
+        return cmd if cmd is not None else Command(self.motion.sent_goal(), self.palm_target.copy(), self.torque_on)  # type: ignore[union-attr]
+
     def tick(self, snap: Snapshot) -> Command:
         self.snap = snap
         if self.palm_target is None:
             self.palm_target = snap.p_palm_world.copy()
             self.motion.sync(snap.q)
         if not self.terminal:
+            if self.state in _SQUEEZE_STATES:  # type: ignore[attr-defined]
+                cmd = self._squeeze_state_tick(snap)   # the usual tick of a squeeze state, compiled
+                if cmd is not None:
+                    return cmd
             self.ticks_in_state += 1
             limit = self.hand.safety.max_fingertip_force_n
             checks = self._compiled_checks(snap, limit)
             if checks < 0:   # the Python way
                 self._update_counters(snap)
                 checks = self._force_checks(snap, limit)
-            if snap.fault:
-                self.fail(reason=snap.fault, detail=snap.fault_detail)
-            elif checks & tk.FORCE_NOT_FINITE:
-                # never let NaN slip past the over-force comparison (NaN > x is False)
-                self.fail(reason="estimate_invalid", detail="non-finite estimated force in the snapshot")
-            elif checks & tk.OVERFORCE:   # all finite here
-                force_sq = self._force_sq(snap)
-                i = force_sq.index(max(force_sq))
-                self.fail(reason="overforce",
-                          detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {math.sqrt(force_sq[i]):.2f} N > {limit:g} N")
-            else:
-                for guard in self._guards[self.state]:  # type: ignore[attr-defined]
-                    if guard():
-                        self.step()
-                        break
+            self._decide(snap, checks, limit)
         self._act(snap)
         return Command(self.motion.next_goal(), self.palm_target.copy(), self.torque_on)   # (positional: cheaper)
+
+    def _decide(self, snap: Snapshot, checks: int, limit: float) -> None:
+        """A fault of the snapshot or of the force checks (``checks``: ``_compiled_checks``' bits),
+        else the first transition whose guard holds."""
+        if snap.fault:
+            self.fail(reason=snap.fault, detail=snap.fault_detail)
+        elif checks & tk.FORCE_NOT_FINITE:
+            # never let NaN slip past the over-force comparison (NaN > x is False)
+            self.fail(reason="estimate_invalid", detail="non-finite estimated force in the snapshot")
+        elif checks & tk.OVERFORCE:   # all finite here
+            force_sq = self._force_sq(snap)
+            i = force_sq.index(max(force_sq))
+            self.fail(reason="overforce",
+                      detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {math.sqrt(force_sq[i]):.2f} N > {limit:g} N")
+        else:
+            for guard in self._guards[self.state]:  # type: ignore[attr-defined]
+                if guard():
+                    self.step()
+                    break
 
     def safe_command(self, snap: Snapshot) -> Command:
         """The safe action from the measured pose, discarding the motion state (after a

@@ -171,6 +171,25 @@ class FingertipMotion:
                         self._pad_along, self._directions, self._pads):
             self._posture = None
 
+    def squeeze_arrays(self) -> tuple:
+        """The motion's part of ``tick_kernels.squeeze_state_tick``'s arguments, from the
+        joint goals to the squeeze's scratch (``squeeze``'s, after the palm's, which the
+        caller places), then the goal step's (``next_goal``'s): ``(goals part, step part)``."""
+        facing = self.facing or self.ik._no_facing
+        ik = self.ik
+        return ((self.q_goal, self.targets, self.task_vectors, ik.geometry, ik.layout, IK_DAMPING, facing.normals_hand,
+                 facing.fingers, facing.damping, self._distances),
+                (self.compliance, self._pad_along, self._directions, self._pads, self._q_sent, self.max_step,
+                 self.lower, self.upper))
+
+    def squeezed(self) -> None:
+        """A squeeze outside ``squeeze`` moved a fingertip (``squeeze_state_tick``'s PADS_MOVED)."""
+        self._posture = None
+
+    def sent_goal(self) -> np.ndarray:
+        """A copy of the goal last sent (``next_goal``'s result, after ``squeeze_tick`` stepped it)."""
+        return self._q_sent.copy()
+
     def next_goal(self) -> np.ndarray:
         """The goal to send this tick: toward q_goal, at most max_step per joint."""
         if jit.JIT:

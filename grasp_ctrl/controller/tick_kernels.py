@@ -16,12 +16,19 @@ import numpy as np
 
 from grasp_ctrl.jit import njit
 from grasp_ctrl.kinematics.pad_ik import advance_pads_kernel, squeeze_targets_kernel, step_pads_kernel
+from grasp_ctrl.limits import step_toward
 
 #: ``tick_checks`` result bits.
 WITHIN_TOLERANCE = 1      # every grasping grip within the ramp tolerance of tau
 RELEASE_BELOW = 2         # the release fingertip's force below -release threshold
 FORCE_NOT_FINITE = 4      # an estimated |f_sensor|^2 is not finite
 OVERFORCE = 8             # the largest |f_sensor| is above the limit (all finite)
+#: ``squeeze_state_tick``'s further bits.
+TICK_DONE = 16            # no fault and no guard held: squeezed and the goal stepped
+PADS_MOVED = 32           # the squeeze moved a fingertip (the motion's posture no longer holds)
+
+#: The squeeze states ``squeeze_state_tick`` takes (GraspController's lift, hold and lower).
+LIFT, HOLD, LOWER = 0, 1, 2
 
 
 @njit
@@ -111,3 +118,50 @@ def move_palm_toward(palm: np.ndarray, target: np.ndarray, step: float) -> None:
         return
     s = step / dist
     palm[0], palm[1], palm[2] = palm[0] + d0 * s, palm[1] + d1 * s, palm[2] + d2 * s
+
+
+@njit
+def squeeze_state_tick(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.ndarray, f_world: np.ndarray,
+                       q_measured: np.ndarray, palm_z: float, grasping: np.ndarray, tau: float, tolerance: float,
+                       floor: float, release_idx: int, release_threshold: float, limit: float, lost: np.ndarray,
+                       state: int, ticks_in_state: int, dt: float, lost_limit_s: float, release_count: int,
+                       release_debounce: int, hold_s: float, lift_top_z: float, reach_tolerance: float,
+                       lower_limit_z: float, gain: float, max_speed: float, q: np.ndarray, targets: np.ndarray,
+                       task_vectors: np.ndarray, geometry: np.ndarray, layout: np.ndarray, damping: float,
+                       normal_targets: np.ndarray, facing: np.ndarray, orient_damping: float, distances: np.ndarray,
+                       move_palm: bool, palm: np.ndarray, palm_goal: np.ndarray, palm_step: float,
+                       compliance: np.ndarray, pad_along: np.ndarray, directions: np.ndarray, pads: np.ndarray,
+                       q_sent: np.ndarray, max_step: float, lower: np.ndarray, upper: np.ndarray) -> int:
+    """One ``GraspController.tick`` in a squeeze state (``LIFT``, ``HOLD``, ``LOWER``) as
+    far as no fault and no transition interrupt it (the snapshot's arrays first, then
+    ``GraspController.squeeze_plan``): ``tick_checks`` (its bits returned, ``lost``
+    updated); then, unless a force check failed, the state's guards as the controller
+    has them (``grip_lost``, and ``at_lift_height``, ``hold_done`` or ``release_detected``
+    and ``lower_exhausted``; ``ticks_in_state`` counts this tick, ``release_count`` is
+    the count before this tick's update). When none holds, the state's action
+    (``squeeze_pads``) and the joint goal's step (``limits.step_toward`` of ``q`` into
+    ``q_sent``), with ``TICK_DONE`` (and ``PADS_MOVED``) set; otherwise nothing more
+    is done and the controller's Python goes on from its guards."""
+    flags = tick_checks(grip, in_contact, f_sensor, f_world, grasping, tau, tolerance, floor, release_idx,
+                        release_threshold, limit, lost)
+    if flags & (FORCE_NOT_FINITE | OVERFORCE):
+        return flags
+    held = False
+    for i in range(lost.shape[0]):   # grip_lost
+        if grasping[i] and lost[i] * dt >= lost_limit_s:
+            held = True
+            break
+    if state == LIFT:
+        held = held or abs(palm_z - lift_top_z) < reach_tolerance
+    elif state == HOLD:
+        held = held or ticks_in_state * dt >= hold_s
+    else:
+        count = release_count + 1 if flags & RELEASE_BELOW else 0
+        held = held or count >= release_debounce or palm_z <= lower_limit_z + 1e-4
+    if held:
+        return flags
+    moved = squeeze_pads(grip, grasping, tau, gain, max_speed, dt, q, targets, task_vectors, geometry, layout, damping,
+                         normal_targets, facing, orient_damping, distances, move_palm, palm, palm_goal, palm_step,
+                         compliance, q_measured, pad_along, directions, pads)
+    step_toward(q, q_sent, max_step, lower, upper)
+    return flags | TICK_DONE | (PADS_MOVED if moved else 0)
