@@ -146,6 +146,7 @@ class GraspController:
         self.snap: Snapshot | None = None
         self.history: list[tuple[float, str, str]] = []   # (t, from, to)
 
+        self._squeeze_cache: dict[int, tuple] = {}   # squeeze_plan's arguments that stay, per squeeze state
         self.machine = build_machine(self, self._reason_setter)
         # The guards of each state's transitions: the machine is triggered only when one
         # holds (guards are pure, so this skips its overhead on the ticks nothing happens).
@@ -332,31 +333,53 @@ class GraspController:
         and a float64 (3,) palm target: every argument of ``tk.squeeze_state_tick`` after
         the snapshot's arrays and its palm height ``palm_z`` (a float) for this tick
         (``ticks_in_state`` counting it), so that a caller can run it, in one compiled call
-        with more (trials/mock_tick.py), before ``squeeze_done``. None otherwise."""
+        with more (trials/mock_tick.py), before ``squeeze_done``. None otherwise. What
+        stays within a state is made once (``_squeeze_statics``)."""
         state = _SQUEEZE_STATES.get(self.state)  # type: ignore[attr-defined]
         p = self.palm_target
         if (state is None or not self._compiled or not self.torque_on or type(p) is not np.ndarray
                 or p.dtype is not _FLOAT64 or p.shape != (3,)):
             return None
-        s, tau, dt = self.s, self.tau, self.dt
+        got = self._squeeze_cache.get(state)
+        facing, ik = self.motion.squeeze_key()
+        if got is None or got[0] is not facing or got[1] is not ik:
+            got = self._squeeze_cache[state] = (facing, ik, self._squeeze_statics(state))
+        statics = got[2]
+        if statics is None:
+            return None
+        s = self.s
         if state == tk.HOLD:
-            move, palm, goal, step = False, self._no_palm, self._no_palm, 0.0
+            palm, step = self._no_palm, 0.0
+        elif state == tk.LIFT:
+            palm, step = p, s.lift_speed_m_s * self.dt
         else:
-            if state == tk.LIFT:
-                goal, speed = self.lift_top, s.lift_speed_m_s
-            else:
-                near = palm_z - self.reach_pose[2] < s.lower_slow_zone_m
-                goal, speed = self.lower_bottom, s.lower_slow_speed_m_s if near else s.lower_speed_m_s
+            near = palm_z - self.reach_pose[2] < s.lower_slow_zone_m
+            palm, step = p, (s.lower_slow_speed_m_s if near else s.lower_speed_m_s) * self.dt
+        q_goal, targets, sent = self.motion.goal_arrays()
+        return statics + (self.ticks_in_state + 1, self.release_count, q_goal, targets, palm, step, sent)
+
+    def _squeeze_statics(self, state: int) -> tuple | None:
+        """``squeeze_plan``'s arguments that stay within a squeeze state: the constants array
+        (``tk.C_TAU``...) and the arrays from the grasp mask to the joint limits; None when
+        the palm goal is not a float64 (3,) array (``_squeeze``'s Python then)."""
+        s, tau, obj = self.s, self.tau, self.obj
+        if state == tk.HOLD:
+            goal, move = self._no_palm, False
+        else:
+            goal, move = (self.lift_top if state == tk.LIFT else self.lower_bottom), True
             if not (type(goal) is np.ndarray and goal.dtype is _FLOAT64 and goal.shape == (3,)):
                 return None
-            move, palm, step = True, p, speed * dt
-        goals, steps = self.motion.squeeze_arrays()
-        obj = self.obj
-        return (self.grasp_mask, tau, s.ramp_tolerance_n, s.grip_lost_fraction * tau, self.release_idx,
-                obj.release_threshold_n, self.hand.safety.max_fingertip_force_n, self._lost, state,
-                self.ticks_in_state + 1, dt, s.contact_lost_s, self.release_count, obj.release_debounce, obj.hold_s,
-                float(self.lift_top[2]), s.reach_tolerance_m, float(self.lower_limit_z), s.hold_gain_m_s_per_n,
-                s.hold_max_speed_m_s, *goals, move, palm, goal, step, *steps)
+        (damping, orient_damping, max_step), before, after = self.motion.squeeze_statics()
+        c = np.empty(tk.N_SQUEEZE_CONSTS)
+        c[tk.C_TAU], c[tk.C_TOLERANCE], c[tk.C_FLOOR] = tau, s.ramp_tolerance_n, s.grip_lost_fraction * tau
+        c[tk.C_RELEASE_IDX], c[tk.C_RELEASE_THRESHOLD] = self.release_idx, obj.release_threshold_n
+        c[tk.C_LIMIT], c[tk.C_STATE], c[tk.C_DT] = self.hand.safety.max_fingertip_force_n, state, self.dt
+        c[tk.C_LOST_S], c[tk.C_DEBOUNCE], c[tk.C_HOLD_S] = s.contact_lost_s, obj.release_debounce, obj.hold_s
+        c[tk.C_LIFT_TOP_Z], c[tk.C_REACH_TOLERANCE] = self.lift_top[2], s.reach_tolerance_m
+        c[tk.C_LOWER_LIMIT_Z], c[tk.C_GAIN], c[tk.C_MAX_SPEED] = self.lower_limit_z, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s
+        c[tk.C_DAMPING], c[tk.C_ORIENT_DAMPING] = damping, orient_damping
+        c[tk.C_MOVE_PALM], c[tk.C_MAX_STEP] = float(move), max_step
+        return (c, self.grasp_mask, self._lost) + before + (goal,) + after
 
     def squeeze_done(self, snap: Snapshot, flags: int) -> Command | None:
         """The rest of ``tick(snap)`` after ``tk.squeeze_state_tick`` ran on its snapshot

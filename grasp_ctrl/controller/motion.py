@@ -25,7 +25,7 @@ from grasp_ctrl.controller.joint_stiffness import joint_stiffness
 from grasp_ctrl.controller.tick_kernels import squeeze_pads
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
-from grasp_ctrl.kinematics.pad_ik import Facing, shared_pad_ik
+from grasp_ctrl.kinematics.pad_ik import Facing, PadIK, shared_pad_ik
 from grasp_ctrl.limits import step_toward
 
 
@@ -171,16 +171,24 @@ class FingertipMotion:
                         self._pad_along, self._directions, self._pads):
             self._posture = None
 
-    def squeeze_arrays(self) -> tuple:
-        """The motion's part of ``tick_kernels.squeeze_state_tick``'s arguments, from the
-        joint goals to the squeeze's scratch (``squeeze``'s, after the palm's, which the
-        caller places), then the goal step's (``next_goal``'s): ``(goals part, step part)``."""
+    def squeeze_statics(self) -> tuple[tuple, tuple, tuple]:
+        """The motion's parts of ``tick_kernels.squeeze_state_tick``'s arguments that stay
+        while the facing and the IK do: ``(constants: IK damping, facing damping and
+        joint step limit; arrays before the palm goal: task vectors to the squeeze's
+        distances; arrays after it: compliance to the joint limits)``."""
         facing = self.facing or self.ik._no_facing
         ik = self.ik
-        return ((self.q_goal, self.targets, self.task_vectors, ik.geometry, ik.layout, IK_DAMPING, facing.normals_hand,
-                 facing.fingers, facing.damping, self._distances),
-                (self.compliance, self._pad_along, self._directions, self._pads, self._q_sent, self.max_step,
-                 self.lower, self.upper))
+        return ((IK_DAMPING, facing.damping, self.max_step),
+                (self.task_vectors, ik.geometry, ik.layout, facing.normals_hand, facing.fingers, self._distances),
+                (self.compliance, self._pad_along, self._directions, self._pads, self.lower, self.upper))
+
+    def squeeze_key(self) -> tuple[Facing | None, PadIK]:
+        """What ``squeeze_statics`` depends on that may be replaced (to compare by identity)."""
+        return self.facing, self.ik
+
+    def goal_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(q_goal, targets, sent goal)``: the arrays a squeeze and the goal step update in place."""
+        return self.q_goal, self.targets, self._q_sent
 
     def squeezed(self) -> None:
         """A squeeze outside ``squeeze`` moved a fingertip (``squeeze_state_tick``'s PADS_MOVED)."""

@@ -31,7 +31,7 @@ import numpy as np
 from grasp_ctrl import jit
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.snapshot import Command, Snapshot
-from grasp_ctrl.controller.tick_kernels import TICK_DONE, squeeze_state_tick
+from grasp_ctrl.controller.tick_kernels import C_TAU, TICK_DONE, squeeze_state_tick
 from grasp_ctrl.jit import njit
 from grasp_ctrl.sim import world_step as ws
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
@@ -110,41 +110,35 @@ OUTPUTS_SHIFT = 8
 def squeeze_outputs(rows: np.ndarray, bits: int, q: np.ndarray, sense_geometry: np.ndarray,
                     sense_layout: np.ndarray, f_sensor: np.ndarray, f_hand: np.ndarray, grip: np.ndarray,
                     contact: np.ndarray, palm_z: float,
-                    grasping: np.ndarray, tau: float, tolerance: float, floor: float, release_idx: int,
-                    release_threshold: float, limit: float, lost: np.ndarray, state: int, ticks_in_state: int,
-                    dt: float, lost_limit_s: float, release_count: int, release_debounce: int, hold_s: float,
-                    lift_top_z: float, reach_tolerance: float, lower_limit_z: float, gain: float, max_speed: float,
-                    q_goal: np.ndarray, targets: np.ndarray, task_vectors: np.ndarray, geometry: np.ndarray,
-                    layout: np.ndarray, damping: float, normal_targets: np.ndarray, facing: np.ndarray,
-                    orient_damping: float, distances: np.ndarray, move_palm: bool, palm_target: np.ndarray,
-                    palm_goal: np.ndarray, palm_step: float, compliance: np.ndarray, pad_along: np.ndarray,
-                    directions: np.ndarray, pads: np.ndarray, q_sent: np.ndarray, max_step: float,
-                    lower: np.ndarray, upper: np.ndarray, command_palm: np.ndarray,
-                    prev_goal: np.ndarray, hand_max_step: float, limits: np.ndarray, z_min: float, z_max: float,
-                    goal_out: np.ndarray, target_out: np.ndarray, true_normal: np.ndarray, peaks: np.ndarray,
-                    block: np.ndarray, row: int, t: float, palm: np.ndarray, raw: np.ndarray, tared: np.ndarray,
-                    true_f: np.ndarray, obj: np.ndarray) -> int:
+                    c: np.ndarray, grasping: np.ndarray, lost: np.ndarray, task_vectors: np.ndarray,
+                    geometry: np.ndarray, layout: np.ndarray, normal_targets: np.ndarray, facing: np.ndarray,
+                    distances: np.ndarray, palm_goal: np.ndarray, compliance: np.ndarray, pad_along: np.ndarray,
+                    directions: np.ndarray, pads: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+                    ticks_in_state: int, release_count: int, q_goal: np.ndarray, targets: np.ndarray,
+                    palm_target: np.ndarray, palm_step: float, q_sent: np.ndarray,
+                    command_palm: np.ndarray, prev_goal: np.ndarray, hand_max_step: float, limits: np.ndarray,
+                    z_min: float, z_max: float, goal_out: np.ndarray, target_out: np.ndarray, true_normal: np.ndarray,
+                    peaks: np.ndarray, block: np.ndarray, row: int, t: float, palm: np.ndarray, raw: np.ndarray,
+                    tared: np.ndarray, true_f: np.ndarray, obj: np.ndarray) -> int:
     """A squeeze state's tick after the policy's product, in one call: the policy's
     ``rows`` placed and turned into ``f_sensor``, ``f_hand`` and ``grip``
     (``place_forces``; ``FORCES_NOT_FINITE`` when one is not finite: nothing else
     done), then the controller's tick (``squeeze_state_tick`` with the arguments of
-    ``GraspController.squeeze_plan``, ``grasping`` to ``upper``: its bits returned) and,
+    ``GraspController.squeeze_plan``, ``c`` to ``q_sent``: its bits returned) and,
     when that finished the tick (``TICK_DONE``), the command's outputs, peaks and log
     row (``mock_outputs`` of the sent goal ``q_sent`` and the controller's palm target
     ``command_palm``, its result in the bits from ``OUTPUTS_SHIFT``)."""
     if not place_forces(rows, bits, q, sense_geometry, sense_layout, f_sensor, f_hand, grip):
         return FORCES_NOT_FINITE
-    flags = squeeze_state_tick(grip, contact, f_sensor, f_hand, q, palm_z, grasping, tau, tolerance, floor,
-                               release_idx, release_threshold, limit, lost, state, ticks_in_state, dt, lost_limit_s,
-                               release_count, release_debounce, hold_s, lift_top_z, reach_tolerance, lower_limit_z,
-                               gain, max_speed, q_goal, targets, task_vectors, geometry, layout, damping,
-                               normal_targets, facing, orient_damping, distances, move_palm, palm_target, palm_goal,
-                               palm_step, compliance, pad_along, directions, pads, q_sent, max_step, lower, upper)
+    flags = squeeze_state_tick(grip, contact, f_sensor, f_hand, q, palm_z, c, grasping, lost, task_vectors, geometry,
+                               layout, normal_targets, facing, distances, palm_goal, compliance, pad_along, directions,
+                               pads, lower, upper, ticks_in_state, release_count, q_goal, targets, palm_target,
+                               palm_step, q_sent)
     if not flags & TICK_DONE:
         return flags
     done = mock_outputs(q_sent, command_palm, prev_goal, hand_max_step, limits, z_min, z_max, goal_out, target_out,
-                        f_sensor, grip, true_normal, peaks, block, row, t, palm, tau, raw, contact, tared, f_hand, q,
-                        true_f, obj)
+                        f_sensor, grip, true_normal, peaks, block, row, t, palm, c[C_TAU], raw, contact, tared, f_hand,
+                        q, true_f, obj)
     return flags | (done << OUTPUTS_SHIFT)
 
 
