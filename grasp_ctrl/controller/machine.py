@@ -55,6 +55,10 @@ TRANSITIONS: list[tuple[str, str, str, str | None]] = [
 ]
 
 
+#: The states whose usual tick runs in one compiled call (GraspController._squeeze_state_tick).
+_SQUEEZE_STATES = {"lift": tk.LIFT, "hold": tk.HOLD, "lower": tk.LOWER}
+
+
 def _distance(a: np.ndarray, b: np.ndarray) -> float:
     d = a - b
     return math.sqrt(float(d.dot(d)))   # = np.linalg.norm(d), without its overhead
@@ -142,6 +146,7 @@ class GraspController:
         self.snap: Snapshot | None = None
         self.history: list[tuple[float, str, str]] = []   # (t, from, to)
 
+        self._squeeze_cache: dict[int, tuple] = {}   # squeeze_plan's arguments that stay, per squeeze state
         self.machine = build_machine(self, self._reason_setter)
         # The guards of each state's transitions: the machine is triggered only when one
         # holds (guards are pure, so this skips its overhead on the ticks nothing happens).
@@ -323,35 +328,136 @@ class GraspController:
         self.release_count = self.release_count + 1 if flags & tk.RELEASE_BELOW else 0
         return flags & (tk.FORCE_NOT_FINITE | tk.OVERFORCE)
 
+    def squeeze_plan(self, palm_z: float) -> tuple | None:
+        """In a squeeze state (lift, hold, lower) with the compiled kernels, the torque on
+        and a float64 (3,) palm target: every argument of ``tk.squeeze_state_tick`` after
+        the snapshot's arrays and its palm height ``palm_z`` (a float) for this tick
+        (``ticks_in_state`` counting it), so that a caller can run it, in one compiled call
+        with more (trials/mock_tick.py), before ``squeeze_done``. None otherwise. What
+        stays within a state is made once (``_squeeze_statics``)."""
+        state = _SQUEEZE_STATES.get(self.state)  # type: ignore[attr-defined]
+        p = self.palm_target
+        if (state is None or not self._compiled or not self.torque_on or type(p) is not np.ndarray
+                or p.dtype is not _FLOAT64 or p.shape != (3,)):
+            return None
+        got = self._squeeze_cache.get(state)
+        facing, ik = self.motion.squeeze_key()
+        if got is None or got[0] is not facing or got[1] is not ik:
+            got = self._squeeze_cache[state] = (facing, ik, self._squeeze_statics(state))
+        statics = got[2]
+        if statics is None:
+            return None
+        s = self.s
+        if state == tk.HOLD:
+            palm, step = self._no_palm, 0.0
+        elif state == tk.LIFT:
+            palm, step = p, s.lift_speed_m_s * self.dt
+        else:
+            near = palm_z - self.reach_pose[2] < s.lower_slow_zone_m
+            palm, step = p, (s.lower_slow_speed_m_s if near else s.lower_speed_m_s) * self.dt
+        q_goal, targets, sent = self.motion.goal_arrays()
+        return statics + (self.ticks_in_state + 1, self.release_count, q_goal, targets, palm, step, sent)
+
+    def _squeeze_statics(self, state: int) -> tuple | None:
+        """``squeeze_plan``'s arguments that stay within a squeeze state: the constants array
+        (``tk.C_TAU``...) and the arrays from the grasp mask to the joint limits; None when
+        the palm goal is not a float64 (3,) array (``_squeeze``'s Python then)."""
+        s, tau, obj = self.s, self.tau, self.obj
+        if state == tk.HOLD:
+            goal, move = self._no_palm, False
+        else:
+            goal, move = (self.lift_top if state == tk.LIFT else self.lower_bottom), True
+            if not (type(goal) is np.ndarray and goal.dtype is _FLOAT64 and goal.shape == (3,)):
+                return None
+        (damping, orient_damping, max_step), before, after = self.motion.squeeze_statics()
+        c = np.empty(tk.N_SQUEEZE_CONSTS)
+        c[tk.C_TAU], c[tk.C_TOLERANCE], c[tk.C_FLOOR] = tau, s.ramp_tolerance_n, s.grip_lost_fraction * tau
+        c[tk.C_RELEASE_IDX], c[tk.C_RELEASE_THRESHOLD] = self.release_idx, obj.release_threshold_n
+        c[tk.C_LIMIT], c[tk.C_STATE], c[tk.C_DT] = self.hand.safety.max_fingertip_force_n, state, self.dt
+        c[tk.C_LOST_S], c[tk.C_DEBOUNCE], c[tk.C_HOLD_S] = s.contact_lost_s, obj.release_debounce, obj.hold_s
+        c[tk.C_LIFT_TOP_Z], c[tk.C_REACH_TOLERANCE] = self.lift_top[2], s.reach_tolerance_m
+        c[tk.C_LOWER_LIMIT_Z], c[tk.C_GAIN], c[tk.C_MAX_SPEED] = self.lower_limit_z, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s
+        c[tk.C_DAMPING], c[tk.C_ORIENT_DAMPING] = damping, orient_damping
+        c[tk.C_MOVE_PALM], c[tk.C_MAX_STEP] = float(move), max_step
+        return (c, self.grasp_mask, self._lost) + before + (goal,) + after
+
+    def squeeze_done(self, snap: Snapshot, flags: int) -> Command | None:
+        """The rest of ``tick(snap)`` after ``tk.squeeze_state_tick`` ran on its snapshot
+        with ``squeeze_plan``'s arguments (``flags``: its result): the counters, then, with
+        ``tk.TICK_DONE``, None (the command is the motion's ``sent_goal`` and the palm
+        target); without it, the tick's failure checks, guards and action as ``tick`` has
+        them, and its command."""
+        self.snap = snap
+        self.ticks_in_state += 1
+        self.settle_count = self.settle_count + 1 if flags & tk.WITHIN_TOLERANCE else 0
+        self.release_count = self.release_count + 1 if flags & tk.RELEASE_BELOW else 0
+        if flags & tk.PADS_MOVED:
+            self.motion.squeezed()
+        if flags & tk.TICK_DONE:
+            return None
+        self._decide(snap, flags & (tk.FORCE_NOT_FINITE | tk.OVERFORCE), self.hand.safety.max_fingertip_force_n)
+        self._act(snap)
+        return Command(self.motion.next_goal(), self.palm_target.copy(), self.torque_on)  # type: ignore[union-attr]
+
+    def _squeeze_state_tick(self, snap: Snapshot) -> Command | None:
+        """``tick`` in a squeeze state through ``squeeze_plan``, ``tk.squeeze_state_tick`` and
+        ``squeeze_done``, for a snapshot without fault or variance whose arrays
+        ``_compiled_checks`` and ``_squeeze`` would take; None (nothing done) otherwise."""
+        nd = np.ndarray
+        grip, f_sensor, f_world, contact, q = snap.grip_n, snap.f_sensor, snap.f_world, snap.in_contact, snap.q
+        if not (snap.fault is None and snap.variance is None and type(grip) is nd and type(f_sensor) is nd
+                and type(f_world) is nd and type(contact) is nd and type(q) is nd and grip.dtype is _FLOAT64
+                and f_sensor.dtype is _FLOAT64 and f_world.dtype is _FLOAT64 and q.dtype is _FLOAT64
+                and grip.shape == self._tip_shape and contact.shape == self._tip_shape
+                and f_sensor.shape == self._force_shape and f_world.shape == self._force_shape
+                and q.shape == self.motion.q_goal.shape):
+            return None
+        palm_z = float(snap.p_palm_world[2])
+        plan = self.squeeze_plan(palm_z)
+        if plan is None:
+            return None
+        flags = tk.squeeze_state_tick(grip, contact, f_sensor, f_world, q, palm_z, *plan)
+        cmd = self.squeeze_done(snap, flags)
+        return cmd if cmd is not None else Command(self.motion.sent_goal(), self.palm_target.copy(), self.torque_on)  # type: ignore[union-attr]
+
     def tick(self, snap: Snapshot) -> Command:
         self.snap = snap
         if self.palm_target is None:
             self.palm_target = snap.p_palm_world.copy()
             self.motion.sync(snap.q)
         if not self.terminal:
+            if self.state in _SQUEEZE_STATES:  # type: ignore[attr-defined]
+                cmd = self._squeeze_state_tick(snap)   # the usual tick of a squeeze state, compiled
+                if cmd is not None:
+                    return cmd
             self.ticks_in_state += 1
             limit = self.hand.safety.max_fingertip_force_n
             checks = self._compiled_checks(snap, limit)
             if checks < 0:   # the Python way
                 self._update_counters(snap)
                 checks = self._force_checks(snap, limit)
-            if snap.fault:
-                self.fail(reason=snap.fault, detail=snap.fault_detail)
-            elif checks & tk.FORCE_NOT_FINITE:
-                # never let NaN slip past the over-force comparison (NaN > x is False)
-                self.fail(reason="estimate_invalid", detail="non-finite estimated force in the snapshot")
-            elif checks & tk.OVERFORCE:   # all finite here
-                force_sq = self._force_sq(snap)
-                i = force_sq.index(max(force_sq))
-                self.fail(reason="overforce",
-                          detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {math.sqrt(force_sq[i]):.2f} N > {limit:g} N")
-            else:
-                for guard in self._guards[self.state]:  # type: ignore[attr-defined]
-                    if guard():
-                        self.step()
-                        break
+            self._decide(snap, checks, limit)
         self._act(snap)
         return Command(self.motion.next_goal(), self.palm_target.copy(), self.torque_on)   # (positional: cheaper)
+
+    def _decide(self, snap: Snapshot, checks: int, limit: float) -> None:
+        """A fault of the snapshot or of the force checks (``checks``: ``_compiled_checks``' bits),
+        else the first transition whose guard holds."""
+        if snap.fault:
+            self.fail(reason=snap.fault, detail=snap.fault_detail)
+        elif checks & tk.FORCE_NOT_FINITE:
+            # never let NaN slip past the over-force comparison (NaN > x is False)
+            self.fail(reason="estimate_invalid", detail="non-finite estimated force in the snapshot")
+        elif checks & tk.OVERFORCE:   # all finite here
+            force_sq = self._force_sq(snap)
+            i = force_sq.index(max(force_sq))
+            self.fail(reason="overforce",
+                      detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {math.sqrt(force_sq[i]):.2f} N > {limit:g} N")
+        else:
+            for guard in self._guards[self.state]:  # type: ignore[attr-defined]
+                if guard():
+                    self.step()
+                    break
 
     def safe_command(self, snap: Snapshot) -> Command:
         """The safe action from the measured pose, discarding the motion state (after a

@@ -25,7 +25,7 @@ from grasp_ctrl.controller.joint_stiffness import joint_stiffness
 from grasp_ctrl.controller.tick_kernels import squeeze_pads
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
-from grasp_ctrl.kinematics.pad_ik import Facing, shared_pad_ik
+from grasp_ctrl.kinematics.pad_ik import Facing, PadIK, shared_pad_ik
 from grasp_ctrl.limits import step_toward
 
 
@@ -170,6 +170,33 @@ class FingertipMotion:
                         self._distances, move_palm, palm, palm_goal, palm_step, self.compliance, q_measured,
                         self._pad_along, self._directions, self._pads):
             self._posture = None
+
+    def squeeze_statics(self) -> tuple[tuple, tuple, tuple]:
+        """The motion's parts of ``tick_kernels.squeeze_state_tick``'s arguments that stay
+        while the facing and the IK do: ``(constants: IK damping, facing damping and
+        joint step limit; arrays before the palm goal: task vectors to the squeeze's
+        distances; arrays after it: compliance to the joint limits)``."""
+        facing = self.facing or self.ik._no_facing
+        ik = self.ik
+        return ((IK_DAMPING, facing.damping, self.max_step),
+                (self.task_vectors, ik.geometry, ik.layout, facing.normals_hand, facing.fingers, self._distances),
+                (self.compliance, self._pad_along, self._directions, self._pads, self.lower, self.upper))
+
+    def squeeze_key(self) -> tuple[Facing | None, PadIK]:
+        """What ``squeeze_statics`` depends on that may be replaced (to compare by identity)."""
+        return self.facing, self.ik
+
+    def goal_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(q_goal, targets, sent goal)``: the arrays a squeeze and the goal step update in place."""
+        return self.q_goal, self.targets, self._q_sent
+
+    def squeezed(self) -> None:
+        """A squeeze outside ``squeeze`` moved a fingertip (``squeeze_state_tick``'s PADS_MOVED)."""
+        self._posture = None
+
+    def sent_goal(self) -> np.ndarray:
+        """A copy of the goal last sent (``next_goal``'s result, after ``squeeze_tick`` stepped it)."""
+        return self._q_sent.copy()
 
     def next_goal(self) -> np.ndarray:
         """The goal to send this tick: toward q_goal, at most max_step per joint."""

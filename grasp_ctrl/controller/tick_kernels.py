@@ -16,12 +16,19 @@ import numpy as np
 
 from grasp_ctrl.jit import njit
 from grasp_ctrl.kinematics.pad_ik import advance_pads_kernel, squeeze_targets_kernel, step_pads_kernel
+from grasp_ctrl.limits import step_toward
 
 #: ``tick_checks`` result bits.
 WITHIN_TOLERANCE = 1      # every grasping grip within the ramp tolerance of tau
 RELEASE_BELOW = 2         # the release fingertip's force below -release threshold
 FORCE_NOT_FINITE = 4      # an estimated |f_sensor|^2 is not finite
 OVERFORCE = 8             # the largest |f_sensor| is above the limit (all finite)
+#: ``squeeze_state_tick``'s further bits.
+TICK_DONE = 16            # no fault and no guard held: squeezed and the goal stepped
+PADS_MOVED = 32           # the squeeze moved a fingertip (the motion's posture no longer holds)
+
+#: The squeeze states ``squeeze_state_tick`` takes (GraspController's lift, hold and lower).
+LIFT, HOLD, LOWER = 0, 1, 2
 
 
 @njit
@@ -111,3 +118,61 @@ def move_palm_toward(palm: np.ndarray, target: np.ndarray, step: float) -> None:
         return
     s = step / dist
     palm[0], palm[1], palm[2] = palm[0] + d0 * s, palm[1] + d1 * s, palm[2] + d2 * s
+
+
+#: ``squeeze_state_tick``'s constants (one float64 array, GraspController.squeeze_plan):
+#: tau, ramp tolerance, grip-lost floor, release fingertip (index), release threshold,
+#: force limit, state (LIFT, HOLD, LOWER), dt, contact-lost time, release debounce,
+#: hold time, lift height, reach tolerance, lowest palm height, squeeze gain and
+#: speed limit, IK damping, facing damping, whether the palm moves, joint step limit.
+(C_TAU, C_TOLERANCE, C_FLOOR, C_RELEASE_IDX, C_RELEASE_THRESHOLD, C_LIMIT, C_STATE, C_DT, C_LOST_S, C_DEBOUNCE,
+ C_HOLD_S, C_LIFT_TOP_Z, C_REACH_TOLERANCE, C_LOWER_LIMIT_Z, C_GAIN, C_MAX_SPEED, C_DAMPING, C_ORIENT_DAMPING,
+ C_MOVE_PALM, C_MAX_STEP) = range(20)
+N_SQUEEZE_CONSTS = 20
+
+
+@njit
+def squeeze_state_tick(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.ndarray, f_world: np.ndarray,
+                       q_measured: np.ndarray, palm_z: float, c: np.ndarray, grasping: np.ndarray, lost: np.ndarray,
+                       task_vectors: np.ndarray, geometry: np.ndarray, layout: np.ndarray, normal_targets: np.ndarray,
+                       facing: np.ndarray, distances: np.ndarray, palm_goal: np.ndarray, compliance: np.ndarray,
+                       pad_along: np.ndarray, directions: np.ndarray, pads: np.ndarray, lower: np.ndarray,
+                       upper: np.ndarray, ticks_in_state: int, release_count: int, q: np.ndarray,
+                       targets: np.ndarray, palm: np.ndarray, palm_step: float, q_sent: np.ndarray) -> int:
+    """One ``GraspController.tick`` in a squeeze state (``LIFT``, ``HOLD``, ``LOWER``) as
+    far as no fault and no transition interrupt it (the snapshot's arrays first, then
+    ``GraspController.squeeze_plan``: the constants ``c`` (``C_TAU``...), the arrays that
+    stay, then what changes from tick to tick): ``tick_checks`` (its bits returned,
+    ``lost`` updated); then, unless a force check failed, the state's guards as the
+    controller has them (``grip_lost``, and ``at_lift_height``, ``hold_done`` or
+    ``release_detected`` and ``lower_exhausted``; ``ticks_in_state`` counts this tick,
+    ``release_count`` is the count before this tick's update). When none holds, the
+    state's action (``squeeze_pads``) and the joint goal's step (``limits.step_toward``
+    of ``q`` into ``q_sent``), with ``TICK_DONE`` (and ``PADS_MOVED``) set; otherwise
+    nothing more is done and the controller's Python goes on from its guards."""
+    tau, dt = c[C_TAU], c[C_DT]
+    flags = tick_checks(grip, in_contact, f_sensor, f_world, grasping, tau, c[C_TOLERANCE], c[C_FLOOR],
+                        int(c[C_RELEASE_IDX]), c[C_RELEASE_THRESHOLD], c[C_LIMIT], lost)
+    if flags & (FORCE_NOT_FINITE | OVERFORCE):
+        return flags
+    held = False
+    for i in range(lost.shape[0]):   # grip_lost
+        if grasping[i] and lost[i] * dt >= c[C_LOST_S]:
+            held = True
+            break
+    state = int(c[C_STATE])
+    if state == LIFT:
+        held = held or abs(palm_z - c[C_LIFT_TOP_Z]) < c[C_REACH_TOLERANCE]
+    elif state == HOLD:
+        held = held or ticks_in_state * dt >= c[C_HOLD_S]
+    else:
+        count = release_count + 1 if flags & RELEASE_BELOW else 0
+        held = held or count >= c[C_DEBOUNCE] or palm_z <= c[C_LOWER_LIMIT_Z] + 1e-4
+    if held:
+        return flags
+    moved = squeeze_pads(grip, grasping, tau, c[C_GAIN], c[C_MAX_SPEED], dt, q, targets, task_vectors, geometry,
+                         layout, c[C_DAMPING], normal_targets, facing, c[C_ORIENT_DAMPING], distances,
+                         c[C_MOVE_PALM] != 0.0, palm, palm_goal, palm_step, compliance, q_measured, pad_along,
+                         directions, pads)
+    step_toward(q, q_sent, c[C_MAX_STEP], lower, upper)
+    return flags | TICK_DONE | (PADS_MOVED if moved else 0)

@@ -103,16 +103,8 @@ MAX_TURN_RAD = 0.01
 
 
 @njit
-def _damped_gram(J, active, n, damping):
-    """J J^T + damping^2 I over the active joints' columns of J (3, n)."""
-    A = np.empty((3, 3))
-    _damped_gram_into(J, active, n, damping, A)
-    return A
-
-
-@njit
 def _damped_gram_into(J, active, n, damping, A):
-    """``_damped_gram`` into A (3, 3)."""
+    """J J^T + damping^2 I over the active joints' columns of J (3, n), into A (3, 3)."""
     for r in range(3):
         for c in range(3):
             A[r, c] = 0.0
@@ -126,25 +118,27 @@ def _damped_gram_into(J, active, n, damping, A):
 
 
 @njit
-def _inverse3(A):
-    """The inverse of a symmetric positive definite 3x3 A (by columns, ``_solve3``)."""
-    out = np.empty((3, 3))
-    e = np.zeros(3)
-    for c in range(3):
-        e[:] = 0.0
-        e[c] = 1.0
-        out[:, c] = _solve3(A, e)
-    return out
+def _facing_scratch(nmax):
+    """Scratch arrays of ``_facing_step`` for chains of up to ``nmax`` joints."""
+    return (np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty((3, 3)), np.empty(3), np.empty((nmax, nmax)),
+            np.empty((nmax, 3)), np.empty((3, 3)), np.empty(3), np.empty(3))
 
 
 @njit
-def _facing_step(J, Jn, dn, active, n, damping, orient_damping, dq1, dq):
+def _facing_step(J, Jn, dn, active, n, damping, orient_damping, dq1, dq, A, Ainv, unit, M, x, N, W, C, e, y):
     """``dq`` <- dq1 plus the step in the position task's null space that turns the
     pad normal by ``dn`` (minus what dq1 already turns it) as far as the spare joints
     allow: N Jn^T (Jn N Jn^T + mu^2 I)^-1 (dn - Jn dq1), N = I - J^T (J J^T + l^2 I)^-1 J,
-    inactive joints (columns of J and Jn) left out."""
-    Ainv = _inverse3(_damped_gram(J, active, n, damping))
-    N = np.zeros((n, n))
+    inactive joints (columns of J and Jn) left out. ``A`` to ``y``: scratch
+    (``_facing_scratch``, made once per IK call rather than per finger)."""
+    _damped_gram_into(J, active, n, damping, A)
+    for c in range(3):   # Ainv = A^-1, by columns
+        for r in range(3):
+            unit[r] = 0.0
+        unit[c] = 1.0
+        _solve3_into(A, unit, M, x)
+        for r in range(3):
+            Ainv[r, c] = x[r]
     for i in range(n):
         for k in range(n):
             acc = 0.0
@@ -153,15 +147,16 @@ def _facing_step(J, Jn, dn, active, n, damping, orient_damping, dq1, dq):
                     for c in range(3):
                         acc += J[r, i] * Ainv[r, c] * J[c, k]
             N[i, k] = (1.0 if i == k else 0.0) - acc
-    W = np.zeros((n, 3))         # N Jn^T, active columns only
-    for i in range(n):
+    for i in range(n):          # W = N Jn^T, active columns only
         for r in range(3):
             acc = 0.0
             for k in range(n):
                 if active[k]:
                     acc += N[i, k] * Jn[r, k]
             W[i, r] = acc if active[i] else 0.0
-    C = np.zeros((3, 3))
+    for r in range(3):
+        for c in range(3):
+            C[r, c] = 0.0
     for r in range(3):
         C[r, r] = orient_damping * orient_damping
         for c in range(3):
@@ -170,30 +165,20 @@ def _facing_step(J, Jn, dn, active, n, damping, orient_damping, dq1, dq):
                 if active[i]:
                     acc += Jn[r, i] * W[i, c]
             C[r, c] += acc
-    e = np.empty(3)
     for r in range(3):
         acc = dn[r]
         for i in range(n):
             if active[i]:
                 acc -= Jn[r, i] * dq1[i]
         e[r] = acc
-    y = _solve3(C, e)
+    _solve3_into(C, e, M, y)
     for i in range(n):
         dq[i] = dq1[i] + (W[i, 0] * y[0] + W[i, 1] * y[1] + W[i, 2] * y[2])
 
 
 @njit
-def _solve3(A, b):
-    """x with A x = b for a 3x3 A (Gaussian elimination, partial pivoting)."""
-    M = np.empty((3, 3))
-    x = np.empty(3)
-    _solve3_into(A, b, M, x)
-    return x
-
-
-@njit
 def _solve3_into(A, b, M, x):
-    """``_solve3`` into x (3,); M (3, 3) is scratch."""
+    """x (3,) with A x = b for a 3x3 A (Gaussian elimination, partial pivoting); M (3, 3) is scratch."""
     for r in range(3):
         x[r] = b[r]
         for c in range(3):
@@ -236,6 +221,7 @@ def _step_pads(q, targets, move, starts, counts, R_base, p_base, R_org, p_org, K
     dq1, dq = np.empty(nmax), np.empty(nmax)
     active = np.empty(nmax, dtype=np.bool_)
     A, M, x = np.empty((3, 3)), np.empty((3, 3)), np.empty(3)
+    fA, fAinv, funit, fM, fx, fN, fW, fC, fe, fy = _facing_scratch(nmax)
     for f in range(len(move)):
         if not move[f]:
             continue
@@ -273,7 +259,8 @@ def _step_pads(q, targets, move, starts, counts, R_base, p_base, R_org, p_org, K
         if facing[f] and any_active:
             for i in range(n):
                 dq1[i] = dq[i]
-            _facing_step(J, Jn, dn, active, n, damping, orient_damping, dq1, dq)
+            _facing_step(J, Jn, dn, active, n, damping, orient_damping, dq1, dq, fA, fAinv, funit, fM, fx, fN, fW,
+                         fC, fe, fy)
             _keep_within(q, s, n, dq1, dq, lower, upper)
         for i in range(n):
             q[s + i] = min(max(q[s + i] + dq[i], lower[s + i]), upper[s + i])

@@ -149,6 +149,62 @@ def _clamped_target(p: np.ndarray, z_min: float, z_max: float, out: np.ndarray) 
     return True
 
 
+#: The world's own float arrays packed into one buffer (MockWorld._pack_state), in world_step's order,
+#: then the step's watch levels.
+PACKED = ("_q_servo", "_q", "lower", "upper", "_reach", "tau_max", "_palm", "_pad_local", "_contact_sensor",
+          "_skin_normal_sensor", "_shape", "_obj", "_normal_n", "_stick_offset", "_slip_speed", "_n_out_world",
+          "_contact_z", "_omega", "_tangential_up_n", "_f_world", "_f_sensor", "_rows", "_consts", "_watch")
+#: ``_watch``: the highest object height, the height before the last step, the grip that
+#: may crush the object (inf: it cannot be crushed), the table force that may knock it over.
+MAX_Z, PREV_Z, CRUSH_N, TIP_N = range(4)
+
+
+@njit
+def _part(state: np.ndarray, layout: np.ndarray, k: int) -> np.ndarray:
+    """Array ``k`` of a packed state: a one-dimensional view."""
+    return state[layout[k, 0]:layout[k, 0] + layout[k, 1]]
+
+
+@njit
+def _part2(state: np.ndarray, layout: np.ndarray, k: int) -> np.ndarray:
+    """Array ``k`` of a packed state: a (rows, columns) view."""
+    start, rows, cols = layout[k, 0], layout[k, 1], layout[k, 2]
+    return state[start:start + rows * cols].reshape((rows, cols))
+
+
+@njit
+def step_packed(torque_on: float, q_goal: np.ndarray, palm_target: np.ndarray, frame_base: np.ndarray,
+                sensor_t: float, frame_out: np.ndarray, state: np.ndarray, layout: np.ndarray, take: np.ndarray,
+                W: np.ndarray, starts: np.ndarray, counts: np.ndarray, touch: np.ndarray, sensor_state: np.ndarray,
+                sensor_gain: np.ndarray, sensor_consts: np.ndarray) -> bool:
+    """``MockWorld.step``'s arithmetic on a world whose float arrays are views of ``state``
+    (``PACKED``, ``layout``: start, rows, columns of each): the torque flag into the
+    constants, the object height before (``_watch[PREV_Z]``), ``world_step``, then the
+    highest height (``_watch[MAX_Z]``). True when ``MockWorld._record`` may have an
+    event to note: a new contact, a fall to the table, a grip or table force past its
+    watch level (``_record`` decides)."""
+    c = _part(state, layout, 22)
+    watch = _part(state, layout, 23)
+    obj = _part(state, layout, 11)
+    c[ws.TORQUE_ON] = torque_on
+    prev_z = obj[ws.OZ]
+    watch[PREV_Z] = prev_z
+    ws.world_step(q_goal, palm_target, frame_base, sensor_t, frame_out,
+                  _part(state, layout, 0), _part(state, layout, 1), _part(state, layout, 2), _part(state, layout, 3),
+                  _part(state, layout, 4), _part(state, layout, 5), starts, counts, _part(state, layout, 6), take, W,
+                  _part(state, layout, 7), _part2(state, layout, 8), _part2(state, layout, 9),
+                  _part(state, layout, 10), _part(state, layout, 11), _part(state, layout, 12), touch,
+                  _part(state, layout, 13), _part(state, layout, 14), _part2(state, layout, 15),
+                  _part(state, layout, 16), _part2(state, layout, 17), _part(state, layout, 18),
+                  _part2(state, layout, 19), _part2(state, layout, 20), _part2(state, layout, 21),
+                  _part(state, layout, 22), sensor_state, sensor_gain, sensor_consts)
+    z = obj[ws.OZ]
+    if z > watch[MAX_Z]:
+        watch[MAX_Z] = z
+    return (obj[ws.NEW_CONTACTS] != 0.0 or (prev_z > 0.002 and z == 0.0) or obj[ws.MAX_NORMAL] > watch[CRUSH_N]
+            or obj[ws.TABLE_N] - c[ws.WEIGHT] > watch[TIP_N])
+
+
 def checked_palm_target(p: np.ndarray) -> np.ndarray:
     """A wrist target as a (3,) float array (a copy); ValueError unless every coordinate is finite."""
     if jit.JIT and type(p) is np.ndarray and p.dtype is _FLOAT64 and p.shape == (3,):
@@ -188,7 +244,10 @@ class MockWorld:
         self.k_contact = obj.stiffness_n_per_m * (1.0 + p.stiffness_jitter * rng.uniform(-1, 1))
         self._weight = self.mass * GRAVITY
         self._obj = np.array([xy[0], xy[1], 0.0, self._weight, 0.0, 0.0])
-        self.max_obj_z = 0.0
+        # The highest object height, the height before the last step, and the levels past
+        # which a step's grip or table force may be an event (_record; read by step_packed).
+        crush = obj.crush_force_n if obj.deformable and obj.crush_force_n is not None else math.inf
+        self._watch = np.array([0.0, 0.0, crush, obj.tip_force_n])
 
         # Hand and arm.
         joints = hand.joints
@@ -238,6 +297,7 @@ class MockWorld:
         contract(self._q_servo, self._take, self._W, self._rows)
         self.raw = self._sense()
         sens = self.sensors
+        self._pack_state()
         # The world's own arrays, bound once: the kernel updates them in place.
         self._arrays = (
             self._q_servo, self._q, self.lower, self.upper, self._reach, self.tau_max, self._starts, self._counts,
@@ -246,10 +306,31 @@ class MockWorld:
             self._n_out_world, self._contact_z, self._omega, self._tangential_up_n, self._f_world, self._f_sensor,
             self._rows, self._consts, sens.state, sens.gain, sens.consts,
         )
+        # What the packed step (step_packed) takes besides the state buffer and its layout.
+        self._packed_args = (self._take, self._W, self._starts, self._counts, self._in_contact, sens.state, sens.gain,
+                             sens.consts)
 
         self.events: list[WorldEvent] = []
         self.crushed = False
         self.knocked_over = False
+
+    def _pack_state(self) -> None:
+        """Move the world's own float arrays (``PACKED``, in that order) into one buffer,
+        each attribute becoming its view (same values, updated in place as before): the
+        compiled step then takes one array for 23 (``step_packed``), and a compiled
+        call's cost grows with the arrays it is handed."""
+        arrays = [getattr(self, name) for name in PACKED]
+        layout = np.zeros((len(arrays), 3), dtype=np.int64)   # start, rows, columns (0: one-dimensional)
+        at = 0
+        for k, a in enumerate(arrays):
+            layout[k] = at, a.shape[0], a.shape[1] if a.ndim == 2 else 0
+            at += a.size
+        state = np.empty(at)
+        for k, (name, a) in enumerate(zip(PACKED, arrays)):
+            view = state[layout[k, 0]:layout[k, 0] + a.size].reshape(a.shape)
+            view[...] = a
+            setattr(self, name, view)
+        self._state, self._layout = state, layout
 
     # ----- state --------------------------------------------------------------
     @property
@@ -349,15 +430,34 @@ class MockWorld:
     # ----- stepping -------------------------------------------------------
     def step(self) -> None:
         self.t += self.dt
+        sens = self.sensors
+        if jit.JIT:   # the same kernel on the same arrays, handed over as one buffer (compiled: cheaper to call)
+            frame_base = sens.advance(self.dt)
+            raw = np.empty(self.raw.shape, dtype=self.raw.dtype)   # a new array each step: frames delivered earlier keep theirs
+            events = step_packed(1.0 if self.torque_on else 0.0, self._q_goal, self._palm_target, frame_base, sens.t,
+                                 raw, self._state, self._layout, *self._packed_args)
+            self.raw = raw
+            self.seq = (self.seq + 1) & 0xFFFF
+            if events:
+                self._record(float(self._watch[PREV_Z]))
+            return
         self._consts[ws.TORQUE_ON] = 1.0 if self.torque_on else 0.0
         prev_z = self._obj[ws.OZ]
-        sens = self.sensors
         frame_base = sens.advance(self.dt)
-        raw = np.empty(self.raw.shape, dtype=self.raw.dtype)   # a new array each step: frames delivered earlier keep theirs
+        raw = np.empty(self.raw.shape, dtype=self.raw.dtype)
         ws.world_step(self._q_goal, self._palm_target, frame_base, sens.t, raw, *self._arrays)
         self.raw = raw
         self.seq = (self.seq + 1) & 0xFFFF
         self._record(prev_z)
+
+    @property
+    def max_obj_z(self) -> float:
+        """The highest object height so far (m)."""
+        return float(self._watch[MAX_Z])
+
+    @max_obj_z.setter
+    def max_obj_z(self, z: float) -> None:
+        self._watch[MAX_Z] = z
 
     def _sense(self) -> np.ndarray:
         """Frames of the current contact state (at start-up; ``step`` makes its own)."""

@@ -31,13 +31,14 @@ import numpy as np
 from grasp_ctrl import jit
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.snapshot import Command, Snapshot
+from grasp_ctrl.controller.tick_kernels import C_TAU, TICK_DONE, squeeze_state_tick
 from grasp_ctrl.jit import njit
 from grasp_ctrl.sim import world_step as ws
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
 from grasp_ctrl.sim.world import MockWorld, _clamped_target, _limited_goal
 from grasp_ctrl.trials.pipeline import SensingPipeline
 from grasp_ctrl.trials.tick import control_tick, send_command
-from grasp_ctrl.trials.tick_kernels import log_row, sense_inputs, track_peaks
+from grasp_ctrl.trials.tick_kernels import log_row, place_forces, sense_inputs, track_peaks
 from grasp_ctrl.trials.ticklog import TickLog
 
 _FLOAT64 = np.dtype(np.float64)
@@ -99,6 +100,53 @@ def mock_outputs(q_goal: np.ndarray, p_target: np.ndarray, prev_goal: np.ndarray
     return WRITTEN
 
 
+#: ``squeeze_outputs``' result when a placed force is not finite (nothing else done).
+FORCES_NOT_FINITE = -1
+#: ``squeeze_outputs``' bits above the controller's: ``mock_outputs``' result, shifted.
+OUTPUTS_SHIFT = 8
+
+
+@njit
+def squeeze_outputs(rows: np.ndarray, bits: int, q: np.ndarray, sense_geometry: np.ndarray,
+                    sense_layout: np.ndarray, f_sensor: np.ndarray, f_hand: np.ndarray, grip: np.ndarray,
+                    contact: np.ndarray, palm_z: float,
+                    c: np.ndarray, grasping: np.ndarray, lost: np.ndarray, task_vectors: np.ndarray,
+                    geometry: np.ndarray, layout: np.ndarray, normal_targets: np.ndarray, facing: np.ndarray,
+                    distances: np.ndarray, palm_goal: np.ndarray, compliance: np.ndarray, pad_along: np.ndarray,
+                    directions: np.ndarray, pads: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+                    ticks_in_state: int, release_count: int, q_goal: np.ndarray, targets: np.ndarray,
+                    palm_target: np.ndarray, palm_step: float, q_sent: np.ndarray,
+                    command_palm: np.ndarray, prev_goal: np.ndarray, hand_max_step: float, limits: np.ndarray,
+                    z_min: float, z_max: float, goal_out: np.ndarray, target_out: np.ndarray, true_normal: np.ndarray,
+                    peaks: np.ndarray, block: np.ndarray, row: int, t: float, palm: np.ndarray, raw: np.ndarray,
+                    tared: np.ndarray, true_f: np.ndarray, obj: np.ndarray) -> int:
+    """A squeeze state's tick after the policy's product, in one call: the policy's
+    ``rows`` placed and turned into ``f_sensor``, ``f_hand`` and ``grip``
+    (``place_forces``; ``FORCES_NOT_FINITE`` when one is not finite: nothing else
+    done), then the controller's tick (``squeeze_state_tick`` with the arguments of
+    ``GraspController.squeeze_plan``, ``c`` to ``q_sent``: its bits returned) and,
+    when that finished the tick (``TICK_DONE``), the command's outputs, peaks and log
+    row (``mock_outputs`` of the sent goal ``q_sent`` and the controller's palm target
+    ``command_palm``, its result in the bits from ``OUTPUTS_SHIFT``)."""
+    if not place_forces(rows, bits, q, sense_geometry, sense_layout, f_sensor, f_hand, grip):
+        return FORCES_NOT_FINITE
+    flags = squeeze_state_tick(grip, contact, f_sensor, f_hand, q, palm_z, c, grasping, lost, task_vectors, geometry,
+                               layout, normal_targets, facing, distances, palm_goal, compliance, pad_along, directions,
+                               pads, lower, upper, ticks_in_state, release_count, q_goal, targets, palm_target,
+                               palm_step, q_sent)
+    if not flags & TICK_DONE:
+        return flags
+    done = mock_outputs(q_sent, command_palm, prev_goal, hand_max_step, limits, z_min, z_max, goal_out, target_out,
+                        f_sensor, grip, true_normal, peaks, block, row, t, palm, c[C_TAU], raw, contact, tared, f_hand,
+                        q, true_f, obj)
+    return flags | (done << OUTPUTS_SHIFT)
+
+
+def ctrl_command(ctrl: GraspController) -> Command:
+    """The command of a tick that ``squeeze_state_tick`` finished: the goal it stepped and the palm target."""
+    return Command(ctrl.motion.sent_goal(), ctrl.palm_target.copy(), ctrl.torque_on)  # type: ignore[union-attr]
+
+
 class MockTick:
     """One trial's ticks on the mock world's own backends (``usable``), with fused I/O.
 
@@ -128,27 +176,96 @@ class MockTick:
                 and 0.0 <= pipeline._stale_after_s and hand._write_limited is not None
                 and arm._set_clamped is not None and (log is None or log.truth))
 
-    def tick(self, ctrl: GraspController) -> tuple[Snapshot, Command, np.ndarray]:
-        world, hand, sensors, arm, pipeline = self.world, self.hand, self.sensors, self.arm, self.pipeline
+    def tick(self, ctrl: GraspController) -> None:
+        """One tick (the controller's snapshot is then ``ctrl.snap``)."""
+        world, hand, sensors, pipeline = self.world, self.hand, self.sensors, self.pipeline
         tactile = pipeline.tactile
-        snap = None
         if (not hand.fault and not sensors.paused and ctrl.state != "tare" and tactile.tare.ready  # type: ignore[attr-defined]
                 and tactile.validate and type(world.raw) is np.ndarray and world.raw.shape == self._frame_shape):
             n = self._frame_shape[0]
-            q, palm, raw = np.empty(self._J), np.empty(3), np.empty(self._frame_shape)
-            tared, in_contact, touching = np.empty(self._frame_shape), np.empty(n, dtype=bool), np.empty(self._frame_shape)
+            empty = np.empty
+            q, palm, raw = empty(self._J), empty(3), empty(self._frame_shape)
+            tared, in_contact, touching = empty(self._frame_shape), empty(n, dtype=bool), empty(self._frame_shape)
             sensors._delivered = (world.raw, world.seq, world.t)   # what latest_matrix notes
-            bits = mock_inputs(world.q, hand._q_prev, world.palm_world, world.raw, tactile.tare.baseline,
-                               tactile.gate.count, tactile.gate.threshold, tactile.gate.frames, q, palm, raw, tared,
-                               in_contact, touching)
+            gate = tactile.gate
+            bits = mock_inputs(world.q, hand._q_prev, world.palm_world, world.raw, tactile.tare.baseline, gate.count,
+                               gate.threshold, gate.frames, q, palm, raw, tared, in_contact, touching)
             if bits >= 0:
-                snap = pipeline.snapshot_gated(raw, q, palm, world.t, tared, in_contact, bits, touching)
-        if snap is None:   # the generic tick (it reads the backends again: the same values)
-            snap, cmd, raw = control_tick(hand, arm, sensors, pipeline, ctrl, world.t)
-            self._track_and_log(ctrl, snap, cmd, raw)
-            return snap, cmd, raw
-        cmd = ctrl.tick(snap)
+                if bits and not self._squeeze_tick(ctrl, raw, q, palm, tared, in_contact, bits, touching):
+                    return
+                self._finish(ctrl, pipeline.snapshot_gated(raw, q, palm, world.t, tared, in_contact, bits, touching),
+                             raw)
+                return
+        # the generic tick (it reads the backends again: the same values)
+        snap, cmd, raw = control_tick(hand, self.arm, sensors, pipeline, ctrl, world.t)
+        self._track_and_log(ctrl, snap, cmd, raw)
+
+    def _squeeze_tick(self, ctrl: GraspController, raw: np.ndarray, q: np.ndarray, palm: np.ndarray,
+                      tared: np.ndarray, in_contact: np.ndarray, bits: int, touching: np.ndarray) -> bool:
+        """The tick after ``mock_inputs`` (fingertips in contact: ``bits``) when the controller
+        is in a squeeze state (``GraspController.squeeze_plan``) and the policy has no
+        variance: the policy's product, then ``squeeze_outputs`` (forces, the controller's
+        tick and, when it finished the tick, the outputs), then what its result leaves to
+        Python; what ``snapshot_gated``, ``ctrl.tick`` and ``_finish`` would do, bit for bit.
+        True (nothing done) when it does not apply."""
+        pipeline = self.pipeline
+        estimator = pipeline.tactile.estimator
+        if estimator.has_variance:
+            return True
+        palm_z = float(palm[2])
+        plan = ctrl.squeeze_plan(palm_z)
+        if plan is None:
+            return True
+        world = self.world
+        t = world.t
+        pipeline.raw, pipeline._last_q, pipeline._last_palm = raw, q, palm   # as snapshot_gated
+        rows, idx = pipeline.estimate_contacts(estimator, tared, touching, bits)
+        gated = tared, in_contact, bits, touching
+        n = self._frame_shape[0]
+        if not (type(rows) is np.ndarray and rows.dtype is _FLOAT64 and rows.shape == (idx.size, 3)
+                and rows.flags.c_contiguous):
+            self._finish(ctrl, pipeline._snapshot(raw, q, palm, t, gated, False, None, None,
+                                                  pipeline.placed_rows(rows, idx)), raw)
+            return False
+        empty = np.empty
+        f_sensor, f_hand, grip = empty((n, 3)), empty((n, 3)), empty(n)
+        goal, target = empty(self._J), empty(3)
         log = self.log
+        row = -1
+        block = self._no_block
+        if log is not None and self._log_rows:
+            row = log._n
+            if row == len(log._block):
+                log._grow()
+            block = log._block
+        code = squeeze_outputs(rows, bits, q, pipeline._geometry, pipeline._layout, f_sensor, f_hand, grip, in_contact,
+                               palm_z, *plan, ctrl.palm_target, world.q_goal, self.hand.max_step, self._limits, self.arm._z_min,
+                               self.arm._z_max, goal, target, world.normal_n, self.peaks, block, row, t, palm, raw, tared,
+                               world.f_sensor, world._obj)
+        if code == FORCES_NOT_FINITE:   # the long way names it
+            self._finish(ctrl, pipeline._snapshot(raw, q, palm, t, gated, False, None, None, f_sensor), raw)
+            return False
+        pipeline.tared = tared
+        snap = Snapshot(t, q, palm, True, in_contact, f_sensor, f_hand, f_hand, grip, None, None, None)
+        cmd = ctrl.squeeze_done(snap, code & (1 << OUTPUTS_SHIFT) - 1)
+        if cmd is not None:   # a fault or a transition: the controller's own command
+            self._send(ctrl, snap, cmd, raw)
+            return False
+        done = code >> OUTPUTS_SHIFT
+        if done == NOT_FINITE:   # control_tick's own output half, then the runner's peaks and row
+            cmd = send_command(self.hand, self.arm, ctrl, snap, ctrl_command(ctrl))
+            self._track_and_log(ctrl, snap, cmd, raw)
+            return False
+        self._written(ctrl, snap, raw, goal, target, done, row)
+        return False
+
+    def _finish(self, ctrl: GraspController, snap: Snapshot, raw: np.ndarray) -> None:
+        """The controller's tick on ``snap``, then the command's outputs, peaks and log row."""
+        self._send(ctrl, snap, ctrl.tick(snap), raw)
+
+    def _send(self, ctrl: GraspController, snap: Snapshot, cmd: Command, raw: np.ndarray) -> None:
+        """``cmd`` to the world (``mock_outputs``, else ``send_command``), the peaks and the log row."""
+        world, log = self.world, self.log
         row = -1
         block = self._no_block
         if log is not None and self._log_rows:
@@ -162,24 +279,31 @@ class MockTick:
         if (cmd.torque_on and type(q_goal) is np.ndarray and type(p_target) is np.ndarray
                 and q_goal.dtype is _FLOAT64 and p_target.dtype is _FLOAT64 and q_goal.shape == (self._J,)
                 and p_target.shape == (3,)):
-            done = mock_outputs(q_goal, p_target, world.q_goal, hand.max_step, self._limits, arm._z_min, arm._z_max,
-                                goal, target, snap.f_sensor, snap.grip_n, world.normal_n, self.peaks, block, row,
-                                snap.t, snap.p_palm_world, ctrl.tau, raw, snap.in_contact, pipeline.tared,
-                                snap.f_world, snap.q, world.f_sensor, world._obj)
+            done = mock_outputs(q_goal, p_target, world.q_goal, self.hand.max_step, self._limits, self.arm._z_min,
+                                self.arm._z_max, goal, target, snap.f_sensor, snap.grip_n, world.normal_n, self.peaks,
+                                block, row, snap.t, snap.p_palm_world, ctrl.tau, raw, snap.in_contact,
+                                self.pipeline.tared, snap.f_world, snap.q, world.f_sensor, world._obj)
         if done == NOT_FINITE:   # control_tick's own output half, then the runner's peaks and row
-            cmd = send_command(hand, arm, ctrl, snap, cmd)
+            cmd = send_command(self.hand, self.arm, ctrl, snap, cmd)
             self._track_and_log(ctrl, snap, cmd, raw)
-            return snap, cmd, raw
+            return
+        self._written(ctrl, snap, raw, goal, target, done, row, cmd)
+
+    def _written(self, ctrl: GraspController, snap: Snapshot, raw: np.ndarray, goal: np.ndarray, target: np.ndarray,
+                 done: int, row: int, cmd: Command | None = None) -> None:
+        """After ``mock_outputs`` wrote (``done``): the world's new goal and wrist target, the
+        log's state and row count, or its own append when the row did not fit (or there
+        is no compiled row). ``cmd``: the command (None: the controller's sent goal)."""
+        world, log = self.world, self.log
         world._q_goal = goal
         world._palm_target = target
         if done == LOG_ROW_REFUSED:
-            self._append(ctrl, snap, cmd, raw)
+            self._append(ctrl, snap, cmd or ctrl_command(ctrl), raw)
         elif row >= 0:
             log._states.append(ctrl.state)  # type: ignore[union-attr, attr-defined]
             log._n = row + 1  # type: ignore[union-attr]
         elif log is not None:
-            self._append(ctrl, snap, cmd, raw)
-        return snap, cmd, raw
+            self._append(ctrl, snap, cmd or ctrl_command(ctrl), raw)
 
     def _track_and_log(self, ctrl: GraspController, snap: Snapshot, cmd: Command, raw: np.ndarray) -> None:
         track_peaks(snap.f_sensor, snap.grip_n, self.world.normal_n, self.peaks[0], self.peaks[1], self.peaks[2])

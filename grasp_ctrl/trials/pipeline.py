@@ -200,6 +200,35 @@ class SensingPipeline:
         return Snapshot(t, q, p_palm_world, tare_ready, in_contact, f_sensor, f_hand, f_world, grip, variance, fault,
                         fault_detail)
 
+    def estimate_contacts(self, estimator: ForceEstimator, tared: np.ndarray, touching: np.ndarray,
+                          bits: int) -> tuple[np.ndarray, np.ndarray]:
+        """The policy's call ``TactilePipeline.forces`` makes for the fingertips in contact
+        (``bits``, their tared rows first in ``touching``): ``(its f_sensor rows, their
+        fingertips' indices)``."""
+        got = self._tips.get(bits)
+        if got is None:
+            n = len(self.names)
+            idx = np.array([i for i in range(n) if bits >> i & 1], dtype=np.intp)
+            got = self._tips[bits] = (idx, self.tactile.fingers if idx.size == n else
+                                      tuple(self.tactile.fingers[i] for i in idx.tolist()))
+        idx, names = got
+        k = idx.size
+        # the same call TactilePipeline.forces makes: every tared row, or those in contact
+        return estimator.estimate(tared if k == len(self.names) else touching[:k], names).f_sensor, idx
+
+    def placed_rows(self, rows: np.ndarray, idx: np.ndarray) -> np.ndarray:
+        """``TactilePipeline.forces``' own placing of the policy's rows (which names a bad shape)."""
+        n = len(self.names)
+        if idx.size == n:
+            f_sensor = np.array(rows, dtype=float)
+            if f_sensor.shape != (n, 3):
+                f_sensor = np.zeros((n, 3))
+                f_sensor[:] = rows
+        else:
+            f_sensor = np.zeros((n, 3))
+            f_sensor[idx] = rows
+        return f_sensor
+
     def _estimate_and_turn(self, estimator: ForceEstimator, q: np.ndarray, tared: np.ndarray, touching: np.ndarray,
                            bits: int) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
         """``TactilePipeline.forces`` for a policy without variance and the fingertips in
@@ -208,32 +237,15 @@ class SensingPipeline:
         ``(f_sensor, f_hand, grip)``; f_hand and grip are None when a force is not finite
         (or the rows have an odd type or shape), for the long way to name it."""
         n = len(self.names)
-        got = self._tips.get(bits)
-        if got is None:
-            idx = np.array([i for i in range(n) if bits >> i & 1], dtype=np.intp)
-            got = self._tips[bits] = (idx, self.tactile.fingers if idx.size == n else
-                                      tuple(self.tactile.fingers[i] for i in idx.tolist()))
-        idx, names = got
-        k = idx.size
-        # the same call TactilePipeline.forces makes: every tared row, or those in contact
-        rows = estimator.estimate(tared if k == n else touching[:k], names).f_sensor
-        f_sensor = np.empty((n, 3))
-        if (type(rows) is np.ndarray and rows.dtype is _FLOAT64 and rows.shape == (k, 3)
+        rows, idx = self.estimate_contacts(estimator, tared, touching, bits)
+        if (type(rows) is np.ndarray and rows.dtype is _FLOAT64 and rows.shape == (idx.size, 3)
                 and rows.flags.c_contiguous):
+            f_sensor = np.empty((n, 3))
             f_hand, grip = np.empty((n, 3)), np.empty(n)
             if place_forces(rows, bits, q, self._geometry, self._layout, f_sensor, f_hand, grip):
                 return f_sensor, f_hand, grip
             return f_sensor, None, None
-        # TactilePipeline.forces' own placing (which names a bad shape)
-        if k == n:
-            f_sensor = np.array(rows, dtype=float)
-            if f_sensor.shape != (n, 3):
-                f_sensor = np.zeros((n, 3))
-                f_sensor[:] = rows
-        else:
-            f_sensor = np.zeros((n, 3))
-            f_sensor[idx] = rows
-        return f_sensor, None, None
+        return self.placed_rows(rows, idx), None, None
 
     def _checked_pose(self, q: np.ndarray, p_palm_world: np.ndarray, fault: str | None, detail: str | None,
                       ) -> tuple[np.ndarray, np.ndarray, str | None, str | None]:
