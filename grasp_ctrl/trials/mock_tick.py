@@ -230,14 +230,7 @@ class MockTick:
         empty = np.empty
         f_sensor, f_hand, grip = empty((n, 3)), empty((n, 3)), empty(n)
         goal, target = empty(self._J), empty(3)
-        log = self.log
-        row = -1
-        block = self._no_block
-        if log is not None and self._log_rows:
-            row = log._n
-            if row == len(log._block):
-                log._grow()
-            block = log._block
+        row, block = self._log_slot()
         code = squeeze_outputs(rows, bits, q, pipeline._geometry, pipeline._layout, f_sensor, f_hand, grip, in_contact,
                                palm_z, *plan, ctrl.palm_target, world.q_goal, self.hand.max_step, self._limits, self.arm._z_min,
                                self.arm._z_max, goal, target, world.normal_n, self.peaks, block, row, t, palm, raw, tared,
@@ -259,20 +252,24 @@ class MockTick:
         self._written(ctrl, snap, raw, goal, target, done, row)
         return False
 
+    def _log_slot(self) -> tuple[int, np.ndarray]:
+        """The tick log's next row and its block, grown if full; (-1, a dummy) without a log."""
+        log = self.log
+        if log is None or not self._log_rows:
+            return -1, self._no_block
+        row = log._n
+        if row == len(log._block):
+            log._grow()
+        return row, log._block
+
     def _finish(self, ctrl: GraspController, snap: Snapshot, raw: np.ndarray) -> None:
         """The controller's tick on ``snap``, then the command's outputs, peaks and log row."""
         self._send(ctrl, snap, ctrl.tick(snap), raw)
 
     def _send(self, ctrl: GraspController, snap: Snapshot, cmd: Command, raw: np.ndarray) -> None:
         """``cmd`` to the world (``mock_outputs``, else ``send_command``), the peaks and the log row."""
-        world, log = self.world, self.log
-        row = -1
-        block = self._no_block
-        if log is not None and self._log_rows:
-            row = log._n
-            if row == len(log._block):
-                log._grow()
-            block = log._block
+        world = self.world
+        row, block = self._log_slot()
         goal, target = np.empty(self._J), np.empty(3)
         q_goal, p_target = cmd.q_goal, cmd.p_palm_world
         done = NOT_FINITE
