@@ -341,9 +341,9 @@ class GraspController:
                 or p.dtype is not _FLOAT64 or p.shape != (3,)):
             return None
         got = self._squeeze_cache.get(state)
-        facing, ik = self.motion.squeeze_key()
-        if got is None or got[0] is not facing or got[1] is not ik:
-            got = self._squeeze_cache[state] = (facing, ik, self._squeeze_statics(state))
+        m = self.motion
+        if got is None or got[0] is not m.facing or got[1] is not m.ik:
+            got = self._squeeze_cache[state] = (m.facing, m.ik, self._squeeze_statics(state))
         statics = got[2]
         if statics is None:
             return None
@@ -355,8 +355,7 @@ class GraspController:
         else:
             near = palm_z - self.reach_pose[2] < s.lower_slow_zone_m
             palm, step = p, (s.lower_slow_speed_m_s if near else s.lower_speed_m_s) * self.dt
-        q_goal, targets, sent = self.motion.goal_arrays()
-        return statics + (self.ticks_in_state + 1, self.release_count, q_goal, targets, palm, step, sent)
+        return statics + (self.ticks_in_state + 1, self.release_count, m.q_goal, m.targets, palm, step, m.q_sent)
 
     def _squeeze_statics(self, state: int) -> tuple | None:
         """``squeeze_plan``'s arguments that stay within a squeeze state: the constants array

@@ -104,30 +104,33 @@ def mock_outputs(q_goal: np.ndarray, p_target: np.ndarray, prev_goal: np.ndarray
 FORCES_NOT_FINITE = -1
 #: ``squeeze_outputs``' bits above the controller's: ``mock_outputs``' result, shifted.
 OUTPUTS_SHIFT = 8
+_CONTROLLER_BITS = (1 << OUTPUTS_SHIFT) - 1
 
 
 @njit
-def squeeze_outputs(rows: np.ndarray, bits: int, q: np.ndarray, sense_geometry: np.ndarray,
-                    sense_layout: np.ndarray, f_sensor: np.ndarray, f_hand: np.ndarray, grip: np.ndarray,
-                    contact: np.ndarray, palm_z: float,
+def squeeze_outputs(rows: np.ndarray, bits: int, q: np.ndarray, f_sensor: np.ndarray, f_hand: np.ndarray,
+                    grip: np.ndarray, contact: np.ndarray, palm_z: float,
                     c: np.ndarray, grasping: np.ndarray, lost: np.ndarray, task_vectors: np.ndarray,
                     geometry: np.ndarray, layout: np.ndarray, normal_targets: np.ndarray, facing: np.ndarray,
                     distances: np.ndarray, palm_goal: np.ndarray, compliance: np.ndarray, pad_along: np.ndarray,
                     directions: np.ndarray, pads: np.ndarray, lower: np.ndarray, upper: np.ndarray,
                     ticks_in_state: int, release_count: int, q_goal: np.ndarray, targets: np.ndarray,
                     palm_target: np.ndarray, palm_step: float, q_sent: np.ndarray,
-                    command_palm: np.ndarray, prev_goal: np.ndarray, hand_max_step: float, limits: np.ndarray,
-                    z_min: float, z_max: float, goal_out: np.ndarray, target_out: np.ndarray, true_normal: np.ndarray,
-                    peaks: np.ndarray, block: np.ndarray, row: int, t: float, palm: np.ndarray, raw: np.ndarray,
-                    tared: np.ndarray, true_f: np.ndarray, obj: np.ndarray) -> int:
+                    command_palm: np.ndarray, prev_goal: np.ndarray, goal_out: np.ndarray, target_out: np.ndarray,
+                    block: np.ndarray, row: int, t: float, palm: np.ndarray, raw: np.ndarray, tared: np.ndarray,
+                    sense_geometry: np.ndarray, sense_layout: np.ndarray, hand_max_step: float, limits: np.ndarray,
+                    z_min: float, z_max: float, true_normal: np.ndarray, peaks: np.ndarray, true_f: np.ndarray,
+                    obj: np.ndarray) -> int:
     """A squeeze state's tick after the policy's product, in one call: the policy's
     ``rows`` placed and turned into ``f_sensor``, ``f_hand`` and ``grip``
-    (``place_forces``; ``FORCES_NOT_FINITE`` when one is not finite: nothing else
-    done), then the controller's tick (``squeeze_state_tick`` with the arguments of
+    (``place_forces`` with the pipeline's ``sense_geometry`` and ``sense_layout``;
+    ``FORCES_NOT_FINITE`` when one is not finite: nothing else done), then the
+    controller's tick (``squeeze_state_tick`` with the arguments of
     ``GraspController.squeeze_plan``, ``c`` to ``q_sent``: its bits returned) and,
     when that finished the tick (``TICK_DONE``), the command's outputs, peaks and log
     row (``mock_outputs`` of the sent goal ``q_sent`` and the controller's palm target
-    ``command_palm``, its result in the bits from ``OUTPUTS_SHIFT``)."""
+    ``command_palm``, its result in the bits from ``OUTPUTS_SHIFT``). The arguments
+    from ``sense_geometry`` on stay for a trial (``MockTick``)."""
     if not place_forces(rows, bits, q, sense_geometry, sense_layout, f_sensor, f_hand, grip):
         return FORCES_NOT_FINITE
     flags = squeeze_state_tick(grip, contact, f_sensor, f_hand, q, palm_z, c, grasping, lost, task_vectors, geometry,
@@ -165,6 +168,10 @@ class MockTick:
         self._log_rows = log is not None and log._compiled
         self._no_block = np.empty((0, 0))
         self._J = J
+        self._n = self._frame_shape[0]
+        # squeeze_outputs' arguments that stay for the trial (the world's arrays are updated in place)
+        self._trial_args = (pipeline._geometry, pipeline._layout, hand.max_step, self._limits, arm._z_min, arm._z_max,
+                            world._normal_n, peaks, world._f_sensor, world._obj)
 
     @staticmethod
     def usable(world: Any, hand: Any, sensors: Any, arm: Any, pipeline: SensingPipeline, log: TickLog | None) -> bool:
@@ -182,13 +189,13 @@ class MockTick:
         tactile = pipeline.tactile
         if (not hand.fault and not sensors.paused and ctrl.state != "tare" and tactile.tare.ready  # type: ignore[attr-defined]
                 and tactile.validate and type(world.raw) is np.ndarray and world.raw.shape == self._frame_shape):
-            n = self._frame_shape[0]
+            n = self._n
             empty = np.empty
             q, palm, raw = empty(self._J), empty(3), empty(self._frame_shape)
             tared, in_contact, touching = empty(self._frame_shape), empty(n, dtype=bool), empty(self._frame_shape)
             sensors._delivered = (world.raw, world.seq, world.t)   # what latest_matrix notes
             gate = tactile.gate
-            bits = mock_inputs(world.q, hand._q_prev, world.palm_world, world.raw, tactile.tare.baseline, gate.count,
+            bits = mock_inputs(world._q, hand._q_prev, world._palm, world.raw, tactile.tare.baseline, gate.count,
                                gate.threshold, gate.frames, q, palm, raw, tared, in_contact, touching)
             if bits >= 0:
                 if bits and not self._squeeze_tick(ctrl, raw, q, palm, tared, in_contact, bits, touching):
@@ -221,7 +228,7 @@ class MockTick:
         pipeline.raw, pipeline._last_q, pipeline._last_palm = raw, q, palm   # as snapshot_gated
         rows, idx = pipeline.estimate_contacts(estimator, tared, touching, bits)
         gated = tared, in_contact, bits, touching
-        n = self._frame_shape[0]
+        n = self._n
         if not (type(rows) is np.ndarray and rows.dtype is _FLOAT64 and rows.shape == (idx.size, 3)
                 and rows.flags.c_contiguous):
             self._finish(ctrl, pipeline._snapshot(raw, q, palm, t, gated, False, None, None,
@@ -238,16 +245,14 @@ class MockTick:
             if row == len(log._block):
                 log._grow()
             block = log._block
-        code = squeeze_outputs(rows, bits, q, pipeline._geometry, pipeline._layout, f_sensor, f_hand, grip, in_contact,
-                               palm_z, *plan, ctrl.palm_target, world.q_goal, self.hand.max_step, self._limits, self.arm._z_min,
-                               self.arm._z_max, goal, target, world.normal_n, self.peaks, block, row, t, palm, raw, tared,
-                               world.f_sensor, world._obj)
+        code = squeeze_outputs(rows, bits, q, f_sensor, f_hand, grip, in_contact, palm_z, *plan, ctrl.palm_target,
+                               world._q_goal, goal, target, block, row, t, palm, raw, tared, *self._trial_args)
         if code == FORCES_NOT_FINITE:   # the long way names it
             self._finish(ctrl, pipeline._snapshot(raw, q, palm, t, gated, False, None, None, f_sensor), raw)
             return False
         pipeline.tared = tared
         snap = Snapshot(t, q, palm, True, in_contact, f_sensor, f_hand, f_hand, grip, None, None, None)
-        cmd = ctrl.squeeze_done(snap, code & (1 << OUTPUTS_SHIFT) - 1)
+        cmd = ctrl.squeeze_done(snap, code & _CONTROLLER_BITS)
         if cmd is not None:   # a fault or a transition: the controller's own command
             self._send(ctrl, snap, cmd, raw)
             return False
@@ -256,7 +261,13 @@ class MockTick:
             cmd = send_command(self.hand, self.arm, ctrl, snap, ctrl_command(ctrl))
             self._track_and_log(ctrl, snap, cmd, raw)
             return False
-        self._written(ctrl, snap, raw, goal, target, done, row)
+        world._q_goal = goal
+        world._palm_target = target
+        if row >= 0 and done == WRITTEN:
+            log._states.append(ctrl.state)  # type: ignore[union-attr, attr-defined]
+            log._n = row + 1  # type: ignore[union-attr]
+        elif log is not None:
+            self._append(ctrl, snap, ctrl_command(ctrl), raw)
         return False
 
     def _finish(self, ctrl: GraspController, snap: Snapshot, raw: np.ndarray) -> None:
@@ -290,20 +301,18 @@ class MockTick:
         self._written(ctrl, snap, raw, goal, target, done, row, cmd)
 
     def _written(self, ctrl: GraspController, snap: Snapshot, raw: np.ndarray, goal: np.ndarray, target: np.ndarray,
-                 done: int, row: int, cmd: Command | None = None) -> None:
-        """After ``mock_outputs`` wrote (``done``): the world's new goal and wrist target, the
-        log's state and row count, or its own append when the row did not fit (or there
-        is no compiled row). ``cmd``: the command (None: the controller's sent goal)."""
+                 done: int, row: int, cmd: Command) -> None:
+        """After ``mock_outputs`` wrote ``cmd`` (``done``): the world's new goal and wrist
+        target, the log's state and row count, or its own append when the row did not fit
+        (or there is no compiled row)."""
         world, log = self.world, self.log
         world._q_goal = goal
         world._palm_target = target
-        if done == LOG_ROW_REFUSED:
-            self._append(ctrl, snap, cmd or ctrl_command(ctrl), raw)
-        elif row >= 0:
+        if row >= 0 and done == WRITTEN:
             log._states.append(ctrl.state)  # type: ignore[union-attr, attr-defined]
             log._n = row + 1  # type: ignore[union-attr]
         elif log is not None:
-            self._append(ctrl, snap, cmd or ctrl_command(ctrl), raw)
+            self._append(ctrl, snap, cmd, raw)
 
     def _track_and_log(self, ctrl: GraspController, snap: Snapshot, cmd: Command, raw: np.ndarray) -> None:
         track_peaks(snap.f_sensor, snap.grip_n, self.world.normal_n, self.peaks[0], self.peaks[1], self.peaks[2])
