@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from transitions import Machine
 
+from grasp_ctrl import jit
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.motion import FingertipMotion
@@ -60,6 +61,9 @@ _SQUEEZE_STATES = {"lift": tk.LIFT, "hold": tk.HOLD, "lower": tk.LOWER}
 
 
 def _distance(a: np.ndarray, b: np.ndarray) -> float:
+    if (jit.JIT and type(a) is np.ndarray and type(b) is np.ndarray and a.dtype is _FLOAT64 and b.dtype is _FLOAT64
+            and a.shape == b.shape == (3,)):
+        return tk.distance3(a, b)   # the same, compiled
     d = a - b
     return math.sqrt(float(d.dot(d)))   # = np.linalg.norm(d), without its overhead
 

@@ -26,7 +26,9 @@ from grasp_ctrl.controller.tick_kernels import squeeze_pads
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.pad_ik import Facing, shared_pad_ik
-from grasp_ctrl.limits import step_toward
+from grasp_ctrl.limits import clipped_equals, step_toward
+
+_FLOAT64 = np.dtype(np.float64)
 
 
 IK_DAMPING = 0.002
@@ -80,8 +82,13 @@ class FingertipMotion:
         return R @ PAD_POINT_SENSOR + p
 
     def set_posture(self, q: np.ndarray) -> None:
-        q_goal = np.clip(np.asarray(q, dtype=float), self.lower, self.upper)
         # States that hold a posture set it every tick: the targets follow from it alone.
+        posture = self._posture
+        if (jit.JIT and posture is not None and type(q) is np.ndarray and q.dtype is _FLOAT64
+                and q.shape == self.lower.shape == posture.shape == self.q_goal.shape
+                and clipped_equals(q, self.lower, self.upper, posture, self.q_goal)):
+            return   # (the check below, compiled: the same posture again)
+        q_goal = np.clip(np.asarray(q, dtype=float), self.lower, self.upper)
         if self._posture is not None and np.array_equal(q_goal, self._posture) and np.array_equal(q_goal, self.q_goal):
             return
         self.q_goal = q_goal

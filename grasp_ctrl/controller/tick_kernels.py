@@ -105,6 +105,14 @@ def squeeze_pads(grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float
 
 
 @njit
+def distance3(a: np.ndarray, b: np.ndarray) -> float:
+    """|a - b| of two (3,) arrays as ``machine._distance`` computes it with numpy
+    (``d.dot(d)``: 0 + a BLAS dot product, summed left to right; see ``move_palm_toward``)."""
+    d0, d1, d2 = a[0] - b[0], a[1] - b[1], a[2] - b[2]
+    return math.sqrt(0.0 + ((d0 * d0 + d1 * d1) + d2 * d2))
+
+
+@njit
 def move_palm_toward(palm: np.ndarray, target: np.ndarray, step: float) -> None:
     """``GraspController._move_palm_toward`` in place: ``palm`` (3,) to ``target`` when
     it is at most ``step`` away, else ``step`` along the straight line. The distance
