@@ -56,8 +56,9 @@ TRANSITIONS: list[tuple[str, str, str, str | None]] = [
 ]
 
 
-#: The states whose usual tick runs in one compiled call (GraspController._squeeze_state_tick).
-_SQUEEZE_STATES = {"lift": tk.LIFT, "hold": tk.HOLD, "lower": tk.LOWER}
+#: The states whose usual tick runs in one compiled call (GraspController._squeeze_state_tick):
+#: the squeeze states and close.
+_SQUEEZE_STATES = {"lift": tk.LIFT, "hold": tk.HOLD, "lower": tk.LOWER, "close": tk.CLOSE}
 
 
 def _distance(a: np.ndarray, b: np.ndarray) -> float:
@@ -333,7 +334,7 @@ class GraspController:
         return flags & (tk.FORCE_NOT_FINITE | tk.OVERFORCE)
 
     def squeeze_plan(self, palm_z: float) -> tuple | None:
-        """In a squeeze state (lift, hold, lower) with the compiled kernels, the torque on
+        """In a squeeze state (lift, hold, lower) or close with the compiled kernels, the torque on
         and a float64 (3,) palm target: every argument of ``tk.squeeze_state_tick`` after
         the snapshot's arrays and its palm height ``palm_z`` (a float) for this tick
         (``ticks_in_state`` counting it), so that a caller can run it, in one compiled call
@@ -352,7 +353,7 @@ class GraspController:
         if statics is None:
             return None
         s = self.s
-        if state == tk.HOLD:
+        if state == tk.HOLD or state == tk.CLOSE:
             palm, step = self._no_palm, 0.0
         elif state == tk.LIFT:
             palm, step = p, s.lift_speed_m_s * self.dt
@@ -362,11 +363,11 @@ class GraspController:
         return statics + (self.ticks_in_state + 1, self.release_count, m.q_goal, m.targets, palm, step, m.q_sent)
 
     def _squeeze_statics(self, state: int) -> tuple | None:
-        """``squeeze_plan``'s arguments that stay within a squeeze state: the constants array
+        """``squeeze_plan``'s arguments that stay within a state: the constants array
         (``tk.C_TAU``...) and the arrays from the grasp mask to the joint limits; None when
         the palm goal is not a float64 (3,) array (``_squeeze``'s Python then)."""
         s, tau, obj = self.s, self.tau, self.obj
-        if state == tk.HOLD:
+        if state == tk.HOLD or state == tk.CLOSE:
             goal, move = self._no_palm, False
         else:
             goal, move = (self.lift_top if state == tk.LIFT else self.lower_bottom), True
@@ -382,6 +383,7 @@ class GraspController:
         c[tk.C_LOWER_LIMIT_Z], c[tk.C_GAIN], c[tk.C_MAX_SPEED] = self.lower_limit_z, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s
         c[tk.C_DAMPING], c[tk.C_ORIENT_DAMPING] = damping, orient_damping
         c[tk.C_MOVE_PALM], c[tk.C_MAX_STEP] = float(move), max_step
+        c[tk.C_CLOSE_STEP], c[tk.C_CLOSE_TIMEOUT_S] = s.close_speed_m_s * self.dt, s.close_timeout_s
         return (c, self.grasp_mask, self._lost) + before + (goal,) + after
 
     def squeeze_done(self, snap: Snapshot, flags: int) -> Command | None:
@@ -403,7 +405,7 @@ class GraspController:
         return Command(self.motion.next_goal(), self.palm_target.copy(), self.torque_on)  # type: ignore[union-attr]
 
     def _squeeze_state_tick(self, snap: Snapshot) -> Command | None:
-        """``tick`` in a squeeze state through ``squeeze_plan``, ``tk.squeeze_state_tick`` and
+        """``tick`` in a squeeze state or close through ``squeeze_plan``, ``tk.squeeze_state_tick`` and
         ``squeeze_done``, for a snapshot without fault or variance whose arrays
         ``_compiled_checks`` and ``_squeeze`` would take; None (nothing done) otherwise."""
         nd = np.ndarray
@@ -430,7 +432,7 @@ class GraspController:
             self.motion.sync(snap.q)
         if not self.terminal:
             if self.state in _SQUEEZE_STATES:  # type: ignore[attr-defined]
-                cmd = self._squeeze_state_tick(snap)   # the usual tick of a squeeze state, compiled
+                cmd = self._squeeze_state_tick(snap)   # the usual tick of these states, compiled
                 if cmd is not None:
                     return cmd
             self.ticks_in_state += 1
