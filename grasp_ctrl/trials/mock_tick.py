@@ -35,13 +35,14 @@ from grasp_ctrl.controller.tick_kernels import C_TAU, TICK_DONE, squeeze_state_t
 from grasp_ctrl.jit import njit
 from grasp_ctrl.sim import world_step as ws
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
-from grasp_ctrl.sim.world import MockWorld, _clamped_target, _limited_goal
+from grasp_ctrl.sim.world import PACKED, MockWorld, _clamped_target, _limited_goal, _part, step_packed
 from grasp_ctrl.trials.pipeline import SensingPipeline
 from grasp_ctrl.trials.tick import control_tick, send_command
 from grasp_ctrl.trials.tick_kernels import log_row, place_forces, sense_inputs, track_peaks
 from grasp_ctrl.trials.ticklog import TickLog
 
 _FLOAT64 = np.dtype(np.float64)
+PACKED_Q, PACKED_PALM = PACKED.index("_q"), PACKED.index("_palm")   # the world's joint angles and palm position
 
 
 @njit
@@ -62,6 +63,28 @@ def mock_inputs(q_world: np.ndarray, q_prev: np.ndarray, palm_world: np.ndarray,
         for c in range(frames_world.shape[1]):
             raw[i, c] = frames_world[i, c]
     return sense_inputs(q, palm, raw, baseline, count, threshold, frames, tared, contact, touching)
+
+
+#: ``step_inputs``' bit for a world step that may have events (MockWorld.end_packed_step).
+STEP_EVENTS = 1 << 16
+
+
+@njit
+def step_inputs(torque_on: float, q_goal: np.ndarray, palm_target: np.ndarray, frame_base: np.ndarray,
+                sensor_t: float, frame_out: np.ndarray, state: np.ndarray, layout: np.ndarray, take: np.ndarray,
+                W: np.ndarray, starts: np.ndarray, counts: np.ndarray, touch: np.ndarray, sensor_state: np.ndarray,
+                sensor_gain: np.ndarray, sensor_consts: np.ndarray, q_prev: np.ndarray, baseline: np.ndarray,
+                count: np.ndarray, threshold: float, frames: int, q: np.ndarray, palm: np.ndarray, raw: np.ndarray,
+                tared: np.ndarray, contact: np.ndarray, touching: np.ndarray) -> int:
+    """The mock world's step (``world.step_packed`` on ``MockWorld.begin_packed_step``'s
+    arguments, ``torque_on`` to ``sensor_consts``), then ``mock_inputs`` on the new frames
+    ``frame_out`` and the world's joint angles and palm position: ``mock_inputs``' result
+    plus 2, with ``STEP_EVENTS`` when the step may have events."""
+    events = step_packed(torque_on, q_goal, palm_target, frame_base, sensor_t, frame_out, state, layout, take, W,
+                         starts, counts, touch, sensor_state, sensor_gain, sensor_consts)
+    bits = mock_inputs(_part(state, layout, PACKED_Q), q_prev, _part(state, layout, PACKED_PALM), frame_out, baseline,
+                       count, threshold, frames, q, palm, raw, tared, contact, touching)
+    return (bits + 2) | (STEP_EVENTS if events else 0)
 
 
 #: ``mock_outputs`` results.
@@ -184,7 +207,10 @@ class MockTick:
                 and arm._set_clamped is not None and (log is None or log.truth))
 
     def tick(self, ctrl: GraspController) -> None:
-        """One tick (the controller's snapshot is then ``ctrl.snap``)."""
+        """One tick: the world's step (and its phase set to the controller's state), then the
+        controller's tick on it (its snapshot is then ``ctrl.snap``), the command, peaks and
+        log row. The shortcuts' conditions do not depend on the step, so they are checked
+        before it and the step and the inputs run in one call (``step_inputs``)."""
         world, hand, sensors, pipeline = self.world, self.hand, self.sensors, self.pipeline
         tactile = pipeline.tactile
         if (not hand.fault and not sensors.paused and ctrl.state != "tare" and tactile.tare.ready  # type: ignore[attr-defined]
@@ -193,16 +219,23 @@ class MockTick:
             empty = np.empty
             q, palm, raw = empty(self._J), empty(3), empty(self._frame_shape)
             tared, in_contact, touching = empty(self._frame_shape), empty(n, dtype=bool), empty(self._frame_shape)
-            sensors._delivered = (world.raw, world.seq, world.t)   # what latest_matrix notes
             gate = tactile.gate
-            bits = mock_inputs(world._q, hand._q_prev, world._palm, world.raw, tactile.tare.baseline, gate.count,
-                               gate.threshold, gate.frames, q, palm, raw, tared, in_contact, touching)
+            step = world.begin_packed_step()
+            code = step_inputs(*step, hand._q_prev, tactile.tare.baseline, gate.count, gate.threshold, gate.frames, q,
+                               palm, raw, tared, in_contact, touching)
+            world.end_packed_step(step[5], code & STEP_EVENTS)
+            world.set_phase(ctrl.state)  # type: ignore[attr-defined]
+            sensors._delivered = (world.raw, world.seq, world.t)   # what latest_matrix notes
+            bits = (code & (STEP_EVENTS - 1)) - 2
             if bits >= 0:
                 if bits and not self._squeeze_tick(ctrl, raw, q, palm, tared, in_contact, bits, touching):
                     return
                 self._finish(ctrl, pipeline.snapshot_gated(raw, q, palm, world.t, tared, in_contact, bits, touching),
                              raw)
                 return
+        else:
+            world.step()
+            world.set_phase(ctrl.state)  # type: ignore[attr-defined]
         # the generic tick (it reads the backends again: the same values)
         snap, cmd, raw = control_tick(hand, self.arm, sensors, pipeline, ctrl, world.t)
         self._track_and_log(ctrl, snap, cmd, raw)
