@@ -217,3 +217,32 @@ def test_palm_distance_kernel_equals_numpy(a, b):
         got = tk.distance3(a, b)
         assert same_bits(got, expected) or (np.isnan(got) and np.isnan(expected))
         assert same_bits(_distance(a, b), expected) or (np.isnan(expected) and np.isnan(_distance(a, b)))
+
+
+def test_mujoco_wrist_step_equals_the_numpy_step():
+    """MuJoCoWorld's mocap wrist moved on Python floats: numpy's arithmetic, bit for bit."""
+    from grasp_ctrl.sim.mujoco_world import mocap_step
+
+    rng = np.random.default_rng(5)
+    for _ in range(3000):
+        mocap = rng.normal(0.0, 0.1, 3) * rng.choice([1e-4, 1.0], 3)
+        target = mocap + rng.normal(0.0, 1e-3, 3) * rng.choice([1e-3, 1.0, 30.0])
+        max_move = float(rng.choice([1e-4, 4e-4, 1e-2]))
+        for _ in range(5):
+            expected = mocap.copy()
+            delta = target - expected
+            dist = np.sqrt(float(delta @ delta))
+            expected += delta if dist <= max_move else delta * (max_move / dist)
+            got = np.array(mocap_step(mocap.tolist(), *target.tolist(), max_move))
+            assert same_bits(got, expected)
+            mocap = expected
+
+
+def test_three_vector_dot_sums_like_blas():
+    """The plain sums that stand in for ``x @ y`` of 3-vectors (MuJoCoWorld's slip speed,
+    ``mocap_step``): 0 + left to right, as this machine's BLAS sums them."""
+    rng = np.random.default_rng(2)
+    x = rng.normal(0.0, 1.0, (20000, 3)) * rng.choice([1e-4, 1.0, 30.0], (20000, 3))
+    y = rng.normal(0.0, 1.0, (20000, 3)) * rng.choice([1e-4, 1.0, 30.0], (20000, 3))
+    plain = 0.0 + ((x[:, 0] * y[:, 0] + x[:, 1] * y[:, 1]) + x[:, 2] * y[:, 2])
+    assert same_bits(plain, [a @ b for a, b in zip(x, y)])
