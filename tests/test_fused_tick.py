@@ -178,7 +178,7 @@ def test_world_views_share_the_packed_state(hand, objects):
 def test_linear_policy_equals_the_numpy_product(rows, k):
     """ndarray.dot (the BLAS call ``@`` makes) and the compiled bias add: the same bits as
     ``tared[:, :19] @ W.T + b``, on views of several fingertips' rows as the pipeline hands them."""
-    est = load_policy(DEFAULT_POLICY)
+    est = load_policy("linear_mock")
     tared = rows[:k]
     with np.errstate(all="ignore"):
         expected = tared[:, :19] @ est.W.T + est.b
@@ -188,7 +188,7 @@ def test_linear_policy_equals_the_numpy_product(rows, k):
 
 
 def test_linear_bias_add_without_numba_is_the_same(monkeypatch):
-    est = load_policy(DEFAULT_POLICY)
+    est = load_policy("linear_mock")
     tared = np.random.default_rng(3).normal(0.0, 200.0, (3, 44))
     compiled = est.estimate(tared, ["a", "b", "c"]).f_sensor
     monkeypatch.setattr(linear, "jit", types.SimpleNamespace(JIT=False))

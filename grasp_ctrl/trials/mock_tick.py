@@ -1,24 +1,32 @@
-"""The mock trial's tick with its input and output halves fused (grasp_ctrl/jit.py).
+"""The mock trial's tick, the world's step included, in few compiled calls (grasp_ctrl/jit.py).
 
-``control_tick`` (trials/tick.py) reads the backends, builds the snapshot, runs the
-controller and writes the command; the runner then tracks the force peaks and
-appends the tick log's row. On the mock world's own backends most of those steps
-copy a few small arrays, and each Python call and compiled call costs more than
-its arithmetic, so ``MockTick`` does the same in two compiled calls around the
-estimator and the controller:
+The runner's generic tick steps the world, then ``control_tick`` (trials/tick.py)
+reads the backends, builds the snapshot, runs the controller and writes the
+command, and the runner tracks the force peaks and appends the tick log's row. On
+the mock world's own backends most of those steps copy a few small arrays, and
+each Python call and compiled call costs more than its arithmetic, so
+``MockTick.tick`` does the same in two or three compiled calls around the policy:
 
-- ``mock_inputs``: MockHand.read's angles (and its velocity reference),
-  MockArm.position, MockSensors.latest_matrix's frames as floats, then the
-  snapshot's first half (``sense_inputs``: checks, tare, contact gate);
-- ``mock_outputs``: control_tick's finiteness check of the command, MockHand.write_goals
+- ``step_inputs``: the world's step (``world.step_packed``), then ``mock_inputs``:
+  MockHand.read's angles (and its velocity reference), MockArm.position,
+  MockSensors.latest_matrix's frames as floats, then the snapshot's first half
+  (``sense_inputs``: checks, tare, contact gate);
+- in lift, hold, lower and close with a fingertip in contact, after the policy's
+  product: ``squeeze_outputs``, the forces placed and turned into the hand frame,
+  the controller's tick (``GraspController.squeeze_plan``, controller/tick_kernels.py
+  ``squeeze_state_tick``) and, when no fault or transition interrupts it, the
+  outputs below;
+- otherwise the snapshot's second half and ``ctrl.tick`` as in control_tick, then
+  ``mock_outputs``: control_tick's finiteness check of the command, MockHand.write_goals
   and MockArm.command (the world's one-pass writes), the runner's force peaks
   and the tick log's row.
 
 Whatever these shortcuts do not cover (the tare, a hardware fault, a paused
-sensor, a frame or angle that is not finite, a non-finite command, torque off,
-a log row that does not fit) goes the generic way for that tick, from the
-point where it departs, so every tick does what control_tick and the runner do,
-bit for bit (tests/test_mock_tick.py).
+sensor, a frame or angle that is not finite, a non-finite force or command,
+torque off, a fault or transition of the controller, a log row that does not fit)
+goes the generic way for that tick, from the point where it departs, so every
+tick does what the runner's generic tick does, bit for bit (tests/test_mock_tick.py,
+tests/test_fused_tick.py).
 """
 
 from __future__ import annotations
