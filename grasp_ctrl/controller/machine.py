@@ -365,7 +365,9 @@ class GraspController:
     def _squeeze_statics(self, state: int) -> tuple | None:
         """``squeeze_plan``'s arguments that stay within a state: the constants array
         (``tk.C_TAU``...) and the arrays from the grasp mask to the joint limits; None when
-        the palm goal is not a float64 (3,) array (``_squeeze``'s Python then)."""
+        the palm goal is not a float64 (3,) array (``_squeeze``'s Python then). Made once per
+        state: the hand, the object and the settings do not change during a trial, and the
+        motion's facing and IK, which a caller may replace, are checked by ``squeeze_plan``."""
         s, tau, obj = self.s, self.tau, self.obj
         if state == tk.HOLD or state == tk.CLOSE:
             goal, move = self._no_palm, False
