@@ -103,16 +103,16 @@ def controllers(hand, objects):
 
 
 @settings(max_examples=120, deadline=None)
-@given(st.sampled_from(["lift", "hold", "lower", "close"]), hnp.arrays(np.float64, (4, 3), elements=values),
+@given(st.sampled_from(["lift", "hold", "lower", "close", "release"]), hnp.arrays(np.float64, (4, 3), elements=values),
        hnp.arrays(np.float64, 4, elements=st.one_of(edge, st.floats(0.0, 4.0))), hnp.arrays(np.bool_, 4),
-       st.sampled_from([0, 1, 49, 50, 51, 399, 400, 401]), st.integers(0, 4), st.lists(st.integers(0, 12), min_size=4, max_size=4),
+       st.sampled_from([0, 1, 39, 40, 41, 49, 50, 51, 399, 400, 401]), st.integers(0, 4), st.lists(st.integers(0, 12), min_size=4, max_size=4),
        st.sampled_from([0.0, 0.1495, 0.15, 0.2449, 0.25, 0.25004, 0.3]), st.integers(0, 2**31 - 1))
 def test_squeeze_state_tick_equals_the_python_tick(controllers, state, f_sensor, grip, contact, ticks, releases,
                                                    lost, palm_z, seed):
     """One tick of each squeeze state from the same controller state and snapshot, through
     the compiled call and through the Python tick: the same command, counters, goals,
     targets and transition (guards near their limits: lift height, hold time, release
-    debounce, lowest height, lost contact, closing time-out)."""
+    debounce, lowest height, lost contact, closing time-out, opening time)."""
     fast, slow = controllers
     rng = np.random.default_rng(seed)
     q = rng.uniform(fast.motion.lower, fast.motion.upper)
@@ -147,7 +147,7 @@ def test_squeeze_plan_leaves_other_states_and_odd_palms_to_python(controllers):
     fast.palm_target = [0.0, 0.0, 0.1]
     assert fast.squeeze_plan(0.1) is None
     fast.palm_target = np.zeros(3)
-    for state in ("reach", "ramp", "release", "retreat", "done"):
+    for state in ("reach", "ramp", "retreat", "done", "fault"):
         fast.machine.set_state(state, model=fast)
         assert fast.squeeze_plan(0.1) is None
 

@@ -57,8 +57,8 @@ TRANSITIONS: list[tuple[str, str, str, str | None]] = [
 
 
 #: The states whose usual tick runs in one compiled call (GraspController._squeeze_state_tick):
-#: the squeeze states and close.
-_SQUEEZE_STATES = {"lift": tk.LIFT, "hold": tk.HOLD, "lower": tk.LOWER, "close": tk.CLOSE}
+#: the squeeze states, close and release.
+_SQUEEZE_STATES = {"lift": tk.LIFT, "hold": tk.HOLD, "lower": tk.LOWER, "close": tk.CLOSE, "release": tk.RELEASE}
 
 
 def _distance(a: np.ndarray, b: np.ndarray) -> float:
@@ -334,7 +334,7 @@ class GraspController:
         return flags & (tk.FORCE_NOT_FINITE | tk.OVERFORCE)
 
     def squeeze_plan(self, palm_z: float) -> tuple | None:
-        """In a squeeze state (lift, hold, lower) or close with the compiled kernels, the torque on
+        """In a squeeze state (lift, hold, lower), close or release with the compiled kernels, the torque on
         and a float64 (3,) palm target: every argument of ``tk.squeeze_state_tick`` after
         the snapshot's arrays and its palm height ``palm_z`` (a float) for this tick
         (``ticks_in_state`` counting it), so that a caller can run it, in one compiled call
@@ -353,7 +353,7 @@ class GraspController:
         if statics is None:
             return None
         s = self.s
-        if state == tk.HOLD or state == tk.CLOSE:
+        if state == tk.HOLD or state == tk.CLOSE or state == tk.RELEASE:
             palm, step = self._no_palm, 0.0
         elif state == tk.LIFT:
             palm, step = p, s.lift_speed_m_s * self.dt
@@ -369,7 +369,7 @@ class GraspController:
         state: the hand, the object and the settings do not change during a trial, and the
         motion's facing and IK, which a caller may replace, are checked by ``squeeze_plan``."""
         s, tau, obj = self.s, self.tau, self.obj
-        if state == tk.HOLD or state == tk.CLOSE:
+        if state == tk.HOLD or state == tk.CLOSE or state == tk.RELEASE:
             goal, move = self._no_palm, False
         else:
             goal, move = (self.lift_top if state == tk.LIFT else self.lower_bottom), True
@@ -386,6 +386,7 @@ class GraspController:
         c[tk.C_DAMPING], c[tk.C_ORIENT_DAMPING] = damping, orient_damping
         c[tk.C_MOVE_PALM], c[tk.C_MAX_STEP] = float(move), max_step
         c[tk.C_CLOSE_STEP], c[tk.C_CLOSE_TIMEOUT_S] = s.close_speed_m_s * self.dt, s.close_timeout_s
+        c[tk.C_RELEASE_STEP], c[tk.C_OPEN_S] = -s.release_back_off_m_s * self.dt, s.open_s   # (as _act computes it)
         return (c, self.grasp_mask, self._lost) + before + (goal,) + after
 
     def squeeze_done(self, snap: Snapshot, flags: int) -> Command | None:
@@ -407,7 +408,7 @@ class GraspController:
         return Command(self.motion.next_goal(), self.palm_target.copy(), self.torque_on)  # type: ignore[union-attr]
 
     def _squeeze_state_tick(self, snap: Snapshot) -> Command | None:
-        """``tick`` in a squeeze state or close through ``squeeze_plan``, ``tk.squeeze_state_tick`` and
+        """``tick`` in a squeeze state, close or release through ``squeeze_plan``, ``tk.squeeze_state_tick`` and
         ``squeeze_done``, for a snapshot without fault or variance whose arrays
         ``_compiled_checks`` and ``_squeeze`` would take; None (nothing done) otherwise."""
         nd = np.ndarray

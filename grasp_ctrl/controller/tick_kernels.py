@@ -28,8 +28,9 @@ TICK_DONE = 16            # no fault and no guard held: squeezed and the goal st
 PADS_MOVED = 32           # the squeeze moved a fingertip (the motion's posture no longer holds)
 
 #: The states ``squeeze_state_tick`` takes: GraspController's squeeze states lift, hold and
-#: lower, and close (its fingertips closing along their task vectors until they touch).
-LIFT, HOLD, LOWER, CLOSE = 0, 1, 2, 3
+#: lower, close (the fingertips closing along their task vectors until they touch) and
+#: release (the grasping fingertips backing off along them).
+LIFT, HOLD, LOWER, CLOSE, RELEASE = 0, 1, 2, 3, 4
 
 
 @njit
@@ -134,11 +135,12 @@ def move_palm_toward(palm: np.ndarray, target: np.ndarray, step: float) -> None:
 #: force limit, state (LIFT, HOLD, LOWER), dt, contact-lost time, release debounce,
 #: hold time, lift height, reach tolerance, lowest palm height, squeeze gain and
 #: speed limit, IK damping, facing damping, whether the palm moves, joint step limit,
-#: closing step per tick and closing time-out.
+#: closing step per tick and closing time-out, release step per tick (negative) and
+#: opening time.
 (C_TAU, C_TOLERANCE, C_FLOOR, C_RELEASE_IDX, C_RELEASE_THRESHOLD, C_LIMIT, C_STATE, C_DT, C_LOST_S, C_DEBOUNCE,
  C_HOLD_S, C_LIFT_TOP_Z, C_REACH_TOLERANCE, C_LOWER_LIMIT_Z, C_GAIN, C_MAX_SPEED, C_DAMPING, C_ORIENT_DAMPING,
- C_MOVE_PALM, C_MAX_STEP, C_CLOSE_STEP, C_CLOSE_TIMEOUT_S) = range(22)
-N_SQUEEZE_CONSTS = 22
+ C_MOVE_PALM, C_MAX_STEP, C_CLOSE_STEP, C_CLOSE_TIMEOUT_S, C_RELEASE_STEP, C_OPEN_S) = range(24)
+N_SQUEEZE_CONSTS = 24
 
 
 @njit
@@ -149,17 +151,16 @@ def squeeze_state_tick(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.nd
                        pad_along: np.ndarray, directions: np.ndarray, pads: np.ndarray, lower: np.ndarray,
                        upper: np.ndarray, ticks_in_state: int, release_count: int, q: np.ndarray,
                        targets: np.ndarray, palm: np.ndarray, palm_step: float, q_sent: np.ndarray) -> int:
-    """One ``GraspController.tick`` in a squeeze state (``LIFT``, ``HOLD``, ``LOWER``) or in
-    ``CLOSE`` as far as no fault and no transition interrupt it (the snapshot's arrays first, then
+    """One ``GraspController.tick`` in a squeeze state (``LIFT``, ``HOLD``, ``LOWER``), in
+    ``CLOSE`` or in ``RELEASE`` as far as no fault and no transition interrupt it (the snapshot's arrays first, then
     ``GraspController.squeeze_plan``: the constants ``c`` (``C_TAU``...), the arrays that
     stay, then what changes from tick to tick): ``tick_checks`` (its bits returned,
     ``lost`` updated); then, unless a force check failed, the state's guards as the
     controller has them (``grip_lost``, and ``at_lift_height``, ``hold_done`` or
     ``release_detected`` and ``lower_exhausted``; in close ``all_in_contact`` and
-    ``close_timed_out``; ``ticks_in_state`` counts this tick, ``release_count`` is the
-    count before this tick's update). When none holds, the state's action
-    (``squeeze_pads``; in close, the fingertips not yet touching advanced along their
-    task vectors: ``FingertipMotion.advance_all``) and the joint goal's step
+    ``close_timed_out``, in release ``fingers_open``; ``ticks_in_state`` counts this tick,
+    ``release_count`` is the count before this tick's update). When none holds, the
+    state's action (``squeeze_pads``; in close and release ``advance_tick``) and the joint goal's step
     (``limits.step_toward`` of ``q`` into ``q_sent``), with ``TICK_DONE`` (and
     ``PADS_MOVED``) set; otherwise nothing more is done and the controller's Python
     goes on from its guards."""
@@ -169,9 +170,9 @@ def squeeze_state_tick(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.nd
     if flags & (FORCE_NOT_FINITE | OVERFORCE):
         return flags
     state = int(c[C_STATE])
-    if state == CLOSE:
-        return close_tick(flags, in_contact, c, grasping, task_vectors, geometry, layout, normal_targets, facing,
-                          distances, pad_along, lower, upper, ticks_in_state, q, targets, q_sent)
+    if state == CLOSE or state == RELEASE:
+        return advance_tick(flags, state, in_contact, c, grasping, task_vectors, geometry, layout, normal_targets,
+                            facing, distances, pad_along, lower, upper, ticks_in_state, q, targets, q_sent)
     held = False
     for i in range(lost.shape[0]):   # grip_lost
         if grasping[i] and lost[i] * dt >= c[C_LOST_S]:
@@ -195,25 +196,33 @@ def squeeze_state_tick(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.nd
 
 
 @njit
-def close_tick(flags: int, in_contact: np.ndarray, c: np.ndarray, grasping: np.ndarray, task_vectors: np.ndarray,
-               geometry: np.ndarray, layout: np.ndarray, normal_targets: np.ndarray, facing: np.ndarray,
-               distances: np.ndarray, pad_along: np.ndarray, lower: np.ndarray, upper: np.ndarray,
-               ticks_in_state: int, q: np.ndarray, targets: np.ndarray, q_sent: np.ndarray) -> int:
-    """``squeeze_state_tick`` in close after the checks (``flags``): the guards
-    ``all_in_contact`` and ``close_timed_out``; when neither holds, the action (each
-    grasping fingertip not in contact advanced by the closing step, the others not:
-    ``FingertipMotion.advance_all``, which forgets the squeeze's last pad positions)
-    and the goal step."""
-    all_in = True
-    for i in range(grasping.shape[0]):
-        if grasping[i] and not in_contact[i]:
-            all_in = False
-            break
-    if all_in or ticks_in_state * c[C_DT] > c[C_CLOSE_TIMEOUT_S]:
-        return flags
-    step = c[C_CLOSE_STEP]
-    for f in range(distances.shape[0]):
-        distances[f] = step if grasping[f] and not in_contact[f] else 0.0
+def advance_tick(flags: int, state: int, in_contact: np.ndarray, c: np.ndarray, grasping: np.ndarray,
+                 task_vectors: np.ndarray, geometry: np.ndarray, layout: np.ndarray, normal_targets: np.ndarray,
+                 facing: np.ndarray, distances: np.ndarray, pad_along: np.ndarray, lower: np.ndarray,
+                 upper: np.ndarray, ticks_in_state: int, q: np.ndarray, targets: np.ndarray, q_sent: np.ndarray) -> int:
+    """``squeeze_state_tick`` in close or release after the checks (``flags``): the guards
+    (close: ``all_in_contact``, ``close_timed_out``; release: ``fingers_open``); when none
+    holds, the action, ``FingertipMotion.advance_all`` (which forgets the squeeze's last pad
+    positions) by the closing step for each grasping fingertip not in contact, or by the
+    (negative) release step for each grasping fingertip, 0 for the others; then the goal step."""
+    elapsed = ticks_in_state * c[C_DT]
+    if state == CLOSE:
+        all_in = True
+        for i in range(grasping.shape[0]):
+            if grasping[i] and not in_contact[i]:
+                all_in = False
+                break
+        if all_in or elapsed > c[C_CLOSE_TIMEOUT_S]:
+            return flags
+        step = c[C_CLOSE_STEP]
+        for f in range(distances.shape[0]):
+            distances[f] = step if grasping[f] and not in_contact[f] else 0.0
+    else:
+        if elapsed >= c[C_OPEN_S]:
+            return flags
+        step = c[C_RELEASE_STEP]
+        for f in range(distances.shape[0]):
+            distances[f] = step if grasping[f] else 0.0
     for f in range(pad_along.shape[0]):
         pad_along[f] = np.nan
     moved = advance_pads_kernel(q, targets, task_vectors, distances, geometry, layout, c[C_DAMPING], normal_targets,
