@@ -11,7 +11,7 @@ each Python call and compiled call costs more than its arithmetic, so
   MockHand.read's angles (and its velocity reference), MockArm.position,
   MockSensors.latest_matrix's frames as floats, then the snapshot's first half
   (``sense_inputs``: checks, tare, contact gate);
-- in lift, hold, lower and close with a fingertip in contact, after the policy's
+- in lift, hold, lower, close and release with a fingertip in contact, after the policy's
   product: ``squeeze_outputs``, the forces placed and turned into the hand frame,
   the controller's tick (``GraspController.squeeze_plan``, controller/tick_kernels.py
   ``squeeze_state_tick``) and, when no fault or transition interrupts it, the
