@@ -103,26 +103,31 @@ def controllers(hand, objects):
 
 
 @settings(max_examples=120, deadline=None)
-@given(st.sampled_from(["lift", "hold", "lower", "close", "release"]), hnp.arrays(np.float64, (4, 3), elements=values),
+@given(st.sampled_from(["lift", "hold", "lower", "close", "release", "reach", "retreat"]), hnp.arrays(np.float64, (4, 3), elements=values),
        hnp.arrays(np.float64, 4, elements=st.one_of(edge, st.floats(0.0, 4.0))), hnp.arrays(np.bool_, 4),
-       st.sampled_from([0, 1, 39, 40, 41, 49, 50, 51, 399, 400, 401]), st.integers(0, 4), st.lists(st.integers(0, 12), min_size=4, max_size=4),
-       st.sampled_from([0.0, 0.1495, 0.15, 0.2449, 0.25, 0.25004, 0.3]), st.integers(0, 2**31 - 1))
+       st.sampled_from([0, 1, 39, 40, 41, 49, 50, 51, 399, 400, 401, 999, 1000, 1001]), st.integers(0, 4), st.lists(st.integers(0, 12), min_size=4, max_size=4),
+       st.sampled_from([0.0, 0.1495, 0.15, 0.2449, 0.25, 0.25004, 0.3]),
+       st.tuples(*[st.sampled_from([0.0, 0.0004, -0.0007, 0.002])] * 3), st.integers(0, 2**31 - 1))
 def test_squeeze_state_tick_equals_the_python_tick(controllers, state, f_sensor, grip, contact, ticks, releases,
-                                                   lost, palm_z, seed):
+                                                   lost, palm_z, offset, seed):
     """One tick of each squeeze state from the same controller state and snapshot, through
     the compiled call and through the Python tick: the same command, counters, goals,
     targets and transition (guards near their limits: lift height, hold time, release
-    debounce, lowest height, lost contact, closing time-out, opening time)."""
+    debounce, lowest height, lost contact, closing time-out, opening time, reach pose and
+    time-out, retreat goal)."""
     fast, slow = controllers
     rng = np.random.default_rng(seed)
     q = rng.uniform(fast.motion.lower, fast.motion.upper)
-    palm = np.array([0.001, -0.002, palm_z])
+    palm = np.array([offset[0], offset[1], palm_z])
     for ctrl in (fast, slow):
         ctrl.machine.set_state(state, model=ctrl)
         ctrl.history.clear()
         ctrl.failure_reason = ctrl.failure_detail = None
         ctrl.torque_on = True
         ctrl.motion.sync(q)
+        if state == "reach":   # the posture that the first reach tick sets
+            ctrl.motion.set_posture(ctrl.reach_q)
+        ctrl._retreat_goal = palm + np.array([offset[2], 0.0, offset[1]]) if state == "retreat" else None
         ctrl.palm_target = palm + 0.003
         ctrl.ticks_in_state, ctrl.release_count, ctrl.settle_count = ticks, releases, 0
         ctrl.lost_count = lost
@@ -147,7 +152,9 @@ def test_squeeze_plan_leaves_other_states_and_odd_palms_to_python(controllers):
     fast.palm_target = [0.0, 0.0, 0.1]
     assert fast.squeeze_plan(0.1) is None
     fast.palm_target = np.zeros(3)
-    for state in ("reach", "ramp", "retreat", "done", "fault"):
+    fast.motion.sync(fast.motion.open_q)
+    fast._retreat_goal = None
+    for state in ("tare", "ramp", "done", "fault", "reach", "retreat"):   # reach: no posture set, retreat: no goal
         fast.machine.set_state(state, model=fast)
         assert fast.squeeze_plan(0.1) is None
 

@@ -81,12 +81,18 @@ class FingertipMotion:
         R, p = self.kin.chains[finger].fk_rp(q_all[self.kin.slices[finger]])
         return R @ PAD_POINT_SENSOR + p
 
+    def holds_posture(self, q: np.ndarray) -> bool:
+        """Whether ``set_posture(q)`` would change nothing (the posture it set last, and the
+        goals still there), by a compiled check of float64 angles; False where that check
+        does not apply."""
+        posture = self._posture
+        return bool(jit.JIT and posture is not None and type(q) is np.ndarray and q.dtype is _FLOAT64
+                    and q.shape == self.lower.shape == posture.shape == self.q_goal.shape
+                    and clipped_equals(q, self.lower, self.upper, posture, self.q_goal))
+
     def set_posture(self, q: np.ndarray) -> None:
         # States that hold a posture set it every tick: the targets follow from it alone.
-        posture = self._posture
-        if (jit.JIT and posture is not None and type(q) is np.ndarray and q.dtype is _FLOAT64
-                and q.shape == self.lower.shape == posture.shape == self.q_goal.shape
-                and clipped_equals(q, self.lower, self.upper, posture, self.q_goal)):
+        if self.holds_posture(q):
             return   # (the check below, compiled: the same posture again)
         q_goal = np.clip(np.asarray(q, dtype=float), self.lower, self.upper)
         if self._posture is not None and np.array_equal(q_goal, self._posture) and np.array_equal(q_goal, self.q_goal):

@@ -29,8 +29,9 @@ PADS_MOVED = 32           # the squeeze moved a fingertip (the motion's posture 
 
 #: The states ``squeeze_state_tick`` takes: GraspController's squeeze states lift, hold and
 #: lower, close (the fingertips closing along their task vectors until they touch) and
-#: release (the grasping fingertips backing off along them).
-LIFT, HOLD, LOWER, CLOSE, RELEASE = 0, 1, 2, 3, 4
+#: release (the grasping fingertips backing off along them), and the arm's moves reach and
+#: retreat (the palm toward a goal).
+LIFT, HOLD, LOWER, CLOSE, RELEASE, REACH, RETREAT = 0, 1, 2, 3, 4, 5, 6
 
 
 @njit
@@ -136,31 +137,34 @@ def move_palm_toward(palm: np.ndarray, target: np.ndarray, step: float) -> None:
 #: hold time, lift height, reach tolerance, lowest palm height, squeeze gain and
 #: speed limit, IK damping, facing damping, whether the palm moves, joint step limit,
 #: closing step per tick and closing time-out, release step per tick (negative) and
-#: opening time.
+#: opening time, the arm's step per tick and the reach time-out.
 (C_TAU, C_TOLERANCE, C_FLOOR, C_RELEASE_IDX, C_RELEASE_THRESHOLD, C_LIMIT, C_STATE, C_DT, C_LOST_S, C_DEBOUNCE,
  C_HOLD_S, C_LIFT_TOP_Z, C_REACH_TOLERANCE, C_LOWER_LIMIT_Z, C_GAIN, C_MAX_SPEED, C_DAMPING, C_ORIENT_DAMPING,
- C_MOVE_PALM, C_MAX_STEP, C_CLOSE_STEP, C_CLOSE_TIMEOUT_S, C_RELEASE_STEP, C_OPEN_S) = range(24)
-N_SQUEEZE_CONSTS = 24
+ C_MOVE_PALM, C_MAX_STEP, C_CLOSE_STEP, C_CLOSE_TIMEOUT_S, C_RELEASE_STEP, C_OPEN_S, C_ARM_STEP,
+ C_REACH_TIMEOUT_S) = range(26)
+N_SQUEEZE_CONSTS = 26
 
 
 @njit
 def squeeze_state_tick(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.ndarray, f_world: np.ndarray,
-                       q_measured: np.ndarray, palm_z: float, c: np.ndarray, grasping: np.ndarray, lost: np.ndarray,
+                       q_measured: np.ndarray, palm_measured: np.ndarray, c: np.ndarray, grasping: np.ndarray, lost: np.ndarray,
                        task_vectors: np.ndarray, geometry: np.ndarray, layout: np.ndarray, normal_targets: np.ndarray,
                        facing: np.ndarray, distances: np.ndarray, palm_goal: np.ndarray, compliance: np.ndarray,
                        pad_along: np.ndarray, directions: np.ndarray, pads: np.ndarray, lower: np.ndarray,
                        upper: np.ndarray, ticks_in_state: int, release_count: int, q: np.ndarray,
                        targets: np.ndarray, palm: np.ndarray, palm_step: float, q_sent: np.ndarray) -> int:
     """One ``GraspController.tick`` in a squeeze state (``LIFT``, ``HOLD``, ``LOWER``), in
-    ``CLOSE`` or in ``RELEASE`` as far as no fault and no transition interrupt it (the snapshot's arrays first, then
+    ``CLOSE``, ``RELEASE``, ``REACH`` or ``RETREAT`` as far as no fault and no transition interrupt it (the snapshot's arrays first, then
     ``GraspController.squeeze_plan``: the constants ``c`` (``C_TAU``...), the arrays that
     stay, then what changes from tick to tick): ``tick_checks`` (its bits returned,
     ``lost`` updated); then, unless a force check failed, the state's guards as the
     controller has them (``grip_lost``, and ``at_lift_height``, ``hold_done`` or
     ``release_detected`` and ``lower_exhausted``; in close ``all_in_contact`` and
-    ``close_timed_out``, in release ``fingers_open``; ``ticks_in_state`` counts this tick,
+    ``close_timed_out``, in release ``fingers_open``, in reach ``at_reach_pose`` and
+    ``reach_timed_out``, in retreat ``retreat_done``; ``ticks_in_state`` counts this tick,
     ``release_count`` is the count before this tick's update). When none holds, the
-    state's action (``squeeze_pads``; in close and release ``advance_tick``) and the joint goal's step
+    state's action (``squeeze_pads``; in close and release ``advance_tick``; in reach and
+    retreat the palm's step toward ``palm_goal``, ``move_palm_toward``) and the joint goal's step
     (``limits.step_toward`` of ``q`` into ``q_sent``), with ``TICK_DONE`` (and
     ``PADS_MOVED``) set; otherwise nothing more is done and the controller's Python
     goes on from its guards."""
@@ -170,9 +174,17 @@ def squeeze_state_tick(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.nd
     if flags & (FORCE_NOT_FINITE | OVERFORCE):
         return flags
     state = int(c[C_STATE])
+    if state == REACH or state == RETREAT:
+        if (distance3(palm_measured, palm_goal) < c[C_REACH_TOLERANCE]
+                or (state == REACH and ticks_in_state * dt > c[C_REACH_TIMEOUT_S])):
+            return flags
+        move_palm_toward(palm, palm_goal, c[C_ARM_STEP])
+        step_toward(q, q_sent, c[C_MAX_STEP], lower, upper)
+        return flags | TICK_DONE
     if state == CLOSE or state == RELEASE:
         return advance_tick(flags, state, in_contact, c, grasping, task_vectors, geometry, layout, normal_targets,
                             facing, distances, pad_along, lower, upper, ticks_in_state, q, targets, q_sent)
+    palm_z = palm_measured[2]
     held = False
     for i in range(lost.shape[0]):   # grip_lost
         if grasping[i] and lost[i] * dt >= c[C_LOST_S]:

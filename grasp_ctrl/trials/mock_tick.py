@@ -140,7 +140,7 @@ _CONTROLLER_BITS = (1 << OUTPUTS_SHIFT) - 1
 
 @njit
 def squeeze_outputs(rows: np.ndarray, bits: int, q: np.ndarray, f_sensor: np.ndarray, f_hand: np.ndarray,
-                    grip: np.ndarray, contact: np.ndarray, palm_z: float,
+                    grip: np.ndarray, contact: np.ndarray, palm: np.ndarray,
                     c: np.ndarray, grasping: np.ndarray, lost: np.ndarray, task_vectors: np.ndarray,
                     geometry: np.ndarray, layout: np.ndarray, normal_targets: np.ndarray, facing: np.ndarray,
                     distances: np.ndarray, palm_goal: np.ndarray, compliance: np.ndarray, pad_along: np.ndarray,
@@ -148,7 +148,7 @@ def squeeze_outputs(rows: np.ndarray, bits: int, q: np.ndarray, f_sensor: np.nda
                     ticks_in_state: int, release_count: int, q_goal: np.ndarray, targets: np.ndarray,
                     palm_target: np.ndarray, palm_step: float, q_sent: np.ndarray,
                     command_palm: np.ndarray, prev_goal: np.ndarray, goal_out: np.ndarray, target_out: np.ndarray,
-                    block: np.ndarray, row: int, t: float, palm: np.ndarray, raw: np.ndarray, tared: np.ndarray,
+                    block: np.ndarray, row: int, t: float, raw: np.ndarray, tared: np.ndarray,
                     sense_geometry: np.ndarray, sense_layout: np.ndarray, hand_max_step: float, limits: np.ndarray,
                     z_min: float, z_max: float, true_normal: np.ndarray, peaks: np.ndarray, true_f: np.ndarray,
                     obj: np.ndarray) -> int:
@@ -164,7 +164,7 @@ def squeeze_outputs(rows: np.ndarray, bits: int, q: np.ndarray, f_sensor: np.nda
     from ``sense_geometry`` on stay for a trial (``MockTick``)."""
     if not place_forces(rows, bits, q, sense_geometry, sense_layout, f_sensor, f_hand, grip):
         return FORCES_NOT_FINITE
-    flags = squeeze_state_tick(grip, contact, f_sensor, f_hand, q, palm_z, c, grasping, lost, task_vectors, geometry,
+    flags = squeeze_state_tick(grip, contact, f_sensor, f_hand, q, palm, c, grasping, lost, task_vectors, geometry,
                                layout, normal_targets, facing, distances, palm_goal, compliance, pad_along, directions,
                                pads, lower, upper, ticks_in_state, release_count, q_goal, targets, palm_target,
                                palm_step, q_sent)
@@ -198,6 +198,7 @@ class MockTick:
         self._limits = np.array([hand.lower, hand.upper, world.lower, world.upper], dtype=float)
         self._log_rows = log is not None and log._compiled
         self._no_block = np.empty((0, 0))
+        self._no_rows = np.zeros((0, 3))   # the policy's rows when no fingertip is in contact
         self._J = J
         self._n = self._frame_shape[0]
         # squeeze_outputs' arguments that stay for the trial (the world's arrays are updated in place)
@@ -236,7 +237,7 @@ class MockTick:
             sensors._delivered = (world.raw, world.seq, world.t)   # what latest_matrix notes
             bits = (code & (STEP_EVENTS - 1)) - 2
             if bits >= 0:
-                if bits and not self._squeeze_tick(ctrl, raw, q, palm, tared, in_contact, bits, touching):
+                if not self._squeeze_tick(ctrl, raw, q, palm, tared, in_contact, bits, touching):
                     return
                 self._finish(ctrl, pipeline.snapshot_gated(raw, q, palm, world.t, tared, in_contact, bits, touching),
                              raw)
@@ -251,11 +252,11 @@ class MockTick:
     def _squeeze_tick(self, ctrl: GraspController, raw: np.ndarray, q: np.ndarray, palm: np.ndarray,
                       tared: np.ndarray, in_contact: np.ndarray, bits: int, touching: np.ndarray) -> bool:
         """The tick after ``mock_inputs`` (fingertips in contact: ``bits``) when the controller
-        is in a squeeze state (``GraspController.squeeze_plan``) and the policy has no
-        variance: the policy's product, then ``squeeze_outputs`` (forces, the controller's
-        tick and, when it finished the tick, the outputs), then what its result leaves to
-        Python; what ``snapshot_gated``, ``ctrl.tick`` and ``_finish`` would do, bit for bit.
-        True (nothing done) when it does not apply."""
+        is in a state of ``GraspController.squeeze_plan`` and the policy has no variance:
+        the policy's product (none without contact), then ``squeeze_outputs`` (forces, the
+        controller's tick and, when it finished the tick, the outputs), then what its result
+        leaves to Python; what ``snapshot_gated``, ``ctrl.tick`` and ``_finish`` would do, bit
+        for bit. True (nothing done) when it does not apply."""
         pipeline = self.pipeline
         estimator = pipeline.tactile.estimator
         if estimator.has_variance:
@@ -267,14 +268,17 @@ class MockTick:
         world = self.world
         t = world.t
         pipeline.raw, pipeline._last_q, pipeline._last_palm = raw, q, palm   # as snapshot_gated
-        rows, idx = pipeline.estimate_contacts(estimator, tared, touching, bits)
         gated = tared, in_contact, bits, touching
         n = self._n
-        if not (type(rows) is np.ndarray and rows.dtype is _FLOAT64 and rows.shape == (idx.size, 3)
-                and rows.flags.c_contiguous):
-            self._finish(ctrl, pipeline._snapshot(raw, q, palm, t, gated, False, None, None,
-                                                  pipeline.placed_rows(rows, idx)), raw)
-            return False
+        if bits:
+            rows, idx = pipeline.estimate_contacts(estimator, tared, touching, bits)
+            if not (type(rows) is np.ndarray and rows.dtype is _FLOAT64 and rows.shape == (idx.size, 3)
+                    and rows.flags.c_contiguous):
+                self._finish(ctrl, pipeline._snapshot(raw, q, palm, t, gated, False, None, None,
+                                                      pipeline.placed_rows(rows, idx)), raw)
+                return False
+        else:   # no fingertip in contact: no policy call, zero forces (as TactilePipeline.forces)
+            rows = self._no_rows
         empty = np.empty
         f_sensor, f_hand, grip = empty((n, 3)), empty((n, 3)), empty(n)
         goal, target = empty(self._J), empty(3)
@@ -286,8 +290,8 @@ class MockTick:
             if row == len(log._block):
                 log._grow()
             block = log._block
-        code = squeeze_outputs(rows, bits, q, f_sensor, f_hand, grip, in_contact, palm_z, *plan, ctrl.palm_target,
-                               world._q_goal, goal, target, block, row, t, palm, raw, tared, *self._trial_args)
+        code = squeeze_outputs(rows, bits, q, f_sensor, f_hand, grip, in_contact, palm, *plan, ctrl.palm_target,
+                               world._q_goal, goal, target, block, row, t, raw, tared, *self._trial_args)
         if code == FORCES_NOT_FINITE:   # the long way names it
             self._finish(ctrl, pipeline._snapshot(raw, q, palm, t, gated, False, None, None, f_sensor), raw)
             return False
