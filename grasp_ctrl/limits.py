@@ -53,3 +53,15 @@ def limit_goal(goal: np.ndarray, prev: np.ndarray, max_step: float, lower: np.nd
     """``out`` = ``goal`` within ``max_step`` of ``prev`` per joint, then within [lower, upper]."""
     for j in range(goal.shape[0]):
         out[j] = clamp(clamp(goal[j], prev[j] - max_step, prev[j] + max_step), lower[j], upper[j])
+
+
+@njit
+def clipped_equals(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether ``q`` clamped to [lower, upper] (``clamp``, np.clip's values) equals both ``a``
+    and ``b`` element by element, as ``np.array_equal`` compares (==: NaN never equal,
+    0.0 equal to -0.0); the arrays have one shape."""
+    for j in range(q.shape[0]):
+        c = clamp(q[j], lower[j], upper[j])
+        if not (c == a[j] and c == b[j]):
+            return False
+    return True

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from transitions import Machine
 
+from grasp_ctrl import jit
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.motion import FingertipMotion
@@ -55,11 +56,16 @@ TRANSITIONS: list[tuple[str, str, str, str | None]] = [
 ]
 
 
-#: The states whose usual tick runs in one compiled call (GraspController._squeeze_state_tick).
-_SQUEEZE_STATES = {"lift": tk.LIFT, "hold": tk.HOLD, "lower": tk.LOWER}
+#: The states whose usual tick runs in one compiled call (GraspController._squeeze_state_tick):
+#: the squeeze states, close, release and the arm's moves reach and retreat.
+_SQUEEZE_STATES = {"lift": tk.LIFT, "hold": tk.HOLD, "lower": tk.LOWER, "close": tk.CLOSE, "release": tk.RELEASE,
+                   "reach": tk.REACH, "retreat": tk.RETREAT}
 
 
 def _distance(a: np.ndarray, b: np.ndarray) -> float:
+    if (jit.JIT and type(a) is np.ndarray and type(b) is np.ndarray and a.dtype is _FLOAT64 and b.dtype is _FLOAT64
+            and a.shape == b.shape == (3,)):
+        return tk.distance3(a, b)   # the same, compiled
     d = a - b
     return math.sqrt(float(d.dot(d)))   # = np.linalg.norm(d), without its overhead
 
@@ -329,7 +335,8 @@ class GraspController:
         return flags & (tk.FORCE_NOT_FINITE | tk.OVERFORCE)
 
     def squeeze_plan(self, palm_z: float) -> tuple | None:
-        """In a squeeze state (lift, hold, lower) with the compiled kernels, the torque on
+        """In a squeeze state (lift, hold, lower), close, release, reach (its posture already
+        set) or retreat (its goal already set) with the compiled kernels, the torque on
         and a float64 (3,) palm target: every argument of ``tk.squeeze_state_tick`` after
         the snapshot's arrays and its palm height ``palm_z`` (a float) for this tick
         (``ticks_in_state`` counting it), so that a caller can run it, in one compiled call
@@ -340,35 +347,54 @@ class GraspController:
         if (state is None or not self._compiled or not self.torque_on or type(p) is not np.ndarray
                 or p.dtype is not _FLOAT64 or p.shape != (3,)):
             return None
+        m = self.motion
+        if state == tk.REACH and not m.holds_posture(self.reach_q):
+            return None   # (the first reach tick sets its posture: the Python way)
+        goal = self._state_palm_goal(state)
+        if goal is None:
+            return None
         got = self._squeeze_cache.get(state)
-        facing, ik = self.motion.squeeze_key()
-        if got is None or got[0] is not facing or got[1] is not ik:
-            got = self._squeeze_cache[state] = (facing, ik, self._squeeze_statics(state))
-        statics = got[2]
+        if got is None or got[0] is not m.facing or got[1] is not m.ik or got[2] is not goal:
+            got = self._squeeze_cache[state] = (m.facing, m.ik, goal, self._squeeze_statics(state, goal))
+        statics = got[3]
         if statics is None:
             return None
         s = self.s
-        if state == tk.HOLD:
+        if state == tk.HOLD or state == tk.CLOSE or state == tk.RELEASE:
             palm, step = self._no_palm, 0.0
+        elif state == tk.REACH or state == tk.RETREAT:
+            palm, step = p, 0.0
         elif state == tk.LIFT:
             palm, step = p, s.lift_speed_m_s * self.dt
         else:
             near = palm_z - self.reach_pose[2] < s.lower_slow_zone_m
             palm, step = p, (s.lower_slow_speed_m_s if near else s.lower_speed_m_s) * self.dt
-        q_goal, targets, sent = self.motion.goal_arrays()
-        return statics + (self.ticks_in_state + 1, self.release_count, q_goal, targets, palm, step, sent)
+        return statics + (self.ticks_in_state + 1, self.release_count, m.q_goal, m.targets, palm, step, m.q_sent)
 
-    def _squeeze_statics(self, state: int) -> tuple | None:
-        """``squeeze_plan``'s arguments that stay within a squeeze state: the constants array
+    def _state_palm_goal(self, state: int) -> np.ndarray | None:
+        """Where the palm goes in ``state`` (the stand-in zeros where it stays); None in retreat
+        before its goal is set."""
+        if state == tk.LIFT:
+            return self.lift_top
+        if state == tk.LOWER:
+            return self.lower_bottom
+        if state == tk.REACH:
+            return self.reach_pose
+        if state == tk.RETREAT:
+            return self._retreat_goal
+        return self._no_palm
+
+    def _squeeze_statics(self, state: int, goal: np.ndarray) -> tuple | None:
+        """``squeeze_plan``'s arguments that stay within a state: the constants array
         (``tk.C_TAU``...) and the arrays from the grasp mask to the joint limits; None when
-        the palm goal is not a float64 (3,) array (``_squeeze``'s Python then)."""
+        the palm ``goal`` (``_state_palm_goal``) is not a float64 (3,) array (``_squeeze``'s and
+        ``_move_palm_toward``'s Python then). Made once per state: the hand, the object and
+        the settings do not change during a trial, and the motion's facing and IK, which a
+        caller may replace, and the goal are checked by ``squeeze_plan``."""
         s, tau, obj = self.s, self.tau, self.obj
-        if state == tk.HOLD:
-            goal, move = self._no_palm, False
-        else:
-            goal, move = (self.lift_top if state == tk.LIFT else self.lower_bottom), True
-            if not (type(goal) is np.ndarray and goal.dtype is _FLOAT64 and goal.shape == (3,)):
-                return None
+        if not (type(goal) is np.ndarray and goal.dtype is _FLOAT64 and goal.shape == (3,)):
+            return None
+        move = state == tk.LIFT or state == tk.LOWER   # (the squeeze moves the palm too)
         (damping, orient_damping, max_step), before, after = self.motion.squeeze_statics()
         c = np.empty(tk.N_SQUEEZE_CONSTS)
         c[tk.C_TAU], c[tk.C_TOLERANCE], c[tk.C_FLOOR] = tau, s.ramp_tolerance_n, s.grip_lost_fraction * tau
@@ -379,6 +405,9 @@ class GraspController:
         c[tk.C_LOWER_LIMIT_Z], c[tk.C_GAIN], c[tk.C_MAX_SPEED] = self.lower_limit_z, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s
         c[tk.C_DAMPING], c[tk.C_ORIENT_DAMPING] = damping, orient_damping
         c[tk.C_MOVE_PALM], c[tk.C_MAX_STEP] = float(move), max_step
+        c[tk.C_CLOSE_STEP], c[tk.C_CLOSE_TIMEOUT_S] = s.close_speed_m_s * self.dt, s.close_timeout_s
+        c[tk.C_RELEASE_STEP], c[tk.C_OPEN_S] = -s.release_back_off_m_s * self.dt, s.open_s   # (as _act computes it)
+        c[tk.C_ARM_STEP], c[tk.C_REACH_TIMEOUT_S] = self.hand.arm.max_speed_m_s * self.dt, s.reach_timeout_s
         return (c, self.grasp_mask, self._lost) + before + (goal,) + after
 
     def squeeze_done(self, snap: Snapshot, flags: int) -> Command | None:
@@ -400,23 +429,24 @@ class GraspController:
         return Command(self.motion.next_goal(), self.palm_target.copy(), self.torque_on)  # type: ignore[union-attr]
 
     def _squeeze_state_tick(self, snap: Snapshot) -> Command | None:
-        """``tick`` in a squeeze state through ``squeeze_plan``, ``tk.squeeze_state_tick`` and
+        """``tick`` in the states of ``squeeze_plan`` through it, ``tk.squeeze_state_tick`` and
         ``squeeze_done``, for a snapshot without fault or variance whose arrays
         ``_compiled_checks`` and ``_squeeze`` would take; None (nothing done) otherwise."""
         nd = np.ndarray
         grip, f_sensor, f_world, contact, q = snap.grip_n, snap.f_sensor, snap.f_world, snap.in_contact, snap.q
+        palm = snap.p_palm_world
         if not (snap.fault is None and snap.variance is None and type(grip) is nd and type(f_sensor) is nd
-                and type(f_world) is nd and type(contact) is nd and type(q) is nd and grip.dtype is _FLOAT64
-                and f_sensor.dtype is _FLOAT64 and f_world.dtype is _FLOAT64 and q.dtype is _FLOAT64
-                and grip.shape == self._tip_shape and contact.shape == self._tip_shape
-                and f_sensor.shape == self._force_shape and f_world.shape == self._force_shape
-                and q.shape == self.motion.q_goal.shape):
+                and type(f_world) is nd and type(contact) is nd and type(q) is nd and type(palm) is nd
+                and grip.dtype is _FLOAT64 and f_sensor.dtype is _FLOAT64 and f_world.dtype is _FLOAT64
+                and q.dtype is _FLOAT64 and palm.dtype is _FLOAT64 and grip.shape == self._tip_shape
+                and contact.shape == self._tip_shape and f_sensor.shape == self._force_shape
+                and f_world.shape == self._force_shape and q.shape == self.motion.q_goal.shape
+                and palm.shape == (3,)):
             return None
-        palm_z = float(snap.p_palm_world[2])
-        plan = self.squeeze_plan(palm_z)
+        plan = self.squeeze_plan(float(palm[2]))
         if plan is None:
             return None
-        flags = tk.squeeze_state_tick(grip, contact, f_sensor, f_world, q, palm_z, *plan)
+        flags = tk.squeeze_state_tick(grip, contact, f_sensor, f_world, q, palm, *plan)
         cmd = self.squeeze_done(snap, flags)
         return cmd if cmd is not None else Command(self.motion.sent_goal(), self.palm_target.copy(), self.torque_on)  # type: ignore[union-attr]
 
@@ -427,7 +457,7 @@ class GraspController:
             self.motion.sync(snap.q)
         if not self.terminal:
             if self.state in _SQUEEZE_STATES:  # type: ignore[attr-defined]
-                cmd = self._squeeze_state_tick(snap)   # the usual tick of a squeeze state, compiled
+                cmd = self._squeeze_state_tick(snap)   # the usual tick of these states, compiled
                 if cmd is not None:
                     return cmd
             self.ticks_in_state += 1

@@ -25,8 +25,10 @@ from grasp_ctrl.controller.joint_stiffness import joint_stiffness
 from grasp_ctrl.controller.tick_kernels import squeeze_pads
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
-from grasp_ctrl.kinematics.pad_ik import Facing, PadIK, shared_pad_ik
-from grasp_ctrl.limits import step_toward
+from grasp_ctrl.kinematics.pad_ik import Facing, shared_pad_ik
+from grasp_ctrl.limits import clipped_equals, step_toward
+
+_FLOAT64 = np.dtype(np.float64)
 
 
 IK_DAMPING = 0.002
@@ -65,7 +67,7 @@ class FingertipMotion:
         # (NaN: none since the goals were last set otherwise).
         self._pad_along = np.full(len(self.names), np.nan)
         self.q_goal = self.open_q.copy()
-        self._q_sent = self.open_q.copy()
+        self.q_sent = self.open_q.copy()   # the goal last sent (next_goal steps it toward q_goal)
         self._posture: np.ndarray | None = None   # the posture the targets were last reset to
         self.targets = np.zeros((len(self.names), 3))   # pad targets, hand frame, finger order
         self._distances = np.zeros(len(self.names))     # squeeze's scratch
@@ -79,9 +81,20 @@ class FingertipMotion:
         R, p = self.kin.chains[finger].fk_rp(q_all[self.kin.slices[finger]])
         return R @ PAD_POINT_SENSOR + p
 
+    def holds_posture(self, q: np.ndarray) -> bool:
+        """Whether ``set_posture(q)`` would change nothing (the posture it set last, and the
+        goals still there), by a compiled check of float64 angles; False where that check
+        does not apply."""
+        posture = self._posture
+        return bool(jit.JIT and posture is not None and type(q) is np.ndarray and q.dtype is _FLOAT64
+                    and q.shape == self.lower.shape == posture.shape == self.q_goal.shape
+                    and clipped_equals(q, self.lower, self.upper, posture, self.q_goal))
+
     def set_posture(self, q: np.ndarray) -> None:
-        q_goal = np.clip(np.asarray(q, dtype=float), self.lower, self.upper)
         # States that hold a posture set it every tick: the targets follow from it alone.
+        if self.holds_posture(q):
+            return   # (the check below, compiled: the same posture again)
+        q_goal = np.clip(np.asarray(q, dtype=float), self.lower, self.upper)
         if self._posture is not None and np.array_equal(q_goal, self._posture) and np.array_equal(q_goal, self.q_goal):
             return
         self.q_goal = q_goal
@@ -119,7 +132,7 @@ class FingertipMotion:
     def sync(self, q_measured: np.ndarray) -> None:
         """Start from where the hand is (e.g. at trial start)."""
         self.q_goal = np.clip(q_measured, self.lower, self.upper)
-        self._q_sent = self.q_goal.copy()
+        self.q_sent = self.q_goal.copy()
         self._posture = None
         self._reset_targets()
 
@@ -173,7 +186,8 @@ class FingertipMotion:
 
     def squeeze_statics(self) -> tuple[tuple, tuple, tuple]:
         """The motion's parts of ``tick_kernels.squeeze_state_tick``'s arguments that stay
-        while the facing and the IK do: ``(constants: IK damping, facing damping and
+        while ``facing`` and ``ik`` do (the joint goals ``q_goal``, the pad ``targets`` and
+        the goal last sent ``q_sent`` change): ``(constants: IK damping, facing damping and
         joint step limit; arrays before the palm goal: task vectors to the squeeze's
         distances; arrays after it: compliance to the joint limits)``."""
         facing = self.facing or self.ik._no_facing
@@ -182,28 +196,20 @@ class FingertipMotion:
                 (self.task_vectors, ik.geometry, ik.layout, facing.normals_hand, facing.fingers, self._distances),
                 (self.compliance, self._pad_along, self._directions, self._pads, self.lower, self.upper))
 
-    def squeeze_key(self) -> tuple[Facing | None, PadIK]:
-        """What ``squeeze_statics`` depends on that may be replaced (to compare by identity)."""
-        return self.facing, self.ik
-
-    def goal_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(q_goal, targets, sent goal)``: the arrays a squeeze and the goal step update in place."""
-        return self.q_goal, self.targets, self._q_sent
-
     def squeezed(self) -> None:
         """A squeeze outside ``squeeze`` moved a fingertip (``squeeze_state_tick``'s PADS_MOVED)."""
         self._posture = None
 
     def sent_goal(self) -> np.ndarray:
         """A copy of the goal last sent (``next_goal``'s result, after ``squeeze_tick`` stepped it)."""
-        return self._q_sent.copy()
+        return self.q_sent.copy()
 
     def next_goal(self) -> np.ndarray:
         """The goal to send this tick: toward q_goal, at most max_step per joint."""
         if jit.JIT:
-            step_toward(self.q_goal, self._q_sent, self.max_step, self.lower, self.upper)
-            return self._q_sent.copy()
+            step_toward(self.q_goal, self.q_sent, self.max_step, self.lower, self.upper)
+            return self.q_sent.copy()
         # np.minimum/np.maximum: np.clip's result at a fraction of its call overhead.
-        step = np.minimum(np.maximum(self.q_goal - self._q_sent, -self.max_step), self.max_step)
-        self._q_sent = np.minimum(np.maximum(self._q_sent + step, self.lower), self.upper)
-        return self._q_sent.copy()
+        step = np.minimum(np.maximum(self.q_goal - self.q_sent, -self.max_step), self.max_step)
+        self.q_sent = np.minimum(np.maximum(self.q_sent + step, self.lower), self.upper)
+        return self.q_sent.copy()

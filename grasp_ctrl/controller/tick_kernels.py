@@ -27,8 +27,11 @@ OVERFORCE = 8             # the largest |f_sensor| is above the limit (all finit
 TICK_DONE = 16            # no fault and no guard held: squeezed and the goal stepped
 PADS_MOVED = 32           # the squeeze moved a fingertip (the motion's posture no longer holds)
 
-#: The squeeze states ``squeeze_state_tick`` takes (GraspController's lift, hold and lower).
-LIFT, HOLD, LOWER = 0, 1, 2
+#: The states ``squeeze_state_tick`` takes: GraspController's squeeze states lift, hold and
+#: lower, close (the fingertips closing along their task vectors until they touch) and
+#: release (the grasping fingertips backing off along them), and the arm's moves reach and
+#: retreat (the palm toward a goal).
+LIFT, HOLD, LOWER, CLOSE, RELEASE, REACH, RETREAT = 0, 1, 2, 3, 4, 5, 6
 
 
 @njit
@@ -105,6 +108,14 @@ def squeeze_pads(grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float
 
 
 @njit
+def distance3(a: np.ndarray, b: np.ndarray) -> float:
+    """|a - b| of two (3,) arrays as ``machine._distance`` computes it with numpy
+    (``d.dot(d)``: 0 + a BLAS dot product, summed left to right; see ``move_palm_toward``)."""
+    d0, d1, d2 = a[0] - b[0], a[1] - b[1], a[2] - b[2]
+    return math.sqrt(0.0 + ((d0 * d0 + d1 * d1) + d2 * d2))
+
+
+@njit
 def move_palm_toward(palm: np.ndarray, target: np.ndarray, step: float) -> None:
     """``GraspController._move_palm_toward`` in place: ``palm`` (3,) to ``target`` when
     it is at most ``step`` away, else ``step`` along the straight line. The distance
@@ -124,43 +135,61 @@ def move_palm_toward(palm: np.ndarray, target: np.ndarray, step: float) -> None:
 #: tau, ramp tolerance, grip-lost floor, release fingertip (index), release threshold,
 #: force limit, state (LIFT, HOLD, LOWER), dt, contact-lost time, release debounce,
 #: hold time, lift height, reach tolerance, lowest palm height, squeeze gain and
-#: speed limit, IK damping, facing damping, whether the palm moves, joint step limit.
+#: speed limit, IK damping, facing damping, whether the palm moves, joint step limit,
+#: closing step per tick and closing time-out, release step per tick (negative) and
+#: opening time, the arm's step per tick and the reach time-out.
 (C_TAU, C_TOLERANCE, C_FLOOR, C_RELEASE_IDX, C_RELEASE_THRESHOLD, C_LIMIT, C_STATE, C_DT, C_LOST_S, C_DEBOUNCE,
  C_HOLD_S, C_LIFT_TOP_Z, C_REACH_TOLERANCE, C_LOWER_LIMIT_Z, C_GAIN, C_MAX_SPEED, C_DAMPING, C_ORIENT_DAMPING,
- C_MOVE_PALM, C_MAX_STEP) = range(20)
-N_SQUEEZE_CONSTS = 20
+ C_MOVE_PALM, C_MAX_STEP, C_CLOSE_STEP, C_CLOSE_TIMEOUT_S, C_RELEASE_STEP, C_OPEN_S, C_ARM_STEP,
+ C_REACH_TIMEOUT_S) = range(26)
+N_SQUEEZE_CONSTS = 26
 
 
 @njit
 def squeeze_state_tick(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.ndarray, f_world: np.ndarray,
-                       q_measured: np.ndarray, palm_z: float, c: np.ndarray, grasping: np.ndarray, lost: np.ndarray,
+                       q_measured: np.ndarray, palm_measured: np.ndarray, c: np.ndarray, grasping: np.ndarray, lost: np.ndarray,
                        task_vectors: np.ndarray, geometry: np.ndarray, layout: np.ndarray, normal_targets: np.ndarray,
                        facing: np.ndarray, distances: np.ndarray, palm_goal: np.ndarray, compliance: np.ndarray,
                        pad_along: np.ndarray, directions: np.ndarray, pads: np.ndarray, lower: np.ndarray,
                        upper: np.ndarray, ticks_in_state: int, release_count: int, q: np.ndarray,
                        targets: np.ndarray, palm: np.ndarray, palm_step: float, q_sent: np.ndarray) -> int:
-    """One ``GraspController.tick`` in a squeeze state (``LIFT``, ``HOLD``, ``LOWER``) as
-    far as no fault and no transition interrupt it (the snapshot's arrays first, then
+    """One ``GraspController.tick`` in a squeeze state (``LIFT``, ``HOLD``, ``LOWER``), in
+    ``CLOSE``, ``RELEASE``, ``REACH`` or ``RETREAT`` as far as no fault and no transition interrupt it (the snapshot's arrays first, then
     ``GraspController.squeeze_plan``: the constants ``c`` (``C_TAU``...), the arrays that
     stay, then what changes from tick to tick): ``tick_checks`` (its bits returned,
     ``lost`` updated); then, unless a force check failed, the state's guards as the
     controller has them (``grip_lost``, and ``at_lift_height``, ``hold_done`` or
-    ``release_detected`` and ``lower_exhausted``; ``ticks_in_state`` counts this tick,
+    ``release_detected`` and ``lower_exhausted``; in close ``all_in_contact`` and
+    ``close_timed_out``, in release ``fingers_open``, in reach ``at_reach_pose`` and
+    ``reach_timed_out``, in retreat ``retreat_done``; ``ticks_in_state`` counts this tick,
     ``release_count`` is the count before this tick's update). When none holds, the
-    state's action (``squeeze_pads``) and the joint goal's step (``limits.step_toward``
-    of ``q`` into ``q_sent``), with ``TICK_DONE`` (and ``PADS_MOVED``) set; otherwise
-    nothing more is done and the controller's Python goes on from its guards."""
+    state's action (``squeeze_pads``; in close and release ``advance_tick``; in reach and
+    retreat the palm's step toward ``palm_goal``, ``move_palm_toward``) and the joint goal's step
+    (``limits.step_toward`` of ``q`` into ``q_sent``), with ``TICK_DONE`` (and
+    ``PADS_MOVED``) set; otherwise nothing more is done and the controller's Python
+    goes on from its guards."""
     tau, dt = c[C_TAU], c[C_DT]
     flags = tick_checks(grip, in_contact, f_sensor, f_world, grasping, tau, c[C_TOLERANCE], c[C_FLOOR],
                         int(c[C_RELEASE_IDX]), c[C_RELEASE_THRESHOLD], c[C_LIMIT], lost)
     if flags & (FORCE_NOT_FINITE | OVERFORCE):
         return flags
+    state = int(c[C_STATE])
+    if state == REACH or state == RETREAT:
+        if (distance3(palm_measured, palm_goal) < c[C_REACH_TOLERANCE]
+                or (state == REACH and ticks_in_state * dt > c[C_REACH_TIMEOUT_S])):
+            return flags
+        move_palm_toward(palm, palm_goal, c[C_ARM_STEP])
+        step_toward(q, q_sent, c[C_MAX_STEP], lower, upper)
+        return flags | TICK_DONE
+    if state == CLOSE or state == RELEASE:
+        return advance_tick(flags, state, in_contact, c, grasping, task_vectors, geometry, layout, normal_targets,
+                            facing, distances, pad_along, lower, upper, ticks_in_state, q, targets, q_sent)
+    palm_z = palm_measured[2]
     held = False
     for i in range(lost.shape[0]):   # grip_lost
         if grasping[i] and lost[i] * dt >= c[C_LOST_S]:
             held = True
             break
-    state = int(c[C_STATE])
     if state == LIFT:
         held = held or abs(palm_z - c[C_LIFT_TOP_Z]) < c[C_REACH_TOLERANCE]
     elif state == HOLD:
@@ -174,5 +203,41 @@ def squeeze_state_tick(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.nd
                          layout, c[C_DAMPING], normal_targets, facing, c[C_ORIENT_DAMPING], distances,
                          c[C_MOVE_PALM] != 0.0, palm, palm_goal, palm_step, compliance, q_measured, pad_along,
                          directions, pads)
+    step_toward(q, q_sent, c[C_MAX_STEP], lower, upper)
+    return flags | TICK_DONE | (PADS_MOVED if moved else 0)
+
+
+@njit
+def advance_tick(flags: int, state: int, in_contact: np.ndarray, c: np.ndarray, grasping: np.ndarray,
+                 task_vectors: np.ndarray, geometry: np.ndarray, layout: np.ndarray, normal_targets: np.ndarray,
+                 facing: np.ndarray, distances: np.ndarray, pad_along: np.ndarray, lower: np.ndarray,
+                 upper: np.ndarray, ticks_in_state: int, q: np.ndarray, targets: np.ndarray, q_sent: np.ndarray) -> int:
+    """``squeeze_state_tick`` in close or release after the checks (``flags``): the guards
+    (close: ``all_in_contact``, ``close_timed_out``; release: ``fingers_open``); when none
+    holds, the action, ``FingertipMotion.advance_all`` (which forgets the squeeze's last pad
+    positions) by the closing step for each grasping fingertip not in contact, or by the
+    (negative) release step for each grasping fingertip, 0 for the others; then the goal step."""
+    elapsed = ticks_in_state * c[C_DT]
+    if state == CLOSE:
+        all_in = True
+        for i in range(grasping.shape[0]):
+            if grasping[i] and not in_contact[i]:
+                all_in = False
+                break
+        if all_in or elapsed > c[C_CLOSE_TIMEOUT_S]:
+            return flags
+        step = c[C_CLOSE_STEP]
+        for f in range(distances.shape[0]):
+            distances[f] = step if grasping[f] and not in_contact[f] else 0.0
+    else:
+        if elapsed >= c[C_OPEN_S]:
+            return flags
+        step = c[C_RELEASE_STEP]
+        for f in range(distances.shape[0]):
+            distances[f] = step if grasping[f] else 0.0
+    for f in range(pad_along.shape[0]):
+        pad_along[f] = np.nan
+    moved = advance_pads_kernel(q, targets, task_vectors, distances, geometry, layout, c[C_DAMPING], normal_targets,
+                                facing, c[C_ORIENT_DAMPING])
     step_toward(q, q_sent, c[C_MAX_STEP], lower, upper)
     return flags | TICK_DONE | (PADS_MOVED if moved else 0)

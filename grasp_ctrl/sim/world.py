@@ -429,18 +429,12 @@ class MockWorld:
 
     # ----- stepping -------------------------------------------------------
     def step(self) -> None:
+        if jit.JIT:   # the same kernel on the same arrays, handed over as one buffer (compiled: cheaper to call)
+            args = self.begin_packed_step()
+            self.end_packed_step(args[5], step_packed(*args))
+            return
         self.t += self.dt
         sens = self.sensors
-        if jit.JIT:   # the same kernel on the same arrays, handed over as one buffer (compiled: cheaper to call)
-            frame_base = sens.advance(self.dt)
-            raw = np.empty(self.raw.shape, dtype=self.raw.dtype)   # a new array each step: frames delivered earlier keep theirs
-            events = step_packed(1.0 if self.torque_on else 0.0, self._q_goal, self._palm_target, frame_base, sens.t,
-                                 raw, self._state, self._layout, *self._packed_args)
-            self.raw = raw
-            self.seq = (self.seq + 1) & 0xFFFF
-            if events:
-                self._record(float(self._watch[PREV_Z]))
-            return
         self._consts[ws.TORQUE_ON] = 1.0 if self.torque_on else 0.0
         prev_z = self._obj[ws.OZ]
         frame_base = sens.advance(self.dt)
@@ -449,6 +443,27 @@ class MockWorld:
         self.raw = raw
         self.seq = (self.seq + 1) & 0xFFFF
         self._record(prev_z)
+
+    def begin_packed_step(self) -> tuple:
+        """``step``'s compiled path up to its kernel: the clock, this step's noisy sensor
+        baselines and a new frame array (frames delivered earlier keep theirs); returns
+        ``step_packed``'s arguments (the new frame array is the sixth). The caller runs
+        ``step_packed`` on them (trials/mock_tick.py: with more in the same call), then
+        ``end_packed_step``."""
+        self.t += self.dt
+        sens = self.sensors
+        frame_base = sens.advance(self.dt)
+        raw = np.empty(self.raw.shape, dtype=self.raw.dtype)
+        return (1.0 if self.torque_on else 0.0, self._q_goal, self._palm_target, frame_base, sens.t, raw, self._state,
+                self._layout) + self._packed_args
+
+    def end_packed_step(self, raw: np.ndarray, events: bool) -> None:
+        """``step``'s compiled path after its kernel: the new frames (``raw``) and their
+        sequence number, and the step's events when ``step_packed`` said there may be some."""
+        self.raw = raw
+        self.seq = (self.seq + 1) & 0xFFFF
+        if events:
+            self._record(float(self._watch[PREV_Z]))
 
     @property
     def max_obj_z(self) -> float:

@@ -1,24 +1,32 @@
-"""The mock trial's tick with its input and output halves fused (grasp_ctrl/jit.py).
+"""The mock trial's tick, the world's step included, in few compiled calls (grasp_ctrl/jit.py).
 
-``control_tick`` (trials/tick.py) reads the backends, builds the snapshot, runs the
-controller and writes the command; the runner then tracks the force peaks and
-appends the tick log's row. On the mock world's own backends most of those steps
-copy a few small arrays, and each Python call and compiled call costs more than
-its arithmetic, so ``MockTick`` does the same in two compiled calls around the
-estimator and the controller:
+The runner's generic tick steps the world, then ``control_tick`` (trials/tick.py)
+reads the backends, builds the snapshot, runs the controller and writes the
+command, and the runner tracks the force peaks and appends the tick log's row. On
+the mock world's own backends most of those steps copy a few small arrays, and
+each Python call and compiled call costs more than its arithmetic, so
+``MockTick.tick`` does the same in two or three compiled calls around the policy:
 
-- ``mock_inputs``: MockHand.read's angles (and its velocity reference),
-  MockArm.position, MockSensors.latest_matrix's frames as floats, then the
-  snapshot's first half (``sense_inputs``: checks, tare, contact gate);
-- ``mock_outputs``: control_tick's finiteness check of the command, MockHand.write_goals
+- ``step_inputs``: the world's step (``world.step_packed``), then ``mock_inputs``:
+  MockHand.read's angles (and its velocity reference), MockArm.position,
+  MockSensors.latest_matrix's frames as floats, then the snapshot's first half
+  (``sense_inputs``: checks, tare, contact gate);
+- in lift, hold, lower, close and release with a fingertip in contact, after the policy's
+  product: ``squeeze_outputs``, the forces placed and turned into the hand frame,
+  the controller's tick (``GraspController.squeeze_plan``, controller/tick_kernels.py
+  ``squeeze_state_tick``) and, when no fault or transition interrupts it, the
+  outputs below;
+- otherwise the snapshot's second half and ``ctrl.tick`` as in control_tick, then
+  ``mock_outputs``: control_tick's finiteness check of the command, MockHand.write_goals
   and MockArm.command (the world's one-pass writes), the runner's force peaks
   and the tick log's row.
 
 Whatever these shortcuts do not cover (the tare, a hardware fault, a paused
-sensor, a frame or angle that is not finite, a non-finite command, torque off,
-a log row that does not fit) goes the generic way for that tick, from the
-point where it departs, so every tick does what control_tick and the runner do,
-bit for bit (tests/test_mock_tick.py).
+sensor, a frame or angle that is not finite, a non-finite force or command,
+torque off, a fault or transition of the controller, a log row that does not fit)
+goes the generic way for that tick, from the point where it departs, so every
+tick does what the runner's generic tick does, bit for bit (tests/test_mock_tick.py,
+tests/test_fused_tick.py).
 """
 
 from __future__ import annotations
@@ -35,13 +43,14 @@ from grasp_ctrl.controller.tick_kernels import C_TAU, TICK_DONE, squeeze_state_t
 from grasp_ctrl.jit import njit
 from grasp_ctrl.sim import world_step as ws
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
-from grasp_ctrl.sim.world import MockWorld, _clamped_target, _limited_goal
+from grasp_ctrl.sim.world import PACKED, MockWorld, _clamped_target, _limited_goal, _part, step_packed
 from grasp_ctrl.trials.pipeline import SensingPipeline
 from grasp_ctrl.trials.tick import control_tick, send_command
 from grasp_ctrl.trials.tick_kernels import log_row, place_forces, sense_inputs, track_peaks
 from grasp_ctrl.trials.ticklog import TickLog
 
 _FLOAT64 = np.dtype(np.float64)
+PACKED_Q, PACKED_PALM = PACKED.index("_q"), PACKED.index("_palm")   # the world's joint angles and palm position
 
 
 @njit
@@ -62,6 +71,28 @@ def mock_inputs(q_world: np.ndarray, q_prev: np.ndarray, palm_world: np.ndarray,
         for c in range(frames_world.shape[1]):
             raw[i, c] = frames_world[i, c]
     return sense_inputs(q, palm, raw, baseline, count, threshold, frames, tared, contact, touching)
+
+
+#: ``step_inputs``' bit for a world step that may have events (MockWorld.end_packed_step).
+STEP_EVENTS = 1 << 16
+
+
+@njit
+def step_inputs(torque_on: float, q_goal: np.ndarray, palm_target: np.ndarray, frame_base: np.ndarray,
+                sensor_t: float, frame_out: np.ndarray, state: np.ndarray, layout: np.ndarray, take: np.ndarray,
+                W: np.ndarray, starts: np.ndarray, counts: np.ndarray, touch: np.ndarray, sensor_state: np.ndarray,
+                sensor_gain: np.ndarray, sensor_consts: np.ndarray, q_prev: np.ndarray, baseline: np.ndarray,
+                count: np.ndarray, threshold: float, frames: int, q: np.ndarray, palm: np.ndarray, raw: np.ndarray,
+                tared: np.ndarray, contact: np.ndarray, touching: np.ndarray) -> int:
+    """The mock world's step (``world.step_packed`` on ``MockWorld.begin_packed_step``'s
+    arguments, ``torque_on`` to ``sensor_consts``), then ``mock_inputs`` on the new frames
+    ``frame_out`` and the world's joint angles and palm position: ``mock_inputs``' result
+    plus 2, with ``STEP_EVENTS`` when the step may have events."""
+    events = step_packed(torque_on, q_goal, palm_target, frame_base, sensor_t, frame_out, state, layout, take, W,
+                         starts, counts, touch, sensor_state, sensor_gain, sensor_consts)
+    bits = mock_inputs(_part(state, layout, PACKED_Q), q_prev, _part(state, layout, PACKED_PALM), frame_out, baseline,
+                       count, threshold, frames, q, palm, raw, tared, contact, touching)
+    return (bits + 2) | (STEP_EVENTS if events else 0)
 
 
 #: ``mock_outputs`` results.
@@ -104,33 +135,36 @@ def mock_outputs(q_goal: np.ndarray, p_target: np.ndarray, prev_goal: np.ndarray
 FORCES_NOT_FINITE = -1
 #: ``squeeze_outputs``' bits above the controller's: ``mock_outputs``' result, shifted.
 OUTPUTS_SHIFT = 8
+_CONTROLLER_BITS = (1 << OUTPUTS_SHIFT) - 1
 
 
 @njit
-def squeeze_outputs(rows: np.ndarray, bits: int, q: np.ndarray, sense_geometry: np.ndarray,
-                    sense_layout: np.ndarray, f_sensor: np.ndarray, f_hand: np.ndarray, grip: np.ndarray,
-                    contact: np.ndarray, palm_z: float,
+def squeeze_outputs(rows: np.ndarray, bits: int, q: np.ndarray, f_sensor: np.ndarray, f_hand: np.ndarray,
+                    grip: np.ndarray, contact: np.ndarray, palm: np.ndarray,
                     c: np.ndarray, grasping: np.ndarray, lost: np.ndarray, task_vectors: np.ndarray,
                     geometry: np.ndarray, layout: np.ndarray, normal_targets: np.ndarray, facing: np.ndarray,
                     distances: np.ndarray, palm_goal: np.ndarray, compliance: np.ndarray, pad_along: np.ndarray,
                     directions: np.ndarray, pads: np.ndarray, lower: np.ndarray, upper: np.ndarray,
                     ticks_in_state: int, release_count: int, q_goal: np.ndarray, targets: np.ndarray,
                     palm_target: np.ndarray, palm_step: float, q_sent: np.ndarray,
-                    command_palm: np.ndarray, prev_goal: np.ndarray, hand_max_step: float, limits: np.ndarray,
-                    z_min: float, z_max: float, goal_out: np.ndarray, target_out: np.ndarray, true_normal: np.ndarray,
-                    peaks: np.ndarray, block: np.ndarray, row: int, t: float, palm: np.ndarray, raw: np.ndarray,
-                    tared: np.ndarray, true_f: np.ndarray, obj: np.ndarray) -> int:
+                    command_palm: np.ndarray, prev_goal: np.ndarray, goal_out: np.ndarray, target_out: np.ndarray,
+                    block: np.ndarray, row: int, t: float, raw: np.ndarray, tared: np.ndarray,
+                    sense_geometry: np.ndarray, sense_layout: np.ndarray, hand_max_step: float, limits: np.ndarray,
+                    z_min: float, z_max: float, true_normal: np.ndarray, peaks: np.ndarray, true_f: np.ndarray,
+                    obj: np.ndarray) -> int:
     """A squeeze state's tick after the policy's product, in one call: the policy's
     ``rows`` placed and turned into ``f_sensor``, ``f_hand`` and ``grip``
-    (``place_forces``; ``FORCES_NOT_FINITE`` when one is not finite: nothing else
-    done), then the controller's tick (``squeeze_state_tick`` with the arguments of
+    (``place_forces`` with the pipeline's ``sense_geometry`` and ``sense_layout``;
+    ``FORCES_NOT_FINITE`` when one is not finite: nothing else done), then the
+    controller's tick (``squeeze_state_tick`` with the arguments of
     ``GraspController.squeeze_plan``, ``c`` to ``q_sent``: its bits returned) and,
     when that finished the tick (``TICK_DONE``), the command's outputs, peaks and log
     row (``mock_outputs`` of the sent goal ``q_sent`` and the controller's palm target
-    ``command_palm``, its result in the bits from ``OUTPUTS_SHIFT``)."""
+    ``command_palm``, its result in the bits from ``OUTPUTS_SHIFT``). The arguments
+    from ``sense_geometry`` on stay for a trial (``MockTick``)."""
     if not place_forces(rows, bits, q, sense_geometry, sense_layout, f_sensor, f_hand, grip):
         return FORCES_NOT_FINITE
-    flags = squeeze_state_tick(grip, contact, f_sensor, f_hand, q, palm_z, c, grasping, lost, task_vectors, geometry,
+    flags = squeeze_state_tick(grip, contact, f_sensor, f_hand, q, palm, c, grasping, lost, task_vectors, geometry,
                                layout, normal_targets, facing, distances, palm_goal, compliance, pad_along, directions,
                                pads, lower, upper, ticks_in_state, release_count, q_goal, targets, palm_target,
                                palm_step, q_sent)
@@ -164,7 +198,12 @@ class MockTick:
         self._limits = np.array([hand.lower, hand.upper, world.lower, world.upper], dtype=float)
         self._log_rows = log is not None and log._compiled
         self._no_block = np.empty((0, 0))
+        self._no_rows = np.zeros((0, 3))   # the policy's rows when no fingertip is in contact
         self._J = J
+        self._n = self._frame_shape[0]
+        # squeeze_outputs' arguments that stay for the trial (the world's arrays are updated in place)
+        self._trial_args = (pipeline._geometry, pipeline._layout, hand.max_step, self._limits, arm._z_min, arm._z_max,
+                            world._normal_n, peaks, world._f_sensor, world._obj)
 
     @staticmethod
     def usable(world: Any, hand: Any, sensors: Any, arm: Any, pipeline: SensingPipeline, log: TickLog | None) -> bool:
@@ -177,25 +216,35 @@ class MockTick:
                 and arm._set_clamped is not None and (log is None or log.truth))
 
     def tick(self, ctrl: GraspController) -> None:
-        """One tick (the controller's snapshot is then ``ctrl.snap``)."""
+        """One tick: the world's step (and its phase set to the controller's state), then the
+        controller's tick on it (its snapshot is then ``ctrl.snap``), the command, peaks and
+        log row. The shortcuts' conditions do not depend on the step, so they are checked
+        before it and the step and the inputs run in one call (``step_inputs``)."""
         world, hand, sensors, pipeline = self.world, self.hand, self.sensors, self.pipeline
         tactile = pipeline.tactile
         if (not hand.fault and not sensors.paused and ctrl.state != "tare" and tactile.tare.ready  # type: ignore[attr-defined]
                 and tactile.validate and type(world.raw) is np.ndarray and world.raw.shape == self._frame_shape):
-            n = self._frame_shape[0]
+            n = self._n
             empty = np.empty
             q, palm, raw = empty(self._J), empty(3), empty(self._frame_shape)
             tared, in_contact, touching = empty(self._frame_shape), empty(n, dtype=bool), empty(self._frame_shape)
-            sensors._delivered = (world.raw, world.seq, world.t)   # what latest_matrix notes
             gate = tactile.gate
-            bits = mock_inputs(world.q, hand._q_prev, world.palm_world, world.raw, tactile.tare.baseline, gate.count,
-                               gate.threshold, gate.frames, q, palm, raw, tared, in_contact, touching)
+            step = world.begin_packed_step()
+            code = step_inputs(*step, hand._q_prev, tactile.tare.baseline, gate.count, gate.threshold, gate.frames, q,
+                               palm, raw, tared, in_contact, touching)
+            world.end_packed_step(step[5], code & STEP_EVENTS)
+            world.set_phase(ctrl.state)  # type: ignore[attr-defined]
+            sensors._delivered = (world.raw, world.seq, world.t)   # what latest_matrix notes
+            bits = (code & (STEP_EVENTS - 1)) - 2
             if bits >= 0:
-                if bits and not self._squeeze_tick(ctrl, raw, q, palm, tared, in_contact, bits, touching):
+                if not self._squeeze_tick(ctrl, raw, q, palm, tared, in_contact, bits, touching):
                     return
                 self._finish(ctrl, pipeline.snapshot_gated(raw, q, palm, world.t, tared, in_contact, bits, touching),
                              raw)
                 return
+        else:
+            world.step()
+            world.set_phase(ctrl.state)  # type: ignore[attr-defined]
         # the generic tick (it reads the backends again: the same values)
         snap, cmd, raw = control_tick(hand, self.arm, sensors, pipeline, ctrl, world.t)
         self._track_and_log(ctrl, snap, cmd, raw)
@@ -203,11 +252,11 @@ class MockTick:
     def _squeeze_tick(self, ctrl: GraspController, raw: np.ndarray, q: np.ndarray, palm: np.ndarray,
                       tared: np.ndarray, in_contact: np.ndarray, bits: int, touching: np.ndarray) -> bool:
         """The tick after ``mock_inputs`` (fingertips in contact: ``bits``) when the controller
-        is in a squeeze state (``GraspController.squeeze_plan``) and the policy has no
-        variance: the policy's product, then ``squeeze_outputs`` (forces, the controller's
-        tick and, when it finished the tick, the outputs), then what its result leaves to
-        Python; what ``snapshot_gated``, ``ctrl.tick`` and ``_finish`` would do, bit for bit.
-        True (nothing done) when it does not apply."""
+        is in a state of ``GraspController.squeeze_plan`` and the policy has no variance:
+        the policy's product (none without contact), then ``squeeze_outputs`` (forces, the
+        controller's tick and, when it finished the tick, the outputs), then what its result
+        leaves to Python; what ``snapshot_gated``, ``ctrl.tick`` and ``_finish`` would do, bit
+        for bit. True (nothing done) when it does not apply."""
         pipeline = self.pipeline
         estimator = pipeline.tactile.estimator
         if estimator.has_variance:
@@ -219,28 +268,30 @@ class MockTick:
         world = self.world
         t = world.t
         pipeline.raw, pipeline._last_q, pipeline._last_palm = raw, q, palm   # as snapshot_gated
-        rows, idx = pipeline.estimate_contacts(estimator, tared, touching, bits)
         gated = tared, in_contact, bits, touching
-        n = self._frame_shape[0]
-        if not (type(rows) is np.ndarray and rows.dtype is _FLOAT64 and rows.shape == (idx.size, 3)
-                and rows.flags.c_contiguous):
-            self._finish(ctrl, pipeline._snapshot(raw, q, palm, t, gated, False, None, None,
-                                                  pipeline.placed_rows(rows, idx)), raw)
-            return False
+        n = self._n
+        if bits:
+            rows, idx = pipeline.estimate_contacts(estimator, tared, touching, bits)
+            if not (type(rows) is np.ndarray and rows.dtype is _FLOAT64 and rows.shape == (idx.size, 3)
+                    and rows.flags.c_contiguous):
+                self._finish(ctrl, pipeline._snapshot(raw, q, palm, t, gated, False, None, None,
+                                                      pipeline.placed_rows(rows, idx)), raw)
+                return False
+        else:   # no fingertip in contact: no policy call, zero forces (as TactilePipeline.forces)
+            rows = self._no_rows
         empty = np.empty
         f_sensor, f_hand, grip = empty((n, 3)), empty((n, 3)), empty(n)
         goal, target = empty(self._J), empty(3)
+        log = self.log
         row, block = self._log_slot()
-        code = squeeze_outputs(rows, bits, q, pipeline._geometry, pipeline._layout, f_sensor, f_hand, grip, in_contact,
-                               palm_z, *plan, ctrl.palm_target, world.q_goal, self.hand.max_step, self._limits, self.arm._z_min,
-                               self.arm._z_max, goal, target, world.normal_n, self.peaks, block, row, t, palm, raw, tared,
-                               world.f_sensor, world._obj)
+        code = squeeze_outputs(rows, bits, q, f_sensor, f_hand, grip, in_contact, palm, *plan, ctrl.palm_target,
+                               world._q_goal, goal, target, block, row, t, raw, tared, *self._trial_args)
         if code == FORCES_NOT_FINITE:   # the long way names it
             self._finish(ctrl, pipeline._snapshot(raw, q, palm, t, gated, False, None, None, f_sensor), raw)
             return False
         pipeline.tared = tared
         snap = Snapshot(t, q, palm, True, in_contact, f_sensor, f_hand, f_hand, grip, None, None, None)
-        cmd = ctrl.squeeze_done(snap, code & (1 << OUTPUTS_SHIFT) - 1)
+        cmd = ctrl.squeeze_done(snap, code & _CONTROLLER_BITS)
         if cmd is not None:   # a fault or a transition: the controller's own command
             self._send(ctrl, snap, cmd, raw)
             return False
@@ -249,7 +300,13 @@ class MockTick:
             cmd = send_command(self.hand, self.arm, ctrl, snap, ctrl_command(ctrl))
             self._track_and_log(ctrl, snap, cmd, raw)
             return False
-        self._written(ctrl, snap, raw, goal, target, done, row)
+        world._q_goal = goal
+        world._palm_target = target
+        if row >= 0 and done == WRITTEN:
+            log._states.append(ctrl.state)  # type: ignore[union-attr, attr-defined]
+            log._n = row + 1  # type: ignore[union-attr]
+        elif log is not None:
+            self._append(ctrl, snap, ctrl_command(ctrl), raw)
         return False
 
     def _log_slot(self) -> tuple[int, np.ndarray]:
@@ -287,20 +344,18 @@ class MockTick:
         self._written(ctrl, snap, raw, goal, target, done, row, cmd)
 
     def _written(self, ctrl: GraspController, snap: Snapshot, raw: np.ndarray, goal: np.ndarray, target: np.ndarray,
-                 done: int, row: int, cmd: Command | None = None) -> None:
-        """After ``mock_outputs`` wrote (``done``): the world's new goal and wrist target, the
-        log's state and row count, or its own append when the row did not fit (or there
-        is no compiled row). ``cmd``: the command (None: the controller's sent goal)."""
+                 done: int, row: int, cmd: Command) -> None:
+        """After ``mock_outputs`` wrote ``cmd`` (``done``): the world's new goal and wrist
+        target, the log's state and row count, or its own append when the row did not fit
+        (or there is no compiled row)."""
         world, log = self.world, self.log
         world._q_goal = goal
         world._palm_target = target
-        if done == LOG_ROW_REFUSED:
-            self._append(ctrl, snap, cmd or ctrl_command(ctrl), raw)
-        elif row >= 0:
+        if row >= 0 and done == WRITTEN:
             log._states.append(ctrl.state)  # type: ignore[union-attr, attr-defined]
             log._n = row + 1  # type: ignore[union-attr]
         elif log is not None:
-            self._append(ctrl, snap, cmd or ctrl_command(ctrl), raw)
+            self._append(ctrl, snap, cmd, raw)
 
     def _track_and_log(self, ctrl: GraspController, snap: Snapshot, cmd: Command, raw: np.ndarray) -> None:
         track_peaks(snap.f_sensor, snap.grip_n, self.world.normal_n, self.peaks[0], self.peaks[1], self.peaks[2])

@@ -214,11 +214,11 @@ def run_mock_trial(
     settle_ticks = int(round(SETTLE_S / hand.dt))
     try:
         while world.t < MAX_TRIAL_S:
-            world.step()
-            world.set_phase(ctrl.state)  # type: ignore[attr-defined]
-            if fast is not None:   # the same tick, peaks and log row
+            if fast is not None:   # the same step and tick, peaks and log row
                 fast.tick(ctrl)
             else:
+                world.step()
+                world.set_phase(ctrl.state)  # type: ignore[attr-defined]
                 snap, cmd, raw = control_tick(hand_backend, arm, sensors, pipeline, ctrl, world.t)
                 if jit.JIT:
                     track_peaks(snap.f_sensor, snap.grip_n, world.normal_n, tip_force_sq, tip_grip, tip_true)

@@ -63,15 +63,18 @@ def is_temp_file(path: Path) -> bool:
     return path.name.startswith(".") and path.name.endswith(TMP_SUFFIX)
 
 
-def commit_temp(tmp: Path, path: Path) -> None:
-    """Move a finished (closed and fsynced) temporary file onto its final name."""
+def commit_temp(tmp: Path, path: Path, sync_dir: bool = True) -> None:
+    """Move a finished (closed and fsynced) temporary file onto its final name (and, with
+    ``sync_dir``, fsync the folder so that the new name survives a crash)."""
     os.replace(tmp, path)
-    fsync_dir(path.parent)
+    if sync_dir:
+        fsync_dir(path.parent)
 
 
 @contextlib.contextmanager
-def atomic_writer(path: str | Path, mode: str = "w", **open_kwargs: Any) -> Iterator[IO[Any]]:
-    """``with atomic_writer(p) as fh: ...``: ``p`` appears complete on success, untouched on error."""
+def atomic_writer(path: str | Path, mode: str = "w", sync_dir: bool = True, **open_kwargs: Any) -> Iterator[IO[Any]]:
+    """``with atomic_writer(p) as fh: ...``: ``p`` appears complete on success, untouched on
+    error; its content is fsynced, and with ``sync_dir`` also its name (``commit_temp``)."""
     path = Path(path)
     tmp = temp_path(path)
     if "b" not in mode:
@@ -81,7 +84,7 @@ def atomic_writer(path: str | Path, mode: str = "w", **open_kwargs: Any) -> Iter
             yield fh
             fh.flush()
             os.fsync(fh.fileno())
-        commit_temp(tmp, path)
+        commit_temp(tmp, path, sync_dir)
     except BaseException:
         with contextlib.suppress(OSError):
             tmp.unlink()
