@@ -46,7 +46,7 @@ KERNEL_SOURCES = (
     "kinematics/fingertip.py", "kinematics/multilinear.py", "kinematics/pad_ik.py", "limits.py",
     "tactile/tare.py", "finite.py", "sim/backends.py",
     "trials/tick_kernels.py", "sim/world.py", "controller/tick_kernels.py", "trials/mock_tick.py",
-    "estimators/linear.py",
+    "estimators/linear.py", "estimators/mlp.py",
 )
 
 

@@ -61,3 +61,20 @@ def test_the_mlp_batch_is_the_rows_one_by_one(hand):
     alone = np.vstack([est.estimate(tared[i:i + 1], []).f_sensor for i in range(5)])
     np.testing.assert_allclose(together, alone, rtol=1e-12, atol=1e-12)
     assert est.estimate(np.zeros((0, 44)), []).f_sensor.shape == (0, 3)
+
+
+def test_the_mlp_compiled_steps_give_numpys_bits(monkeypatch):
+    """The compiled input scaling and bias adds with ndarray.dot (the path with numba) against
+    the plain numpy forward pass: the same bits, for one to four fingertips' rows."""
+    import types
+
+    from grasp_ctrl.estimators import mlp
+
+    est = load_policy("mlp_mock")
+    rng = np.random.default_rng(9)
+    rows = [rng.normal(0.0, 300.0, (k, 44)) for k in (1, 2, 3, 4) for _ in range(25)]
+    fast = [est.estimate(r, ["x"] * len(r)).f_sensor for r in rows]
+    monkeypatch.setattr(mlp, "jit", types.SimpleNamespace(JIT=False))
+    for r, f in zip(rows, fast):
+        plain = est.estimate(r, ["x"] * len(r)).f_sensor
+        assert f.shape == plain.shape and np.array_equal(f.view(np.int64), plain.view(np.int64))

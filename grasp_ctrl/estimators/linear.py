@@ -20,7 +20,7 @@ _FLOAT64 = np.dtype(np.float64)
 
 @njit
 def add_bias(f: np.ndarray, b: np.ndarray) -> None:
-    """``f += b`` (rows (n, 3) plus (3,)), one IEEE addition per element as numpy's
+    """``f += b`` (rows (n, m) plus (m,)), one IEEE addition per element as numpy's
     broadcast makes it (the same bits), without the ufunc's broadcasting set-up, which
     costs several microseconds per call inside a trial's loop."""
     for i in range(f.shape[0]):
