@@ -31,7 +31,8 @@ def guard_conditions(s: ControllerSettings | None = None) -> dict[str, str]:
         "reach_timed_out": f"{s.reach_timeout_s:g} s in reach",
         "all_in_contact": "every grasping tip's contact gate fired",
         "close_timed_out": f"{s.close_timeout_s:g} s in close",
-        "ramp_settled": f"every grip within {s.ramp_tolerance_n:g} N of tau for {s.ramp_settle_s:g} s, or "
+        "ramp_settled": f"grips averaged over {s.ramp_filter_s:g} s: every grip within {s.ramp_tolerance_n:g} N of tau "
+                        f"for {s.ramp_settle_s:g} s, or "
                         f"balanced: mean within {s.ramp_tolerance_n:g} N, each within {s.ramp_balance_band_n:g} N, "
                         f"steady for {s.ramp_steady_s:g} s",
         "ramp_timed_out": f"{s.ramp_timeout_s:g} s in ramp",

@@ -147,7 +147,7 @@ class GraspController:
         self.ticks_in_state = 0
         self.release_count = 0
         self.settle_count = 0
-        self.ramp_settle = RampSettle(self.s)
+        self.ramp_settle = RampSettle(self.s, self.dt)
         self._lost = np.zeros(len(self.names), dtype=np.int64)   # ticks each fingertip has seemed to slip
         self.snap: Snapshot | None = None
         self.history: list[tuple[float, str, str]] = []   # (t, from, to)

@@ -15,6 +15,11 @@ The ramp counts as settled when either
   the object imposes) and no grip has moved more than ``ramp_steady_n`` for
   ``ramp_steady_s``: the grasp is balanced and steady, more ramping only pushes
   the object around.
+
+Both rules read each grip's error averaged over the last ``ramp_filter_s``: an
+estimate that flips between two readings at a steady force (a voxel network whose
+contact cell toggles with sensor noise reads 1.8 and 2.1 N on and off at a true
+1.76 N) must not keep the ramp from settling when its average sits on tau.
 """
 
 from __future__ import annotations
@@ -26,20 +31,29 @@ from grasp_ctrl.controller.settings import ControllerSettings
 
 class RampSettle:
     """Tick counters of the two settle rules. ``update(err)`` once per tick with the
-    grasping fingertips' force errors tau - grip (N); ``settled(dt)`` is the guard."""
+    grasping fingertips' force errors tau - grip (N); ``settled(dt)`` is the guard.
+    ``dt`` is the control period (s), for the averaging window."""
 
-    def __init__(self, settings: ControllerSettings) -> None:
+    def __init__(self, settings: ControllerSettings, dt: float = 0.01) -> None:
         self.s = settings
+        self.window = max(1, int(round(settings.ramp_filter_s / dt)))
         self.within_ticks = 0
         self.steady_ticks = 0
         self._ref_err: np.ndarray | None = None   # errors when the steady window began
+        self._recent: list[np.ndarray] = []        # the last ``window`` raw errors
 
     def reset(self) -> None:
         self.within_ticks = 0
         self.steady_ticks = 0
         self._ref_err = None
+        self._recent = []
 
-    def update(self, err: np.ndarray) -> None:
+    def update(self, err_now: np.ndarray) -> None:
+        recent = self._recent
+        recent.append(np.array(err_now, dtype=float))
+        if len(recent) > self.window:
+            del recent[0]
+        err = recent[0] if len(recent) == 1 else np.mean(recent, axis=0)
         abs_err = np.abs(err)
         self.within_ticks = self.within_ticks + 1 if bool((abs_err <= self.s.ramp_tolerance_n).all()) else 0
         in_band = (abs(float(err.mean())) <= self.s.ramp_tolerance_n

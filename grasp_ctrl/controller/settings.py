@@ -17,6 +17,7 @@ class ControllerSettings:
     ramp_steady_n: float = 0.05            #   steady (a free object balancing opposing fingers,
     ramp_steady_s: float = 0.5             #   controller/ramp_settle.py): no grip moved more than
                                            #   ramp_steady_n for ramp_steady_s
+    ramp_filter_s: float = 0.1             # both rules read each grip's error averaged over this long
     ramp_timeout_s: float = 6.0
     hold_gain_m_s_per_n: float = 0.005     # grip force controller during lift/hold/lower
     hold_max_speed_m_s: float = 0.004
