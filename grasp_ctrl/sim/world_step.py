@@ -146,6 +146,29 @@ def _contacts(
         # matters on the cap, whose surface turns away higher up.
         z_on_object = stick[i] if was else z_world - obj[OZ]
         d0, nx, ny, nz = penetration(shape, palm[0] + cx - obj[OX], palm[1] + cy - obj[OY], z_on_object)
+        if c[SKIN_CONTACT] != 0.0 and d0 > 0.0:
+            # The skin faces the surface that pushes it: the skin point comes again from this
+            # contact's own normal, which differs from the one found at the pad centre where
+            # the pad is near two surfaces (the mustard bottle's wall and dome) or beyond the
+            # near distance of both; otherwise the sensor would feel the force on a skin patch
+            # facing elsewhere, outside any friction cone.
+            ux = -(row[0] * nx + row[3] * ny + row[6] * nz)
+            uy = -(row[1] * nx + row[4] * ny + row[7] * nz)
+            uz = -(row[2] * nx + row[5] * ny + row[8] * nz)
+            px_, py_, pz_, sx, sy, sz = skin_contact_point(ux, uy, uz)
+            ex = px_ - contact_local[i, 0]
+            ey = py_ - contact_local[i, 1]
+            ez = pz_ - contact_local[i, 2]
+            if abs(ex) + abs(ey) + abs(ez) > 1e-7:
+                contact_local[i, 0], contact_local[i, 1], contact_local[i, 2] = px_, py_, pz_
+                skin_normal[i, 0], skin_normal[i, 1], skin_normal[i, 2] = sx, sy, sz
+                cx += row[0] * ex + row[1] * ey + row[2] * ez
+                cy += row[3] * ex + row[4] * ey + row[5] * ez
+                cz += row[6] * ex + row[7] * ey + row[8] * ez
+                z_world = palm[2] + cz
+                contact_z[i] = z_world
+                z_on_object = stick[i] if was else z_world - obj[OZ]
+                d0, nx, ny, nz = penetration(shape, palm[0] + cx - obj[OX], palm[1] + cy - obj[OY], z_on_object)
         if d0 <= 0.0:
             normal[i] = 0.0
             touch[i] = False
