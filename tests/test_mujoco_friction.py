@@ -79,7 +79,7 @@ def _carried(ratio: float, p: SceneParams, lift_m: float = 0.03) -> float:
 
 @pytest.mark.parametrize("ratio", [1.1, 3.0])
 def test_a_grip_above_the_friction_limit_holds_with_only_a_slow_creep(ratio):
-    # MuJoCo's friction is soft: inside the cone the box creeps (1.2 mm/s at impratio 10,
+    # MuJoCo's friction is soft: inside the cone the box creeps (0.6 mm/s at impratio 10,
     # whatever the margin), it does not slide.
     assert 0.0 <= _sink_speed(ratio, SceneParams()) < 0.002
 

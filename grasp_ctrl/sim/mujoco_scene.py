@@ -41,7 +41,7 @@ from grasp_ctrl.controller.joint_stiffness import (
 class SceneParams:
     timestep_s: float = 0.002
     # Friction (tests/test_mujoco_friction.py): with elliptic cones and impratio 10 a grip holds
-    # or slips at Coulomb's limit (mu N), with a creep of about 1 mm/s inside the cone (MuJoCo's
+    # or slips at Coulomb's limit (mu N), with a creep of about 0.6 mm/s inside the cone (MuJoCo's
     # soft friction). The noslip post-processor removes the creep but costs 40 % of mj_step and
     # does not change which objects are lifted (docs/mujoco.md).
     impratio: float = 10.0
