@@ -40,6 +40,12 @@ from grasp_ctrl.controller.joint_stiffness import (
 @dataclass(frozen=True)
 class SceneParams:
     timestep_s: float = 0.002
+    # Friction (tests/test_mujoco_friction.py): with elliptic cones and impratio 10 a grip holds
+    # or slips at Coulomb's limit (mu N), with a creep of about 0.6 mm/s inside the cone (MuJoCo's
+    # soft friction). The noslip post-processor removes the creep but costs 40 % of mj_step and
+    # does not change which objects are lifted (docs/mujoco.md).
+    impratio: float = 10.0
+    noslip_iterations: int = 0
     torque_per_amp_nm: float = 0.5           # as the mock world (XC330: 0.93 N m / 1.8 A)
     # The gears' reflected rotor inertia (estimate: ~5e-8 kg m^2 rotor x 288^2) and the motor's
     # back-EMF damping under voltage (PWM) drive: stall torque / no-load speed.
@@ -229,6 +235,20 @@ def contact_timeconst(stiffness_n_per_m: float, p: SceneParams) -> float:
     return max(t, 2.0 * p.timestep_s)
 
 
+def object_contact_attrs(mu: float, stiffness_n_per_m: float, p: SceneParams) -> str:
+    """The object geoms' contact attributes: its friction wins over the fingertip's (priority),
+    torsional friction over the pad's patch, the softness of its stiffness."""
+    tc = contact_timeconst(stiffness_n_per_m, p)
+    return (f'priority="1" condim="4" friction="{mu:.6g} {mu * p.torsion_radius_m:.6g} 0" '
+            f'solref="{tc:.6g} 1"')
+
+
+def option_xml(p: SceneParams) -> str:
+    """MuJoCo's solver options of the scene (also the friction test's, tests/test_mujoco_friction.py)."""
+    return (f'<option timestep="{p.timestep_s}" integrator="implicitfast" cone="elliptic" '
+            f'impratio="{p.impratio:g}" noslip_iterations="{p.noslip_iterations}" gravity="0 0 -9.81"/>')
+
+
 def _object(obj: PlacedObject, p: SceneParams) -> tuple[str, list[str]]:
     """The object's body at its resting pose (frame at the footprint centre, on the table)."""
     prof = obj.profile
@@ -243,9 +263,7 @@ def _object(obj: PlacedObject, p: SceneParams) -> tuple[str, list[str]]:
         sx, sy = prof.size_m
         inertia = (m * (sy * sy + h * h) / 12.0, m * (sx * sx + h * h) / 12.0, m * (sx * sx + sy * sy) / 12.0)
         body = f'type="box" size="{0.5 * sx:.9g} {0.5 * sy:.9g} {0.5 * h:.9g}"'
-    tc = contact_timeconst(obj.stiffness_n_per_m, p)
-    common = (f'{WORLD_COLLISION} priority="1" condim="4" friction="{obj.mu:.6g} {obj.mu * p.torsion_radius_m:.6g} 0" '
-              f'solref="{tc:.6g} 1" rgba="0.3 0.55 0.85 1"')
+    common = f'{WORLD_COLLISION} {object_contact_attrs(obj.mu, obj.stiffness_n_per_m, p)} rgba="0.3 0.55 0.85 1"'
     geoms = [f'<geom name="object_body" {body} pos="0 0 {0.5 * h:.9g}" {common}/>']
     names = ["object_body"]
     if prof.cap is not None:
@@ -297,7 +315,7 @@ def build_scene(hand: HandConfig, obj: PlacedObject, palm_start_world: np.ndarra
     px, py, pz = (float(v) for v in palm_start_world)
     xml = f"""<mujoco model="grasp_ctrl_{hand.name}_{obj.profile.name}">
 <compiler angle="radian" autolimits="true"/>
-<option timestep="{p.timestep_s}" integrator="implicitfast" cone="elliptic" impratio="10" gravity="0 0 -9.81"/>
+{option_xml(p)}
 <visual><global offwidth="640" offheight="480"/></visual>
 <asset><texture name="grid" type="2d" builtin="checker" rgb1="0.55 0.5 0.45" rgb2="0.5 0.45 0.4" width="256" height="256"/>
 <material name="table" texture="grid" texrepeat="8 8"/></asset>
