@@ -100,3 +100,18 @@ def test_init_from_refuses_the_dropout_network() -> None:
 
     with pytest.raises(ValueError, match="dropout"):
         official_arrays_from_onnx(POLICIES / "icra19_dropout_official.onnx")
+
+
+def test_train_init_from_icra19_official_runs(tmp_path) -> None:
+    pytest.importorskip("torch")
+    _need(OFFICIAL)
+    from grasp_ctrl.cli import main
+
+    ckpt = tmp_path / "ft.pt"
+    assert main(["train", "--synthetic", "150", "--seed", "5", "--test-per-source", "60", "--arch", "voxel",
+                 "--epochs", "1", "--init-from", OFFICIAL, "--out", str(ckpt), "--quiet"]) == 0
+    import torch
+
+    assert torch.load(ckpt, weights_only=True)["init_from"] == OFFICIAL
+    assert main(["train", "--synthetic", "150", "--seed", "5", "--arch", "su", "--epochs", "1",
+                 "--init-from", OFFICIAL, "--quiet"]) == 2
