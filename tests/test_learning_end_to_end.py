@@ -43,6 +43,12 @@ def test_train_evaluate_export_finetune(tmp_path: Path, monkeypatch: pytest.Monk
     assert main(["train", *common, "--sources", "rigid-ft", "--arch", "voxel", "--epochs", "1",
                  "--init-from", "tiny_voxel", "--out", str(ckpt2), "--quiet"]) == 0
     assert torch.load(ckpt2, weights_only=True)["init_from"] == "tiny_voxel"
+    # its policy says where it started; --description replaces the generic text
+    assert main(["export", str(ckpt2), "--name", "tiny_ft"]) == 0
+    assert json.loads((tmp_path / "policies" / "tiny_ft.json").read_text())["description"].endswith(
+        "fine-tuned from tiny_voxel")
+    assert main(["export", str(ckpt2), "--name", "tiny_ft2", "--description", "tiny, tuned on rigid-ft"]) == 0
+    assert json.loads((tmp_path / "policies" / "tiny_ft2.json").read_text())["description"] == "tiny, tuned on rigid-ft"
     assert main(["train", *common, "--arch", "su", "--epochs", "1", "--init-from", "tiny_voxel", "--quiet"]) == 2
     assert "is a 'voxel' model" in capsys.readouterr().err
 

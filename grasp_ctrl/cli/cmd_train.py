@@ -35,7 +35,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--threads", type=int, default=1, help="torch CPU threads")
     p.add_argument("--init-from", metavar="POLICY|FILE",
                    help="fine-tune: start from an exported policy (NAME or .onnx), a .pt checkpoint, or the "
-                        "authors' ICRA 2019 weights (.npz, --arch voxel)")
+                        "authors' ICRA 2019 weights (.npz or the converted policy icra19_official, --arch voxel)")
     p.add_argument("--out", metavar="FILE", help="checkpoint to write (.pt; .json for --arch analytic)")
     p.add_argument("--experiment", choices=("fig3", "fig4", "fig3+fig4"),
                    help="run the paper's comparison instead of one model (fig4: the voxel network and its "
@@ -76,9 +76,14 @@ def _init_state(spec: str, arch: str):
         onnx_path = path.with_suffix(".onnx") if path.suffix in (".onnx", ".json") else policies_dir() / f"{spec}.onnx"
         if not onnx_path.is_file():
             raise UsageError(f"--init-from: {onnx_path}: no such policy file")
+        from grasp_ctrl.learning.official import is_converted_policy, official_arrays_from_onnx, official_state_dict
+
         try:
-            init_arch, state = load_onnx_weights(onnx_path)
-        except ExportError as exc:
+            if is_converted_policy(onnx_path):   # e.g. icra19_official: the authors' weights, read from the graph
+                init_arch, state = "voxel", official_state_dict(official_arrays_from_onnx(onnx_path))
+            else:
+                init_arch, state = load_onnx_weights(onnx_path)
+        except (ExportError, ValueError) as exc:
             raise UsageError(f"--init-from: {exc}") from None
     if init_arch != arch:
         raise UsageError(f"--init-from: the policy is a {init_arch!r} model, --arch is {arch!r}")

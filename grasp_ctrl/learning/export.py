@@ -136,8 +136,10 @@ _MEANING = {
 }
 
 
-def policy_metadata(name: str, arch: str, ckpt: dict[str, Any], parity: float, sha256: str) -> dict[str, Any]:
-    """Metadata in the layout read by grasp_ctrl.estimators.onnx_estimator (DESIGN.md 5.5)."""
+def policy_metadata(name: str, arch: str, ckpt: dict[str, Any], parity: float, sha256: str,
+                    description: str | None = None) -> dict[str, Any]:
+    """Metadata in the layout read by grasp_ctrl.estimators.onnx_estimator (DESIGN.md 5.5);
+    ``description`` replaces the generic one (say what the policy is: base, data, seed...)."""
     has_var = arch == "voxel-dropout"
     out_tensors = {"f_sensor": {"shape": ["batch", 3], "dtype": "float32", "units": "N",
                                 "meaning": "force ON the sensor skin (DESIGN.md 4); a pad press gives +z"}}
@@ -164,7 +166,8 @@ def policy_metadata(name: str, arch: str, ckpt: dict[str, Any], parity: float, s
         "model_file": f"{name}.onnx",
         "model_sha256": sha256,
         "sensor_type": "biotac",
-        "description": DESCRIPTIONS[arch] + (" with the alpha loss weight" if cfg.get("beta") is not None else ""),
+        "description": description or (DESCRIPTIONS[arch] + (" with the alpha loss weight" if cfg.get("beta") is not None else "")
+                                       + (f", fine-tuned from {ckpt['init_from']}" if ckpt.get("init_from") else "")),
         "arch": arch,
         "input": {"kind": INPUT_KIND[arch],
                   "tensors": {k: {"shape": ["batch", *v[1:]], "dtype": "float32", "meaning": _MEANING[k]}
@@ -205,14 +208,15 @@ DESCRIPTIONS = {
 }
 
 
-def export_checkpoint(ckpt: dict[str, Any], name: str, out_dir: Path) -> tuple[Path, Path, float]:
+def export_checkpoint(ckpt: dict[str, Any], name: str, out_dir: Path,
+                      description: str | None = None) -> tuple[Path, Path, float]:
     model = build_model(ckpt["arch"])
     model.load_state_dict(ckpt["state_dict"])
     onnx_path = out_dir / f"{name}.onnx"
     parity = export_onnx(model, ckpt["arch"], onnx_path)
     json_path = out_dir / f"{name}.json"
     sha = hashlib.sha256(onnx_path.read_bytes()).hexdigest()
-    json_path.write_text(json.dumps(policy_metadata(name, ckpt["arch"], ckpt, parity, sha), indent=2) + "\n", encoding="utf-8")
+    json_path.write_text(json.dumps(policy_metadata(name, ckpt["arch"], ckpt, parity, sha, description), indent=2) + "\n", encoding="utf-8")
     return onnx_path, json_path, parity
 
 

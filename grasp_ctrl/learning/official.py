@@ -1,5 +1,6 @@
 """Start fine-tuning from the authors' pretrained ICRA 2019 weights (.npz of the TF1
-checkpoint, official_icra19 README) by mapping them onto the ``voxel`` model.
+checkpoint, official_icra19 README, or the policy converted from it by ``convert-icra19``)
+by mapping them onto the ``voxel`` model.
 
 - Kernel-2 stride-2 convolutions: TF kernels [kd, kh, kw, c_in, c_out] flatten to
   (kd, kh, kw, c_in) rows, the patch order of ``PatchConv``; dense [in, out] -> Linear.weight.T.
@@ -11,6 +12,7 @@ checkpoint, official_icra19 README) by mapping them onto the ``voxel`` model.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -23,8 +25,58 @@ def _conv(w: np.ndarray) -> torch.Tensor:
     return torch.as_tensor(w.reshape(-1, w.shape[-1]).T.copy(), dtype=torch.float32)
 
 
-def official_state_dict(npz_path: str | Path) -> dict[str, torch.Tensor]:
-    d = np.load(npz_path)
+CONVERTER = "grasp_ctrl.policy_tools.convert_icra19"
+
+# initializer name prefix in the converted ONNX graph -> the authors' variable scope
+_ONNX_SCOPES = {
+    "conv_el": "Conv", "ln_el": "LayerNorm", "conv_cp": "Conv_1", "ln_cp": "LayerNorm_1", "ln2": "LayerNorm_2",
+    "conv3": "Conv_3", "ln3": "LayerNorm_3", "conv4": "Conv_4", "ln4": "LayerNorm_4", "fc": "fully_connected",
+    "ln5": "LayerNorm_5", "fc1": "fully_connected_1", "ln6": "LayerNorm_6", "fc2": "fully_connected_2",
+}
+
+
+def is_converted_policy(onnx_path: str | Path) -> bool:
+    """True for an ONNX file written by ``convert-icra19`` (the authors' weights, no torch state inside)."""
+    import onnx
+
+    return onnx.load(str(onnx_path), load_external_data=False).producer_name == CONVERTER
+
+
+def official_arrays_from_onnx(onnx_path: str | Path) -> dict[str, np.ndarray]:
+    """The authors' variables (npz names) read back from the single-head policy ``convert-icra19`` wrote.
+
+    The converter stores kernels flattened to (patch, c_out) rows, which is all the mapping
+    below needs; Conv_2 is split by input branch (electrode channels 0-63, contact 64-127) and
+    layer-norm parameters are broadcast over the cells (row 0 is the original).
+    """
+    import onnx
+    from onnx import numpy_helper
+
+    proto = onnx.load(str(onnx_path), load_external_data=False)
+    if proto.producer_name != CONVERTER:
+        raise ValueError(f"{onnx_path}: not written by convert-icra19")
+    inits = {i.name.rsplit("_", 1)[0]: numpy_helper.to_array(i) for i in proto.graph.initializer}
+    if "dropout_masks" in inits:
+        raise ValueError(f"{onnx_path}: the multi-head dropout network cannot start a 'voxel' model")
+    out: dict[str, np.ndarray] = {}
+    try:
+        for prefix, scope in _ONNX_SCOPES.items():
+            if scope.startswith("LayerNorm"):
+                g, b = inits[prefix + "_g"], inits[prefix + "_b"]
+                out[f"{scope}/gamma"], out[f"{scope}/beta"] = (g[0], b[0]) if g.ndim == 2 else (g, b)
+            else:
+                out[f"{scope}/weights"], out[f"{scope}/biases"] = inits[prefix + "_w"], inits[prefix + "_b"]
+        w_el, w_cp = inits["conv2_el_w"], inits["conv2_cp_w"]
+        out["Conv_2/weights"] = np.concatenate([w_el.reshape(2, 2, 2, 64, 64), w_cp.reshape(2, 2, 2, 64, 64)], axis=3)
+        out["Conv_2/biases"] = inits["conv2_el_b"]
+    except KeyError as exc:
+        raise ValueError(f"{onnx_path}: no initializer {exc} of the authors' network") from None
+    return out
+
+
+def official_state_dict(source: str | Path | Mapping[str, np.ndarray]) -> dict[str, torch.Tensor]:
+    """``source``: the authors' .npz, or its arrays (e.g. from ``official_arrays_from_onnx``)."""
+    d = source if isinstance(source, Mapping) else np.load(source)
     t = lambda a: torch.as_tensor(np.asarray(a, dtype=np.float32).copy())  # noqa: E731
     sd: dict[str, torch.Tensor] = {"trunk.input_scale": torch.tensor(1.0)}
     convs = {"conv_e": ("Conv", "LayerNorm"), "conv_c": ("Conv_1", "LayerNorm_1"), "conv2": ("Conv_2", "LayerNorm_2"),
