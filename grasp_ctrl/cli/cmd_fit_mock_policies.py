@@ -103,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
                                                   skin_f[test])
 
     metas = [analytic, linear]
-    mlp = _fit_mlp(tared[train], f[train], args.samples, args.seed, n_train)
+    mlp = _fit_mlp(tared[train], f[train], args.samples, args.seed, n_train, n_test)
     if mlp is not None:
         metas.append(mlp)
     for meta in metas:
@@ -118,8 +118,10 @@ def run(args: argparse.Namespace) -> int:
 MLP_CHANNELS = list(range(20))   # the 19 tared electrodes and the tared pdc (tactile/layout.py)
 
 
-def _fit_mlp(pad_tared: np.ndarray, pad_f: np.ndarray, samples: int, seed: int, n_train: int) -> dict[str, Any] | None:
-    """``mlp_mock``, or None (with a note) where torch is not installed."""
+def _fit_mlp(pad_tared: np.ndarray, pad_f: np.ndarray, samples: int, seed: int, n_train: int,
+             n_test: int) -> dict[str, Any] | None:
+    """``mlp_mock``, or None (with a note) where torch is not installed. The first ``n_test``
+    skin presses are held out, as many as the pad presses' test split."""
     import sys
 
     from grasp_ctrl.estimators.mlp import MlpEstimator
@@ -131,7 +133,6 @@ def _fit_mlp(pad_tared: np.ndarray, pad_f: np.ndarray, samples: int, seed: int, 
         print("mlp_mock: not refitted (needs torch: pip install -e '.[train]')", file=sys.stderr)
         return None
     skin_tared, skin_f = skin_presses(2 * samples, seed + 2)
-    n_test = max(50, samples // 5)
     x = np.vstack([pad_tared, skin_tared[n_test:]])[:, MLP_CHANNELS]
     labels = np.vstack([pad_f, skin_f[n_test:]])
     meta = _common("mlp_mock", "mlp", "a small MLP (20-64-64-3, tanh) on the 19 tared electrodes and the tared pdc",
