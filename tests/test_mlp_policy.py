@@ -91,7 +91,7 @@ def test_the_mlp_compiled_pass_is_within_1e_9_n_of_numpys(monkeypatch):
 def test_the_compiled_tanh_is_numpys_to_a_few_ulp_of_one():
     from grasp_ctrl.estimators.mlp import tanh_rows
 
-    x = np.concatenate([np.linspace(-25.0, 25.0, 200_001), np.geomspace(1e-300, 30.0, 2000),
+    x = np.concatenate([np.linspace(-25.0, 25.0, 50_001), np.geomspace(1e-300, 30.0, 2000),
                         -np.geomspace(1e-300, 30.0, 2000), [0.0, -0.0, np.inf, -np.inf, np.nan, 1e308, -1e308]])
     h = np.vstack([x, x[::-1]])
     tanh_rows(h, h.shape[1], np.empty_like(h))
