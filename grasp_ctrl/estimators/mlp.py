@@ -64,16 +64,52 @@ def tanh_rows(h: np.ndarray, cols: int, scratch: np.ndarray) -> None:
             h[i, j] = 1.0 - 2.0 / (h[i, j] * scratch[i, j] + 1.0)
 
 
+@njit
+def products(a: np.ndarray, W_T: np.ndarray, dst: np.ndarray, rows: int) -> None:
+    """``dst[:rows, :n] = a[:rows, :k] @ W_T`` for W_T (k, n): per output, the products added
+    in input order, each row of W_T scaled and added to a row's outputs (a loop the compiler
+    vectorises with the same operations per element). Rows go three or two at a time, so
+    that each row of W_T is loaded once for them (0.6 of the pass's 4.5 us saved for three
+    fingertips)."""
+    n_in, n_out = W_T.shape
+    for i in range(rows):
+        for j in range(n_out):
+            dst[i, j] = 0.0
+    i = 0
+    while rows - i >= 3 and rows - i != 4:   # (four rows: two pairs)
+        d0, d1, d2, a0, a1, a2 = dst[i], dst[i + 1], dst[i + 2], a[i], a[i + 1], a[i + 2]
+        for m in range(n_in):
+            x0, x1, x2, w = a0[m], a1[m], a2[m], W_T[m]
+            for j in range(n_out):
+                d0[j] += x0 * w[j]
+                d1[j] += x1 * w[j]
+                d2[j] += x2 * w[j]
+        i += 3
+    while rows - i >= 2:
+        d0, d1, a0, a1 = dst[i], dst[i + 1], a[i], a[i + 1]
+        for m in range(n_in):
+            x0, x1, w = a0[m], a1[m], W_T[m]
+            for j in range(n_out):
+                d0[j] += x0 * w[j]
+                d1[j] += x1 * w[j]
+        i += 2
+    if i < rows:
+        d0, a0 = dst[i], a[i]
+        for m in range(n_in):
+            x0, w = a0[m], W_T[m]
+            for j in range(n_out):
+                d0[j] += x0 * w[j]
+
+
 @njit(numpy_division=True)
 def mlp_forward(tared: np.ndarray, layout: np.ndarray, params: np.ndarray, out: np.ndarray) -> None:
     """The whole forward pass into ``out`` (rows, outputs) in one call. ``params``: the
     inputs' mean and 1 / scale, then per layer its weights transposed (in, out) and bias,
     flat; ``layout``: the number of inputs, their channels, then each layer's (in, out)
-    (few arrays: a compiled call costs some 0.1 us per array handed to it). The products go over the inputs in order,
-    each row of the transposed weights scaled and added to all of a row's outputs (a
-    loop the compiler vectorises with the same operations per element), the bias after
-    them as in numpy's ``x @ W.T + b``; tanh by ``tanh_rows``. The sums are rounded in
-    another order than BLAS's: a few ulp apart from the numpy pass."""
+    (few arrays: a compiled call costs some 0.1 us per array handed to it). The products
+    by ``products``, the bias after them as in numpy's ``x @ W.T + b``, tanh by
+    ``tanh_rows``. The sums are rounded in another order than BLAS's: a few ulp apart
+    from the numpy pass."""
     rows, n_in = tared.shape[0], layout[0]
     channels = layout[1:1 + n_in]
     shapes = layout[1 + n_in:].reshape((-1, 2))
@@ -92,14 +128,7 @@ def mlp_forward(tared: np.ndarray, layout: np.ndarray, params: np.ndarray, out: 
         b = params[at + n_rows_w * n_out:at + n_rows_w * n_out + n_out]
         at += n_rows_w * n_out + n_out
         dst = out if k == last else z
-        for i in range(rows):
-            for j in range(n_out):
-                dst[i, j] = 0.0
-        for m in range(n_rows_w):
-            for i in range(rows):
-                x = a[i, m]
-                for j in range(n_out):
-                    dst[i, j] += x * W_T[m, j]
+        products(a, W_T, dst, rows)
         for i in range(rows):
             for j in range(n_out):
                 dst[i, j] += b[j]
