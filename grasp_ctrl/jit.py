@@ -24,7 +24,7 @@ from __future__ import annotations
 import hashlib
 import os
 from pathlib import Path
-from typing import Any, Callable, TypeVar
+from typing import Any, Callable, TypeVar, overload
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -75,6 +75,14 @@ if _numba is not None and not os.environ.get("NUMBA_CACHE_DIR"):
     _where = _cache_dir()
     if _writable(_where):
         _numba.config.CACHE_DIR = str(_where)
+
+
+@overload
+def njit(fn: F) -> F: ...
+
+
+@overload
+def njit(*, numpy_division: bool = False) -> Callable[[F], F]: ...
 
 
 def njit(fn: F | None = None, *, numpy_division: bool = False) -> Any:
