@@ -24,7 +24,7 @@ from __future__ import annotations
 import hashlib
 import os
 from pathlib import Path
-from typing import Any, Callable, TypeVar
+from typing import Any, Callable, TypeVar, overload
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -77,11 +77,25 @@ if _numba is not None and not os.environ.get("NUMBA_CACHE_DIR"):
         _numba.config.CACHE_DIR = str(_where)
 
 
-def njit(fn: F) -> F:
-    """Compile ``fn`` in nopython mode when numba is available (cached on disk)."""
+@overload
+def njit(fn: F) -> F: ...
+
+
+@overload
+def njit(*, numpy_division: bool = False) -> Callable[[F], F]: ...
+
+
+def njit(fn: F | None = None, *, numpy_division: bool = False) -> Any:
+    """Compile ``fn`` in nopython mode when numba is available (cached on disk).
+
+    ``numpy_division``: a float division by zero gives inf or nan as in numpy instead of
+    raising ZeroDivisionError; without that check per division the compiler can turn a
+    loop with a division into SIMD code (``@njit(numpy_division=True)``)."""
+    if fn is None:
+        return lambda f: njit(f, numpy_division=numpy_division)
     if _numba is None:
         return fn
-    return _numba.njit(cache=True, nogil=True)(fn)  # type: ignore[no-any-return]
+    return _numba.njit(cache=True, nogil=True, error_model="numpy" if numpy_division else "python")(fn)
 
 
 def backend() -> str:
