@@ -23,6 +23,7 @@ from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.motion import FingertipMotion
 from grasp_ctrl.kinematics.pad_ik import Facing
 from grasp_ctrl.kinematics.preshape import preshape
+from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES, grip_targets
 from grasp_ctrl.controller.ramp_settle import RampSettle
 from grasp_ctrl.controller import tick_kernels as tk
 from grasp_ctrl.controller.settings import ControllerSettings
@@ -128,7 +129,16 @@ class GraspController:
         self._grasping = [bool(g) for g in self.grasp_mask]
         # With the sim extra, the per-tick counters, force checks and squeeze run compiled
         # (controller/tick_kernels.py); the Python code below stays the reference.
-        self._compiled = self.motion.ik.compiled
+        # Each fingertip's grip target (controller/grip_targets.py); all tau by default.
+        if self.s.grip_targets not in GRIP_TARGET_MODES:
+            raise ConfigError("controller settings", "grip_targets",
+                              f"one of {', '.join(GRIP_TARGET_MODES)} (got {self.s.grip_targets!r})")
+        self.grip_targets = grip_targets(self.motion.task_vectors, self.grasp_mask, obj.tau_n, self.s.grip_targets,
+                                         obj.mass_kg, obj.mu, self.s.grip_weight_margin)
+        self._targets = self.grip_targets.tolist()
+        # The compiled kernels take one target for every fingertip: unequal targets run the
+        # Python tick (the reference the kernels are checked against).
+        self._compiled = self.motion.ik.compiled and all(t == obj.tau_n for t in self._targets)
         self._force_shape = (len(self.names), 3)
         self._tip_shape = (len(self.names),)
         self._no_palm = np.zeros(3)   # squeeze's palm arguments when the palm stays
@@ -285,19 +295,19 @@ class GraspController:
         return float(-snap.f_world[self.release_idx, 2])
 
     def _update_counters(self, snap: Snapshot) -> None:
-        tau, tolerance = self.tau, self.s.ramp_tolerance_n
+        targets, tolerance = self._targets, self.s.ramp_tolerance_n
         grip = snap.grip_n.tolist()
         within = True
-        for g, grasping in zip(grip, self._grasping):
-            if grasping and not abs(tau - g) <= tolerance:
+        for g, t, grasping in zip(grip, targets, self._grasping):
+            if grasping and not abs(t - g) <= tolerance:
                 within = False
                 break
         self.settle_count = self.settle_count + 1 if within else 0
         if self.state == "ramp":  # type: ignore[attr-defined]
-            self.ramp_settle.update(tau - snap.grip_n[self.grasp_mask])
-        floor = self.s.grip_lost_fraction * tau
-        self.lost_count = [count + 1 if not touching or g < floor else 0
-                           for count, touching, g in zip(self.lost_count, snap.in_contact.tolist(), grip)]
+            self.ramp_settle.update(self.grip_targets[self.grasp_mask] - snap.grip_n[self.grasp_mask])
+        fraction = self.s.grip_lost_fraction
+        self.lost_count = [count + 1 if not touching or g < fraction * t else 0
+                           for count, touching, g, t in zip(self.lost_count, snap.in_contact.tolist(), grip, targets)]
         below = self.release_force_n(snap) < -self.obj.release_threshold_n
         self.release_count = self.release_count + 1 if below else 0
 
@@ -541,9 +551,8 @@ class GraspController:
             self._move_palm_toward(palm_goal, palm_speed)
 
     def _squeeze_python(self, snap: Snapshot, gain: float, max_speed: float) -> None:
-        tau = self.tau
         grip = snap.grip_n
-        speed = [min(max(gain * (tau - g), -max_speed), max_speed) for g in grip.tolist()]
+        speed = [min(max(gain * (t - g), -max_speed), max_speed) for g, t in zip(grip.tolist(), self._targets)]
         if self.s.low_confidence_slowdown and snap.variance is not None:
             speed = (np.array(speed) / (1.0 + np.max(snap.variance, axis=1) / self.s.variance_scale_n2)).tolist()
         dt = self.dt

@@ -38,5 +38,9 @@ class ControllerSettings:
     stiffness_aware_squeeze: bool = False  # True: move the pads' goals so the joints' springs push along the
                                            #   closing vectors (controller/motion.py); off: on MuJoCo it
                                            #   does not help yet (docs/mujoco.md)
+    grip_targets: str = "equal"           # "force_closure": per-fingertip targets whose closing forces cancel,
+                                           #   the smallest tau (controller/grip_targets.py)
+    grip_weight_margin: float = 0.0        # > 0: scale the targets so mu x their sum >= this x the object's
+                                           #   weight (objects.toml mass_kg); 0: tau_n as tuned
     low_confidence_slowdown: bool = False  # slow the ramp when the policy's variance is high
     variance_scale_n2: float = 0.05        # variance at which the ramp runs at half speed

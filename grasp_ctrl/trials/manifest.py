@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from grasp_ctrl.config.objects import ObjectProfile, profile_from_json
+from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import ConfigError, UsageError
 from grasp_ctrl.trials.storage import RUN_FILE, write_json
@@ -26,7 +27,8 @@ EMULATED_BACKEND = "dynamixel-emulated"   # run --backend dynamixel --emulate (p
 BACKENDS = ("mock", "mujoco", "dynamixel", EMULATED_BACKEND)
 MAX_TRIALS = 100_000
 # settings that may be zero (no slow zone, no overshoot, no retreat)
-ZERO_ALLOWED = ("lower_overshoot_m", "lower_slow_zone_m", "retreat_m")
+SETTING_CHOICES = {"grip_targets": GRIP_TARGET_MODES}   # the text settings and their values
+ZERO_ALLOWED = ("lower_overshoot_m", "lower_slow_zone_m", "retreat_m", "grip_weight_margin")
 
 
 @dataclass
@@ -148,6 +150,10 @@ def settings_from_json(d: Any, where: str) -> ControllerSettings:
         if isinstance(default, bool):
             if not isinstance(v, bool):
                 raise UsageError(f"{where}: settings.{key}: true or false (got {v!r})")
+        elif isinstance(default, str):
+            choices = SETTING_CHOICES.get(key, ())
+            if v not in choices:
+                raise UsageError(f"{where}: settings.{key}: one of {', '.join(choices)} (got {v!r})")
         elif isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0 \
                 or (v == 0 and key not in ZERO_ALLOWED):
             need = "a finite number >= 0" if key in ZERO_ALLOWED else "a finite number > 0"
