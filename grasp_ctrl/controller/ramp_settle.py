@@ -24,6 +24,8 @@ contact cell toggles with sensor noise reads 1.8 and 2.1 N on and off at a true
 
 from __future__ import annotations
 
+from collections import deque
+
 import numpy as np
 
 from grasp_ctrl.controller.settings import ControllerSettings
@@ -40,19 +42,17 @@ class RampSettle:
         self.within_ticks = 0
         self.steady_ticks = 0
         self._ref_err: np.ndarray | None = None   # errors when the steady window began
-        self._recent: list[np.ndarray] = []        # the last ``window`` raw errors
+        self._recent: deque[np.ndarray] = deque(maxlen=self.window)   # the last ``window`` raw errors
 
     def reset(self) -> None:
         self.within_ticks = 0
         self.steady_ticks = 0
         self._ref_err = None
-        self._recent = []
+        self._recent.clear()
 
     def update(self, err_now: np.ndarray) -> None:
         recent = self._recent
         recent.append(np.array(err_now, dtype=float))
-        if len(recent) > self.window:
-            del recent[0]
         err = recent[0] if len(recent) == 1 else np.mean(recent, axis=0)
         abs_err = np.abs(err)
         self.within_ticks = self.within_ticks + 1 if bool((abs_err <= self.s.ramp_tolerance_n).all()) else 0

@@ -101,6 +101,17 @@ def world_step(
 
 
 @njit
+def _skin_facing(row: np.ndarray, nx: float, ny: float, nz: float) -> tuple[float, float, float, float, float, float]:
+    """The skin point facing a surface of outward normal n (world) and the skin's outward
+    normal there, both sensor frame (``skin_contact_point``): u = R^T (-n) is the pressing
+    direction in the sensor frame (R's rows in ``row[0:9]``)."""
+    ux = -(row[0] * nx + row[3] * ny + row[6] * nz)
+    uy = -(row[1] * nx + row[4] * ny + row[7] * nz)
+    uz = -(row[2] * nx + row[5] * ny + row[8] * nz)
+    return skin_contact_point(ux, uy, uz)
+
+
+@njit
 def _contacts(
     q_servo: np.ndarray, q: np.ndarray, lower: np.ndarray, upper: np.ndarray, tau_max: np.ndarray,
     starts: np.ndarray, counts: np.ndarray, palm: np.ndarray, pad_local: np.ndarray,
@@ -125,11 +136,7 @@ def _contacts(
         if c[SKIN_CONTACT] != 0.0:
             d, nx, ny, nz = penetration(shape, palm[0] + cx - obj[OX], palm[1] + cy - obj[OY], palm[2] + cz - obj[OZ])
             if d > -c[NEAR] and (nx != 0.0 or ny != 0.0 or nz != 0.0):
-                # u = R^T (-n): the pressing direction in the sensor frame.
-                ux = -(row[0] * nx + row[3] * ny + row[6] * nz)
-                uy = -(row[1] * nx + row[4] * ny + row[7] * nz)
-                uz = -(row[2] * nx + row[5] * ny + row[8] * nz)
-                px_, py_, pz_, sx, sy, sz = skin_contact_point(ux, uy, uz)
+                px_, py_, pz_, sx, sy, sz = _skin_facing(row, nx, ny, nz)
                 contact_local[i, 0], contact_local[i, 1], contact_local[i, 2] = px_, py_, pz_
                 skin_normal[i, 0], skin_normal[i, 1], skin_normal[i, 2] = sx, sy, sz
             ex = contact_local[i, 0] - pad_local[0]
@@ -152,10 +159,7 @@ def _contacts(
             # the pad is near two surfaces (the mustard bottle's wall and dome) or beyond the
             # near distance of both; otherwise the sensor would feel the force on a skin patch
             # facing elsewhere, outside any friction cone.
-            ux = -(row[0] * nx + row[3] * ny + row[6] * nz)
-            uy = -(row[1] * nx + row[4] * ny + row[7] * nz)
-            uz = -(row[2] * nx + row[5] * ny + row[8] * nz)
-            px_, py_, pz_, sx, sy, sz = skin_contact_point(ux, uy, uz)
+            px_, py_, pz_, sx, sy, sz = _skin_facing(row, nx, ny, nz)
             ex = px_ - contact_local[i, 0]
             ey = py_ - contact_local[i, 1]
             ez = pz_ - contact_local[i, 2]

@@ -282,7 +282,6 @@ class MockTick:
         empty = np.empty
         f_sensor, f_hand, grip = empty((n, 3)), empty((n, 3)), empty(n)
         goal, target = empty(self._J), empty(3)
-        log = self.log
         row, block = self._log_slot()
         code = squeeze_outputs(rows, bits, q, f_sensor, f_hand, grip, in_contact, palm, *plan, ctrl.palm_target,
                                world._q_goal, goal, target, block, row, t, raw, tared, *self._trial_args)
@@ -300,13 +299,7 @@ class MockTick:
             cmd = send_command(self.hand, self.arm, ctrl, snap, ctrl_command(ctrl))
             self._track_and_log(ctrl, snap, cmd, raw)
             return False
-        world._q_goal = goal
-        world._palm_target = target
-        if row >= 0 and done == WRITTEN:
-            log._states.append(ctrl.state)  # type: ignore[union-attr, attr-defined]
-            log._n = row + 1  # type: ignore[union-attr]
-        elif log is not None:
-            self._append(ctrl, snap, ctrl_command(ctrl), raw)
+        self._written(ctrl, snap, raw, goal, target, done, row, None)
         return False
 
     def _log_slot(self) -> tuple[int, np.ndarray]:
@@ -344,10 +337,11 @@ class MockTick:
         self._written(ctrl, snap, raw, goal, target, done, row, cmd)
 
     def _written(self, ctrl: GraspController, snap: Snapshot, raw: np.ndarray, goal: np.ndarray, target: np.ndarray,
-                 done: int, row: int, cmd: Command) -> None:
-        """After ``mock_outputs`` wrote ``cmd`` (``done``): the world's new goal and wrist
-        target, the log's state and row count, or its own append when the row did not fit
-        (or there is no compiled row)."""
+                 done: int, row: int, cmd: Command | None) -> None:
+        """After ``mock_outputs`` or ``squeeze_outputs`` wrote a command (``done``): the world's
+        new goal and wrist target, the log's state and row count, or its own append when the
+        row did not fit (or there is no compiled row). ``cmd`` None: the controller's own
+        command, made only for that append (the squeeze path has none at hand)."""
         world, log = self.world, self.log
         world._q_goal = goal
         world._palm_target = target
@@ -355,7 +349,7 @@ class MockTick:
             log._states.append(ctrl.state)  # type: ignore[union-attr, attr-defined]
             log._n = row + 1  # type: ignore[union-attr]
         elif log is not None:
-            self._append(ctrl, snap, cmd, raw)
+            self._append(ctrl, snap, ctrl_command(ctrl) if cmd is None else cmd, raw)
 
     def _track_and_log(self, ctrl: GraspController, snap: Snapshot, cmd: Command, raw: np.ndarray) -> None:
         track_peaks(snap.f_sensor, snap.grip_n, self.world.normal_n, self.peaks[0], self.peaks[1], self.peaks[2])
