@@ -89,8 +89,12 @@ def best_match_residuals(targets: np.ndarray, library: np.ndarray) -> np.ndarray
     """Per target frame, min over library frames s and scales c >= 0 of |b - c s| / |b|."""
     lib_norm = np.linalg.norm(library, axis=1)
     lib = library[lib_norm > 0] / lib_norm[lib_norm > 0, None]
-    b_norm = np.linalg.norm(targets, axis=1)
-    cos = np.clip((targets / b_norm[:, None]) @ lib.T, 0.0, None).max(axis=1)
+    unit_targets = targets / np.linalg.norm(targets, axis=1)[:, None]
+    cos = np.empty(len(targets))
+    # in blocks: a full targets x library product of large sets would not fit in memory
+    block = max(1, 20_000_000 // max(1, len(lib)))
+    for start in range(0, len(targets), block):
+        cos[start:start + block] = np.clip(unit_targets[start:start + block] @ lib.T, 0.0, None).max(axis=1)
     return np.sqrt(np.clip(1.0 - cos**2, 0.0, None))
 
 
@@ -194,7 +198,7 @@ def rest_noise_sd(params: object | None = None, frames: int = 200, seed: int = 0
     return float(raw[:, :, ELECTRODES].std(axis=0).mean())
 
 
-def anchor_report(real_path: str | Path, n_per_source: int = 1500, seed: int = 7, params: object | None = None,
+def anchor_report(real_path: str | Path, n_per_source: int = 20000, seed: int = 7, params: object | None = None,
                   policy: str = "icra19_official") -> AnchorReport:
     """All anchor figures of the simulated BioTac (``params``, default: the model's defaults)
     on ``n_per_source`` synthetic force samples of rigid-ft and ball-ft."""

@@ -68,6 +68,8 @@ class BioTacParams:
     bulge_side_weight: float = 2.52    # upper-side electrodes (|n_y| ~ 1) rise this much more than pad ones
     bulge_distance_m: float = 4.0e-3  # the bulge grows over this distance from the contact
     bulge_max: float = 67.0          # the skin stiffens as it inflates: rises saturate (counts)
+    # per-electrode rise weights (19, e1..e19) replacing the side weight; None = the side weight
+    rise_weights: tuple[float, ...] | None = None
     # shear: global skin stretch (counts per N) fading over shear_range_m, and a local footprint skew
     e_shear_global: float = 15.3
     shear_range_m: float = 6.0e-3
@@ -198,8 +200,24 @@ _ELECTRODES_XYZ = np.ascontiguousarray(ELECTRODE_POSITIONS_SENSOR, dtype=float)
 _ELECTRODES_NORMAL = np.ascontiguousarray(ELECTRODE_NORMALS_SENSOR, dtype=float)
 
 
+# After the scalars: each electrode's weight of the free-skin rise.
+RISE_WEIGHT0 = len(_PACKED)
+
+
+def rise_weights_of(p: BioTacParams) -> np.ndarray:
+    """Each electrode's weight of the free-skin rise: the given ``rise_weights``, or
+    the side weight (upper-side electrodes, abs(n_y) ~ 1, rise ``bulge_side_weight`` times more)."""
+    if p.rise_weights is None:
+        ny = _ELECTRODES_NORMAL[:, 1]
+        return 1.0 + (p.bulge_side_weight - 1.0) * ny * ny
+    weights = np.asarray(p.rise_weights, dtype=float)
+    if weights.shape != (19,) or not np.all(np.isfinite(weights)) or np.any(weights < 0.0):
+        raise ValueError("rise_weights: need 19 finite values >= 0 (e1..e19)")
+    return weights
+
+
 def pack_params(p: BioTacParams) -> np.ndarray:
-    return np.array([float(getattr(p, name)) for name in _PACKED])
+    return np.concatenate([[float(getattr(p, name)) for name in _PACKED], rise_weights_of(p)])
 
 
 @njit
@@ -251,16 +269,14 @@ def contact_response(p: np.ndarray, n_out: np.ndarray, f: np.ndarray, slow_load:
         dz = _ELECTRODES_XYZ[e, 2] - p[2]
         d2 = dx * dx + dy * dy + dz * dz
         w = math.exp(-d2 / (2.0 * width2))
-        ny = _ELECTRODES_NORMAL[e, 1]
         along = dx * ft0 + dy * ft1 + dz * ft2      # how far ahead of the contact, along f_t
         # local drop (skewed toward where the tangential force drags the skin)
         skew = c[SHEAR_LOCAL] * w * along / width
         drop = peak * w + skew
         # bulge of the free skin, away from the contact
-        side = 1.0 + (c[BULGE_SIDE] - 1.0) * ny * ny
-        rise = inflation * side * (1.0 - math.exp(-d2 / (2.0 * bulge_d2))) * (1.0 - w)
+        rise = inflation * c[RISE_WEIGHT0 + e] * (1.0 - math.exp(-d2 / (2.0 * bulge_d2))) * (1.0 - w)
         # skin stretch: electrodes facing along the tangential force are loaded
-        facing = _ELECTRODES_NORMAL[e, 0] * ft0 + ny * ft1 + _ELECTRODES_NORMAL[e, 2] * ft2
+        facing = _ELECTRODES_NORMAL[e, 0] * ft0 + _ELECTRODES_NORMAL[e, 1] * ft1 + _ELECTRODES_NORMAL[e, 2] * ft2
         stretch = c[SHEAR_GLOBAL] * facing * math.exp(-d2 / (2.0 * range2))
         # fluid dragged along with the skin: more ahead of the contact (along f_t), less behind
         drag = c[SHEAR_DRAG] * along / drag_range * math.exp(-d2 / (2.0 * drag_range * drag_range))

@@ -1,0 +1,59 @@
+"""BioTac forward-model parameters from a JSON file: overrides of ``BioTacParams``.
+
+A file holds one object, ``{"field": value, ...}`` (or ``{"params": {...}}``), naming
+only the fields that differ from the defaults; docs/mock_world.md lists every field.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import fields, replace
+from pathlib import Path
+
+from grasp_ctrl.sim.biotac_model import DEFAULT_PARAMS, BioTacParams, rise_weights_of
+
+
+def _number(path: Path, name: str, value: object) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ValueError(f"{path}: {name}: need a finite number, got {value!r}")
+    return float(value)
+
+
+def load_biotac_params(path: str | Path) -> BioTacParams:
+    """The defaults with the file's overrides; ValueError naming the file and field on bad input."""
+    path = Path(path)
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot read ({exc.strerror})") from None
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: not JSON ({exc.msg}, line {exc.lineno})") from None
+    if isinstance(doc, dict) and isinstance(doc.get("params"), dict):
+        doc = doc["params"]
+    if not isinstance(doc, dict):
+        raise ValueError(f"{path}: need a JSON object of BioTacParams fields")
+    known = {f.name: f for f in fields(BioTacParams)}
+    overrides: dict[str, object] = {}
+    for name, value in doc.items():
+        if name not in known:
+            raise ValueError(f"{path}: {name}: not a BioTacParams field")
+        default = getattr(DEFAULT_PARAMS, name)
+        if name == "rise_weights":
+            if value is not None:
+                if not isinstance(value, list):
+                    raise ValueError(f"{path}: rise_weights: need a list of 19 numbers or null")
+                value = tuple(_number(path, name, v) for v in value)
+        elif isinstance(default, tuple):
+            if not isinstance(value, list) or len(value) != len(default):
+                raise ValueError(f"{path}: {name}: need a list of {len(default)} numbers")
+            value = tuple(_number(path, name, v) for v in value)
+        else:
+            value = _number(path, name, value)
+        overrides[name] = value
+    params = replace(DEFAULT_PARAMS, **overrides)  # type: ignore[arg-type]
+    try:
+        rise_weights_of(params)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+    return params
