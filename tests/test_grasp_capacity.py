@@ -36,6 +36,7 @@ def test_pads_touch_the_box_sides_facing_each_other(cleanser_grasp, objects) -> 
     for c in contacts:
         assert abs(abs(c.point_hand[0]) - half) < 5e-4          # on the side, within the closing step
         np.testing.assert_allclose(c.normal_hand, [np.sign(c.point_hand[0]), 0.0, 0.0], atol=1e-9)
+        assert c.facing_deg < 15.0   # the preshape faces the pads to the side (the thumb within 12 deg)
 
 
 def test_the_best_grasp_carries_the_weight_within_friction_and_torque(cleanser_grasp, objects) -> None:

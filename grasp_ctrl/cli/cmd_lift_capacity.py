@@ -12,7 +12,8 @@ DESCRIPTION = (
     "and solves the statics of the free object: the largest weight the pads carry with every "
     "contact force in its friction cone and every joint within its current limit x 0.5 N m/A. "
     "Prints that weight, its ratio to the object's weight and, per pad, the normal force, the "
-    "part carried up and the most loaded joint's share of its torque limit. An upper bound on "
+    "part carried up, the most loaded joint's share of its torque limit and how far the pad's normal "
+    "is off the surface's (far off: the contact is not on the pad, and the figure is not to be trusted). An upper bound on "
     "what any grip law gets from this posture: use it to compare mounts (base_rpy) and postures "
     "of a hand file. Exits 1 when an object's ratio is below --min-margin."
 )
@@ -44,19 +45,21 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         raise UsageError(f"--objects: unknown object(s) {', '.join(unknown)} (known: {', '.join(profiles)})")
     print(f"lift-capacity: {hand.name}, servos at their current limits x 0.5 N m/A")
-    print(f"  {'object':16s} {'weight_N':>8s} {'liftable_N':>10s} {'ratio':>6s}  per pad: normal N / up N / most loaded joint (share of its limit)")
+    print(f"  {'object':16s} {'weight_N':>8s} {'liftable_N':>10s} {'ratio':>6s}  per pad: normal N / up N / most loaded joint (share of its limit), pad facing off the surface")
     short = []
     for name in names:
         obj = profiles[name]
         weight = obj.mass_kg * GRAVITY_M_S2
         try:
-            cap, _, _ = object_capacity(hand, obj)
+            cap, contacts, _ = object_capacity(hand, obj)
         except ValueError as exc:   # a posture the hand cannot take (e.g. a cap out of reach)
             print(f"  {name:16s} {weight:8.2f} {'-':>10s} {'-':>6s}  no grasp: {exc}")
             short.append(name)
             continue
         ratio = cap.weight_n / weight
-        pads = "  ".join(f"{ld.finger} {ld.normal_n:.2f}/{ld.lift_n:.2f}/{ld.joint} ({ld.torque_share:.2f})" for ld in cap.loads)
+        facing = {c.finger: c.facing_deg for c in contacts}
+        pads = "  ".join(f"{ld.finger} {ld.normal_n:.2f}/{ld.lift_n:.2f}/{ld.joint} ({ld.torque_share:.2f}), "
+                         f"{facing[ld.finger]:.0f} deg" for ld in cap.loads)
         print(f"  {name:16s} {weight:8.2f} {cap.weight_n:10.2f} {ratio:6.2f}  {pads}")
         if ratio < args.min_margin:
             short.append(name)

@@ -22,7 +22,7 @@ import numpy as np
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.kinematics.fingertip import PAD_POINT_SENSOR
+from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 
 #: The servos' torque per amp of current, as the mock world and the MuJoCo scene use it
 #: (XC330-M288-T: 0.93 N m stall at 1.8 A).
@@ -40,6 +40,7 @@ class PadContact:
     finger: str
     point_hand: np.ndarray
     normal_hand: np.ndarray
+    facing_deg: float = 0.0   # the pad's normal off the surface's (how squarely the pad meets it)
 
 
 @dataclass(frozen=True)
@@ -181,6 +182,8 @@ def object_capacity(hand: HandConfig, obj: ObjectProfile, standoff_m: float = 0.
         else:
             continue   # the pad does not reach the object: it carries nothing
         q[sl] = qf
-        pad, _ = chain.point_and_jacobian(qf, PAD_POINT_SENSOR)
-        contacts.append(PadContact(finger.name, pad, normal))
+        rot, origin = chain.fk_rp(qf)
+        pad = rot @ PAD_POINT_SENSOR + origin
+        facing = math.degrees(math.acos(float(np.clip(-(rot @ PAD_NORMAL_SENSOR) @ normal, -1.0, 1.0))))
+        contacts.append(PadContact(finger.name, pad, normal, facing))
     return liftable_weight(hand, q, contacts, obj.mu, kin), contacts, q
