@@ -1,0 +1,69 @@
+"""``lift-capacity``: how heavy an object the hand file's grasp can lift (statics, no simulation)."""
+
+from __future__ import annotations
+
+import argparse
+
+NAME = "lift-capacity"
+HELP = "per object, the largest weight the hand's grasp carries within the servos' torque limits and friction"
+DESCRIPTION = (
+    "Places the hand on each object as the controller does (the object's preshape, the cap finger "
+    "raised to its cap, the grasping pads closed along their task vectors onto the object's side) "
+    "and solves the statics of the free object: the largest weight the pads carry with every "
+    "contact force in its friction cone and every joint within its current limit x 0.5 N m/A. "
+    "Prints that weight, its ratio to the object's weight and, per pad, the normal force, the "
+    "part carried up, the most loaded joint's share of its torque limit and how far the pad's normal "
+    "is off the surface's (far off: the contact is not on the pad, and the figure is not to be trusted). An upper bound on "
+    "what any grip law gets from this posture: use it to compare mounts (base_rpy) and postures "
+    "of a hand file. Exits 1 when an object's ratio is below --min-margin."
+)
+ORDER = 45
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    from grasp_ctrl.paths import default_hand_file, default_objects_file
+
+    p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE", help="hand config TOML")
+    p.add_argument("--objects-file", default=str(default_objects_file()), metavar="FILE", help="object profiles TOML")
+    p.add_argument("--objects", nargs="+", metavar="NAME", help="objects to check (default: the file's default_set)")
+    p.add_argument("--min-margin", type=float, default=1.0, metavar="X",
+                   help="exit 1 when a liftable weight is below X times the object's weight (default 1.0)")
+
+
+def run(args: argparse.Namespace) -> int:
+    from grasp_ctrl.config.hand import load_hand
+    from grasp_ctrl.config.objects import default_set, load_objects
+    from grasp_ctrl.errors import UsageError
+    from grasp_ctrl.kinematics.grasp_capacity import GRAVITY_M_S2, object_capacity
+
+    if not args.min_margin > 0.0:
+        raise UsageError(f"--min-margin: expected a positive number, got {args.min_margin}")
+    hand = load_hand(args.hand)
+    profiles = load_objects(args.objects_file)
+    names = args.objects or default_set(args.objects_file)
+    unknown = [n for n in names if n not in profiles]
+    if unknown:
+        raise UsageError(f"--objects: unknown object(s) {', '.join(unknown)} (known: {', '.join(profiles)})")
+    print(f"lift-capacity: {hand.name}, servos at their current limits x 0.5 N m/A")
+    print(f"  {'object':16s} {'weight_N':>8s} {'liftable_N':>10s} {'ratio':>6s}  per pad: normal N / up N / most loaded joint (share of its limit), pad facing off the surface")
+    short = []
+    for name in names:
+        obj = profiles[name]
+        weight = obj.mass_kg * GRAVITY_M_S2
+        try:
+            cap, contacts, _ = object_capacity(hand, obj)
+        except ValueError as exc:   # a posture the hand cannot take (e.g. a cap out of reach)
+            print(f"  {name:16s} {weight:8.2f} {'-':>10s} {'-':>6s}  no grasp: {exc}")
+            short.append(name)
+            continue
+        ratio = cap.weight_n / weight
+        facing = {c.finger: c.facing_deg for c in contacts}
+        pads = "  ".join(f"{ld.finger} {ld.normal_n:.2f}/{ld.lift_n:.2f}/{ld.joint} ({ld.torque_share:.2f}), "
+                         f"{facing[ld.finger]:.0f} deg" for ld in cap.loads)
+        print(f"  {name:16s} {weight:8.2f} {cap.weight_n:10.2f} {ratio:6.2f}  {pads}")
+        if ratio < args.min_margin:
+            short.append(name)
+    if short:
+        print(f"lift-capacity: below {args.min_margin:g}x the weight: {', '.join(short)}")
+        return 1
+    return 0

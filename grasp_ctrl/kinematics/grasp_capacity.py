@@ -1,0 +1,189 @@
+"""How heavy an object a grasp can lift with its servos' torque and the contacts' friction.
+
+Statics of a fingertip grasp on a free object: each grasping pad pushes on the object with a
+force in its (pyramidal) friction cone plus a torsional moment within mu x the contact patch's
+radius; the forces and moments balance the object's weight; every joint holds its share
+``J^T f`` within its torque limit (current limit x the servo's torque constant). A linear
+programme gives the largest weight that can be carried that way: an upper bound on what any
+grip law achieves with this hand posture (docs/hand_geometry.md, "What the servos can lift").
+
+``object_capacity`` places the hand as the controller does (the per-object preshape and the
+cap finger's raised posture), closes each grasping pad along its task vector onto the object's
+side, and evaluates the grasp there.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
+
+#: The servos' torque per amp of current, as the mock world and the MuJoCo scene use it
+#: (XC330-M288-T: 0.93 N m stall at 1.8 A).
+TORQUE_PER_AMP_NM = 0.5
+#: Radius of the pad's contact patch for torsional friction (the MuJoCo scene's).
+TORSION_RADIUS_M = 0.003
+GRAVITY_M_S2 = 9.81
+_FACETS = 8   # sides of the friction pyramid (inscribed in the cone)
+
+
+@dataclass(frozen=True)
+class PadContact:
+    """One pad on the object: the contact point and the surface's outward normal (hand frame)."""
+
+    finger: str
+    point_hand: np.ndarray
+    normal_hand: np.ndarray
+    facing_deg: float = 0.0   # the pad's normal off the surface's (how squarely the pad meets it)
+
+
+@dataclass(frozen=True)
+class PadLoad:
+    """What one pad does at the best grasp: its normal force, the part it carries up (N)
+    and the most loaded of its joints as a share of that joint's torque limit."""
+
+    finger: str
+    normal_n: float
+    lift_n: float
+    joint: str
+    torque_share: float
+
+
+@dataclass(frozen=True)
+class Capacity:
+    weight_n: float                  # the largest weight the grasp carries (0: none)
+    loads: tuple[PadLoad, ...]
+
+    def margin(self, mass_kg: float) -> float:
+        """The liftable weight over the object's weight."""
+        return self.weight_n / (mass_kg * GRAVITY_M_S2)
+
+
+def liftable_weight(hand: HandConfig, q_all: np.ndarray, contacts: list[PadContact], mu: float,
+                    kin: HandKinematics | None = None,
+                    torque_per_amp_nm: float = TORQUE_PER_AMP_NM) -> Capacity:
+    """The largest weight (N) the pads in ``contacts`` carry at joint angles ``q_all`` (hand-file
+    order), the object's weight acting on the vertical line through the hand frame's origin."""
+    from scipy.optimize import linprog
+
+    kin = kin or HandKinematics(hand)
+    z = np.array([0.0, 0.0, 1.0])
+    nv = 4 * len(contacts) + 1           # per pad: normal, tangent up, tangent across, torsion; weight
+    a_ub: list[np.ndarray] = []
+    b_ub: list[float] = []
+    balance = np.zeros((6, nv))
+    frames = []
+    for i, c in enumerate(contacts):
+        n = -np.asarray(c.normal_hand, dtype=float)
+        n /= np.linalg.norm(n)
+        up = z - (z @ n) * n
+        up = up / np.linalg.norm(up) if np.linalg.norm(up) > 1e-9 else np.array([1.0, 0.0, 0.0])
+        across = np.cross(n, up)
+        cols = 4 * i + np.arange(4)
+        p = np.asarray(c.point_hand, dtype=float)
+        for col, vec in zip(cols[:3], (n, up, across)):
+            balance[:3, col] = vec
+            balance[3:, col] = np.cross(p, vec)
+        balance[3:, cols[3]] = n
+        for k in range(_FACETS):
+            row = np.zeros(nv)
+            a = 2.0 * math.pi * k / _FACETS
+            row[cols[1]], row[cols[2]] = math.cos(a), math.sin(a)
+            row[cols[0]] = -mu * math.cos(math.pi / _FACETS)
+            a_ub.append(row)
+            b_ub.append(0.0)
+        for sign in (1.0, -1.0):
+            row = np.zeros(nv)
+            row[cols[3]], row[cols[0]] = sign, -mu * TORSION_RADIUS_M
+            a_ub.append(row)
+            b_ub.append(0.0)
+        finger = hand.finger(c.finger)
+        _, jac = kin.chains[c.finger].point_and_jacobian(q_all[kin.slices[c.finger]], PAD_POINT_SENSOR)
+        limits = np.array([j.current_limit_a * torque_per_amp_nm for j in finger.joints])
+        per_n = np.stack([jac.T @ n, jac.T @ up, jac.T @ across], axis=1)   # joint torque per N
+        for j, tau_max in enumerate(limits):
+            row = np.zeros(nv)
+            row[cols[:3]] = per_n[j]
+            a_ub += [row, -row]
+            b_ub += [float(tau_max), float(tau_max)]
+        frames.append((cols, per_n, limits, finger))
+    balance[2, -1] = -1.0
+    bounds = [(None, None)] * nv
+    for i in range(len(contacts)):
+        bounds[4 * i] = (0.0, None)
+    bounds[-1] = (0.0, None)
+    cost = np.zeros(nv)
+    cost[-1] = -1.0
+    res = linprog(cost, A_ub=np.array(a_ub), b_ub=b_ub, A_eq=balance, b_eq=np.zeros(6), bounds=bounds, method="highs")
+    if res.status != 0:
+        return Capacity(0.0, ())
+    loads = []
+    for c, (cols, per_n, limits, finger) in zip(contacts, frames):
+        share = np.abs(per_n @ res.x[cols[:3]]) / limits
+        j = int(np.argmax(share))
+        loads.append(PadLoad(c.finger, float(res.x[cols[0]]), float(res.x[cols[1]]), finger.joints[j].name, float(share[j])))
+    return Capacity(float(res.x[-1]), tuple(loads))
+
+
+def _cap_contact(obj: ObjectProfile, pad: np.ndarray, top_z_hand: float) -> tuple[float, np.ndarray]:
+    """Horizontal gap of ``pad`` outside the mustard-style dome and the dome's outward normal
+    at the pad's height (the dome: a sphere cap of the cap's diameter and height)."""
+    cap = obj.cap
+    a, h = 0.5 * cap.diameter_m, cap.height_m
+    radius = (a * a + h * h) / (2.0 * h)
+    centre_z = h - radius                        # sphere centre above the body's top
+    z_rel = pad[2] - top_z_hand                  # pad height above the body's top
+    ring = math.sqrt(max(radius * radius - (z_rel - centre_z) ** 2, 1e-12))
+    dx, dy = pad[0] - cap.offset_m[0], pad[1] - cap.offset_m[1]
+    r = math.hypot(dx, dy)
+    u = np.array([dx / r, dy / r]) if r > 1e-9 else np.array([1.0, 0.0])
+    normal = np.array([u[0] * ring, u[1] * ring, z_rel - centre_z]) / radius
+    return r - ring, normal
+
+
+def object_capacity(hand: HandConfig, obj: ObjectProfile, standoff_m: float = 0.01,
+                    step_m: float = 0.0005, kin: HandKinematics | None = None) -> tuple[Capacity, list[PadContact], np.ndarray]:
+    """The grasp of ``obj`` as the controller makes it (preshape, cap finger raised, pads closed
+    along their task vectors until they touch), its capacity, the contacts and the posture.
+    The hand frame's origin is ``[grasp] palm_above_contact_m`` above the reach height."""
+    from grasp_ctrl.controller.machine import raised_reach_posture
+    from grasp_ctrl.kinematics.preshape import preshape, side_gap
+
+    kin = kin or HandKinematics(hand)
+    q = preshape(hand, obj, standoff_m).q
+    cap_finger = obj.cap.finger if obj.cap is not None else None
+    # the body's top in the hand frame (the hand origin palm_above_contact_m over the grasp height)
+    top_z_hand = obj.height_m - obj.grasp_height_m - hand.grasp.palm_above_contact_m
+    if cap_finger is not None:
+        raised = raised_reach_posture(hand, cap_finger, obj.cap.contact_height_m - obj.grasp_height_m)
+        sl = kin.slices[cap_finger]
+        q[sl] = raised[sl]
+    contacts = []
+    for finger in hand.grasp_fingers:
+        chain, sl = kin.chains[finger.name], kin.slices[finger.name]
+        v = np.asarray(finger.task_vector_hand, dtype=float)
+        qf = q[sl].copy()
+        normal = None
+        for _ in range(400):
+            pad, _ = chain.point_and_jacobian(qf, PAD_POINT_SENSOR)
+            if finger.name == cap_finger:
+                gap, normal = _cap_contact(obj, pad, top_z_hand)
+            else:
+                gap, normal = side_gap(obj, pad)
+            if gap <= 0.0:
+                break
+            qf = chain.ik_step(qf, v * min(step_m, gap + 1e-5), PAD_POINT_SENSOR)
+        else:
+            continue   # the pad does not reach the object: it carries nothing
+        q[sl] = qf
+        rot, origin = chain.fk_rp(qf)
+        pad = rot @ PAD_POINT_SENSOR + origin
+        facing = math.degrees(math.acos(float(np.clip(-(rot @ PAD_NORMAL_SENSOR) @ normal, -1.0, 1.0))))
+        contacts.append(PadContact(finger.name, pad, normal, facing))
+    return liftable_weight(hand, q, contacts, obj.mu, kin), contacts, q
