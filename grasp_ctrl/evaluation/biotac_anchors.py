@@ -4,7 +4,9 @@ Two kinds of evidence, both from material no one here wrote:
 
 (a) the authors' real-data network (``icra19_official``, trained on a real
     BioTac) reading simulated rigid-ft and ball-ft presses: median angle error,
-    magnitude ratio per source and the correlation of magnitudes;
+    magnitude ratio per source and the correlation of magnitudes; and its error
+    against the force's tilt from the pad normal, real beside simulated
+    (``tilt_profile``);
 (b) simulated in-contact electrode patterns against the real recordings of
     ``robotic_finger_tidy.csv`` (long trials A and B): share of the simulated
     variance inside real A's top-5 principal components, best scaled match of
@@ -24,6 +26,7 @@ import numpy as np
 from scipy.stats import spearmanr
 
 from grasp_ctrl.evaluation.robotic_finger import read_trials
+from grasp_ctrl.evaluation.tilt_profile import TiltProfile, format_tilt_profiles, real_tilt_profile, simulated_tilt_profile
 from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PDC
 
 #: The two long trials of the real recordings (A: 7,106 rows, B: 6,469 rows).
@@ -183,6 +186,9 @@ class AnchorReport:
     pressure: dict[str, PressureResponse]
     # (b) split by where the skin is pressed (``location_shares``)
     location_share: LocationShare
+    # (a) split by the tilt of the force from the pad normal: real plate presses, simulated presses
+    tilt_real: TiltProfile
+    tilt_simulated: TiltProfile
 
 
 ANCHOR_SOURCES = ("rigid-ft", "ball-ft")
@@ -234,6 +240,8 @@ def anchor_report(real_path: str | Path, n_per_source: int = 20000, seed: int = 
         real_b=pattern_figures(real_b, pdc_b, rest_b, real_a, real_b, library=real_a),
         pressure=pressure,
         location_share=location_shares(real_a, params),
+        tilt_real=real_tilt_profile(real_path, (TRIAL_A, TRIAL_B), policy),
+        tilt_simulated=simulated_tilt_profile(np.vstack(est_all), np.vstack(label_all)),
     )
 
 
@@ -254,6 +262,7 @@ def format_report(report: AnchorReport) -> str:
     for name, resp in report.pressure.items():
         cells = "".join(f"{m:9.2f}" for m in resp.median_n_by_bin)
         lines.append(f"  {name:20s} {cells} {resp.rise:6.2f} {resp.rank_corr:10.2f}")
+    lines.append(format_tilt_profiles(report.tilt_real, report.tilt_simulated))
     return "\n".join(lines)
 
 
