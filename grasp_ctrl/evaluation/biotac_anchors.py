@@ -25,7 +25,7 @@ from typing import Sequence
 import numpy as np
 from scipy.stats import spearmanr
 
-from grasp_ctrl.evaluation.robotic_finger import read_trials
+from grasp_ctrl.evaluation.robotic_finger import Trial, read_trials
 from grasp_ctrl.evaluation.tilt_profile import TiltProfile, format_tilt_profiles, real_tilt_profile, simulated_tilt_profile
 from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PDC
 
@@ -61,15 +61,21 @@ class NetFigures:
     magnitude_corr: float
 
 
-def real_pressed(path: str | Path, trial_ids: Sequence[str]) -> list[tuple[np.ndarray, np.ndarray, float]]:
-    """Per trial id, (tared electrodes (k, 19), tared pdc (k,), electrode rest sd) of that real
-    trial's pressed frames; tare = mean of its first 50 rows. The file is read once."""
+def anchor_trials(path: str | Path, trial_ids: Sequence[str]) -> list[Trial]:
+    """The real trials ``trial_ids`` of ``path``, in that order (the file is read once)."""
     trials = {t.trial_id: t for t in read_trials(path)}
+    missing = [t for t in trial_ids if t not in trials]
+    if missing:
+        raise KeyError(f"{path}: no trial {missing[0]}")
+    return [trials[t] for t in trial_ids]
+
+
+def real_pressed(trials: Sequence[Trial]) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Per trial, (tared electrodes (k, 19), tared pdc (k,), electrode rest sd) of its
+    pressed frames; tare = mean of its first 50 rows."""
     out = []
-    for trial_id in trial_ids:
-        if trial_id not in trials:
-            raise KeyError(f"{path}: no trial {trial_id}")
-        raw = trials[trial_id].raw
+    for trial in trials:
+        raw = trial.raw
         rest = raw[:REAL_TARE_ROWS]
         tared = raw - rest.mean(axis=0)
         pressed = tared[:, PDC] > PRESSED_PDC
@@ -211,7 +217,8 @@ def anchor_report(real_path: str | Path, n_per_source: int = 20000, seed: int = 
     from grasp_ctrl.estimators.registry import load_policy
     from grasp_ctrl.learning.synthetic import generate_source, mock_biotac_forward
 
-    (real_a, pdc_a, _), (real_b, pdc_b, rest_b) = real_pressed(real_path, (TRIAL_A, TRIAL_B))
+    trials = anchor_trials(real_path, (TRIAL_A, TRIAL_B))
+    (real_a, pdc_a, _), (real_b, pdc_b, rest_b) = real_pressed(trials)
     net = load_policy(policy)
     pressure = {
         name: pressure_response(net.estimate(tared_frames(e, pdc), ["real"] * len(e)).f_sensor, pdc)
@@ -240,7 +247,7 @@ def anchor_report(real_path: str | Path, n_per_source: int = 20000, seed: int = 
         real_b=pattern_figures(real_b, pdc_b, rest_b, real_a, real_b, library=real_a),
         pressure=pressure,
         location_share=location_shares(real_a, params),
-        tilt_real=real_tilt_profile(real_path, (TRIAL_A, TRIAL_B), policy),
+        tilt_real=real_tilt_profile(trials, net),
         tilt_simulated=simulated_tilt_profile(np.vstack(est_all), np.vstack(label_all)),
     )
 

@@ -139,6 +139,7 @@ class DirectionResult:
     label_sign: float
     gains: list[float] | None
     angles: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False, compare=False)  # (n_test,) deg
+    rotation: Rotation | None = field(default=None, repr=False, compare=False)  # fitted sensor -> mount
 
 
 def pooled_percentiles(results: Sequence[DirectionResult]) -> tuple[int, dict[int, float]]:
@@ -168,5 +169,5 @@ def evaluate(name: str, samples: Sequence[ContactSamples],
             results.append(DirectionResult(
                 name, tr.trial_id, te.trial_id, len(tr.tared), len(te.tared),
                 {p: float(np.percentile(ang, p)) for p in PERCENTILES}, fit.label_sign,
-                None if fit.gains is None else [float(g) for g in fit.gains], ang))
+                None if fit.gains is None else [float(g) for g in fit.gains], ang, fit.rotation))
     return results

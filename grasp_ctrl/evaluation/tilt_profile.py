@@ -5,8 +5,8 @@ points away from the pad normal (+z of the sensor frame), on a real BioTac and o
 simulated one, so that one can see where the simulated sensor is read unlike a real one.
 
 - Real: the two long trials of ``robotic_finger_tidy.csv``, with the protocol of
-  ``evaluate-direction`` (tare, contact gate, one rotation and label sign fitted on one
-  trial and tested on the other, both ways). The label is the plate normal; its tilt is
+  ``evaluate-direction`` (``direction.evaluate``: tare, contact gate, one rotation and label
+  sign fitted on one trial and tested on the other, both ways). The label is the plate normal; its tilt is
   taken in the sensor frame the fitted rotation gives. The hand-held plate tilts up to
   about 80 deg, mostly toward the tip cap.
 - Simulated: the anchor's rigid-ft and ball-ft presses; the tilt of the true force.
@@ -15,14 +15,21 @@ simulated one, so that one can see where the simulated sensor is read unlike a r
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
+
+from grasp_ctrl.evaluation.direction import angles_deg, evaluate, gate_trial, policy_directions
+
+if TYPE_CHECKING:
+    from grasp_ctrl.estimators.base import ForceEstimator
+    from grasp_ctrl.evaluation.robotic_finger import Trial
 
 #: Tilt bins (deg) of the force from the pad normal. The real recordings have no force
 #: beyond 90 deg; simulated ball-ft contacts above the equator do.
 TILT_BINS_DEG = ((0.0, 15.0), (15.0, 30.0), (30.0, 45.0), (45.0, 60.0), (60.0, 90.0), (90.0, 180.0))
 MIN_BIN_SAMPLES = 20
+PAD_NORMAL_INWARD = np.array([0.0, 0.0, 1.0])   # +z: a press straight on the pad
 
 
 @dataclass(frozen=True)
@@ -36,46 +43,37 @@ class TiltProfile:
 def tilt_deg(directions: np.ndarray) -> np.ndarray:
     """(n, 3) directions -> angle (deg) from +z, the pad normal pointing into the finger."""
     d = np.asarray(directions, dtype=float)
-    cos = d[:, 2] / np.maximum(np.linalg.norm(d, axis=1), 1e-12)
-    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    return angles_deg(d, np.broadcast_to(PAD_NORMAL_INWARD, d.shape))
 
 
 def profile(errors_deg: np.ndarray, tilts_deg: np.ndarray) -> TiltProfile:
     counts, medians = [], []
+    last_hi = TILT_BINS_DEG[-1][1]
     for lo, hi in TILT_BINS_DEG:
         # the last bin is closed: a force straight away from the pad reads 180 deg
-        inside = (tilts_deg >= lo) & ((tilts_deg < hi) | (hi == TILT_BINS_DEG[-1][1]) & (tilts_deg <= hi))
+        below_hi = tilts_deg <= hi if hi == last_hi else tilts_deg < hi
+        inside = (tilts_deg >= lo) & below_hi
         counts.append(int(inside.sum()))
         medians.append(float(np.median(errors_deg[inside])) if inside.sum() >= MIN_BIN_SAMPLES else float("nan"))
     return TiltProfile(tuple(counts), tuple(medians))
 
 
-def real_tilt_profile(real_path: str | Path, trial_ids: tuple[str, str], policy: str = "icra19_official") -> TiltProfile:
-    """Two-fold held-out errors of ``policy`` on the real trials, binned by label tilt."""
-    from grasp_ctrl.estimators.registry import load_policy
-    from grasp_ctrl.evaluation.direction import fit_rotation, gate_trial, held_out_angles, policy_directions
-    from grasp_ctrl.evaluation.robotic_finger import read_trials
-
-    trials = {t.trial_id: t for t in read_trials(real_path)}
-    missing = [t for t in trial_ids if t not in trials]
-    if missing:
-        raise KeyError(f"{real_path}: no trial {missing[0]!r}")
-    samples = [gate_trial(trials[t]) for t in trial_ids]
-    directions = policy_directions(load_policy(policy))
-    dirs = [directions(s.tared) for s in samples]
+def real_tilt_profile(trials: Sequence[Trial], estimator: ForceEstimator) -> TiltProfile:
+    """Held-out errors of ``estimator`` on the real ``trials`` (every train / test pair, as
+    ``evaluate-direction``), binned by the test label's tilt in the fitted sensor frame."""
+    samples = {t.trial_id: gate_trial(t) for t in trials}
+    results = evaluate("tilt", list(samples.values()), policy_directions(estimator))
     errors, tilts = [], []
-    for train, test in ((0, 1), (1, 0)):
-        fit = fit_rotation(dirs[train], samples[train].labels)
-        errors.append(held_out_angles(fit, dirs[test], samples[test].labels))
+    for r in results:
+        assert r.rotation is not None      # a policy's directions: a fitted rotation, no gains
+        errors.append(r.angles)
         # the label in the sensor frame: the fitted rotation maps sensor -> mount
-        tilts.append(tilt_deg(fit.rotation.inv().apply(fit.label_sign * samples[test].labels)))
+        tilts.append(tilt_deg(r.rotation.inv().apply(r.label_sign * samples[r.test].labels)))
     return profile(np.concatenate(errors), np.concatenate(tilts))
 
 
 def simulated_tilt_profile(f_est: np.ndarray, f_true: np.ndarray) -> TiltProfile:
     """Errors of network estimates ``f_est`` against the true forces, binned by the true force's tilt."""
-    from grasp_ctrl.evaluation.direction import angles_deg
-
     return profile(angles_deg(f_est, f_true), tilt_deg(f_true))
 
 
