@@ -24,6 +24,7 @@ from grasp_ctrl.controller.motion import FingertipMotion
 from grasp_ctrl.kinematics.pad_ik import Facing
 from grasp_ctrl.kinematics.preshape import preshape
 from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES, grip_targets
+from grasp_ctrl.vec3 import norm3
 from grasp_ctrl.controller.ramp_settle import RampSettle
 from grasp_ctrl.controller import tick_kernels as tk
 from grasp_ctrl.controller.settings import ControllerSettings
@@ -67,8 +68,7 @@ def _distance(a: np.ndarray, b: np.ndarray) -> float:
     if (jit.JIT and type(a) is np.ndarray and type(b) is np.ndarray and a.dtype is _FLOAT64 and b.dtype is _FLOAT64
             and a.shape == b.shape == (3,)):
         return tk.distance3(a, b)   # the same, compiled
-    d = a - b
-    return math.sqrt(float(d.dot(d)))   # = np.linalg.norm(d), without its overhead
+    return norm3(a - b)   # fixed-order sum: the kernel's bits on any CPU (grasp_ctrl/vec3.py)
 
 
 def build_machine(model: Any, reason_setter: Any = None, machine_cls: type = Machine, **extra: Any) -> Machine:
@@ -520,7 +520,7 @@ class GraspController:
             tk.move_palm_toward(p, target, speed * self.dt)   # the same, compiled, in place (p is our own)
             return
         delta = target - self.palm_target
-        dist = math.sqrt(float(delta.dot(delta)))
+        dist = norm3(delta)   # fixed-order sum, as the kernel (grasp_ctrl/vec3.py)
         step = speed * self.dt
         self.palm_target = target.copy() if dist <= step else self.palm_target + delta * (step / dist)
 

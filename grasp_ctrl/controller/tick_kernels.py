@@ -109,8 +109,8 @@ def squeeze_pads(grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float
 
 @njit
 def distance3(a: np.ndarray, b: np.ndarray) -> float:
-    """|a - b| of two (3,) arrays as ``machine._distance`` computes it with numpy
-    (``d.dot(d)``: 0 + a BLAS dot product, summed left to right; see ``move_palm_toward``)."""
+    """|a - b| of two (3,) arrays as ``machine._distance`` computes it without numba
+    (``vec3.norm3``: the squares summed left to right, the same bits on any CPU)."""
     d0, d1, d2 = a[0] - b[0], a[1] - b[1], a[2] - b[2]
     return math.sqrt(0.0 + ((d0 * d0 + d1 * d1) + d2 * d2))
 
@@ -119,9 +119,7 @@ def distance3(a: np.ndarray, b: np.ndarray) -> float:
 def move_palm_toward(palm: np.ndarray, target: np.ndarray, step: float) -> None:
     """``GraspController._move_palm_toward`` in place: ``palm`` (3,) to ``target`` when
     it is at most ``step`` away, else ``step`` along the straight line. The distance
-    is numpy's ``delta.dot(delta)``: 0 + a BLAS dot product, which sums a 3-vector's
-    squares left to right (tests/test_controller_kernels.py checks it on this machine's
-    BLAS)."""
+    is ``vec3.norm3`` (squares summed left to right), as the numpy path computes it."""
     d0, d1, d2 = target[0] - palm[0], target[1] - palm[1], target[2] - palm[2]
     dist = math.sqrt(0.0 + ((d0 * d0 + d1 * d1) + d2 * d2))
     if dist <= step:

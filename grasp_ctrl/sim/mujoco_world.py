@@ -36,10 +36,9 @@ UPRIGHT_RAD = math.radians(10.0)  # standing upright at the end of the trial
 
 def mocap_step(mocap: list[float], tx: float, ty: float, tz: float, max_move: float) -> tuple[float, float, float]:
     """The wrist's mocap position moved toward the target (tx, ty, tz) by at most
-    ``max_move``: numpy's ``delta = target - mocap; mocap += delta`` (or ``delta * (max_move
-    / dist)``) with ``dist`` from ``delta @ delta`` (0 + a BLAS dot product, summed left to
-    right), on Python floats: the same bits at a fraction of five numpy calls per substep
-    (tests/test_mujoco_world.py)."""
+    ``max_move``: ``delta = target - mocap; mocap += delta`` (or ``delta * (max_move / dist)``)
+    with ``dist`` from ``vec3.norm3`` (squares summed left to right, the same bits on any
+    CPU), on Python floats: a fraction of the cost of five numpy calls per substep."""
     mx, my, mz = mocap
     dx, dy, dz = tx - mx, ty - my, tz - mz
     dist = math.sqrt(0.0 + ((dx * dx + dy * dy) + dz * dz))
@@ -328,8 +327,8 @@ class MuJoCoWorld:
 
     def _slip_at(self, i: int, p_world: np.ndarray, n_world: np.ndarray) -> float:
         """Tangential speed of the skin over the object at the contact point (m/s)."""
-        # On Python floats: numpy's arithmetic of this code's earlier form, bit for bit (the
-        # dot products as BLAS sums a 3-vector: 0 + left to right), at a fraction of its calls.
+        # On Python floats, dot products summed left to right (as grasp_ctrl/vec3.py: the
+        # same bits on any CPU), at a fraction of the cost of numpy calls.
         mj, m, d = self._mj, self.model, self.data
         v = self._vel6
         rel = [0.0, 0.0, 0.0]
