@@ -63,3 +63,10 @@ class SensorStaleError(HardwareError):
 
     def __init__(self, message: str) -> None:
         super().__init__(message, reason="sensor_stale")
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread: the command stops as on Ctrl-C (the hand stops
+    safely, finished trials stay recorded, the run stays resumable) and exits with 143."""
+
+    exit_status = 143

@@ -85,3 +85,40 @@ def test_a_dead_worker_is_a_one_line_error_and_the_rest_stop(tmp_path):
     assert proc.returncode == 1 and len(lines) == 1, err
     assert "worker process ended abruptly" in lines[0] and "--resume" in lines[0]
     _assert_session_empty(proc.pid)
+
+
+def _interrupt_after(delay_s: float, sig: int, tmp_path: Path, when_run_dir: bool = False) -> tuple[int, str, int]:
+    out = tmp_path / "run"
+    proc = _start(out, trials=30)
+    if when_run_dir:   # the moment the run directory appears: the worker pool is starting
+        t0 = time.monotonic()
+        while not (out / "run.json").exists() and proc.poll() is None and time.monotonic() - t0 < 120.0:
+            time.sleep(0.01)
+    time.sleep(delay_s)
+    os.killpg(proc.pid, sig)
+    _, err = proc.communicate(timeout=60)
+    _assert_session_empty(proc.pid)
+    return proc.returncode, err, proc.pid
+
+
+@pytest.mark.parametrize("delay_s", [0.1, 0.3, 0.6])
+def test_an_early_ctrl_c_leaves_no_traceback_and_no_process(tmp_path, delay_s):
+    """Ctrl-C while the command, its fork server or its workers are still importing."""
+    code, err, _ = _interrupt_after(delay_s, signal.SIGINT, tmp_path)
+    assert code == 130, err
+    assert "Traceback" not in err and "Error" not in err, err
+
+
+@pytest.mark.parametrize("delay_s", [0.0, 0.5, 1.5])
+def test_ctrl_c_while_the_workers_start_leaves_no_traceback_and_no_process(tmp_path, delay_s):
+    code, err, _ = _interrupt_after(delay_s, signal.SIGINT, tmp_path, when_run_dir=True)
+    assert code == 130, err
+    assert "Traceback" not in err and "Error" not in err, err
+    assert "continue with: grasp-ctrl run --resume" in err
+
+
+@pytest.mark.parametrize("delay_s", [0.3, 2.0])
+def test_sigterm_stops_like_ctrl_c(tmp_path, delay_s):
+    code, err, _ = _interrupt_after(delay_s, signal.SIGTERM, tmp_path, when_run_dir=delay_s > 1.0)
+    assert code == 143, err
+    assert "Traceback" not in err, err

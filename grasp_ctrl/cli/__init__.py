@@ -11,11 +11,13 @@ from __future__ import annotations
 import argparse
 import importlib
 import pkgutil
+import signal
 import sys
+import threading
 from types import ModuleType
 from typing import Sequence
 
-from grasp_ctrl.errors import GraspCtrlError
+from grasp_ctrl.errors import GraspCtrlError, Terminated
 
 PROG = "grasp-ctrl"
 
@@ -48,7 +50,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _raise_terminated(signum: int, frame: object) -> None:
+    raise Terminated()
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    # SIGTERM takes Ctrl-C's path: hardware stops safely, the run stays resumable.
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        return _main(argv)
+    except KeyboardInterrupt as exc:   # before a command started (loading the commands, say)
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 143 if isinstance(exc, Terminated) else 130
+
+
+def _main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     if not argv:
@@ -66,9 +83,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except GraspCtrlError as exc:
         print(f"{PROG}: error: {exc}", file=sys.stderr)
         return exc.exit_status
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         print(f"{PROG}: interrupted", file=sys.stderr)
-        return 130
+        return 143 if isinstance(exc, Terminated) else 130
     except BrokenPipeError:
         # Output piped into e.g. `head`: not an error of ours.
         sys.stderr.close()

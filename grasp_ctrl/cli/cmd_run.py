@@ -188,7 +188,7 @@ def _preflight(hand: Any, manifest: Any, args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from grasp_ctrl.errors import UsageError
+    from grasp_ctrl.errors import Terminated, UsageError
     from grasp_ctrl.trials.labelling import OperatorQuit
     from grasp_ctrl.trials.records import load_records
     from grasp_ctrl.trials.runner import run_series
@@ -248,7 +248,7 @@ def run(args: argparse.Namespace) -> int:
         why = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc)
         print(f"{why}: {done} of {manifest.total} trials are recorded in {run_dir}; "
               f"continue with: grasp-ctrl run --resume {run_dir}", file=sys.stderr)
-        return 130
+        return 143 if isinstance(exc, Terminated) else 130
     print(format_table(summary))
     print(f"logs: {run_dir}  (compare: grasp-ctrl compare {run_dir})")
     if args.json:

@@ -55,7 +55,7 @@ from grasp_ctrl.trials.storage import (
 from grasp_ctrl.trials.summary import summarize
 from grasp_ctrl.trials.tick_kernels import track_peaks
 from grasp_ctrl.trials.ticklog import TickLog
-from grasp_ctrl.trials.workers import worker_context
+from grasp_ctrl.trials.workers import ignore_interrupts, interrupts_deferred, worker_context
 
 MAX_TRIAL_S = 60.0
 SETTLE_S = 0.5
@@ -320,6 +320,7 @@ _WORKER_TRIAL_FN: TrialFn | None = None
 def _init_worker(hand: HandConfig, policies: list[str], settings: ControllerSettings, threads: int,
                  backend: str = "mock") -> None:
     global _WORKER_TRIAL_FN
+    ignore_interrupts()
     _WORKER_TRIAL_FN = mock_trial_fn(hand, policies, settings, threads, backend=backend)
 
 
@@ -347,7 +348,8 @@ def parallel_trials(
         todo = iter(enumerate(tasks))
         running: dict[Any, int] = {}
         for i, task in itertools.islice(todo, 2 * jobs):   # a short queue: Ctrl-C loses little
-            running[pool.submit(_worker_trial, *task)] = i
+            with interrupts_deferred():   # a submit may start a worker: never half-way
+                running[pool.submit(_worker_trial, *task)] = i
         while running:
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for fut in finished:
@@ -359,7 +361,8 @@ def parallel_trials(
                 yield i, rec
                 nxt = next(todo, None)
                 if nxt is not None:
-                    running[pool.submit(_worker_trial, *nxt[1])] = nxt[0]
+                    with interrupts_deferred():
+                        running[pool.submit(_worker_trial, *nxt[1])] = nxt[0]
         finished_cleanly = True
     finally:
         if finished_cleanly:
@@ -370,9 +373,10 @@ def parallel_trials(
 
 def _stop_workers(pool: Any) -> None:
     """After Ctrl-C or an error: the trials in progress are abandoned (they run again on
-    resume), so the workers are stopped now rather than waited for; none is left behind."""
+    resume), so the workers are stopped now rather than waited for; none is left behind.
+    They are stopped before the pool shuts down: the shutdown lets go of the pool's
+    queues, whose semaphores a worker still starting up must find."""
     processes = list((getattr(pool, "_processes", None) or {}).values())
-    pool.shutdown(wait=False, cancel_futures=True)
     for proc in processes:
         if proc.is_alive():
             proc.terminate()
@@ -381,6 +385,7 @@ def _stop_workers(pool: Any) -> None:
         if proc.is_alive():
             proc.kill()
             proc.join(timeout=5.0)
+    pool.shutdown(wait=False, cancel_futures=True)
 
 
 class WorkerError(GraspCtrlError):
