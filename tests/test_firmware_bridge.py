@@ -88,6 +88,13 @@ def test_host_unit_tests_pass() -> None:
     assert "all 14 tests passed" in proc.stdout
 
 
+def test_teensy_layer_compiles_against_arduino_stand_ins() -> None:
+    """Type-checks src/teensy/main.cpp (not a Teensy build: no Arm toolchain here)."""
+    proc = subprocess.run(["make", "-C", str(FW_DIR), "teensy-check"], check=False, capture_output=True, text=True,
+                          timeout=300)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
 def test_600_valid_frames_and_the_spi_trace_shows_the_biotac_sampling(bridge_host: Path, tmp_path: Path) -> None:
     trace = tmp_path / "spi.txt"
     out = run_host(bridge_host, "--fingers", "4", "--samples", "150", "--trace-spi", str(trace)).stdout
