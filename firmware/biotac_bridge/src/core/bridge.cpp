@@ -111,6 +111,12 @@ bool Bridge::enqueue(const uint8_t* data, size_t n) {
   return true;
 }
 
+void Bridge::discard_queued() {
+  stats_.discarded_bytes += static_cast<uint32_t>(count_);
+  head_ = 0;
+  count_ = 0;
+}
+
 void Bridge::pump() {
   while (count_ > 0) {
     const size_t room = link_.writable();

@@ -41,6 +41,7 @@ struct Stats {
   uint32_t frames_sent = 0;      // frames queued for the link
   uint32_t dropped_link = 0;     // frames dropped: the link/queue had no room
   uint32_t dropped_silent = 0;   // frames dropped: every reply of the frame was bad
+  uint32_t discarded_bytes = 0;  // queued bytes forgotten by discard_queued()
 };
 
 // Reads a property string (read command + property byte, then one byte per transfer).
@@ -94,6 +95,9 @@ class Bridge {
   void push_frame(const Sampler::Frame& frame);
   // Moves queued bytes into the link, as many as it takes now.
   void pump();
+
+  // Forgets every queued byte (stale frames), e.g. when a host opens the port.
+  void discard_queued();
 
   // Queues a '#' info line (whole, or not at all). Returns false if it did not fit.
   bool queue_line(const char* text);

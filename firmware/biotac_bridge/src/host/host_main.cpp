@@ -10,6 +10,7 @@
 //       as the first line of standard output.
 #include <errno.h>
 #include <fcntl.h>
+#include <poll.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -73,15 +74,22 @@ class StdoutSink final : public hal::ByteSink {
   }
 };
 
-// Pseudo-terminal master, non-blocking: takes what fits, never waits.
+// Pseudo-terminal master, non-blocking: takes what fits, never waits. Like a USB
+// CDC port without a host, it takes nothing while no program has the pty open (the
+// master reports a hang-up then), which plays the part of the Teensy's DTR line.
 class PtySink final : public hal::ByteSink {
  public:
   explicit PtySink(int fd) : fd_(fd) {}
-  size_t writable() override { return 4096; }
+  bool host_open() {
+    pollfd p{fd_, POLLOUT, 0};
+    return poll(&p, 1, 0) >= 0 && (p.revents & POLLHUP) == 0;
+  }
+  size_t writable() override { return open_ ? 4096 : 0; }
   size_t write(const uint8_t* data, size_t n) override {
     const ssize_t w = ::write(fd_, data, n);
     return w > 0 ? static_cast<size_t>(w) : 0;
   }
+  bool open_ = false;
 
  private:
   int fd_;
@@ -242,8 +250,8 @@ int main(int argc, char** argv) {
     return 0;
   }
 
-  // --pty: a raw pseudo-terminal; we keep the slave end open so that bytes written
-  // before a reader opens it are kept (up to the pty's buffer) instead of failing.
+  // --pty: a raw pseudo-terminal. The slave end is opened once to make it raw, then
+  // closed: a reader opening it is then seen as the hang-up on the master clearing.
   const int master = posix_openpt(O_RDWR | O_NOCTTY);
   if (master < 0 || grantpt(master) != 0 || unlockpt(master) != 0) {
     fprintf(stderr, "bridge_host: cannot open a pseudo-terminal: %s\n", strerror(errno));
@@ -259,6 +267,7 @@ int main(int argc, char** argv) {
   tcgetattr(slave, &tio);
   cfmakeraw(&tio);
   tcsetattr(slave, TCSANOW, &tio);
+  close(slave);
   fcntl(master, F_SETFL, fcntl(master, F_GETFL) | O_NONBLOCK);
   signal(SIGINT, on_signal);
   signal(SIGTERM, on_signal);
@@ -268,12 +277,26 @@ int main(int argc, char** argv) {
 
   PtySink link(master);
   bridge::Bridge br(link, ids, fingers, mode);
-  br.queue_info(infos, bt::kSpiClockHz);
   const double period = static_cast<double>(bt::kFrameSamples) / bt::kSampleRateHz;  // 10 ms
   const double t0 = now_s();
   double next = t0;
   unsigned long frames = 0;
+  double opened_at = -1.0;
   while (!g_stop && (seconds < 0.0 || now_s() - t0 < seconds)) {
+    // A host opened the port (held open for 20 ms, so that the input flush a serial
+    // library does right after opening has passed; the Teensy's DTR test waits 15 ms):
+    // drop the stale queue and send the start-up report first.
+    if (!link.host_open()) {
+      link.open_ = false;
+      opened_at = -1.0;
+    } else if (!link.open_) {
+      if (opened_at < 0.0) opened_at = now_s();
+      if (now_s() - opened_at >= 0.02) {
+        link.open_ = true;
+        br.discard_queued();
+        br.queue_info(infos, bt::kSpiClockHz);
+      }
+    }
     run_one_frame(sampler, br);
     ++frames;
     uint8_t in[64];
@@ -293,7 +316,6 @@ int main(int argc, char** argv) {
           now_s() - t0, frames, static_cast<unsigned long>(st.frames_sent),
           static_cast<unsigned long>(st.dropped_link), static_cast<unsigned long>(st.dropped_silent),
           static_cast<unsigned long>(sampler.overruns()), static_cast<unsigned long>(sampler.bad_replies()));
-  close(slave);
   close(master);
   if (trace) fclose(trace);
   return 0;

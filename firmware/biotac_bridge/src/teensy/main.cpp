@@ -91,9 +91,12 @@ void loop() {
     if (c >= 0)
       g_bridge.on_host_byte(static_cast<uint8_t>(c), g_infos, kSpiHz, g_sampler.overruns(), g_sampler.bad_replies());
   }
-  // A host opened the port (DTR raised): repeat the start-up report for it.
+  // A host opened the port (DTR raised): drop the stale queue, repeat the start-up report.
   const bool open = static_cast<bool>(Serial);
-  if (open && !g_host_was_open) g_bridge.queue_info(g_infos, kSpiHz);
+  if (open && !g_host_was_open) {
+    g_bridge.discard_queued();
+    g_bridge.queue_info(g_infos, kSpiHz);
+  }
   g_host_was_open = open;
 }
 
