@@ -257,3 +257,51 @@ def test_pty_never_blocks_when_the_host_stops_reading(bridge_host: Path) -> None
     assert len(frames) > 400
     assert dec.stats.crc_errors == 0 and dec.stats.length_errors == 0
     assert dec.stats.seq_gaps >= 4 and dec.stats.seq_lost > 0  # a gap per fingertip at least
+
+
+def test_bridge_info_tool_shows_the_report_and_names_a_silent_sensor(bridge_host: Path) -> None:
+    proc, path = start_pty(bridge_host, "--fingers", "3", "--absent", "1", "--seconds", "3")
+    try:
+        tool = subprocess.run(
+            [sys.executable, str(FW_DIR / "tools" / "bridge_info.py"), path, "--seconds", "1"],
+            check=False, capture_output=True, text=True, timeout=60,
+        )
+    finally:
+        proc.wait(timeout=15)
+    assert tool.returncode == 0, tool.stderr
+    out = tool.stdout
+    assert "# finger 0 (sensor 0): BioTac serial BT-SIM-0000, firmware sim-1.0" in out
+    assert "# finger 1 (sensor 1): no answer" in out
+    assert "# stats: built " in out
+    assert "finger 0: " in out and "finger 2: " in out and "finger 1: " not in out.splitlines()[-1]
+
+
+def test_host_can_switch_the_bridge_to_text_mode(bridge_host: Path) -> None:
+    proc, path = start_pty(bridge_host, "--fingers", "2", "--seconds", "2")
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+        try:
+            time.sleep(0.3)
+            os.write(fd, b"t")
+            time.sleep(0.2)
+            while True:  # drop what was sent before the switch
+                try:
+                    os.read(fd, 65536)
+                except BlockingIOError:
+                    break
+            data = bytearray()
+            deadline = time.monotonic() + 0.5
+            while time.monotonic() < deadline:
+                select.select([fd], [], [], 0.05)
+                try:
+                    data += os.read(fd, 65536)
+                except BlockingIOError:
+                    pass
+        finally:
+            os.close(fd)
+    finally:
+        proc.wait(timeout=15)
+    dec = TextDecoder()
+    frames = dec.feed(bytes(data))
+    assert len(frames) >= 60 and {f.finger for f in frames} == {0, 1}
+    assert dec.stats.length_errors <= 1 and dec.stats.range_errors == 0  # at most the cut first line
