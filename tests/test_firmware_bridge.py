@@ -153,6 +153,12 @@ def test_600_valid_frames_and_the_spi_trace_shows_the_biotac_sampling(bridge_hos
             np.testing.assert_array_equal(rebuilt, fr.values)
 
 
+def test_both_read_timings_give_the_same_stream(bridge_host: Path) -> None:
+    same_tick = run_host(bridge_host, "--fingers", "4", "--samples", "50").stdout
+    next_tick = run_host(bridge_host, "--fingers", "4", "--samples", "50", "--read-next-tick").stdout
+    assert same_tick == next_tick and len(same_tick) > 200 * 96
+
+
 def test_a_sensor_that_does_not_answer_is_named_and_sends_nothing(bridge_host: Path) -> None:
     proc = run_host(bridge_host, "--fingers", "3", "--samples", "20", "--absent", "1")
     info, _ = split_info(proc.stdout)

@@ -279,36 +279,56 @@ TEST(probe_reads_serial_and_firmware_and_names_absent) {
   CHECK(text.find('F') == std::string::npos);  // nothing a text-mode reader could take for a frame
 }
 
-TEST(sampler_sends_the_standard_sequence_and_builds_frames) {
+// Runs two frames of 3 simulated sensors; returns the frames and checks the SPI words.
+static std::vector<bridge::Sampler::Frame> two_frames(bridge::ReadTiming timing, int expected_ticks) {
   std::vector<sim::SimBioTac> sims;
   for (unsigned s = 0; s < 3; ++s) sims.emplace_back(s, true);
   SimBus bus(sims);
-  bridge::Sampler sampler(bus, 3);
-  int completed = 0;
+  bridge::Sampler sampler(bus, 3, timing);
+  std::vector<bridge::Sampler::Frame> frames;
   int ticks = 0;
   bridge::Sampler::Frame f{};
-  while (completed < 2) {
+  while (frames.size() < 2) {
     ++ticks;
     if (sampler.tick()) {
-      ++completed;
       CHECK(sampler.take(f));
       CHECK(!sampler.take(f));
+      frames.push_back(f);
       for (size_t s = 0; s < 3; ++s) {
-        CHECK(f.seq[s] == completed - 1);
+        CHECK(f.seq[s] == frames.size() - 1);
         CHECK(f.bad[s] == 0);
         for (size_t i = 0; i < 44; ++i) CHECK(f.values[s][i] > 0 && f.values[s][i] <= 4095);
       }
     }
   }
-  CHECK(ticks == 89);  // the first frame's last reply is read on tick 45
-  // Commands go out per position, to every sensor, in the standard order.
+  CHECK(ticks == expected_ticks);
+  // Commands go out per position, to every sensor, in the standard order; each
+  // command is read back (MOSI 0x0000) once.
   std::vector<uint16_t> cmds;
-  for (uint16_t w : bus.words)
-    if (w != 0) cmds.push_back(w);
-  CHECK(cmds.size() == 3u * 89u);
-  for (size_t t = 0; t < 89; ++t)
+  size_t reads = 0;
+  for (uint16_t w : bus.words) {
+    if (w != 0) {
+      cmds.push_back(w);
+    } else {
+      ++reads;
+    }
+  }
+  CHECK(cmds.size() == 3u * static_cast<size_t>(ticks));
+  CHECK(reads == 3u * 88u);
+  for (size_t t = 0; t < static_cast<size_t>(ticks); ++t)
     for (size_t s = 0; s < 3; ++s) CHECK(cmds[3 * t + s] == bt::sampling_word(bt::frame_channel(t % 44)));
+  if (timing == bridge::ReadTiming::kSameTick) {  // per tick: 3 commands, then 3 reads
+    for (size_t t = 0; t < 88; ++t)
+      for (size_t k = 0; k < 6; ++k) CHECK((bus.words[6 * t + k] == 0) == (k >= 3));
+  }
   CHECK(sampler.bad_replies() == 0);
+  return frames;
+}
+
+TEST(sampler_sends_the_standard_sequence_and_builds_frames) {
+  const auto same = two_frames(bridge::ReadTiming::kSameTick, 88);
+  const auto next = two_frames(bridge::ReadTiming::kNextTick, 89);  // last reply read on tick 45
+  for (size_t k = 0; k < 2; ++k) CHECK(memcmp(same[k].values, next[k].values, sizeof(same[k].values)) == 0);
 }
 
 TEST(bad_parity_holds_the_value_and_silent_sensor_is_not_sent) {

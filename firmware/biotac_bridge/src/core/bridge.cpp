@@ -35,51 +35,64 @@ SensorInfo probe_sensor(hal::SpiBus& spi, size_t sensor) {
 
 // ---------------------------------------------------------------------- Sampler
 
-Sampler::Sampler(hal::SpiBus& spi, size_t n_sensors)
-    : spi_(spi), n_(n_sensors > kMaxSensors ? kMaxSensors : n_sensors) {}
+Sampler::Sampler(hal::SpiBus& spi, size_t n_sensors, ReadTiming timing)
+    : spi_(spi), n_(n_sensors > kMaxSensors ? kMaxSensors : n_sensors), timing_(timing) {}
 
-bool Sampler::tick() {
-  bool completed = false;
-  if (outstanding_) {
-    const size_t idx = bt::protocol_index(last_pos_);
-    for (size_t s = 0; s < n_; ++s) {
-      spi_.select(s);
-      const bt::Reply r = bt::decode_reply(spi_.transfer16(0x0000));
-      spi_.deselect(s);
-      if (r.parity_ok) {
-        held_[s][idx] = r.value;
-      } else {
-        ++work_bad_[s];
-        bad_replies_ = bad_replies_ + 1;
-      }
-      work_[s][idx] = held_[s][idx];
-    }
-    if (last_pos_ == bt::kFrameSamples - 1) {
-      completed = true;
-      if (box_full_) {
-        overruns_ = overruns_ + 1;  // the main loop has not taken the last one: drop
-      } else {
-        memcpy(box_.values, work_, sizeof(work_));
-        memcpy(box_.bad, work_bad_, sizeof(work_bad_));
-        for (size_t s = 0; s < n_; ++s) box_.seq[s] = next_seq_[s];
-        std::atomic_signal_fence(std::memory_order_release);
-        box_full_ = true;
-      }
-      for (size_t s = 0; s < n_; ++s) {
-        next_seq_[s] = static_cast<uint16_t>(next_seq_[s] + 1);
-        work_bad_[s] = 0;
-      }
-    }
-    spi_.delay_us(bt::kInterWordDelayUs);
-  }
-  const uint16_t word = bt::sampling_word(bt::frame_channel(pos_));
+void Sampler::send_commands(size_t pos) {
+  const uint16_t word = bt::sampling_word(bt::frame_channel(pos));
   for (size_t s = 0; s < n_; ++s) {
     spi_.select(s);
     spi_.transfer16(word);
     spi_.deselect(s);
   }
-  outstanding_ = true;
-  last_pos_ = pos_;
+}
+
+bool Sampler::read_replies(size_t pos) {
+  const size_t idx = bt::protocol_index(pos);
+  for (size_t s = 0; s < n_; ++s) {
+    spi_.select(s);
+    const bt::Reply r = bt::decode_reply(spi_.transfer16(0x0000));
+    spi_.deselect(s);
+    if (r.parity_ok) {
+      held_[s][idx] = r.value;
+    } else {
+      ++work_bad_[s];
+      bad_replies_ = bad_replies_ + 1;
+    }
+    work_[s][idx] = held_[s][idx];  // a bad reply repeats the channel's last good value
+  }
+  if (pos != bt::kFrameSamples - 1) return false;
+  if (box_full_) {
+    overruns_ = overruns_ + 1;  // the main loop has not taken the last one: drop
+  } else {
+    memcpy(box_.values, work_, sizeof(work_));
+    memcpy(box_.bad, work_bad_, sizeof(work_bad_));
+    for (size_t s = 0; s < n_; ++s) box_.seq[s] = next_seq_[s];
+    std::atomic_signal_fence(std::memory_order_release);
+    box_full_ = true;
+  }
+  for (size_t s = 0; s < n_; ++s) {
+    next_seq_[s] = static_cast<uint16_t>(next_seq_[s] + 1);
+    work_bad_[s] = 0;
+  }
+  return true;
+}
+
+bool Sampler::tick() {
+  bool completed = false;
+  if (timing_ == ReadTiming::kSameTick) {
+    send_commands(pos_);
+    spi_.delay_us(bt::kAfterSampleDelayUs);
+    completed = read_replies(pos_);
+  } else {
+    if (outstanding_) {
+      completed = read_replies(last_pos_);
+      spi_.delay_us(bt::kInterWordDelayUs);
+    }
+    send_commands(pos_);
+    outstanding_ = true;
+    last_pos_ = pos_;
+  }
   pos_ = (pos_ + 1) % bt::kFrameSamples;
   return completed;
 }

@@ -1,12 +1,17 @@
 // The bridge logic shared by the Teensy and the host build.
 //
-// Sampler (runs in the 4.4 kHz timer interrupt on the Teensy): each tick first reads,
-// from every sensor, the reply to the sampling command sent on the previous tick (so
-// a command and its read are one tick, 227 us, apart: more than the 50 us the BioTac
-// needs), then, after the inter-word delay, sends every sensor the command of the
-// next position of the standard 44-sample frame. When a frame is complete it is
-// handed to the main loop through a one-frame mailbox; if the main loop has not
-// taken the previous one yet the frame is dropped (counted), its seq still used.
+// Sampler (runs in the 4.4 kHz timer interrupt on the Teensy): each tick samples one
+// position of the standard 44-sample frame on every sensor. Two read timings:
+//  - ReadTiming::kSameTick (default; the sequence of SynTouch's reference code): send
+//    every sensor the sampling command, wait the 50 us after-sample delay, then read
+//    every sensor's reply. About 50 us + 2 transfers per sensor of each 227 us tick.
+//  - ReadTiming::kNextTick: read the reply of the previous tick's command, then send the
+//    next command; no busy wait, but it relies on the BioTac keeping its reply for one
+//    tick (227 us), which SynTouch's documentation does not state. Try it on hardware
+//    only if the interrupt load of kSameTick is a problem.
+// When a frame is complete it is handed to the main loop through a one-frame mailbox;
+// if the main loop has not taken the previous one yet the frame is dropped (counted),
+// its seq still used.
 //
 // Bridge (runs in the main loop): turns complete frames into protocol v1 frames,
 // queues them whole in a byte queue and pumps the queue into the link as far as the
@@ -29,6 +34,7 @@ constexpr size_t kQueueBytes = 2048;
 constexpr const char* kVersion = "1.0.0";
 
 enum class Mode : uint8_t { kBinary, kText };
+enum class ReadTiming : uint8_t { kSameTick, kNextTick };
 
 struct SensorInfo {
   char serial[kPropertyMax + 1];
@@ -52,7 +58,7 @@ SensorInfo probe_sensor(hal::SpiBus& spi, size_t sensor);
 
 class Sampler {
  public:
-  Sampler(hal::SpiBus& spi, size_t n_sensors);
+  Sampler(hal::SpiBus& spi, size_t n_sensors, ReadTiming timing = ReadTiming::kSameTick);
 
   // One 4.4 kHz tick. Returns true when this tick completed a frame.
   bool tick();
@@ -71,8 +77,12 @@ class Sampler {
   uint32_t bad_replies() const { return bad_replies_; }
 
  private:
+  void send_commands(size_t pos);
+  bool read_replies(size_t pos);  // true when pos completed a frame
+
   hal::SpiBus& spi_;
   size_t n_;
+  ReadTiming timing_;
   size_t pos_ = 0;             // frame position of the next command
   bool outstanding_ = false;   // a command was sent on the previous tick
   size_t last_pos_ = 0;        // its frame position

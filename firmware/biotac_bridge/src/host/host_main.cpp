@@ -3,7 +3,7 @@
 // SimBioTac peers, the 4.4 kHz timer is replaced by running the 44 ticks of one frame
 // every 10 ms, and the USB link is standard output or a pseudo-terminal.
 //
-//   bridge_host --fingers N --samples S [--text] [--trace-spi FILE] [--absent LIST]
+//   bridge_host --fingers N --samples S [--text] [--trace-spi FILE] [--absent LIST] [--read-next-tick]
 //       S frames per fingertip (fingers 0..N-1) to standard output, as fast as possible.
 //   bridge_host --pty --fingers N --seconds T [--text] [--absent LIST]
 //       real time, 100 Hz per fingertip, on a pseudo-terminal whose path is printed
@@ -98,7 +98,7 @@ class PtySink final : public hal::ByteSink {
 void usage(FILE* f) {
   fprintf(f,
           "usage: bridge_host --fingers N (--samples S | --pty --seconds T) [--text]\n"
-          "                   [--trace-spi FILE] [--absent I,J,...]\n"
+          "                   [--trace-spi FILE] [--absent I,J,...] [--read-next-tick]\n"
           "  --fingers N       simulated BioTacs, finger numbers 0..N-1 (1..%zu)\n"
           "  --samples S       write S frames per fingertip to standard output and exit\n"
           "  --pty             stream in real time (100 Hz) on a pseudo-terminal; its path\n"
@@ -107,7 +107,9 @@ void usage(FILE* f) {
           "  --text            protocol v1 text mode instead of binary\n"
           "  --trace-spi FILE  one line per 16-bit SPI transfer: <sensor> <mosi hex> <miso hex>\n"
           "                    (8-bit start-up transfers as '# <sensor> <mosi> <miso>')\n"
-          "  --absent LIST     these sensors do not answer (no BioTac on that chip-select)\n",
+          "  --absent LIST     these sensors do not answer (no BioTac on that chip-select)\n"
+          "  --read-next-tick  read each reply on the next 4.4 kHz tick instead of 50 us after\n"
+          "                    its command (see ReadTiming in src/core/bridge.h)\n",
           bridge::kMaxSensors);
 }
 
@@ -147,7 +149,7 @@ void run_one_frame(bridge::Sampler& sampler, bridge::Bridge& br) {
 int main(int argc, char** argv) {
   unsigned long fingers = 0, samples = 0;
   double seconds = -1.0;
-  bool pty = false, text = false, have_samples = false;
+  bool pty = false, text = false, have_samples = false, next_tick = false;
   const char* trace_path = nullptr;
   std::vector<bool> absent(bridge::kMaxSensors, false);
 
@@ -196,6 +198,8 @@ int main(int argc, char** argv) {
       pty = true;
     } else if (a == "--text") {
       text = true;
+    } else if (a == "--read-next-tick") {
+      next_tick = true;
     } else {
       fprintf(stderr, "bridge_host: unknown or incomplete option '%s'\n", a.c_str());
       usage(stderr);
@@ -234,7 +238,7 @@ int main(int argc, char** argv) {
       fprintf(stderr, "bridge_host: finger %zu: no answer (no BioTac on this chip-select?)\n", s);
     }
   }
-  bridge::Sampler sampler(spi, fingers);
+  bridge::Sampler sampler(spi, fingers, next_tick ? bridge::ReadTiming::kNextTick : bridge::ReadTiming::kSameTick);
 
   if (!pty) {
     StdoutSink out;

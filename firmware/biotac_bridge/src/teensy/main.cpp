@@ -24,6 +24,10 @@ static_assert(kSensors <= bridge::kMaxSensors, "too many sensors");
 // SPI mode 0, MSB first (BioTac SPI interface); 4.4 MHz as SynTouch's adapter uses.
 constexpr uint32_t kSpiHz = bt::kSpiClockHz;
 
+// When each reply is read: 50 us after its command in the same tick (SynTouch's
+// sequence), or on the next tick (less time in the interrupt; see src/core/bridge.h).
+constexpr bridge::ReadTiming kReadTiming = bridge::ReadTiming::kSameTick;
+
 #if defined(BRIDGE_TEXT_MODE) && BRIDGE_TEXT_MODE
 constexpr bridge::Mode kStartMode = bridge::Mode::kText;
 #else
@@ -52,7 +56,7 @@ class UsbSink final : public hal::ByteSink {
 
 TeensySpi g_spi;
 UsbSink g_link;
-bridge::Sampler g_sampler(g_spi, kSensors);
+bridge::Sampler g_sampler(g_spi, kSensors, kReadTiming);
 bridge::Bridge g_bridge(g_link, kFingerIds, kSensors, kStartMode);
 bridge::SensorInfo g_infos[kSensors];
 bridge::Sampler::Frame g_frame;
