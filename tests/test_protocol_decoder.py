@@ -159,7 +159,8 @@ def test_seq_gap_counts_lost_frames_and_wraps() -> None:
 
 # ---------------------------------------------------------------- text mode
 
-garbage_line_st = st.binary(min_size=1, max_size=100).filter(lambda b: b"F" not in b and b"\n" not in b and b"\r" not in b)
+garbage_line_st = st.binary(min_size=1, max_size=100).filter(
+    lambda b: b"F" not in b and b"\n" not in b and b"\r" not in b and not b.startswith(b"#"))   # "#": a comment line
 
 
 @st.composite
@@ -239,3 +240,14 @@ def test_text_decoder_accepts_crlf_and_rejects_overlong_lines() -> None:
     frames += dec.feed(b"9" * 600 + b"\n" + encode_text(1, 3, v))
     assert [(f.finger, f.seq) for f in frames] == [(1, 3)]
     assert dec.stats.length_errors == 1 and dec.stats.bytes_discarded == 1201 and dec.stats.resyncs == 1
+
+
+def test_text_decoder_skips_a_bridges_comment_lines() -> None:
+    """'#' lines (the reference firmware's start-up report) are no frames and no errors,
+    even when they hold an 'F'."""
+    v = list(range(44))
+    dec = TextDecoder()
+    report = b"# biotac_bridge 1.0 F0 serial BTxxx firmware 3.1\r\n# F3 no answer\n"
+    frames = dec.feed(report + encode_text(0, 7, v))
+    assert [(f.finger, f.seq) for f in frames] == [(0, 7)]
+    assert dec.stats.format_errors == 0 and dec.stats.length_errors == 0 and dec.stats.bytes_discarded == 0

@@ -204,8 +204,8 @@ class TextDecoder(_DecoderBase):
                 continue
             if line.endswith(b"\r"):
                 line = line[:-1]
-            if not line:
-                continue  # blank lines are harmless
+            if not line or line.startswith(b"#"):
+                continue  # blank lines are harmless; '#' lines are a bridge's own notes (start-up report)
             k = line.rfind(b"F")
             if k > 0:
                 # 'F' only starts a frame: the text before it is a frame that lost its line end.
