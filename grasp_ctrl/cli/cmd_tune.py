@@ -100,7 +100,7 @@ def _check_args(args: argparse.Namespace) -> None:
         check_storage(args.storage)
 
 
-def _executor(args: argparse.Namespace, hand: Any) -> Any:
+def _executor(args: argparse.Namespace, hand: Any, trial_fn: Any) -> Any:
     from grasp_ctrl.trials.tune_executors import (
         ProcessExecutor,
         RayExecutor,
@@ -119,9 +119,7 @@ def _executor(args: argparse.Namespace, hand: Any) -> Any:
         return RayExecutor(args.address, args.jobs if args.jobs > 1 else None, hand, args.policy, args.backend)
     if args.jobs > 1:
         return ProcessExecutor(args.jobs, hand, args.policy, args.backend)
-    from grasp_ctrl.trials.runner import mock_trial_fn
-
-    return SerialExecutor(mock_trial_fn(hand, [args.policy], backend=args.backend))
+    return SerialExecutor(trial_fn)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -154,9 +152,14 @@ def run(args: argparse.Namespace) -> int:
     budget = args.budget or (grid_size(params) or DEFAULT_BUDGET)
     plans = [StudyPlan(obj, params, args.trials, args.seed, args.policy, args.backend, budget, args.storage,
                        args.study_name, prune=not args.no_prune) for obj in objects]
+    trial_fn = None
+    if args.backend != "dynamixel":   # the policy and world load here, so a bad one fails before any study
+        from grasp_ctrl.trials.runner import mock_trial_fn
+
+        trial_fn = mock_trial_fn(hand, [args.policy], backend=args.backend)
     docs = []
     for plan in plans:
-        doc = _tune_one(plan, args, hand)
+        doc = _tune_one(plan, args, hand, trial_fn)
         if doc is None:
             return 130
         docs.append(doc)
@@ -170,7 +173,7 @@ def run(args: argparse.Namespace) -> int:
     return _write(args, docs)
 
 
-def _tune_one(plan: Any, args: argparse.Namespace, hand: Any) -> dict[str, Any] | None:
+def _tune_one(plan: Any, args: argparse.Namespace, hand: Any, trial_fn: Any) -> dict[str, Any] | None:
     """One object's study: run what it lacks, print and return the ranked settings (None: Ctrl-C)."""
     from grasp_ctrl.trials.progress import Progress
     from grasp_ctrl.trials.study import open_study, remaining, run_study
@@ -185,7 +188,7 @@ def _tune_one(plan: Any, args: argparse.Namespace, hand: Any) -> dict[str, Any] 
 
     ran = 0
     if todo:
-        executor = _executor(args, hand)
+        executor = _executor(args, hand, trial_fn)
         try:
             ran = run_study(study, plan, executor, args.jobs, on_trial)
         except KeyboardInterrupt:

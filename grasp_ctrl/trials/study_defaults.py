@@ -21,8 +21,9 @@ def check_storage(url: str) -> None:
     if "://" not in url:
         raise UsageError(f"--storage {url}: a database URL, e.g. sqlite:///study.db")
     if url.startswith("sqlite:///"):
-        path = Path(url[len("sqlite:///"):])
-        if not str(path) or "\x00" in str(path):
+        name = url[len("sqlite:///"):]
+        path = Path(name)
+        if not name.strip() or "\x00" in name:
             raise UsageError(f"--storage {url}: no file named")
         if not path.parent.is_dir():
             raise UsageError(f"--storage {url}: folder {path.parent} does not exist")
