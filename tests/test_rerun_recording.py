@@ -12,7 +12,7 @@ import pytest
 
 pytest.importorskip("rerun")
 
-from grasp_ctrl.cli import main  # noqa: E402
+from grasp_ctrl.cli import main
 
 
 def _rerun_cli() -> str:
@@ -23,13 +23,13 @@ def _rerun_cli() -> str:
 
 
 def _verify(path: Path) -> None:
-    done = subprocess.run([_rerun_cli(), "rrd", "verify", str(path)], capture_output=True, text=True, timeout=120)
+    done = subprocess.run([_rerun_cli(), "rrd", "verify", str(path)], capture_output=True, text=True, timeout=120, check=False)
     assert done.returncode == 0, done.stderr
 
 
 def _entities(path: Path) -> dict[str, set[str]]:
     """Entity path -> the archetypes logged to it, from `rerun rrd print`."""
-    done = subprocess.run([_rerun_cli(), "rrd", "print", str(path)], capture_output=True, text=True, timeout=120)
+    done = subprocess.run([_rerun_cli(), "rrd", "print", str(path)], capture_output=True, text=True, timeout=120, check=False)
     assert done.returncode == 0, done.stderr
     out: dict[str, set[str]] = {}
     for m in re.finditer(r" - (/\S+) - data columns: \[([^\]]*)\]", done.stdout):

@@ -81,10 +81,15 @@ def test_write_follows_a_symlink_and_keeps_the_mode(tmp_path):
 
 optuna = pytest.importorskip("optuna")
 
-from grasp_ctrl.trials.study import (  # noqa: E402
-    StudyPlan, finished_settings, objective_value, open_study, run_study, setting_key,
+from grasp_ctrl.trials.study import (
+    StudyPlan,
+    finished_settings,
+    objective_value,
+    open_study,
+    run_study,
+    setting_key,
 )
-from grasp_ctrl.trials.tune_executors import SerialExecutor  # noqa: E402
+from grasp_ctrl.trials.tune_executors import SerialExecutor
 
 
 def test_objective_counts_successes_first_then_gentler_grip():
@@ -221,6 +226,6 @@ def test_parallel_settings_rank_like_serial(tmp_path):
               "--policy", "oracle", "--quiet", "--no-prune"]
     assert main([*common, "--json", str(tmp_path / "serial.json")]) == 0
     assert main([*common, "--jobs", "2", "--json", str(tmp_path / "jobs.json")]) == 0
-    strip = lambda d: [{k: v for k, v in r.items() if k != "study_trial"} for r in d["ranked"]]  # noqa: E731
+    strip = lambda d: [{k: v for k, v in r.items() if k != "study_trial"} for r in d["ranked"]]
     assert strip(json.loads((tmp_path / "jobs.json").read_text())) == \
         strip(json.loads((tmp_path / "serial.json").read_text()))

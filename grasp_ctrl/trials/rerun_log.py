@@ -37,7 +37,7 @@ from grasp_ctrl.trials.trial_view import TrialView
 ARROW_M_PER_N = 0.015
 TIMELINE = "time"
 COLOURS = [(31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189), (140, 86, 75)]
-TABLE_HALF_M = (0.25, 0.25, 0.002)
+TABLE_HALF_M = (0.15, 0.15, 0.002)
 
 
 def require_rerun() -> Any:
@@ -78,8 +78,9 @@ def _vec(view: TrialView, name: str, kind: str) -> np.ndarray | None:
     return np.stack([view.cols[c] for c in cols], axis=1).astype(float)
 
 
-def write_recording(view: TrialView, hand: HandConfig, path: Path) -> Path:
-    """The trial's recording at ``path`` (a .rrd file)."""
+def write_recording(view: TrialView, hand: HandConfig, path: Path, *, follow: bool = False) -> Path:
+    """The trial's recording at ``path`` (a .rrd file). ``follow``: the viewer opens at the last
+    tick (else it plays the lift and hold in a loop)."""
     rr = require_rerun()
     if path.suffix.lower() != ".rrd":
         raise UsageError(f"--rrd {path}: a Rerun recording is written as a .rrd file")
@@ -87,7 +88,7 @@ def write_recording(view: TrialView, hand: HandConfig, path: Path) -> Path:
     app = "grasp_ctrl"
     rec = rr.RecordingStream(app, recording_id=f"{rec_meta.get('policy', '')}-{view.ticks_path.stem}")
     path.parent.mkdir(parents=True, exist_ok=True)
-    rec.save(str(path))
+    rec.save(str(path), default_blueprint=_blueprint(view, follow))
     t = view.t.astype(float)
     times = [rr.TimeColumn(TIMELINE, duration=t)]
     frames = _hand_frames(view, hand)
@@ -106,7 +107,7 @@ def write_recording(view: TrialView, hand: HandConfig, path: Path) -> Path:
         tips = frames[f"{name}/tip"]
         est = _vec(view, name, "")
         if est is not None:
-            rec.log(f"world/forces/{name}/estimated", rr.Arrows3D.from_fields(colors=[colour], radii=[0.0015]),
+            rec.log(f"world/forces/{name}/estimated", rr.Arrows3D.from_fields(colors=[colour], radii=[0.0025]),
                     static=True)
             rec.send_columns(f"world/forces/{name}/estimated", indexes=times,
                              columns=rr.Arrows3D.columns(vectors=ARROW_M_PER_N * est, origins=tips))
@@ -122,6 +123,36 @@ def write_recording(view: TrialView, hand: HandConfig, path: Path) -> Path:
     rec.flush()
     rec.disconnect()
     return path
+
+
+def _blueprint(view: TrialView, follow: bool = False) -> Any:
+    """The layout a recording opens with: the 3D scene beside the grips with tau, the release
+    signal with its threshold and the controller's log; played in a loop over the lift and hold."""
+    import rerun.blueprint as rrb
+
+    views = rrb.Horizontal(
+        rrb.Spatial3DView(origin="world", name="hand, object, forces",
+                          eye_controls=rrb.EyeControls3D(position=[0.36, -0.34, 0.32], look_target=[0.0, 0.0, 0.12])),
+        rrb.Vertical(
+            rrb.TimeSeriesView(origin="signals", contents=["$origin/grip/**", "$origin/tau"], name="grip and tau (N)"),
+            rrb.TimeSeriesView(origin="signals", contents=["$origin/release", "$origin/release_threshold"],
+                               name="release signal (N)"),
+            rrb.TextLogView(origin="controller", name="controller"),
+        ),
+        column_shares=[3, 2],
+    )
+    panel: dict[str, Any] = {"timeline": TIMELINE}
+    entered = {dst: float(t) for t, _src, dst in reversed((view.record or {}).get("transitions", []))}
+    if follow:
+        panel["play_state"] = "following"
+    elif "lift" in entered:
+        import rerun as rr
+
+        start = entered["lift"]
+        end = entered.get("lower", start + 2.0)
+        panel.update(time_selection=rr.encodings.AbsoluteTimeRange(int(start * 1e9), int(end * 1e9)),
+                     loop_mode="selection", play_state="playing")
+    return rrb.Blueprint(views, rrb.TimePanel(**panel), collapse_panels=True)
 
 
 def _log_object(rr: Any, rec: Any, view: TrialView, times: list) -> None:
@@ -178,8 +209,8 @@ def _log_states(rr: Any, rec: Any, view: TrialView) -> None:
                                                 level=rr.TextLogLevel.WARN))
     if rec_meta:
         rec.set_time(TIMELINE, duration=float(t[-1]))
-        outcome = "success" if rec_meta.get("success") else f"failed: {rec_meta.get('reason')}"
-        rec.log("controller/outcome", rr.TextLog(f"{view.title()} -> {outcome}", level=rr.TextLogLevel.INFO))
+        rec.log("controller/outcome", rr.TextLog(view.title(), level=rr.TextLogLevel.INFO if rec_meta.get("success")
+                                                 else rr.TextLogLevel.ERROR))
 
 
 def record_run(run_dir: Path, out_dir: Path) -> list[Path]:
