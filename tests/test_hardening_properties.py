@@ -64,7 +64,7 @@ def sandbox() -> Iterator[Path]:
 def _stub_trials(monkeypatch: pytest.MonkeyPatch) -> None:
     import grasp_ctrl.trials.runner as runner
 
-    def fake_trial_fn(hand, policies, settings=None, threads=1):
+    def fake_trial_fn(hand, policies, settings=None, threads=1, **kwargs):
         def run(p, obj, k, seed, log):
             if log is not None:
                 Path(log).write_text("t,state\n")

@@ -127,6 +127,10 @@ def run(args: argparse.Namespace) -> int:
 
     _check_args(args)
     require_optuna()
+    if args.backend == "mujoco":   # the sim extra, before any study is opened
+        from grasp_ctrl.sim.mujoco_world import _mujoco
+
+        _mujoco()
     from grasp_ctrl.config.checks import check_objects_for_hand
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.trials.search_space import corner_settings, grid_size, parse_params
