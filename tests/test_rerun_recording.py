@@ -71,6 +71,11 @@ def test_run_rrd_writes_one_recording_per_trial(tmp_path, capsys):
     assert [f.relative_to(rrd_dir).as_posix() for f in files] == ["oracle/lego/trial_000.rrd", "oracle/lego/trial_001.rrd"]
     _verify(files[0])
     assert "Boxes3D" in _entities(files[0])["/world/object"]   # lego is a box
+    record = tmp_path / "run" / "trials" / "oracle" / "lego" / "trial_000.json"
+    capsys.readouterr()
+    assert main(["plot", str(record), "--rrd", str(tmp_path / "trial.png")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and ".rrd" in err[0]
 
 
 def test_recording_errors_are_one_line(tmp_path, capsys):
