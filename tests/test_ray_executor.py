@@ -50,7 +50,8 @@ def test_run_and_resume_on_ray_match_the_local_run(local_ray, tmp_path, hand, ob
 
 
 def test_tune_on_ray_ranks_like_local(local_ray, tmp_path):
-    common = ["tune", "--object", "lego", "--param", "tau=1.5,2.5", "--trials", "1", "--quiet"]
+    pytest.importorskip("optuna")
+    common = ["tune", "--backend", "mock", "--object", "lego", "--param", "tau=1.5,2.5", "--trials", "1", "--quiet"]
     assert main([*common, "--json", str(tmp_path / "local.json")]) == 0
     assert main([*common, "--executor", "ray", "--json", str(tmp_path / "ray.json")]) == 0
     assert json.loads((tmp_path / "ray.json").read_text()) == json.loads((tmp_path / "local.json").read_text())

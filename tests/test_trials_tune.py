@@ -109,7 +109,9 @@ def test_tune_command_ranks_and_writes_the_best_setting(tmp_path, capsys):
     objects_file = tmp_path / "objects.toml"
     shutil.copy(OBJECTS_TOML, objects_file)
     out = tmp_path / "sweep.json"
-    status = main(["tune", "--object", "lego", "--param", "tau=1.5,2.5", "--trials", "1", "--policy", "oracle",
+    pytest.importorskip("optuna")
+    status = main(["tune", "--backend", "mock", "--object", "lego", "--param", "tau=1.5,2.5", "--trials", "1",
+                   "--policy", "oracle",
                    "--object-file", str(objects_file), "--write", "--json", str(out), "--quiet", "--jobs", "2"])
     doc = json.loads(out.read_text())
     ranked = doc["ranked"]
@@ -130,6 +132,7 @@ def test_tune_on_the_real_hand_ranks_by_the_operators_labels(tmp_path, capsys, m
     prompt; the sweep ranks by those labels and writes the winner."""
     import io
 
+    pytest.importorskip("optuna")
     import grasp_ctrl.trials.hardware as hardware
 
     seen = []

@@ -14,7 +14,9 @@ DESCRIPTION = (
     "the moment it ended (done, or fault with its reason). --xyz plots the force components instead; "
     "--animate OUT.gif writes a replay (hand, object, force arrows per fingertip). TRIAL is "
     "trial_NNN.json or trial_NNN_ticks.parquet (or the .csv of older runs) in a run directory. "
-    "Needs matplotlib (the plot extra)."
+    "--rrd OUT.rrd writes a Rerun recording instead (hand links, object, force arrows, states, "
+    "series; open it with 'rerun OUT.rrd'; the viz extra), the PNG as well only with --out. "
+    "Needs matplotlib (the plot extra) for the PNG and GIF."
 )
 ORDER = 4
 
@@ -31,6 +33,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fps", type=float, default=12.0, metavar="N", help="replay frames per second (default 12)")
     p.add_argument("--frames", type=int, default=None, metavar="N",
                    help="replay: at most N frames, evenly spaced over the trial (default 100)")
+    p.add_argument("--rrd", default=None, metavar="OUT.rrd",
+                   help="write a Rerun recording of the trial (the viz extra): hand links, object pose, "
+                        "estimated and true force arrows, controller states, grips/tau/release series; "
+                        "the PNG is then written only with --out")
     p.add_argument("--hand", default=None, metavar="FILE",
                    help="replay: the trial's hand file (default: the one in the run's run.json)")
 
@@ -42,6 +48,14 @@ def run(args: argparse.Namespace) -> int:
 
     view = load_trial(Path(args.trial))
     stem = view.ticks_path.name.split("_ticks.")[0]
+    if args.rrd is not None:
+        from grasp_ctrl.trials.rerun_log import require_rerun, write_recording
+
+        require_rerun()
+        hand = hand_for_replay(view, Path(args.hand) if args.hand else None)
+        print(f"recording: {write_recording(view, hand, Path(args.rrd))}  (open: rerun {args.rrd})")
+        if args.out is None and not args.animate:
+            return 0
     if args.xyz:
         out = Path(args.out) if args.out else view.ticks_path.with_name(f"{stem}_forces.png")
         force_traces(view.ticks_path, out, args.frame, view.title())

@@ -88,6 +88,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="with --backend mujoco: render each trial offscreen to DIR/POLICY-OBJECT-TRIAL.mp4 (.gif "
                         "without imageio-ffmpeg); needs a GL backend (MUJOCO_GL=egl or osmesa), else says so and "
                         "runs without video; trials then run one at a time")
+    p.add_argument("--rrd", default=None, metavar="DIR",
+                   help="also write a Rerun recording of every trial, DIR/POLICY/OBJECT/trial_NNN.rrd (the viz extra)")
     p.add_argument("--no-tick-logs", action="store_true", default=None, help="skip the per-tick logs (faster)")
     p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
     p.add_argument("--port", default=None, metavar="PORT",
@@ -230,6 +232,10 @@ def run(args: argparse.Namespace) -> int:
         from grasp_ctrl.sim.mujoco_video import video_trial_fn
 
         trial_fn = video_trial_fn(hand, manifest.policies, manifest.settings, args.threads, Path(args.record_video))
+    if args.rrd is not None:
+        from grasp_ctrl.trials.rerun_log import check_run_rrd
+
+        check_run_rrd(args.rrd, manifest.tick_logs)
     if args.executor == "ray":
         jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
     else:
@@ -251,6 +257,10 @@ def run(args: argparse.Namespace) -> int:
         return 143 if isinstance(exc, Terminated) else 130
     print(format_table(summary))
     print(f"logs: {run_dir}  (compare: grasp-ctrl compare {run_dir})")
+    if args.rrd is not None:
+        from grasp_ctrl.trials.rerun_log import record_run
+
+        print(f"recordings: {len(record_run(run_dir, Path(args.rrd)))} in {args.rrd}  (open: rerun FILE.rrd)")
     if args.json:
         write_text_atomic(args.json, json.dumps(summary, indent=2) + "\n")
         print(f"summary: {args.json}")

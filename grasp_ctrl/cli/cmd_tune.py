@@ -1,4 +1,4 @@
-"""``tune``: sweep an object's controller thresholds and rank them (mock, or real hand with labels)."""
+"""``tune``: an Optuna study of an object's controller thresholds (MuJoCo, mock, or the real hand)."""
 
 from __future__ import annotations
 
@@ -6,13 +6,20 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
 NAME = "tune"
-HELP = "sweep an object's thresholds (tau, release threshold, ...) on the mock or the real hand and rank them"
+HELP = "tune an object's thresholds (tau, release threshold, ...) with an Optuna study and rank the settings"
 DESCRIPTION = (
-    "Run the same seeded trials for every combination of the --param values on one object and "
-    "rank the settings by success rate, then by mean peak true grip force (lower first). With "
-    "--write the best setting goes into the object file (only those lines change; the diff is shown)."
+    "An Optuna study per object: each setting of the --param thresholds runs the same --trials seeded "
+    "trials (same seeds for every setting). Objective, maximised: the success rate, ties broken by the "
+    "mean peak true grip force (gentler wins): value = (successes - 0.5*g/(1+g))/K, g the mean peak true "
+    "grip in N, K = --trials. TPE samples the settings (the grid sampler when every --param is a grid); "
+    "a setting that can no longer reach the best finished success rate is pruned after any trial. "
+    "Prints the settings ranked and the best one's success rate with its 95 % Wilson interval. "
+    "--storage sqlite:///FILE keeps the study: Ctrl-C, then the same command again, continues it "
+    "without repeating finished settings. With --write the best setting goes into the object file "
+    "(only those lines change; the diff is shown)."
 )
 ORDER = 5
 
@@ -21,107 +28,202 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from grasp_ctrl.config.objects import TUNABLE
     from grasp_ctrl.estimators.registry import DEFAULT_POLICY
     from grasp_ctrl.paths import default_hand_file, default_objects_file
+    from grasp_ctrl.trials.study_defaults import DEFAULT_BUDGET
 
-    p.add_argument("--object", required=True, metavar="NAME", help="the object to tune")
-    p.add_argument("--param", required=True, action="append", metavar="NAME=START:STOP:STEP",
-                   help=f"a threshold and its values (START:STOP:STEP with STOP included, A,B,C, or one value); "
-                        f"repeat for a grid. Tunable: {', '.join(TUNABLE)} (tau and release_threshold also accepted)")
-    p.add_argument("--trials", type=int, default=3, metavar="N", help="trials per setting (default 3)")
+    which = p.add_mutually_exclusive_group(required=True)
+    which.add_argument("--object", metavar="NAME", help="the object to tune")
+    which.add_argument("--objects", metavar="a,b|all",
+                       help="tune each of these objects (its own study); --write puts every best setting "
+                            "into the one object file")
+    p.add_argument("--param", required=True, action="append", metavar="NAME=LOW:HIGH",
+                   help="a threshold and where to search it: LOW:HIGH a continuous range (LOW:HIGH:log on a "
+                        "log scale), START:STOP:STEP (STOP included), A,B,C or one value a grid; repeat for "
+                        f"several. Tunable: {', '.join(TUNABLE)} (tau and release_threshold also accepted)")
+    p.add_argument("--trials", type=int, default=3, metavar="K",
+                   help="seeded trials per setting, the same seeds for every setting (default 3)")
+    p.add_argument("--budget", type=int, default=None, metavar="N",
+                   help=f"settings in the study (default: the whole grid when every --param is a grid, "
+                        f"else {DEFAULT_BUDGET}); a resumed study runs only those it lacks")
     p.add_argument("--policy", default=DEFAULT_POLICY, metavar="NAME|PATH", help=f"force estimator (default {DEFAULT_POLICY})")
-    p.add_argument("--seed", type=int, default=0, metavar="S", help="base random seed (default 0)")
+    p.add_argument("--seed", type=int, default=0, metavar="S", help="base random seed of the trials and sampler (default 0)")
     p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE", help="hand config TOML")
     p.add_argument("--object-file", default=str(default_objects_file()), metavar="FILE", help="object profiles TOML")
-    p.add_argument("--backend", choices=("mock", "dynamixel"), default="mock",
-                   help="mock (default); dynamixel: the real hand, each trial labelled by the operator")
+    p.add_argument("--backend", choices=("mujoco", "mock", "dynamixel"), default="mujoco",
+                   help="mujoco: the reference world (default; the sim extra); mock: the fast mock world; "
+                        "dynamixel: the real hand, each trial labelled by the operator")
     p.add_argument("--port", default=None, metavar="PORT", help="dynamixel: the servo bus port")
     p.add_argument("--sensor-port", default=None, metavar="PORT", help="dynamixel: the fingertip sensors' port")
+    p.add_argument("--storage", default=None, metavar="sqlite:///FILE",
+                   help="keep the study in this database; the same command again continues it")
+    p.add_argument("--study-name", default=None, metavar="NAME",
+                   help="the study's name in --storage (default: tune-OBJECT-<hash of object, policy, backend, "
+                        "seed, trials and params>)")
+    p.add_argument("--no-prune", action="store_true", help="run every setting's trials to the end")
     p.add_argument("--write", action="store_true", help="write the best setting into the object file")
-    p.add_argument("--json", default=None, metavar="FILE", help="write the ranked sweep as JSON")
+    p.add_argument("--json", default=None, metavar="FILE", help="write the ranked settings as JSON")
+    p.add_argument("--plots", default=None, metavar="DIR",
+                   help="write the study's history and parameter importances as PNG (the plot extra)")
     p.add_argument("--jobs", type=int, default=1, metavar="N",
-                   help="trials in N processes at once (default 1; with --executor ray: the local instance's CPUs)")
+                   help="settings run in N processes at once (default 1; with --executor ray: the local instance's CPUs)")
     p.add_argument("--executor", choices=("local", "ray"), default="local",
                    help="ray: the trials as Ray tasks (the ray extra), on a local instance or --address")
     p.add_argument("--address", default=None, metavar="ADDR", help="with --executor ray: a running Ray cluster")
     p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
 
 
-def run(args: argparse.Namespace) -> int:
+def _check_args(args: argparse.Namespace) -> None:
     from grasp_ctrl.errors import UsageError
-    from grasp_ctrl.trials.progress import Progress
-    from grasp_ctrl.trials.runner import mock_trial_fn, parallel_trials, trial_seed
-    from grasp_ctrl.config.hand import load_hand
-    from grasp_ctrl.trials.selection import select_objects
-    from grasp_ctrl.trials.toml_edit import update_object_file
-    from grasp_ctrl.trials.tune import apply_setting, format_sweep, parse_param, rank, run_sweep, settings_grid
-    from grasp_ctrl.config.checks import check_objects_for_hand
+    from grasp_ctrl.trials.ray_executor import check_executor
 
-    if args.backend != "mock" and args.jobs != 1:
+    if args.backend == "dynamixel" and args.jobs != 1:
         raise UsageError("--jobs: the real hand runs one trial at a time")
-    from grasp_ctrl.trials.ray_executor import check_executor, ray_trials
-
     check_executor(args.executor, args.address)
-    if args.backend != "mock" and args.executor != "local":
+    if args.backend == "dynamixel" and args.executor != "local":
         raise UsageError("--executor ray: the real hand runs here, one trial at a time")
     if args.trials < 1:
         raise UsageError("--trials: must be at least 1")
     if args.jobs < 1:
         raise UsageError("--jobs: must be at least 1")
-    if "," in args.object or args.object.strip() == "all":
-        raise UsageError("--object: one object name")
+    if args.budget is not None and args.budget < 1:
+        raise UsageError("--budget: must be at least 1")
+    if args.object is not None and ("," in args.object or args.object.strip() == "all"):
+        raise UsageError("--object: one object name (several: --objects a,b or --objects all)")
     if not 0 <= args.seed < 2**63:
         raise UsageError(f"--seed: an integer from 0 to 2**63-1 (got {args.seed})")
-    grid = settings_grid([parse_param(s) for s in args.param])
-    hand = load_hand(args.hand)
-    (obj,) = select_objects(args.object_file, args.object, flag="--object")
-    # every setting of the sweep must also fit the hand (tau below its force limit, ...)
-    check_objects_for_hand([apply_setting(obj, s) for s in grid], hand, f"--param ({obj.name})")
+    for flag in ("json", "storage", "plots", "study_name"):
+        value = getattr(args, flag)
+        if value is not None and not value.strip():
+            raise UsageError(f"--{flag.replace('_', '-')}: empty")
+    if args.storage:
+        from grasp_ctrl.trials.study_defaults import check_storage
+
+        check_storage(args.storage)
+
+
+def _executor(args: argparse.Namespace, hand: Any, trial_fn: Any) -> Any:
+    from grasp_ctrl.trials.tune_executors import (
+        ProcessExecutor,
+        RayExecutor,
+        SerialExecutor,
+    )
+
     if args.backend == "dynamixel":
         # No ground truth on the real hand: the operator labels every trial.
         from grasp_ctrl.trials.hardware import hardware_trial_fn
         from grasp_ctrl.trials.labelling import OperatorLabeller, labelled
 
-        run_trial_fn = labelled(
+        return SerialExecutor(labelled(
             hardware_trial_fn(hand, [args.policy], None, 1, port=args.port, sensor_port=args.sensor_port),
-            OperatorLabeller(),
-        )
+            OperatorLabeller()))
+    if args.executor == "ray":
+        return RayExecutor(args.address, args.jobs if args.jobs > 1 else None, hand, args.policy, args.backend)
+    if args.jobs > 1:
+        return ProcessExecutor(args.jobs, hand, args.policy, args.backend)
+    return SerialExecutor(trial_fn)
+
+
+def run(args: argparse.Namespace) -> int:
+    from grasp_ctrl.trials.study_defaults import require_optuna
+
+    _check_args(args)
+    require_optuna()
+    if args.backend == "mujoco":   # the sim extra, before any study is opened
+        from grasp_ctrl.sim.mujoco_world import _mujoco
+
+        _mujoco()
+    from grasp_ctrl.config.checks import check_objects_for_hand
+    from grasp_ctrl.config.hand import load_hand
+    from grasp_ctrl.trials.search_space import corner_settings, grid_size, parse_params
+    from grasp_ctrl.trials.selection import select_objects
+    from grasp_ctrl.trials.study import StudyPlan
+    from grasp_ctrl.trials.study_defaults import DEFAULT_BUDGET
+    from grasp_ctrl.trials.tune import apply_setting
+
+    params = parse_params(args.param)
+    hand = load_hand(args.hand)
+    if args.object is not None:
+        objects = select_objects(args.object_file, args.object, flag="--object")
     else:
-        run_trial_fn = mock_trial_fn(hand, [args.policy])
+        objects = select_objects(args.object_file, args.objects, flag="--objects")
+    corners = corner_settings(params)
+    for obj in objects:
+        # every end of the search must fit the object file's limits and the hand (tau below its force limit, ...)
+        check_objects_for_hand([apply_setting(obj, s) for s in corners], hand, f"--param ({obj.name})")
+    if args.study_name and len(objects) > 1:
+        from grasp_ctrl.errors import UsageError
 
-    def one(profile, k):  # type: ignore[no-untyped-def]
-        return run_trial_fn(args.policy, profile, k, trial_seed(args.seed, obj.name, k), None)
+        raise UsageError("--study-name: one object only (each object has its own study)")
+    budget = args.budget or (grid_size(params) or DEFAULT_BUDGET)
+    plans = [StudyPlan(obj, params, args.trials, args.seed, args.policy, args.backend, budget, args.storage,
+                       args.study_name, prune=not args.no_prune) for obj in objects]
+    trial_fn = None
+    if args.backend != "dynamixel":   # the policy and world load here, so a bad one fails before any study
+        from grasp_ctrl.trials.runner import mock_trial_fn
 
-    progress = Progress(len(grid) * args.trials, enabled=not args.quiet)
-
-    def on_trial(i, setting, rec):  # type: ignore[no-untyped-def]
-        rec = dict(rec, policy=", ".join(f"{k}={v:g}" for k, v in setting.items()))
-        progress.trial_done(rec)
-
-    def many(tasks):  # type: ignore[no-untyped-def]
-        jobs = [(args.policy, profile, k, trial_seed(args.seed, obj.name, k), None) for _, profile, k in tasks]
-        if args.executor == "ray":
-            return ray_trials(args.address, args.jobs if args.jobs > 1 else None, hand, [args.policy], None, 1, jobs)
-        return parallel_trials(min(args.jobs, len(jobs)), hand, [args.policy], None, 1, jobs)
-
-    try:
-        rows = rank(run_sweep(obj, grid, args.trials, one, on_trial,
-                              many if args.jobs > 1 or args.executor == "ray" else None))
-    finally:
-        progress.close()
-    current = {k: getattr(obj, k) for k in grid[0]}
-    print(f"{obj.name}, policy {args.policy}, {args.trials} trials per setting, seed {args.seed} (* = current)")
-    print(format_sweep(rows, current))
-    best = rows[0]
+        trial_fn = mock_trial_fn(hand, [args.policy], backend=args.backend)
+    docs = []
+    for plan in plans:
+        doc = _tune_one(plan, args, hand, trial_fn)
+        if doc is None:
+            return 130
+        docs.append(doc)
     if args.json:
-        doc = {"object": obj.name, "policy": args.policy, "seed": args.seed, "trials": args.trials,
-               "current": current, "ranked": [r.to_json() for r in rows]}
         from grasp_ctrl.trials.storage import write_text_atomic
 
-        write_text_atomic(args.json, json.dumps(doc, indent=2) + "\n")
+        out = docs[0] if args.object is not None else {"objects": docs}
+        write_text_atomic(args.json, json.dumps(out, indent=2) + "\n")
     if not args.write:
         return 0
-    if best.successes == 0:
-        print(f"no setting succeeded; {args.object_file} left unchanged", file=sys.stderr)
+    return _write(args, docs)
+
+
+def _tune_one(plan: Any, args: argparse.Namespace, hand: Any, trial_fn: Any) -> dict[str, Any] | None:
+    """One object's study: run what it lacks, print and return the ranked settings (None: Ctrl-C)."""
+    from grasp_ctrl.trials.progress import Progress
+    from grasp_ctrl.trials.study import open_study, remaining, run_study
+    from grasp_ctrl.trials.study_report import report
+
+    study = open_study(plan)
+    todo = remaining(study, plan)
+    progress = Progress(todo * plan.trials, enabled=not args.quiet)
+
+    def on_trial(setting: dict[str, Any], rec: dict[str, Any]) -> None:
+        progress.trial_done(dict(rec, policy=", ".join(f"{k}={v:g}" for k, v in setting.items())))
+
+    ran = 0
+    if todo:
+        executor = _executor(args, hand, trial_fn)
+        try:
+            ran = run_study(study, plan, executor, args.jobs, on_trial)
+        except KeyboardInterrupt:
+            progress.close()
+            from grasp_ctrl.trials.study import finished_settings
+
+            kept = (f"{len(finished_settings(study))} of {plan.budget} settings are kept in {plan.storage}; "
+                    f"run the same command again to continue") if plan.storage else "nothing is kept without --storage"
+            print(f"interrupted: {plan.obj.name}: {kept}", file=sys.stderr)
+            return None
+        finally:
+            progress.close()
+    text, doc = report(study, plan, ran)
+    print(text)
+    if args.plots:
+        from grasp_ctrl.trials.study_plots import write_study_plots
+
+        for line in write_study_plots(study, Path(args.plots), plan.obj.name):
+            print(line)
+    return doc
+
+
+def _write(args: argparse.Namespace, docs: list[dict[str, Any]]) -> int:
+    from grasp_ctrl.trials.toml_edit import update_objects_file
+
+    values = {d["object"]: d["best"]["setting"] for d in docs if d.get("best") and d["best"]["successes"] > 0}
+    for d in docs:
+        if d["object"] not in values:
+            print(f"{d['object']}: no setting succeeded; left unchanged in {args.object_file}", file=sys.stderr)
+    if not values:
         return 1
-    diff = update_object_file(Path(args.object_file), obj.name, best.setting)
-    print(diff.rstrip() if diff else f"{args.object_file}: the best setting is already there; unchanged")
+    diff = update_objects_file(Path(args.object_file), values)
+    print(diff.rstrip() if diff else f"{args.object_file}: the best settings are already there; unchanged")
     return 0

@@ -10,6 +10,7 @@ from __future__ import annotations
 import difflib
 import os
 import re
+import stat
 import tempfile
 from pathlib import Path
 
@@ -63,26 +64,62 @@ def set_object_value(text: str, obj: str, key: str, value: float | int) -> str:
 
 def update_object_file(path: Path, obj: str, values: dict[str, float | int]) -> str:
     """Write the new values into ``path``; returns the unified diff ('' when unchanged)."""
-    old = path.read_text(encoding="utf-8")
+    return update_objects_file(path, {obj: values})
+
+
+def update_objects_file(path: Path, values: dict[str, dict[str, float | int]]) -> str:
+    """Write every object's new values into ``path`` at once; returns the unified diff ('' when
+    unchanged). A symlink is followed and its target replaced (the link stays); the file keeps
+    its mode and, where this process may set it, its owner and group. The new text is written to
+    a temporary file beside the target, loaded and checked, fsynced, then renamed over it."""
+    path = Path(path)
+    target = Path(os.path.realpath(path))
+    if not target.is_file():
+        raise UsageError(f"{path}: not a file")
+    old = target.read_text(encoding="utf-8")
     new = old
-    for key, value in values.items():
-        new = set_object_value(new, obj, key, value)
+    for obj, obj_values in values.items():
+        for key, value in obj_values.items():
+            new = set_object_value(new, obj, key, value)
     if new == old:
         return ""
-    fd, tmp = tempfile.mkstemp(prefix=".objects-", suffix=".toml", dir=path.parent)
+    st = target.stat()
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write(new)
             fh.flush()
             os.fsync(fh.fileno())
-        profile = load_objects(tmp)[obj]  # refuse to write a file that would not load
-        for key, value in values.items():
-            if abs(float(getattr(profile, key)) - float(value)) > 1e-12:
-                raise UsageError(f"{path}: {key} of {obj} did not read back as {value}")
-        os.replace(tmp, path)
+        profiles = load_objects(tmp)  # refuse to write a file that would not load
+        for obj, obj_values in values.items():
+            for key, value in obj_values.items():
+                if abs(float(getattr(profiles[obj], key)) - float(value)) > 1e-12:
+                    raise UsageError(f"{path}: {key} of {obj} did not read back as {value}")
+        os.chmod(tmp, stat.S_IMODE(st.st_mode))
+        if hasattr(os, "chown"):
+            try:
+                os.chown(tmp, st.st_uid, st.st_gid)
+            except PermissionError:   # not ours to give away: the file keeps this user's ownership
+                pass
+        os.replace(tmp, target)
+        os.chmod(target, stat.S_IMODE(st.st_mode))
+        _fsync_dir(target.parent)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
     return "".join(difflib.unified_diff(old.splitlines(keepends=True), new.splitlines(keepends=True),
                                         fromfile=f"{path} (before)", tofile=f"{path} (after)"))
+
+
+def _fsync_dir(folder: Path) -> None:
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)

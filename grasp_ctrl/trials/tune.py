@@ -35,6 +35,8 @@ def parse_param(spec: str) -> tuple[str, list[float | int]]:
             parts = [float(v) for v in values.split(":")]
             if len(parts) != 3:
                 raise ValueError
+            if not all(math.isfinite(v) for v in parts):
+                raise UsageError(f"--param {spec!r}: START, STOP and STEP must be finite numbers")
             start, stop, step = parts
             if step <= 0 or stop < start:
                 raise UsageError(f"--param {spec!r}: need START <= STOP and STEP > 0")
@@ -87,6 +89,7 @@ class SweepRow:
     failures: dict[str, int] = field(default_factory=dict)
     peak_true_n: list[float] = field(default_factory=list)
     peak_est_n: list[float] = field(default_factory=list)
+    pruned: bool = False        # stopped early by the study: it could no longer win
 
     @property
     def success_rate(self) -> float:
@@ -113,16 +116,17 @@ class SweepRow:
         return {"setting": self.setting, "trials": self.trials, "successes": self.successes,
                 "success_rate": self.success_rate, "failures": dict(sorted(self.failures.items())),
                 "mean_peak_grip_true_n": round(self.mean_peak_true_n, 4),
-                "mean_peak_grip_est_n": round(self.mean_peak_est_n, 4)}
+                "mean_peak_grip_est_n": round(self.mean_peak_est_n, 4), "pruned": self.pruned}
 
 
 def rank(rows: Sequence[SweepRow]) -> list[SweepRow]:
-    """Success rate first, then the lower mean peak force; ties keep the sweep order."""
+    """Success rate first, then the lower mean peak force; ties keep the sweep order.
+    Settings pruned before their last trial come after every finished one."""
     def force(r: SweepRow) -> float:
         f = r.mean_peak_true_n
         return f if math.isfinite(f) else r.mean_peak_est_n if math.isfinite(r.mean_peak_est_n) else math.inf
 
-    return sorted(rows, key=lambda r: (-r.success_rate, force(r)))
+    return sorted(rows, key=lambda r: (r.pruned, -r.success_rate, force(r)))
 
 
 SweepTask = tuple[int, ObjectProfile, int]   # setting index, tuned profile, trial index
@@ -165,6 +169,8 @@ def format_sweep(rows: Sequence[SweepRow], current: dict[str, float | int] | Non
     for i, r in enumerate(rows, 1):
         mark = "*" if current is not None and all(_close(r.setting[n], current.get(n)) for n in names) else ""
         fails = ", ".join(f"{k} x{v}" for k, v in sorted(r.failures.items())) or "-"
+        if r.pruned:
+            fails = f"pruned; {fails}"
         body.append([f"{i}{mark}"] + [_fmt(r.setting[n]) for n in names] + [
             f"{100 * r.success_rate:.0f}% ({r.successes}/{r.trials})",
             f"{r.mean_peak_true_n:.2f} N", f"{r.mean_peak_est_n:.2f} N", fails])
@@ -176,3 +182,14 @@ def format_sweep(rows: Sequence[SweepRow], current: dict[str, float | int] | Non
 
 def _close(a: float | int, b: float | int | None) -> bool:
     return b is not None and abs(float(a) - float(b)) <= 1e-9 * max(1.0, abs(float(a)))
+
+
+def wilson_interval(successes: int, trials: int, z: float = 1.959964) -> tuple[float, float]:
+    """The Wilson score interval of a success rate (95 % by default)."""
+    if trials <= 0:
+        return 0.0, 1.0
+    p = successes / trials
+    denom = 1.0 + z * z / trials
+    centre = (p + z * z / (2 * trials)) / denom
+    half = z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / denom
+    return max(0.0, centre - half), min(1.0, centre + half)
