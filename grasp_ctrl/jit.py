@@ -45,7 +45,7 @@ KERNEL_SOURCES = (
     "jit.py", "sim/world_step.py", "sim/shapes.py", "sim/grip.py", "sim/biotac_model.py",
     "kinematics/fingertip.py", "kinematics/multilinear.py", "kinematics/pad_ik.py", "limits.py",
     "tactile/tare.py", "finite.py", "sim/backends.py",
-    "trials/tick_kernels.py", "sim/world.py", "controller/tick_kernels.py", "trials/mock_tick.py",
+    "loop/tick_kernels.py", "sim/world.py", "controller/tick_kernels.py", "trials/episode/mock_tick.py",
     "estimators/linear.py", "estimators/mlp.py",
 )
 

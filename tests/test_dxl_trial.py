@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import grasp_ctrl.trials.runner as runner
+import grasp_ctrl.trials.episode.runner as runner
 from grasp_ctrl.emulators.world_hand import EmulatedDynamixelHand
 from grasp_ctrl.hardware.dynamixel.calibration import Calibration
 

@@ -7,7 +7,7 @@ import json
 import pytest
 
 from grasp_ctrl.cli import main
-from grasp_ctrl.trials.runner import estimator_factory, run_mock_trial
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial
 
 
 def _trial(hand, obj, policy, seed=3):

@@ -1,4 +1,4 @@
-"""Statics of the grasp (kinematics/grasp_capacity.py, ``lift-capacity``): the liftable weight
+"""Statics of the grasp (controller/grasp_capacity.py, ``lift-capacity``): the liftable weight
 balances the pads' forces, scales with the servos' torque and friction, and on the shipped LEAP
 mount names the two heavy boxes that slip in MuJoCo (docs/mujoco.md, session 10)."""
 
@@ -10,7 +10,7 @@ import pytest
 from grasp_ctrl.cli import main
 from grasp_ctrl.config.hand import load_hand
 from grasp_ctrl.config.objects import load_objects
-from grasp_ctrl.kinematics.grasp_capacity import GRAVITY_M_S2, liftable_weight, object_capacity
+from grasp_ctrl.controller.grasp_capacity import GRAVITY_M_S2, liftable_weight, object_capacity
 from grasp_ctrl.paths import default_hand_file, default_objects_file
 
 

@@ -13,8 +13,8 @@ from grasp_ctrl.controller.grip_targets import GRAVITY_M_S2, grip_targets
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import ConfigError, UsageError
-from grasp_ctrl.trials.manifest import settings_from_json
-from grasp_ctrl.trials.runner import estimator_factory, run_mock_trial
+from grasp_ctrl.trials.runs.manifest import settings_from_json
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial
 
 LEAP_VECTORS = np.array([[-1.0, 0, 0], [-1.0, 0, 0], [-1.0, 0, 0], [1.0, 0, 0]])   # index, middle, ring, thumb
 LEAP_GRASP = np.array([True, True, False, True])

@@ -25,11 +25,11 @@ from grasp_ctrl.errors import ConfigError, PolicyError, UsageError
 from grasp_ctrl.estimators.base import Estimate
 from grasp_ctrl.estimators.registry import list_policy_names, load_policy
 from grasp_ctrl.paths import default_objects_file, policies_dir
-from grasp_ctrl.trials.manifest import read_manifest
-from grasp_ctrl.trials.records import load_records
-from grasp_ctrl.trials.runner import run_mock_trial, run_series
-from grasp_ctrl.trials.storage import LOCK_FILE, record_path, safe_name, temp_path, ticks_path
-from grasp_ctrl.trials.ticklog import read_tick_log
+from grasp_ctrl.trials.runs.manifest import read_manifest
+from grasp_ctrl.trials.runs.records import load_records
+from grasp_ctrl.trials.episode.runner import run_mock_trial, run_series
+from grasp_ctrl.storage import LOCK_FILE, record_path, safe_name, temp_path, ticks_path
+from grasp_ctrl.loop.ticklog import read_tick_log
 
 OBJECTS_TOML = Path(default_objects_file()).read_text()
 
@@ -55,7 +55,7 @@ def _files_under(root: Path) -> set[Path]:
 
 # ---------------------------------------------------------------- 1. resume with the mustard cap
 def test_1_run_json_gives_the_cap_back_as_a_cap_profile(tmp_path, hand, objects):
-    from grasp_ctrl.trials.manifest import RunManifest, write_manifest
+    from grasp_ctrl.trials.runs.manifest import RunManifest, write_manifest
 
     m = RunManifest("mock", hand.name, 0, 1, ["linear_mock"], [objects["mustard_bottle"]])
     write_manifest(tmp_path, m)
@@ -125,7 +125,7 @@ def test_2_nan_force_never_passes_the_overforce_check(hand, objects):
 def test_2_non_finite_sensor_frame_is_sensor_invalid(hand, objects):
     from grasp_ctrl.hardware.base import JointState
     from grasp_ctrl.kinematics.chain import HandKinematics
-    from grasp_ctrl.trials.pipeline import SensingPipeline
+    from grasp_ctrl.loop.sensing import SensingPipeline
 
     pipeline = SensingPipeline(hand, HandKinematics(hand), load_policy("linear_mock", hand))
     n, q = len(hand.fingers), np.array([j.open_rad for j in hand.joints])
@@ -195,7 +195,7 @@ def test_3_policy_specs_map_to_one_safe_directory_name(spec):
 # ---------------------------------------------------------------- 4. a failed start leaves nothing behind
 @pytest.mark.parametrize("bad", [["--policy", "no_such_policy"], ["--policy", "linear_mock", "no_such_policy"]])
 def test_4_failed_start_leaves_no_run_directory_and_the_retry_works(tmp_path, capsys, monkeypatch, bad):
-    import grasp_ctrl.trials.runner as runner
+    import grasp_ctrl.trials.episode.runner as runner
 
     run_dir = tmp_path / "run"
     assert main(["run", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet", *bad]) == 2
@@ -222,7 +222,7 @@ def _child_pid(alive: bool) -> tuple[int, subprocess.Popen | None]:
 
 
 def _fake_records(monkeypatch):
-    import grasp_ctrl.trials.runner as runner
+    import grasp_ctrl.trials.episode.runner as runner
 
     seen = []
 
@@ -472,7 +472,7 @@ def test_10_hand_check_shows_temperature_voltage_and_flags_a_hot_servo(tmp_path,
 def test_interrupted_run_of_every_default_object_resumes_to_the_same_summary(tmp_path, capsys, monkeypatch):
     """Real mock trials of the default set (mustard bottle and its cap included): Ctrl-C
     during the fourth trial, then 'run --resume', gives the uninterrupted run's summary."""
-    import grasp_ctrl.trials.runner as runner
+    import grasp_ctrl.trials.episode.runner as runner
     from grasp_ctrl.config.objects import default_set
 
     names = default_set(default_objects_file())

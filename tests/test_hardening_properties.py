@@ -62,7 +62,7 @@ def sandbox() -> Iterator[Path]:
 
 
 def _stub_trials(monkeypatch: pytest.MonkeyPatch) -> None:
-    import grasp_ctrl.trials.runner as runner
+    import grasp_ctrl.trials.episode.runner as runner
 
     def fake_trial_fn(hand, policies, settings=None, threads=1, **kwargs):
         def run(p, obj, k, seed, log):

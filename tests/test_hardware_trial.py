@@ -12,10 +12,10 @@ from grasp_ctrl.emulators.tactile_bridge import TactileBridgeEmulator
 from grasp_ctrl.hardware.arm_external import ExternalArm
 from grasp_ctrl.hardware.dynamixel import DynamixelHand
 from grasp_ctrl.hardware.dynamixel.hand import MonotonicClock
-from grasp_ctrl.hardware.factory import HardwareRig
+from grasp_ctrl.trials.episode.rig import HardwareRig
 from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
-from grasp_ctrl.trials.hardware import hardware_trial_fn, reach_pose_world
-from grasp_ctrl.trials.ticklog import read_tick_log
+from grasp_ctrl.trials.episode.hardware import hardware_trial_fn, reach_pose_world
+from grasp_ctrl.loop.ticklog import read_tick_log
 
 pytestmark = pytest.mark.skipif(not hasattr(__import__("os"), "openpty"), reason="needs POSIX pseudo-terminals")
 
@@ -82,7 +82,7 @@ def test_oracle_is_refused_on_hardware(hand):
 
 
 def test_ctrl_c_mid_trial_aborts_safely(emulators, objects, monkeypatch):
-    import grasp_ctrl.trials.hardware as hw
+    import grasp_ctrl.trials.episode.hardware as hw
 
     hand, dxl, tactile = emulators
     obj = objects["chips_can"]

@@ -1,4 +1,4 @@
-"""The mock trial's fused tick (trials/mock_tick.py) against the generic control_tick path:
+"""The mock trial's fused tick (trials/episode/mock_tick.py) against the generic control_tick path:
 whole trials give the same record and the same tick log, bit for bit, including ticks
 where a shortcut does not apply (tare, a hardware fault, a paused sensor, a non-finite
 angle, a non-finite command, no tick log)."""
@@ -15,9 +15,9 @@ from grasp_ctrl import jit
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.sim.backends import MockHand, MockSensors
-from grasp_ctrl.trials import mock_tick
-from grasp_ctrl.trials.runner import estimator_factory, run_mock_trial
-from grasp_ctrl.trials.tick_kernels import track_peaks
+from grasp_ctrl.trials.episode import mock_tick
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial
+from grasp_ctrl.loop.tick_kernels import track_peaks
 
 pytestmark = pytest.mark.skipif(not jit.JIT, reason="the fused tick needs the compiled kernels (sim extra)")
 

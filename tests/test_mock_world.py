@@ -13,7 +13,7 @@ from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.sim.biotac_model import BioTacSensorModel
 from grasp_ctrl.sim.grip import solve_object_height, tangential_forces
 from grasp_ctrl.tactile.layout import ELECTRODES, PDC
-from grasp_ctrl.trials.runner import estimator_factory, run_mock_trial
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial
 
 
 def _trial(hand, obj, policy="oracle", seed=7, on_tick=None):
@@ -190,7 +190,7 @@ def test_the_sensor_feels_each_force_on_the_skin_patch_that_faces_it(hand, objec
     the contact's own normal, the mustard bottle's index (trial seed 117181520, held
     on the wall's top edge with its pad near the dome) felt a wall force on its tip
     cap 59 deg off the skin normal, where mu = 0.9 allows 42 deg."""
-    from grasp_ctrl.trials.runner import trial_seed
+    from grasp_ctrl.trials.episode.runner import trial_seed
 
     obj = objects[name]
     limit = np.arctan(obj.mu) + np.deg2rad(10.0 + 4.0)

@@ -66,7 +66,7 @@ def test_chains_of_different_lengths_are_padded_with_fixed_joints(hand):
 
 def _grasped_world(hand, objects, name="chips_can", skin_contact=True, state="hold"):
     from grasp_ctrl.sim.world import WorldParams
-    from grasp_ctrl.trials.runner import estimator_factory, run_mock_trial
+    from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial
 
     seen = {}
 
@@ -115,7 +115,7 @@ import numpy as np
 from grasp_ctrl import jit
 from grasp_ctrl.config import load_hand, load_objects
 from grasp_ctrl.paths import default_hand_file, default_objects_file
-from grasp_ctrl.trials.runner import estimator_factory, run_mock_trial
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial
 hand = load_hand(default_hand_file())
 obj = load_objects(default_objects_file())[sys.argv[1]]
 rows = []

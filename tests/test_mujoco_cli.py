@@ -53,7 +53,7 @@ def test_the_realtime_figure_is_listed():
 
 
 def test_recording_world_writes_a_video_or_says_why(tmp_path, capsys, hand, objects):
-    from grasp_ctrl.sim.mujoco_video import RecordingWorld
+    from grasp_ctrl.trials.episode.mujoco_video import RecordingWorld
 
     RecordingWorld._warned = False
     world = RecordingWorld(hand, objects["lego"], 0, None, tmp_path / "trial")

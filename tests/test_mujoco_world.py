@@ -8,7 +8,7 @@ import pytest
 pytest.importorskip("mujoco")
 
 from grasp_ctrl.sim.mujoco_world import MuJoCoWorld  # noqa: E402
-from grasp_ctrl.trials.runner import estimator_factory, run_mock_trial  # noqa: E402
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial  # noqa: E402
 
 
 class _Stop(Exception):

@@ -15,7 +15,7 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.pad_ik import Facing, PadIK
 from grasp_ctrl.kinematics.preshape import side_gap, solve_preshape, surface_hit
-from grasp_ctrl.trials.runner import estimator_factory, run_mock_trial
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial
 
 STANDOFF_M = 0.01
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import io
 
 from grasp_ctrl.progress_bar import StatusLine, progress_bar, shown
-from grasp_ctrl.trials.progress import Progress
+from grasp_ctrl.trials.runs.progress import Progress
 
 
 class Terminal(io.StringIO):

@@ -15,9 +15,9 @@ from grasp_ctrl.emulators.dxl_chain import DynamixelChainEmulator
 from grasp_ctrl.emulators.tactile_bridge import SyntheticSource, TactileBridgeEmulator
 from grasp_ctrl.errors import HardwareError
 from grasp_ctrl.tactile.layout import PDC
-from grasp_ctrl.trials.manifest import read_manifest
-from grasp_ctrl.trials.preflight import preflight_hardware
-from grasp_ctrl.trials.runner import estimator_factory, run_mock_trial, trial_seed
+from grasp_ctrl.trials.runs.manifest import read_manifest
+from grasp_ctrl.trials.episode.preflight import preflight_hardware
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial, trial_seed
 
 pytestmark = pytest.mark.skipif(not hasattr(__import__("os"), "openpty"), reason="needs POSIX pseudo-terminals")
 

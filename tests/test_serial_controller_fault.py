@@ -23,7 +23,7 @@ from grasp_ctrl.hardware.base import JointState
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.paths import default_hand_file, default_objects_file
 from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
-from grasp_ctrl.trials.pipeline import SensingPipeline
+from grasp_ctrl.loop.sensing import SensingPipeline
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="the emulator needs POSIX pseudo-terminals")
 

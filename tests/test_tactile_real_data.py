@@ -72,7 +72,7 @@ def test_official_network_expects_value_minus_baseline(long_trials: list[Trial])
 
 def test_pipeline_on_real_frames_zero_before_contact(long_trials: list[Trial]) -> None:
     from grasp_ctrl.estimators.registry import load_policy
-    from grasp_ctrl.tactile.pipeline import TactilePipeline
+    from grasp_ctrl.estimators.pipeline import TactilePipeline
 
     trial = long_trials[0]
     pipe = TactilePipeline(load_policy("icra19_official", threads=1), ["index"])

@@ -23,7 +23,7 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.pad_ik import PadIK
 from grasp_ctrl.limits import limit_goal, step_toward
 from grasp_ctrl.tactile.layout import FRAME_LEN, PDC
-from grasp_ctrl.tactile.pipeline import TactilePipeline
+from grasp_ctrl.estimators.pipeline import TactilePipeline
 from grasp_ctrl.tactile.tare import ContactGate, Tare, tare_and_gate
 
 

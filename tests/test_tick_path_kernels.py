@@ -21,9 +21,9 @@ from grasp_ctrl.sim.backends import MockSensors, checked_limit_goal, clamped_arm
 from grasp_ctrl.sim.world import MockWorld, _clamped_target, _clip_into, _finite_copy, _limited_goal
 from grasp_ctrl.tactile.layout import FRAME_LEN, PDC
 from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate_bits
-from grasp_ctrl.trials.pipeline import SensingPipeline
-from grasp_ctrl.trials.tick_kernels import log_row, place_forces, sense_forces, sense_inputs, track_peaks
-from grasp_ctrl.trials.ticklog import TickLog
+from grasp_ctrl.loop.sensing import SensingPipeline
+from grasp_ctrl.loop.tick_kernels import log_row, place_forces, sense_forces, sense_inputs, track_peaks
+from grasp_ctrl.loop.ticklog import TickLog
 
 
 def same_bits(a, b) -> bool:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from grasp_ctrl.controller.snapshot import Command, Snapshot
-from grasp_ctrl.trials.ticklog import TickLog, read_tick_log, rounded_float32, tick_columns
+from grasp_ctrl.loop.ticklog import TickLog, read_tick_log, rounded_float32, tick_columns
 
 FINGERS = ["index", "thumb"]
 

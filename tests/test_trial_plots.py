@@ -46,8 +46,8 @@ def test_replay_is_an_animated_gif(main_job_trial, tmp_path, capsys):
 
 def test_replay_refuses_other_formats_and_a_hand_that_does_not_match(main_job_trial, tmp_path, capsys):
     pytest.importorskip("matplotlib")
-    from grasp_ctrl.trials.ticklog import read_tick_log
-    from grasp_ctrl.trials.trial_view import TrialView, hand_for_replay
+    from grasp_ctrl.loop.ticklog import read_tick_log
+    from grasp_ctrl.trials.analysis.trial_view import TrialView, hand_for_replay
 
     assert main(["plot", str(main_job_trial), "--out", str(tmp_path / "p.png"), "--animate", str(tmp_path / "r.mp4")]) == 2
     err = capsys.readouterr().err.strip().splitlines()

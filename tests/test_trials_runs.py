@@ -12,12 +12,12 @@ from hypothesis import given, settings, strategies as st
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.cli import main
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.trials.manifest import read_manifest
-from grasp_ctrl.trials.records import load_records
-from grasp_ctrl.trials.runner import run_series, trial_seed
-from grasp_ctrl.trials.scoring import score_run
-from grasp_ctrl.trials.storage import record_path, ticks_path
-from grasp_ctrl.trials.ticklog import read_tick_log
+from grasp_ctrl.trials.runs.manifest import read_manifest
+from grasp_ctrl.trials.runs.records import load_records
+from grasp_ctrl.trials.episode.runner import run_series, trial_seed
+from grasp_ctrl.trials.runs.scoring import score_run
+from grasp_ctrl.storage import record_path, ticks_path
+from grasp_ctrl.loop.ticklog import read_tick_log
 
 # Two quick objects x an honest and an under-reading oracle: a mix of successes
 # and failure reasons (which ones is the mock world's business, not asserted here).
@@ -192,7 +192,7 @@ def test_plot_saves_force_traces_of_a_trial(full_run, tmp_path, capsys):
 def test_preset_paper_is_six_objects_five_trials_two_policies():
     from grasp_ctrl.cli import build_parser
     from grasp_ctrl.cli.cmd_run import _plan
-    from grasp_ctrl.trials.presets import PAPER_POLICIES
+    from grasp_ctrl.trials.runs.presets import PAPER_POLICIES
 
     _, m = _plan(build_parser().parse_args(["run", "--preset", "paper"]))
     assert (len(m.objects), m.trials, m.policies, m.preset) == (6, 5, list(PAPER_POLICIES), "paper")
@@ -202,7 +202,7 @@ def test_preset_paper_is_six_objects_five_trials_two_policies():
 
 def test_ctrl_c_keeps_finished_trials_and_resume_completes(tmp_path, monkeypatch, capsys):
     """The CLI path: interrupted after one trial, then 'run --resume' finishes the plan."""
-    import grasp_ctrl.trials.runner as runner
+    import grasp_ctrl.trials.episode.runner as runner
 
     calls = []
 

@@ -12,8 +12,8 @@ from grasp_ctrl.cli import main
 from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.paths import REPO_ROOT
-from grasp_ctrl.trials.toml_edit import set_object_value, update_object_file
-from grasp_ctrl.trials.tune import SweepRow, apply_setting, format_sweep, parse_param, rank, run_sweep, settings_grid
+from grasp_ctrl.trials.tuning.toml_edit import set_object_value, update_object_file
+from grasp_ctrl.trials.tuning.tune import SweepRow, apply_setting, format_sweep, parse_param, rank, run_sweep, settings_grid
 
 OBJECTS_TOML = REPO_ROOT / "hand_configs" / "objects.toml"
 
@@ -133,7 +133,7 @@ def test_tune_on_the_real_hand_ranks_by_the_operators_labels(tmp_path, capsys, m
     import io
 
     pytest.importorskip("optuna")
-    import grasp_ctrl.trials.hardware as hardware
+    import grasp_ctrl.trials.episode.hardware as hardware
 
     seen = []
 

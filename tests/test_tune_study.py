@@ -15,9 +15,9 @@ from grasp_ctrl.cli import main
 from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.paths import REPO_ROOT
-from grasp_ctrl.trials.search_space import corner_settings, parse_params, parse_space
-from grasp_ctrl.trials.toml_edit import update_objects_file
-from grasp_ctrl.trials.tune import wilson_interval
+from grasp_ctrl.trials.tuning.search_space import corner_settings, parse_params, parse_space
+from grasp_ctrl.trials.tuning.toml_edit import update_objects_file
+from grasp_ctrl.trials.tuning.tune import wilson_interval
 
 OBJECTS_TOML = REPO_ROOT / "hand_configs" / "objects.toml"
 
@@ -81,7 +81,7 @@ def test_write_follows_a_symlink_and_keeps_the_mode(tmp_path):
 
 optuna = pytest.importorskip("optuna")
 
-from grasp_ctrl.trials.study import (
+from grasp_ctrl.trials.tuning.study import (
     StudyPlan,
     finished_settings,
     objective_value,
@@ -89,7 +89,7 @@ from grasp_ctrl.trials.study import (
     run_study,
     setting_key,
 )
-from grasp_ctrl.trials.tune_executors import SerialExecutor
+from grasp_ctrl.trials.tuning.tune_executors import SerialExecutor
 
 
 def test_objective_counts_successes_first_then_gentler_grip():

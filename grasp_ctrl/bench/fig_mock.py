@@ -16,8 +16,8 @@ from grasp_ctrl.paths import default_hand_file, default_objects_file
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
 from grasp_ctrl.sim.oracle import OracleEstimator
 from grasp_ctrl.sim.world import MockWorld
-from grasp_ctrl.trials.pipeline import SensingPipeline
-from grasp_ctrl.trials.tick import control_tick
+from grasp_ctrl.loop.sensing import SensingPipeline
+from grasp_ctrl.loop.tick import control_tick
 
 BENCH_OBJECT = "chips_can"
 

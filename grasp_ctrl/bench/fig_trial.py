@@ -21,8 +21,8 @@ from grasp_ctrl.config import load_hand
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.paths import default_hand_file, default_objects_file
-from grasp_ctrl.trials.runner import estimator_factory, run_mock_trial, trial_seed
-from grasp_ctrl.trials.selection import select_objects
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial, trial_seed
+from grasp_ctrl.trials.runs.selection import select_objects
 
 
 def trial_realtime_factor(quick: bool) -> Figure:

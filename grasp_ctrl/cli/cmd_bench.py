@@ -36,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
             "machine": machine_description(),
             "figures": {n: {"median": f.median, "p99": f.p99, "unit": f.unit} for n, f in results.items()},
         }
-        from grasp_ctrl.trials.storage import write_text_atomic
+        from grasp_ctrl.storage import write_text_atomic
 
         write_text_atomic(args.json, json.dumps(doc, indent=2) + "\n")
     return 0

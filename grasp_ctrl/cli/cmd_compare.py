@@ -26,8 +26,8 @@ def run(args: argparse.Namespace) -> int:
     import importlib.util
     import sys
 
-    from grasp_ctrl.trials.compare import fig6_table, format_paired, ordered_names, paired_counts
-    from grasp_ctrl.trials.scoring import report_problems, score_run
+    from grasp_ctrl.trials.analysis.compare import fig6_table, format_paired, ordered_names, paired_counts
+    from grasp_ctrl.trials.runs.scoring import report_problems, score_run
 
     scored = score_run(Path(args.run_dir))
     report_problems(scored)
@@ -40,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
     if args.png is None and importlib.util.find_spec("matplotlib") is None:
         print("no chart: matplotlib is not installed (pip install -e '.[plot]')", file=sys.stderr)
         return 0
-    from grasp_ctrl.trials.plots import comparison_chart
+    from grasp_ctrl.trials.analysis.plots import comparison_chart
 
     png = Path(args.png) if args.png else scored.run_dir / "compare.png"
     comparison_chart(scored.summary, png, scored.policies, scored.objects, args.title)

@@ -28,7 +28,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     text = mermaid()
     if args.out:
-        from grasp_ctrl.trials.storage import write_text_atomic
+        from grasp_ctrl.storage import write_text_atomic
 
         write_text_atomic(args.out, text + "\n")
     else:

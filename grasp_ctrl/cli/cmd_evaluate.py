@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
             cells = " ".join(f"{s[m]['median']:8.3f} [{s[m]['q1']:6.2f},{s[m]['q3']:6.2f}]" for m in METRICS)
             print(f"  {src:16s} {cells}")
     if args.json:
-        from grasp_ctrl.trials.storage import write_text_atomic
+        from grasp_ctrl.storage import write_text_atomic
 
         write_text_atomic(args.json, json.dumps(doc, indent=2) + "\n")
     if args.plot:

@@ -107,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
                         for r in all_results],
             "pooled": pooled,
         }
-        from grasp_ctrl.trials.storage import write_text_atomic
+        from grasp_ctrl.storage import write_text_atomic
 
         write_text_atomic(args.json, json.dumps(doc, indent=2) + "\n")
     return 0

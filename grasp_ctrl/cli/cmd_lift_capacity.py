@@ -34,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.config.objects import default_set, load_objects
     from grasp_ctrl.errors import UsageError
-    from grasp_ctrl.kinematics.grasp_capacity import GRAVITY_M_S2, object_capacity
+    from grasp_ctrl.controller.grasp_capacity import GRAVITY_M_S2, object_capacity
 
     if not args.min_margin > 0.0:
         raise UsageError(f"--min-margin: expected a positive number, got {args.min_margin}")

@@ -42,14 +42,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from grasp_ctrl.trials.plots import force_traces
-    from grasp_ctrl.trials.trial_plot import trial_figure
-    from grasp_ctrl.trials.trial_view import hand_for_replay, load_trial
+    from grasp_ctrl.trials.analysis.plots import force_traces
+    from grasp_ctrl.trials.analysis.trial_plot import trial_figure
+    from grasp_ctrl.trials.analysis.trial_view import hand_for_replay, load_trial
 
     view = load_trial(Path(args.trial))
     stem = view.ticks_path.name.split("_ticks.")[0]
     if args.rrd is not None:
-        from grasp_ctrl.trials.rerun_log import require_rerun, write_recording
+        from grasp_ctrl.trials.analysis.rerun_log import require_rerun, write_recording
 
         require_rerun()
         hand = hand_for_replay(view, Path(args.hand) if args.hand else None)
@@ -64,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
         trial_figure(view, out)
     print(f"plot: {out}")
     if args.animate:
-        from grasp_ctrl.trials.replay import MAX_FRAMES, animate
+        from grasp_ctrl.trials.analysis.replay import MAX_FRAMES, animate
 
         hand = hand_for_replay(view, Path(args.hand) if args.hand else None)
         print(f"replay: {animate(view, hand, Path(args.animate), fps=args.fps, max_frames=args.frames or MAX_FRAMES)}")

@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"{'':28s} {desc}")
     print(f"{'oracle, oracle:scale=K':28s} debugging policies of the mock world (true contact force)")
     if args.json:
-        from grasp_ctrl.trials.storage import write_text_atomic
+        from grasp_ctrl.storage import write_text_atomic
 
         write_text_atomic(args.json, json.dumps(docs, indent=2) + "\n")
     return status

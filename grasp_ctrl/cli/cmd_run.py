@@ -43,7 +43,7 @@ EMULATED = "dynamixel-emulated"   # the run's backend with --emulate (= manifest
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     from grasp_ctrl.estimators.registry import DEFAULT_POLICY
-    from grasp_ctrl.trials.presets import PRESETS
+    from grasp_ctrl.trials.runs.presets import PRESETS
 
     presets = "; ".join(f"{k}: {v.description} ({', '.join(v.policies)})" for k, v in PRESETS.items())
     p.add_argument("--hand", default=None, metavar="FILE",
@@ -103,10 +103,10 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.estimators.registry import DEFAULT_POLICY
     from grasp_ctrl.paths import default_hand_file, default_objects_file
-    from grasp_ctrl.trials.manifest import MAX_TRIALS, RunManifest, file_sha256
-    from grasp_ctrl.trials.presets import get_preset
+    from grasp_ctrl.trials.runs.manifest import MAX_TRIALS, RunManifest, file_sha256
+    from grasp_ctrl.trials.runs.presets import get_preset
     from grasp_ctrl.config.hand import load_hand
-    from grasp_ctrl.trials.selection import select_objects
+    from grasp_ctrl.trials.runs.selection import select_objects
 
     preset = get_preset(args.preset) if args.preset else None
     trials = args.trials if args.trials is not None else (preset.trials if preset else 5)
@@ -139,7 +139,7 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
 def _resumed(args: argparse.Namespace, run_dir: Path) -> tuple[Any, Any]:
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.paths import default_hand_file
-    from grasp_ctrl.trials.manifest import file_sha256, read_manifest
+    from grasp_ctrl.trials.runs.manifest import file_sha256, read_manifest
     from grasp_ctrl.config.hand import load_hand
 
     given = [f"--{f.replace('_', '-')}" for f in PLAN_FLAGS if getattr(args, f) is not None]
@@ -165,9 +165,9 @@ def _resumed(args: argparse.Namespace, run_dir: Path) -> tuple[Any, Any]:
 def _hardware_trial_fn(hand: Any, manifest: Any, threads: int, port: str | None, sensor_port: str | None) -> Any:
     """The real-hand trial runner wrapped with the operator's labelling prompt."""
     from grasp_ctrl.errors import UsageError
-    from grasp_ctrl.trials.labelling import OperatorLabeller, labelled
+    from grasp_ctrl.trials.episode.labelling import OperatorLabeller, labelled
 
-    from grasp_ctrl.trials.hardware import hardware_trial_fn
+    from grasp_ctrl.trials.episode.hardware import hardware_trial_fn
 
     trial_fn = hardware_trial_fn(hand, manifest.policies, manifest.settings, threads,
                                  port=port, sensor_port=sensor_port)
@@ -176,8 +176,8 @@ def _hardware_trial_fn(hand: Any, manifest: Any, threads: int, port: str | None,
 
 def _preflight(hand: Any, manifest: Any, args: argparse.Namespace) -> None:
     """Check every servo and fingertip, then ask for the go-ahead (before any trial)."""
-    from grasp_ctrl.trials.preflight import confirm_start, preflight_emulated, preflight_hardware
-    from grasp_ctrl.trials.runner import trial_seed
+    from grasp_ctrl.trials.episode.preflight import confirm_start, preflight_emulated, preflight_hardware
+    from grasp_ctrl.trials.episode.runner import trial_seed
 
     if manifest.backend == EMULATED:
         obj = manifest.objects[0]
@@ -191,11 +191,11 @@ def _preflight(hand: Any, manifest: Any, args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.errors import Terminated, UsageError
-    from grasp_ctrl.trials.labelling import OperatorQuit
-    from grasp_ctrl.trials.records import load_records
-    from grasp_ctrl.trials.runner import run_series
-    from grasp_ctrl.trials.summary import format_table
-    from grasp_ctrl.trials.storage import write_text_atomic
+    from grasp_ctrl.trials.episode.labelling import OperatorQuit
+    from grasp_ctrl.trials.runs.records import load_records
+    from grasp_ctrl.trials.episode.runner import run_series
+    from grasp_ctrl.trials.runs.summary import format_table
+    from grasp_ctrl.storage import write_text_atomic
 
     if args.threads < 1:
         raise UsageError("--threads: must be at least 1")
@@ -210,7 +210,7 @@ def run(args: argparse.Namespace) -> int:
         stamp = time.strftime("%Y%m%d-%H%M%S")
         tag = f"-{manifest.preset}" if manifest.preset else ""
         run_dir = Path(args.out) if args.out else Path("runs") / f"{stamp}{tag}-seed{manifest.seed}"
-    from grasp_ctrl.trials.ray_executor import check_executor
+    from grasp_ctrl.trials.runs.ray_executor import check_executor
 
     check_executor(args.executor, args.address)
     if args.executor != "local" and manifest.backend != "mock":
@@ -224,16 +224,16 @@ def run(args: argparse.Namespace) -> int:
         trial_fn = _hardware_trial_fn(hand, manifest, args.threads, args.port, args.sensor_port)
     elif manifest.backend == EMULATED:
         from grasp_ctrl.emulators.world_rig import emulated_backends
-        from grasp_ctrl.trials.runner import mock_trial_fn
+        from grasp_ctrl.trials.episode.runner import mock_trial_fn
 
         trial_fn = mock_trial_fn(hand, manifest.policies, manifest.settings, args.threads,
                                  make_backends=emulated_backends, backend=EMULATED)
     elif manifest.backend == "mujoco" and args.record_video:
-        from grasp_ctrl.sim.mujoco_video import video_trial_fn
+        from grasp_ctrl.trials.episode.mujoco_video import video_trial_fn
 
         trial_fn = video_trial_fn(hand, manifest.policies, manifest.settings, args.threads, Path(args.record_video))
     if args.rrd is not None:
-        from grasp_ctrl.trials.rerun_log import check_run_rrd
+        from grasp_ctrl.trials.analysis.rerun_log import check_run_rrd
 
         check_run_rrd(args.rrd, manifest.tick_logs)
     if args.executor == "ray":
@@ -258,7 +258,7 @@ def run(args: argparse.Namespace) -> int:
     print(format_table(summary))
     print(f"logs: {run_dir}  (compare: grasp-ctrl compare {run_dir})")
     if args.rrd is not None:
-        from grasp_ctrl.trials.rerun_log import record_run
+        from grasp_ctrl.trials.analysis.rerun_log import record_run
 
         print(f"recordings: {len(record_run(run_dir, Path(args.rrd)))} in {args.rrd}  (open: rerun FILE.rrd)")
     if args.json:

@@ -22,14 +22,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from grasp_ctrl.trials.scoring import report_problems, score_run
-    from grasp_ctrl.trials.summary import format_table
+    from grasp_ctrl.trials.runs.scoring import report_problems, score_run
+    from grasp_ctrl.trials.runs.summary import format_table
 
     scored = score_run(Path(args.run_dir))
     report_problems(scored)
     print(format_table(scored.summary))
     if args.json:
-        from grasp_ctrl.trials.storage import write_text_atomic
+        from grasp_ctrl.storage import write_text_atomic
 
         write_text_atomic(args.json, json.dumps(scored.summary, indent=2) + "\n")
         print(f"summary: {args.json}")

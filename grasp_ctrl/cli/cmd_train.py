@@ -97,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
     spec = data_spec(args)
     if args.epochs < 1 or args.batch_size < 1 or args.threads < 1:
         raise UsageError("--epochs, --batch-size and --threads must be positive")
-    from grasp_ctrl.trials.ray_executor import check_executor
+    from grasp_ctrl.trials.runs.ray_executor import check_executor
 
     check_executor(args.executor, args.address)
     if args.executor != "local" and not args.experiment:

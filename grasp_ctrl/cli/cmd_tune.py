@@ -28,7 +28,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from grasp_ctrl.config.objects import TUNABLE
     from grasp_ctrl.estimators.registry import DEFAULT_POLICY
     from grasp_ctrl.paths import default_hand_file, default_objects_file
-    from grasp_ctrl.trials.study_defaults import DEFAULT_BUDGET
+    from grasp_ctrl.trials.tuning.study_defaults import DEFAULT_BUDGET
 
     which = p.add_mutually_exclusive_group(required=True)
     which.add_argument("--object", metavar="NAME", help="the object to tune")
@@ -73,7 +73,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def _check_args(args: argparse.Namespace) -> None:
     from grasp_ctrl.errors import UsageError
-    from grasp_ctrl.trials.ray_executor import check_executor
+    from grasp_ctrl.trials.runs.ray_executor import check_executor
 
     if args.backend == "dynamixel" and args.jobs != 1:
         raise UsageError("--jobs: the real hand runs one trial at a time")
@@ -95,13 +95,13 @@ def _check_args(args: argparse.Namespace) -> None:
         if value is not None and not value.strip():
             raise UsageError(f"--{flag.replace('_', '-')}: empty")
     if args.storage:
-        from grasp_ctrl.trials.study_defaults import check_storage
+        from grasp_ctrl.trials.tuning.study_defaults import check_storage
 
         check_storage(args.storage)
 
 
 def _executor(args: argparse.Namespace, hand: Any, trial_fn: Any) -> Any:
-    from grasp_ctrl.trials.tune_executors import (
+    from grasp_ctrl.trials.tuning.tune_executors import (
         ProcessExecutor,
         RayExecutor,
         SerialExecutor,
@@ -109,8 +109,8 @@ def _executor(args: argparse.Namespace, hand: Any, trial_fn: Any) -> Any:
 
     if args.backend == "dynamixel":
         # No ground truth on the real hand: the operator labels every trial.
-        from grasp_ctrl.trials.hardware import hardware_trial_fn
-        from grasp_ctrl.trials.labelling import OperatorLabeller, labelled
+        from grasp_ctrl.trials.episode.hardware import hardware_trial_fn
+        from grasp_ctrl.trials.episode.labelling import OperatorLabeller, labelled
 
         return SerialExecutor(labelled(
             hardware_trial_fn(hand, [args.policy], None, 1, port=args.port, sensor_port=args.sensor_port),
@@ -123,7 +123,7 @@ def _executor(args: argparse.Namespace, hand: Any, trial_fn: Any) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from grasp_ctrl.trials.study_defaults import require_optuna
+    from grasp_ctrl.trials.tuning.study_defaults import require_optuna
 
     _check_args(args)
     require_optuna()
@@ -133,11 +133,11 @@ def run(args: argparse.Namespace) -> int:
         _mujoco()
     from grasp_ctrl.config.checks import check_objects_for_hand
     from grasp_ctrl.config.hand import load_hand
-    from grasp_ctrl.trials.search_space import corner_settings, grid_size, parse_params
-    from grasp_ctrl.trials.selection import select_objects
-    from grasp_ctrl.trials.study import StudyPlan
-    from grasp_ctrl.trials.study_defaults import DEFAULT_BUDGET
-    from grasp_ctrl.trials.tune import apply_setting
+    from grasp_ctrl.trials.tuning.search_space import corner_settings, grid_size, parse_params
+    from grasp_ctrl.trials.runs.selection import select_objects
+    from grasp_ctrl.trials.tuning.study import StudyPlan
+    from grasp_ctrl.trials.tuning.study_defaults import DEFAULT_BUDGET
+    from grasp_ctrl.trials.tuning.tune import apply_setting
 
     params = parse_params(args.param)
     hand = load_hand(args.hand)
@@ -158,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
                        args.study_name, prune=not args.no_prune) for obj in objects]
     trial_fn = None
     if args.backend != "dynamixel":   # the policy and world load here, so a bad one fails before any study
-        from grasp_ctrl.trials.runner import mock_trial_fn
+        from grasp_ctrl.trials.episode.runner import mock_trial_fn
 
         trial_fn = mock_trial_fn(hand, [args.policy], backend=args.backend)
     docs = []
@@ -168,7 +168,7 @@ def run(args: argparse.Namespace) -> int:
             return 130
         docs.append(doc)
     if args.json:
-        from grasp_ctrl.trials.storage import write_text_atomic
+        from grasp_ctrl.storage import write_text_atomic
 
         out = docs[0] if args.object is not None else {"objects": docs}
         write_text_atomic(args.json, json.dumps(out, indent=2) + "\n")
@@ -179,9 +179,9 @@ def run(args: argparse.Namespace) -> int:
 
 def _tune_one(plan: Any, args: argparse.Namespace, hand: Any, trial_fn: Any) -> dict[str, Any] | None:
     """One object's study: run what it lacks, print and return the ranked settings (None: Ctrl-C)."""
-    from grasp_ctrl.trials.progress import Progress
-    from grasp_ctrl.trials.study import open_study, remaining, run_study
-    from grasp_ctrl.trials.study_report import report
+    from grasp_ctrl.trials.runs.progress import Progress
+    from grasp_ctrl.trials.tuning.study import open_study, remaining, run_study
+    from grasp_ctrl.trials.tuning.study_report import report
 
     study = open_study(plan)
     todo = remaining(study, plan)
@@ -197,7 +197,7 @@ def _tune_one(plan: Any, args: argparse.Namespace, hand: Any, trial_fn: Any) -> 
             ran = run_study(study, plan, executor, args.jobs, on_trial)
         except KeyboardInterrupt:
             progress.close()
-            from grasp_ctrl.trials.study import finished_settings
+            from grasp_ctrl.trials.tuning.study import finished_settings
 
             kept = (f"{len(finished_settings(study))} of {plan.budget} settings are kept in {plan.storage}; "
                     f"run the same command again to continue") if plan.storage else "nothing is kept without --storage"
@@ -208,7 +208,7 @@ def _tune_one(plan: Any, args: argparse.Namespace, hand: Any, trial_fn: Any) -> 
     text, doc = report(study, plan, ran)
     print(text)
     if args.plots:
-        from grasp_ctrl.trials.study_plots import write_study_plots
+        from grasp_ctrl.trials.tuning.study_plots import write_study_plots
 
         for line in write_study_plots(study, Path(args.plots), plan.obj.name):
             print(line)
@@ -216,7 +216,7 @@ def _tune_one(plan: Any, args: argparse.Namespace, hand: Any, trial_fn: Any) -> 
 
 
 def _write(args: argparse.Namespace, docs: list[dict[str, Any]]) -> int:
-    from grasp_ctrl.trials.toml_edit import update_objects_file
+    from grasp_ctrl.trials.tuning.toml_edit import update_objects_file
 
     values = {d["object"]: d["best"]["setting"] for d in docs if d.get("best") and d["best"]["successes"] > 0}
     for d in docs:

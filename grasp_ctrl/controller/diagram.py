@@ -97,7 +97,7 @@ _LAYOUT = {
 
 def draw(path: Path, settings: ControllerSettings | None = None) -> Path:
     """The state machine as SVG or PNG (by the file's suffix); needs matplotlib."""
-    from grasp_ctrl.trials.plots import pyplot
+    from grasp_ctrl.plotting import pyplot
 
     plt = pyplot()
     all_edges = edges(settings)

@@ -133,7 +133,7 @@ def run_experiment(
     plan = [(combo, sources, name, arch, beta) for combo, sources in COMBOS.items()
             for name, (arch, beta) in models.items()]
     if executor == "ray":
-        from grasp_ctrl.trials.ray_executor import ray_map
+        from grasp_ctrl.trials.runs.ray_executor import ray_map
 
         args = [(sources, arch, beta, epochs, seed, 512, patience, None, threads, lr0, None)
                 for _, sources, _, arch, beta in plan]

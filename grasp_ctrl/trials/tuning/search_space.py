@@ -17,7 +17,7 @@ from typing import Any
 
 from grasp_ctrl.config.objects import TUNABLE
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.trials.tune import ALIASES, INTEGER, MAX_SETTINGS, parse_param
+from grasp_ctrl.trials.tuning.tune import ALIASES, INTEGER, MAX_SETTINGS, parse_param
 
 Value = float | int
 

@@ -1,6 +1,6 @@
 """The mock trial's tick, the world's step included, in few compiled calls (grasp_ctrl/jit.py).
 
-The runner's generic tick steps the world, then ``control_tick`` (trials/tick.py)
+The runner's generic tick steps the world, then ``control_tick`` (loop/tick.py)
 reads the backends, builds the snapshot, runs the controller and writes the
 command, and the runner tracks the force peaks and appends the tick log's row. On
 the mock world's own backends most of those steps copy a few small arrays, and
@@ -44,10 +44,10 @@ from grasp_ctrl.jit import njit
 from grasp_ctrl.sim import world_step as ws
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
 from grasp_ctrl.sim.world import PACKED, MockWorld, _clamped_target, _limited_goal, _part, step_packed
-from grasp_ctrl.trials.pipeline import SensingPipeline
-from grasp_ctrl.trials.tick import control_tick, send_command
-from grasp_ctrl.trials.tick_kernels import log_row, place_forces, sense_inputs, track_peaks
-from grasp_ctrl.trials.ticklog import TickLog
+from grasp_ctrl.loop.sensing import SensingPipeline
+from grasp_ctrl.loop.tick import control_tick, send_command
+from grasp_ctrl.loop.tick_kernels import log_row, place_forces, sense_inputs, track_peaks
+from grasp_ctrl.loop.ticklog import TickLog
 
 _FLOAT64 = np.dtype(np.float64)
 PACKED_Q, PACKED_PALM = PACKED.index("_q"), PACKED.index("_palm")   # the world's joint angles and palm position

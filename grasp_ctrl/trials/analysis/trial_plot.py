@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.trials.plots import STATE_COLOURS, pyplot, state_spans
-from grasp_ctrl.trials.trial_view import TrialView
+from grasp_ctrl.trials.analysis.plots import STATE_COLOURS, pyplot, state_spans
+from grasp_ctrl.trials.analysis.trial_view import TrialView
 
 NORMAL_COLOUR, TANGENTIAL_COLOUR = "tab:blue", "tab:orange"
 WORLD_EVENTS = ("fell", "crushed", "knocked_over")

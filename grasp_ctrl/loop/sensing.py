@@ -15,8 +15,8 @@ from grasp_ctrl.hardware.base import JointState, SensorBackend, TactileFrame
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.pad_ik import shared_pad_ik
 from grasp_ctrl.tactile.layout import FRAME_LEN
-from grasp_ctrl.tactile.pipeline import TactilePipeline
-from grasp_ctrl.trials.tick_kernels import place_forces, sense_forces, sense_inputs
+from grasp_ctrl.estimators.pipeline import TactilePipeline
+from grasp_ctrl.loop.tick_kernels import place_forces, sense_forces, sense_inputs
 
 _FLOAT64 = np.dtype(np.float64)
 
@@ -26,7 +26,7 @@ class SensingPipeline:
         self.hand = hand
         self.kin = kin
         self.fast_kin = shared_pad_ik(kin)   # sensor rotations, compiled with the sim extra
-        self._compiled = self.fast_kin.compiled   # the compiled halves of a snapshot (trials/tick_kernels.py)
+        self._compiled = self.fast_kin.compiled   # the compiled halves of a snapshot (loop/tick_kernels.py)
         self._geometry, self._layout = self.fast_kin.geometry, self.fast_kin.layout
         self.estimator = estimator
         self.names = [f.name for f in hand.fingers]
@@ -123,7 +123,7 @@ class SensingPipeline:
         """``snapshot`` after its first compiled half (``sense_inputs``, made by the caller:
         finite float64 angles and palm position, frames tared and gated into ``tared``,
         ``in_contact``, ``bits`` >= 0 and ``touching``), for the mock trial's fused inputs
-        (trials/mock_tick.py)."""
+        (trials/episode/mock_tick.py)."""
         gated = tared, in_contact, bits, touching
         estimator = self.tactile.estimator
         if not (bits and not estimator.has_variance and q.flags.c_contiguous):

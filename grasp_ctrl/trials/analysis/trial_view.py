@@ -17,7 +17,7 @@ import numpy as np
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.trials.ticklog import LEGACY_TICKS_SUFFIX, TICKS_SUFFIX, read_tick_log
+from grasp_ctrl.loop.ticklog import LEGACY_TICKS_SUFFIX, TICKS_SUFFIX, read_tick_log
 
 
 @dataclass
@@ -103,8 +103,8 @@ def trial_paths(trial: Path) -> tuple[Path, Path]:
 
 def load_trial(trial: Path) -> TrialView:
     from grasp_ctrl.config.hand import load_hand
-    from grasp_ctrl.trials.manifest import read_manifest
-    from grasp_ctrl.trials.records import read_record
+    from grasp_ctrl.trials.runs.manifest import read_manifest
+    from grasp_ctrl.trials.runs.records import read_record
 
     ticks, record_file = trial_paths(Path(trial))
     columns, cols = read_tick_log(ticks)

@@ -20,8 +20,8 @@ import numpy as np
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.trials.plots import pyplot
-from grasp_ctrl.trials.trial_view import TrialView
+from grasp_ctrl.plotting import pyplot
+from grasp_ctrl.trials.analysis.trial_view import TrialView
 
 ARROW_MM_PER_N = 15.0
 MAX_FRAMES = 100

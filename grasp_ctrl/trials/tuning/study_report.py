@@ -7,8 +7,8 @@ from typing import Any
 
 import optuna
 
-from grasp_ctrl.trials.study import OBJECTIVE, StudyPlan, study_rows
-from grasp_ctrl.trials.tune import format_sweep, rank, wilson_interval
+from grasp_ctrl.trials.tuning.study import OBJECTIVE, StudyPlan, study_rows
+from grasp_ctrl.trials.tuning.tune import format_sweep, rank, wilson_interval
 
 
 def report(study: optuna.Study, plan: StudyPlan, ran_here: int) -> tuple[str, dict[str, Any]]:

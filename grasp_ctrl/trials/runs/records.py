@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from grasp_ctrl.trials.storage import TRIALS_DIR, safe_name
+from grasp_ctrl.storage import TRIALS_DIR, safe_name
 
 RECORD_NAME = re.compile(r"^trial_(\d{3,})\.json$")
 REASON_WORD = re.compile(r"^[a-z][a-z0-9_]*$")

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Callable
 
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.trials.storage import LOCK_FILE
+from grasp_ctrl.storage import LOCK_FILE
 
 
 def pid_alive(pid: int) -> bool:

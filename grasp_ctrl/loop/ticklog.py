@@ -26,8 +26,8 @@ from grasp_ctrl import jit
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PAC, PDC, TDC
-from grasp_ctrl.trials.storage import atomic_writer
-from grasp_ctrl.trials.tick_kernels import log_row
+from grasp_ctrl.storage import atomic_writer
+from grasp_ctrl.loop.tick_kernels import log_row
 
 # Per-fingertip raw-signal summary columns (raw counts, before tare).
 RAW_COLUMNS = ("raw_pdc", "raw_tdc", "raw_pac_std", "raw_e_mean")

@@ -28,13 +28,13 @@ from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
-from grasp_ctrl.hardware.factory import HardwareRig, open_rig
+from grasp_ctrl.trials.episode.rig import HardwareRig, open_rig
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.sim.oracle import is_oracle
-from grasp_ctrl.trials.pipeline import SensingPipeline
-from grasp_ctrl.trials.runner import MAX_TRIAL_S, SETTLE_S, controller_view, state_timings, trial_settings
-from grasp_ctrl.trials.tick import control_tick
-from grasp_ctrl.trials.ticklog import TickLog
+from grasp_ctrl.loop.sensing import SensingPipeline
+from grasp_ctrl.trials.episode.runner import MAX_TRIAL_S, SETTLE_S, controller_view, state_timings, trial_settings
+from grasp_ctrl.loop.tick import control_tick
+from grasp_ctrl.loop.ticklog import TickLog
 
 RigOpener = Callable[[HandConfig], HardwareRig]
 _sleep = time.sleep   # the tick pacing; tests replace it to inject an operator's Ctrl-C

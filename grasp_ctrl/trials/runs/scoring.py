@@ -9,10 +9,10 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.trials.manifest import RunManifest, read_manifest
-from grasp_ctrl.trials.records import canonical_order, load_records
-from grasp_ctrl.trials.storage import SUMMARY_FILE
-from grasp_ctrl.trials.summary import summarize
+from grasp_ctrl.trials.runs.manifest import RunManifest, read_manifest
+from grasp_ctrl.trials.runs.records import canonical_order, load_records
+from grasp_ctrl.storage import SUMMARY_FILE
+from grasp_ctrl.trials.runs.summary import summarize
 
 
 @dataclass

@@ -14,7 +14,7 @@ from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import FrameError, HardwareError
 from grasp_ctrl.finite import both_finite
 from grasp_ctrl.hardware.base import ArmBackend, HandBackend, SensorBackend
-from grasp_ctrl.trials.pipeline import SensingPipeline
+from grasp_ctrl.loop.sensing import SensingPipeline
 
 
 def control_tick(

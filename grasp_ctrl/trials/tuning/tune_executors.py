@@ -14,7 +14,7 @@ import uuid
 from collections.abc import Callable, Hashable
 from typing import Any, Protocol
 
-from grasp_ctrl.trials.runner import TrialTask
+from grasp_ctrl.trials.episode.runner import TrialTask
 
 _CACHE: dict[Any, Any] = {}   # per Ray worker: the trial function of the current study
 
@@ -50,15 +50,15 @@ class ProcessExecutor:
         from concurrent.futures import ProcessPoolExecutor
 
         from grasp_ctrl.controller.settings import ControllerSettings
-        from grasp_ctrl.trials.runner import _init_worker
-        from grasp_ctrl.trials.workers import worker_context
+        from grasp_ctrl.trials.episode.runner import _init_worker
+        from grasp_ctrl.trials.runs.workers import worker_context
 
         self.pool = ProcessPoolExecutor(jobs, mp_context=worker_context(), initializer=_init_worker,
                                         initargs=(hand, [policy], ControllerSettings(), 1, backend))
         self.running: dict[Any, Hashable] = {}
 
     def submit(self, key: Hashable, task: TrialTask) -> None:
-        from grasp_ctrl.trials.runner import _worker_trial
+        from grasp_ctrl.trials.episode.runner import _worker_trial
 
         self.running[self.pool.submit(_worker_trial, *task)] = key
 
@@ -66,7 +66,7 @@ class ProcessExecutor:
         from concurrent.futures import FIRST_COMPLETED, wait
         from concurrent.futures.process import BrokenProcessPool
 
-        from grasp_ctrl.trials.runner import WorkerError
+        from grasp_ctrl.trials.episode.runner import WorkerError
 
         done, _ = wait(list(self.running), return_when=FIRST_COMPLETED)
         fut = next(iter(done))
@@ -77,7 +77,7 @@ class ProcessExecutor:
             raise WorkerError("a trial worker process ended abruptly (killed, or out of memory?)") from None
 
     def close(self, abort: bool) -> None:
-        from grasp_ctrl.trials.runner import _stop_workers
+        from grasp_ctrl.trials.episode.runner import _stop_workers
 
         if abort:
             _stop_workers(self.pool)
@@ -87,7 +87,7 @@ class ProcessExecutor:
 
 def _tune_trial_in_worker(token: str, hand: Any, policy: str, backend: str, task: TrialTask) -> dict[str, Any]:
     """One trial in a Ray worker; the policy is loaded once per worker and study (``token``)."""
-    from grasp_ctrl.trials.runner import mock_trial_fn
+    from grasp_ctrl.trials.episode.runner import mock_trial_fn
 
     key = ("tune", token)
     if key not in _CACHE:
@@ -100,7 +100,7 @@ class RayExecutor:
     """Ray tasks (the ``ray`` extra): a local instance of ``jobs`` CPUs, or the cluster at ``address``."""
 
     def __init__(self, address: str | None, jobs: int | None, hand: Any, policy: str, backend: str) -> None:
-        from grasp_ctrl.trials.ray_executor import ray_session
+        from grasp_ctrl.trials.runs.ray_executor import ray_session
 
         self._session = ray_session(address, jobs)
         self.ray = self._session.__enter__()

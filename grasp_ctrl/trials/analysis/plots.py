@@ -10,8 +10,9 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.trials.compare import ordered_names, success_matrix
-from grasp_ctrl.trials.ticklog import read_tick_log
+from grasp_ctrl.plotting import pyplot
+from grasp_ctrl.trials.analysis.compare import ordered_names, success_matrix
+from grasp_ctrl.loop.ticklog import read_tick_log
 
 # One colour per controller state, for the shaded bands behind force traces.
 STATE_COLOURS = {
@@ -19,17 +20,6 @@ STATE_COLOURS = {
     "hold": "#abebc6", "lower": "#d6eaf8", "release": "#e8daef", "retreat": "#f2f3f4", "done": "#ffffff",
     "fault": "#f5b7b1",
 }
-
-
-def pyplot() -> Any:
-    try:
-        import matplotlib
-    except ImportError:
-        raise UsageError("charts need matplotlib: pip install -e '.[plot]'") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def comparison_chart(summary: Mapping[str, Any], path: Path, policies: list[str] | None = None,

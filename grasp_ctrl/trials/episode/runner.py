@@ -40,22 +40,22 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
 from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
 from grasp_ctrl.sim.world import MockWorld, WorldParams
-from grasp_ctrl.trials.mock_tick import MockTick
-from grasp_ctrl.trials.manifest import RunManifest, read_manifest, write_manifest
-from grasp_ctrl.trials.outcome import judge
-from grasp_ctrl.trials.pipeline import SensingPipeline
-from grasp_ctrl.trials.tick import control_tick
-from grasp_ctrl.trials.progress import Progress
-from grasp_ctrl.trials.records import canonical_order, load_records, record_files
-from grasp_ctrl.trials.runlock import RunLock
-from grasp_ctrl.trials.storage import (
+from grasp_ctrl.trials.episode.mock_tick import MockTick
+from grasp_ctrl.trials.runs.manifest import RunManifest, read_manifest, write_manifest
+from grasp_ctrl.trials.episode.outcome import judge
+from grasp_ctrl.loop.sensing import SensingPipeline
+from grasp_ctrl.loop.tick import control_tick
+from grasp_ctrl.trials.runs.progress import Progress
+from grasp_ctrl.trials.runs.records import canonical_order, load_records, record_files
+from grasp_ctrl.trials.runs.runlock import RunLock
+from grasp_ctrl.storage import (
     RUN_FILE, SUMMARY_FILE, check_object_name, commit_temp, is_temp_file, record_path, safe_name, temp_path,
     ticks_path, write_json,
 )
-from grasp_ctrl.trials.summary import summarize
-from grasp_ctrl.trials.tick_kernels import track_peaks
-from grasp_ctrl.trials.ticklog import TickLog
-from grasp_ctrl.trials.workers import ignore_interrupts, interrupts_deferred, worker_context
+from grasp_ctrl.trials.runs.summary import summarize
+from grasp_ctrl.loop.tick_kernels import track_peaks
+from grasp_ctrl.loop.ticklog import TickLog
+from grasp_ctrl.trials.runs.workers import ignore_interrupts, interrupts_deferred, worker_context
 
 MAX_TRIAL_S = 60.0
 SETTLE_S = 0.5
@@ -536,7 +536,7 @@ def _run_locked(
 
     try:
         if executor == "ray" and pending:
-            from grasp_ctrl.trials.ray_executor import ray_trials
+            from grasp_ctrl.trials.runs.ray_executor import ray_trials
 
             with contextlib.closing(ray_trials(address, jobs, hand, policies, plan.settings, threads,
                                                pending)) as results:

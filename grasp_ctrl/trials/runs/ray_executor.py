@@ -67,7 +67,7 @@ def ray_session(address: str | None, cpus: int | None) -> Iterator[Any]:
 def _trial_in_worker(token: str, hand: Any, policies: list[str], settings: Any, threads: int,
                      task: tuple) -> dict[str, Any]:
     """One trial in a Ray worker; its policies are loaded once per worker and sweep (``token``)."""
-    from grasp_ctrl.trials.runner import mock_trial_fn
+    from grasp_ctrl.trials.episode.runner import mock_trial_fn
 
     key = ("trial", token)
     if key not in _CACHE:

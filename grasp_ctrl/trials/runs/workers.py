@@ -20,7 +20,7 @@ import signal
 import threading
 from typing import Any, Iterator
 
-PRELOAD = ["grasp_ctrl.trials.worker_preload"]
+PRELOAD = ["grasp_ctrl.trials.runs.worker_preload"]
 
 
 def worker_context() -> Any:

@@ -32,7 +32,7 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.trials.trial_view import TrialView
+from grasp_ctrl.trials.analysis.trial_view import TrialView
 
 ARROW_M_PER_N = 0.015
 TIMELINE = "time"
@@ -215,8 +215,8 @@ def _log_states(rr: Any, rec: Any, view: TrialView) -> None:
 
 def record_run(run_dir: Path, out_dir: Path) -> list[Path]:
     """A recording of every trial with a tick log in ``run_dir``: OUT_DIR/POLICY/OBJECT/trial_NNN.rrd."""
-    from grasp_ctrl.trials.ticklog import TICKS_SUFFIX
-    from grasp_ctrl.trials.trial_view import hand_for_replay, load_trial
+    from grasp_ctrl.loop.ticklog import TICKS_SUFFIX
+    from grasp_ctrl.trials.analysis.trial_view import hand_for_replay, load_trial
 
     written = []
     for ticks in sorted((run_dir / "trials").glob(f"*/*/*{TICKS_SUFFIX}")):

@@ -20,7 +20,7 @@ from grasp_ctrl.config.objects import ObjectProfile, profile_from_json
 from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import ConfigError, UsageError
-from grasp_ctrl.trials.storage import RUN_FILE, write_json
+from grasp_ctrl.storage import RUN_FILE, write_json
 
 FORMAT = 1
 EMULATED_BACKEND = "dynamixel-emulated"   # run --backend dynamixel --emulate (pty emulators, mock world)

@@ -35,11 +35,11 @@ from optuna.trial import FrozenTrial, TrialState
 
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.trials.runner import trial_seed
-from grasp_ctrl.trials.search_space import Param, Value, grid_size
-from grasp_ctrl.trials.study_defaults import DEFAULT_BUDGET  # noqa: F401 - re-exported
-from grasp_ctrl.trials.tune import SweepRow, apply_setting
-from grasp_ctrl.trials.tune_executors import TrialExecutor
+from grasp_ctrl.trials.episode.runner import trial_seed
+from grasp_ctrl.trials.tuning.search_space import Param, Value, grid_size
+from grasp_ctrl.trials.tuning.study_defaults import DEFAULT_BUDGET  # noqa: F401 - re-exported
+from grasp_ctrl.trials.tuning.tune import SweepRow, apply_setting
+from grasp_ctrl.trials.tuning.tune_executors import TrialExecutor
 
 OBJECTIVE = ("success rate over the seeded trials, ties broken by the mean peak true grip force "
              "(gentler wins): value = (successes - 0.5*g/(1+g)) / K, g the mean peak true grip in N")

@@ -41,10 +41,10 @@ def warm_kernels() -> None:
     from grasp_ctrl.sim.world import MockWorld
     from grasp_ctrl.tactile.layout import FRAME_LEN
     from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate
-    from grasp_ctrl.trials.pipeline import SensingPipeline
-    from grasp_ctrl.trials.tick import control_tick
-    from grasp_ctrl.trials.tick_kernels import track_peaks
-    from grasp_ctrl.trials.ticklog import TickLog
+    from grasp_ctrl.loop.sensing import SensingPipeline
+    from grasp_ctrl.loop.tick import control_tick
+    from grasp_ctrl.loop.tick_kernels import track_peaks
+    from grasp_ctrl.loop.ticklog import TickLog
 
     hand = load_hand(default_hand_file())
     objects = load_objects(default_objects_file())

@@ -19,7 +19,7 @@ import numpy as np
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.settings import ControllerSettings
-from grasp_ctrl.trials.storage import safe_name
+from grasp_ctrl.storage import safe_name
 from grasp_ctrl.sim.mujoco_world import MuJoCoParams, MuJoCoWorld
 
 FPS = 15
@@ -113,7 +113,7 @@ def video_trial_fn(hand: HandConfig, policies: Sequence[str], settings: Controll
     """The mujoco trial runner with each trial recorded to VIDEO_DIR/POLICY-OBJECT-TRIAL.(mp4|gif)."""
     choose_gl_backend()
     from grasp_ctrl.sim.mujoco_backends import mujoco_backends
-    from grasp_ctrl.trials.runner import mock_trial_fn
+    from grasp_ctrl.trials.episode.runner import mock_trial_fn
 
     current: dict[str, Path] = {}
 
