@@ -6,7 +6,6 @@ only the fields that differ from the defaults; docs/mock_world.md lists every fi
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import fields, replace
 from pathlib import Path
@@ -23,12 +22,12 @@ def _number(path: Path, name: str, value: object) -> float:
 def load_biotac_params(path: str | Path) -> BioTacParams:
     """The defaults with the file's overrides; ValueError naming the file and field on bad input."""
     path = Path(path)
+    from grasp_ctrl.json_limits import JsonFileError, read_json
+
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ValueError(f"{path}: cannot read ({exc.strerror})") from None
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not JSON ({exc.msg}, line {exc.lineno})") from None
+        doc = read_json(path)
+    except JsonFileError as exc:
+        raise ValueError(f"{path}: {exc}") from None
     if isinstance(doc, dict) and isinstance(doc.get("params"), dict):
         doc = doc["params"]
     if not isinstance(doc, dict):

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,6 +19,7 @@ from grasp_ctrl.config.objects import ObjectProfile, profile_from_json
 from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import ConfigError, UsageError
+from grasp_ctrl.json_limits import JsonFileError, read_json
 from grasp_ctrl.trials.storage import RUN_FILE, write_json
 
 FORMAT = 1
@@ -45,6 +45,8 @@ class RunManifest:
     object_file: str | None = None
     preset: str | None = None
     settings: ControllerSettings = field(default_factory=ControllerSettings)
+    fingerprint: dict[str, Any] | None = None     # trials/fingerprint.py
+    forced: list[dict[str, Any]] = field(default_factory=list)   # resumes with --force despite changes
 
     @property
     def object_names(self) -> list[str]:
@@ -69,6 +71,8 @@ class RunManifest:
             "objects": [dataclasses.asdict(o) for o in self.objects],
             "tick_logs": self.tick_logs,
             "settings": dataclasses.asdict(self.settings),
+            "fingerprint": self.fingerprint,
+            "forced": list(self.forced),
         }
 
     @classmethod
@@ -118,10 +122,17 @@ class RunManifest:
             if doc.get(key) is not None and not isinstance(doc[key], str):
                 raise bad(key, "a string or null")
         settings = settings_from_json(doc.get("settings") or {}, where)
+        from grasp_ctrl.trials.fingerprint import check_shape
+
+        fingerprint = check_shape(doc.get("fingerprint"), where)
+        forced = doc.get("forced") or []
+        if not isinstance(forced, list) or not all(isinstance(f, dict) for f in forced):
+            raise bad("forced", "a list of tables (resumes with --force)")
         return cls(
             backend=backend, hand=hand, seed=seed, trials=trials, policies=list(policies), objects=objects,
             tick_logs=tick_logs, hand_file=doc.get("hand_file"), hand_sha256=doc.get("hand_sha256"),
             object_file=doc.get("object_file"), preset=doc.get("preset"), settings=settings,
+            fingerprint=fingerprint, forced=forced,
         )
 
     def same_plan(self, other: "RunManifest") -> bool:
@@ -171,7 +182,11 @@ def manifest_path(run_dir: Path) -> Path:
 
 
 def write_manifest(run_dir: Path, m: RunManifest) -> None:
+    from grasp_ctrl.trials.fingerprint import compute
+
     run_dir.mkdir(parents=True, exist_ok=True)
+    if m.fingerprint is None:
+        m.fingerprint = compute(m)
     write_json(manifest_path(run_dir), m.to_json())
 
 
@@ -181,7 +196,7 @@ def read_manifest(run_dir: Path) -> RunManifest | None:
     if not path.is_file():
         return None
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise UsageError(f"{path}: unreadable run file ({exc.__class__.__name__})") from None
+        doc = read_json(path)
+    except JsonFileError as exc:
+        raise UsageError(f"{path}: unreadable run file ({exc})") from None
     return RunManifest.from_json(doc, str(path))

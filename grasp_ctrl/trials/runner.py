@@ -40,10 +40,12 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
 from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
 from grasp_ctrl.sim.world import MockWorld, WorldParams
+from grasp_ctrl.trials.fingerprint import stamp, sync_manifest
 from grasp_ctrl.trials.mock_tick import MockTick
-from grasp_ctrl.trials.manifest import RunManifest, read_manifest, write_manifest
+from grasp_ctrl.trials.manifest import RunManifest, read_manifest
 from grasp_ctrl.trials.outcome import judge
 from grasp_ctrl.trials.pipeline import SensingPipeline
+from grasp_ctrl.trials.planned import why_unplanned
 from grasp_ctrl.trials.tick import control_tick
 from grasp_ctrl.trials.progress import Progress
 from grasp_ctrl.trials.records import canonical_order, load_records, record_files
@@ -468,8 +470,7 @@ def run_series(
                 raise UsageError(f"{run_dir}/run.json describes other trials than these parameters; resume with its own parameters")
             for tmp in stale_temp_files(run_dir):   # left by a writer that died; we hold the lock
                 tmp.unlink(missing_ok=True)
-            if existing is None:
-                write_manifest(run_dir, plan)
+            sync_manifest(run_dir, plan, existing)   # new run, or a resume that recorded --force
             started = True
             return _run_locked(hand, plan, policies, trials, seed, run_dir, progress, resume, run_trial,
                                after_trial, warn, jobs, threads, executor, address)
@@ -497,11 +498,11 @@ def _run_locked(
             warn(f"skipping {path}: {why}; that trial will run again")
         for rec in loaded.records:
             key = (rec["policy"], rec["object"], rec["trial"])
-            if rec["policy"] in policies and rec["object"] in plan.object_names and rec["trial"] < trials \
-                    and rec["seed"] == trial_seed(seed, rec["object"], rec["trial"]):
+            why = why_unplanned(rec, plan)
+            if why is None:
                 done[key] = rec
             else:
-                warn(f"ignoring {record_path(run_dir, *key)}: not a trial of this run's parameters")
+                warn(f"ignoring {record_path(run_dir, *key)}: not a trial of this run ({why})")
 
     reporter = progress if isinstance(progress, Progress) else Progress(plan.total, enabled=bool(progress))
     reporter.resumed(canonical_order(list(done.values()), list(policies), plan.object_names))
@@ -523,7 +524,7 @@ def _run_locked(
         key = (rec["policy"], rec["object"], rec["trial"])
         if key in tick_logs and tick_logs[key][0].exists():
             commit_temp(*tick_logs[key])
-        write_json(record_path(run_dir, *key), rec)
+        write_json(record_path(run_dir, *key), stamp(rec, plan))
         done[key] = rec
         reporter.trial_done(rec)
         if after_trial:
