@@ -15,6 +15,7 @@ import sys
 from types import ModuleType
 from typing import Sequence
 
+from grasp_ctrl.cli._ranges import apply_ranges
 from grasp_ctrl.errors import GraspCtrlError
 
 PROG = "grasp-ctrl"
@@ -44,6 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
     for mod in _command_modules():
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=getattr(mod, "DESCRIPTION", mod.HELP))
         mod.add_arguments(p)
+        apply_ranges(mod.NAME, p)   # every number flag checked for type and range (cli/_ranges.py)
         p.set_defaults(_run=mod.run)
     return parser
 
