@@ -38,6 +38,7 @@ from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
+from grasp_ctrl.sim.mujoco_log import set_log_dir as set_engine_log_dir
 from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
 from grasp_ctrl.sim.world import MockWorld, WorldParams
 from grasp_ctrl.trials.fingerprint import stamp, sync_manifest
@@ -530,6 +531,7 @@ def _run_locked(
         if after_trial:
             after_trial(rec)
 
+    set_engine_log_dir(run_dir)   # MuJoCo's warnings of in-process trials: the run directory, not ./
     try:
         if executor == "ray" and pending:
             from grasp_ctrl.trials.ray_executor import ray_trials
@@ -552,6 +554,7 @@ def _run_locked(
             for args in pending:
                 finish(run_trial(*args))
     finally:
+        set_engine_log_dir(None)
         reporter.close()
         for tmp, _final in tick_logs.values():   # the trial in progress when interrupted
             tmp.unlink(missing_ok=True)
