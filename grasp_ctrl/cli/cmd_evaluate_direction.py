@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "evaluate-direction"
 HELP = "angle between estimated force directions and labelled plate normals on real BioTac data"
@@ -110,7 +111,6 @@ def run(args: argparse.Namespace) -> int:
                         for r in all_results],
             "pooled": pooled,
         }
-        from grasp_ctrl.trials.storage import write_text_atomic
 
-        write_text_atomic(args.json, json.dumps(doc, indent=2) + "\n")
+        write_output(check_output(args.json, "--json"), json.dumps(doc, indent=2) + "\n")
     return 0
