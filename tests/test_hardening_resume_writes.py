@@ -24,7 +24,7 @@ from grasp_ctrl.trials.manifest import read_manifest
 
 
 def _stub_trials(monkeypatch: pytest.MonkeyPatch) -> None:
-    import grasp_ctrl.trials.runner as runner
+    from grasp_ctrl.trials import runner
 
     def fake_trial_fn(hand, policies, settings=None, threads=1, **_kw):
         def run(p, obj, k, seed, log):
@@ -300,7 +300,7 @@ def test_mujoco_warnings_go_to_the_run_directory_or_nowhere(tmp_path, monkeypatc
 
 
 def test_ctrl_c_before_the_run_exists_does_not_offer_a_resume(tmp_path, files, monkeypatch, capsys):
-    import grasp_ctrl.trials.runner as runner
+    from grasp_ctrl.trials import runner
 
     def interrupted(*_a, **_kw):
         raise KeyboardInterrupt

@@ -153,6 +153,6 @@ def _shown(value: Any) -> str:
 
 def _check_range(t: Table, name: str, value: float, lo: float | None, hi: float | None) -> None:
     if lo is not None and value < lo:
-        raise t.fail(name, f"a value >= {lo} (got {value})")
+        raise t.fail(name, f"a value >= {lo} (got {_shown(value)})")
     if hi is not None and value > hi:
-        raise t.fail(name, f"a value <= {hi} (got {value})")
+        raise t.fail(name, f"a value <= {hi} (got {_shown(value)})")
