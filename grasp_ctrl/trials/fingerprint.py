@@ -140,7 +140,15 @@ def check_resume(manifest: Any, run_file: Path, force: bool) -> bool:
     none, or ``--force`` recorded) and run.json must be written again."""
     now = compute(manifest)
     old = manifest.fingerprint
-    if old is None:   # a run from before fingerprints: from now on it has one
+    if old is None:   # a run from before fingerprints (or one whose was deleted): its records tell
+        others = sorted(record_fingerprints(run_file.parent) - {now["sha256"]})
+        if others and not force:
+            raise UsageError(f"--resume: {run_file} has no fingerprint and {len(others)} fingerprint(s) of its "
+                             "records differ from its files now (a policy, hand or object file or a setting "
+                             "changed); start a new run, or add --force to continue anyway (recorded in run.json)")
+        if others:
+            manifest.forced.append({"at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "changed": ["run.json fingerprint"],
+                                    "from": others[0], "to": now["sha256"]})
         manifest.fingerprint = now
         return True
     changed = differences(old, now)
@@ -154,6 +162,13 @@ def check_resume(manifest: Any, run_file: Path, force: bool) -> bool:
                             "from": old["sha256"], "to": now["sha256"]})
     manifest.fingerprint = now
     return True
+
+
+def record_fingerprints(run_dir: Path) -> set[str]:
+    """The fingerprints the run's readable records carry."""
+    from grasp_ctrl.trials.records import load_records
+
+    return {r[RECORD_KEY] for r in load_records(run_dir).records if isinstance(r.get(RECORD_KEY), str)}
 
 
 def stamp(record: dict[str, Any], manifest: Any) -> dict[str, Any]:
