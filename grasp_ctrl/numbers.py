@@ -84,3 +84,31 @@ def float_type(lo: float | None = None, hi: float | None = None, lo_open: bool =
 def int_type(lo: int | None = None, hi: int | None = None) -> Callable[[str], int]:
     """An argparse ``type=``: an integer in range."""
     return _argparse_type(lambda t: parse_int(t, "value", lo, hi), "int")  # type: ignore[return-value]
+
+
+def parse_values(text: str, what: str, lo: float, hi: float, integer: bool = False,
+                 max_count: int = 1000) -> list[float | int]:
+    """A sweep's values: ``START:STOP:STEP`` (STOP included), ``A,B,C`` or one value, each
+    checked by :func:`parse_float` (or :func:`parse_int`) against [lo, hi]; the count of a
+    range is checked before the list is built, so ``1:1e300:1e-300`` costs nothing."""
+    one = (lambda t: parse_int(t, what, int(lo), int(hi))) if integer else \
+        (lambda t: parse_float(t, what, lo, hi))
+    text = str(text).strip()
+    if ":" in text:
+        parts = text.split(":")
+        if len(parts) != 3:
+            raise UsageError(f"{what}: START:STOP:STEP (got {_shown(text)})")
+        start, stop = one(parts[0]), one(parts[1])
+        step = parse_float(parts[2], f"{what} step", 0.0, hi - lo if hi > lo else 1.0, lo_open=True)
+        if stop < start:
+            raise UsageError(f"{what}: STOP below START (got {_shown(text)})")
+        span = (stop - start) / step
+        if not span < max_count:   # also catches inf (a step of 1e-320)
+            raise UsageError(f"{what}: at most {max_count} values (got {_shown(text)})")
+        count = math.floor(span + 1e-9) + 1
+        values = [start + i * step for i in range(count)]
+        return [round(v) for v in values] if integer else [round(v, 12) for v in values]
+    values = [one(v) for v in text.split(",") if v.strip()]
+    if not values or len(values) > max_count:
+        raise UsageError(f"{what}: 1 to {max_count} values (got {_shown(text)})")
+    return values

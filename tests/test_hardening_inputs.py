@@ -299,3 +299,12 @@ def test_calibrate_refuses_a_degenerate_correction_unless_allowed(tmp_path, caps
     rc, err = _call(argv + ["--allow-worse"], capsys)
     assert rc == 0 and "WARNING" in err and (tmp_path / "cal.json").exists()
 
+
+
+@pytest.mark.parametrize("spec", ["1:inf:1", "1:20:1e-320", "nan", "1,2,1e999", "3:1:1", "1:2", "0:1:0.1"])
+def test_sweep_values_are_checked_before_the_list_is_built(spec):
+    from grasp_ctrl.numbers import parse_values
+
+    with pytest.raises(UsageError, match=r"^--param tau_n"):
+        parse_values(spec, "--param tau_n", 0.1, 20.0)
+    assert parse_values("1:2.5:0.5", "--param tau_n", 0.1, 20.0) == [1.0, 1.5, 2.0, 2.5]
