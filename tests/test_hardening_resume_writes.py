@@ -310,3 +310,26 @@ def test_ctrl_c_before_the_run_exists_does_not_offer_a_resume(tmp_path, files, m
     err = _err(capsys)
     assert "--resume" not in err and "nothing was recorded" in err
     assert not (tmp_path / "never").exists()
+
+
+@pytest.mark.parametrize("lock", ['{"pid": ' + "9" * 30 + ', "host": "HOST"}', '{"pid": true, "host": "HOST"}',
+                                  '{"pid": -5, "host": "HOST"}', "[" * 100000, "x" * 200000])
+def test_a_hostile_lock_file_is_taken_over_with_a_warning(tmp_path, files, monkeypatch, capsys, lock):
+    import socket
+
+    run_dir = _half_run(tmp_path, files, monkeypatch)
+    (run_dir / "run.lock").write_text(lock.replace("HOST", socket.gethostname()))
+    capsys.readouterr()
+    assert main(["run", "--resume", str(run_dir), "--quiet"]) == 0
+    assert "taking it over" in _err(capsys)
+    assert not (run_dir / "run.lock").exists() and len(_records(run_dir)) == 2
+
+
+def test_a_live_lock_still_keeps_a_second_writer_out(tmp_path, files, monkeypatch, capsys):
+    import socket
+
+    run_dir = _half_run(tmp_path, files, monkeypatch)
+    (run_dir / "run.lock").write_text(json.dumps({"pid": os.getppid(), "host": socket.gethostname(), "started": "x"}))
+    capsys.readouterr()
+    assert main(["run", "--resume", str(run_dir), "--quiet"]) == 2
+    assert "is in use by process" in _err(capsys) and len(_records(run_dir)) == 1
