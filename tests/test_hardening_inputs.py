@@ -308,3 +308,24 @@ def test_sweep_values_are_checked_before_the_list_is_built(spec):
     with pytest.raises(UsageError, match=r"^--param tau_n"):
         parse_values(spec, "--param tau_n", 0.1, 20.0)
     assert parse_values("1:2.5:0.5", "--param tau_n", 0.1, 20.0) == [1.0, 1.5, 2.0, 2.5]
+
+
+@pytest.mark.parametrize("key, value", [("settings", {"ramp_tolerance_n": int(HUGE_INT)}),
+                                        ("settings", {"ramp_tolerance_n": 1e300}),
+                                        ("objects", int(HUGE_INT))])
+def test_a_400_digit_number_in_run_json_is_one_line_on_resume(tmp_path, capsys, monkeypatch, key, value):
+    from test_hardening_resume_writes import _stub_trials
+
+    _stub_trials(monkeypatch)
+    run_dir = tmp_path / "run"
+    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--quiet", "--out", str(run_dir)]) == 0
+    doc = json.loads((run_dir / "run.json").read_text())
+    if key == "settings":
+        doc["settings"].update(value)
+    else:
+        doc["objects"][0]["mass_kg"] = value
+    (run_dir / "run.json").write_text(json.dumps(doc))
+    capsys.readouterr()
+    rc, err = _call(["run", "--resume", str(run_dir), "--quiet"], capsys)
+    line = _one_error_line(err)
+    assert rc == 2 and ("ramp_tolerance_n" in line or "mass_kg" in line) and len(line) < 400

@@ -59,7 +59,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if bad is not None:   # no file or name can hold one; open() would raise deep inside
         print(f"{PROG}: error: argument {bad!r}: contains a NUL character", file=sys.stderr)
         return 2
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:   # argparse printed its usage and one error line (or the help)
+        return exc.code if isinstance(exc.code, int) else 2
     if not getattr(args, "_run", None):
         parser.print_help()
         return 2

@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from grasp_ctrl.config.objects import ObjectProfile, profile_from_json
+from grasp_ctrl.config.toml_reader import finite_number
 from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import ConfigError, UsageError
@@ -28,6 +28,7 @@ BACKENDS = ("mock", "mujoco", "dynamixel", EMULATED_BACKEND)
 MAX_TRIALS = 100_000
 # settings that may be zero (no slow zone, no overshoot, no retreat)
 SETTING_CHOICES = {"grip_targets": GRIP_TARGET_MODES}   # the text settings and their values
+MAX_SETTING = 1e6   # no controller setting (seconds, metres, newtons, ratios) comes near it
 ZERO_ALLOWED = ("lower_overshoot_m", "lower_slow_zone_m", "retreat_m", "grip_weight_margin")
 
 
@@ -165,10 +166,10 @@ def settings_from_json(d: Any, where: str) -> ControllerSettings:
             choices = SETTING_CHOICES.get(key, ())
             if v not in choices:
                 raise UsageError(f"{where}: settings.{key}: one of {', '.join(choices)} (got {v!r})")
-        elif isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0 \
-                or (v == 0 and key not in ZERO_ALLOWED):
-            need = "a finite number >= 0" if key in ZERO_ALLOWED else "a finite number > 0"
-            raise UsageError(f"{where}: settings.{key}: {need} (got {v!r})")
+        elif not finite_number(v) or v < 0 or v > MAX_SETTING or (v == 0 and key not in ZERO_ALLOWED):
+            need = f"a finite number {'>=' if key in ZERO_ALLOWED else '>'} 0 and <= {MAX_SETTING:g}"
+            shown = repr(v) if len(repr(v)) <= 40 else f"{repr(v)[:20]}..."
+            raise UsageError(f"{where}: settings.{key}: {need} (got {shown})")
         values[key] = v
     return ControllerSettings(**values)
 
