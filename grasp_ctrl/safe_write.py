@@ -185,3 +185,15 @@ def replace_in_place(path: str | Path, data: str | bytes) -> Path:
             tmp.unlink()
         raise
     return target
+
+
+def check_run_tree(run_dir: Path, flag: str) -> None:
+    """A run directory whose files would land elsewhere is refused: ``--out`` naming a symlink,
+    or a symlinked folder inside its ``trials`` tree (records would be written through it)."""
+    run_dir = Path(run_dir)
+    if flag == "--out" and run_dir.is_symlink():
+        raise UsageError(f"--out {run_dir}: a symlink; give the directory itself")
+    trials = run_dir / "trials"
+    for folder in (trials, *sorted(trials.glob("*")), *sorted(trials.glob("*/*"))):
+        if folder.is_symlink():
+            raise UsageError(f"{flag} {run_dir}: {folder} is a symlink; a run's files stay inside its directory")

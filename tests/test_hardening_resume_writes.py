@@ -333,3 +333,19 @@ def test_a_live_lock_still_keeps_a_second_writer_out(tmp_path, files, monkeypatc
     capsys.readouterr()
     assert main(["run", "--resume", str(run_dir), "--quiet"]) == 2
     assert "is in use by process" in _err(capsys) and len(_records(run_dir)) == 1
+
+
+def test_a_run_tree_with_a_symlinked_folder_is_refused(tmp_path, files, monkeypatch, capsys):
+    run_dir = _half_run(tmp_path, files, monkeypatch)
+    elsewhere = tmp_path / "elsewhere"
+    lego = next(run_dir.glob("trials/*/lego"))
+    shutil.move(lego, elsewhere)
+    lego.symlink_to(elsewhere, target_is_directory=True)
+    before = sorted(p.name for p in elsewhere.iterdir())
+    capsys.readouterr()
+    assert main(["run", "--resume", str(run_dir), "--quiet"]) == 2
+    assert "is a symlink" in _err(capsys)
+    assert sorted(p.name for p in elsewhere.iterdir()) == before
+    link = tmp_path / "link"
+    link.symlink_to(elsewhere, target_is_directory=True)
+    assert main(_start(link, files)) == 2 and "a symlink" in _err(capsys)

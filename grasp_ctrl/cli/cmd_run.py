@@ -196,7 +196,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.trials.records import load_records
     from grasp_ctrl.trials.runner import run_series
     from grasp_ctrl.trials.summary import format_table
-    from grasp_ctrl.safe_write import check_output, write_output
+    from grasp_ctrl.safe_write import check_output, check_run_tree, write_output
 
     if args.threads < 1:
         raise UsageError("--threads: must be at least 1")
@@ -214,6 +214,7 @@ def run(args: argparse.Namespace) -> int:
     if args.force and not args.resume:
         raise UsageError("--force: only with --resume")
     check_output(args.json, "--json", run_dirs=[run_dir])
+    check_run_tree(run_dir, "--resume" if args.resume else "--out")
     from grasp_ctrl.trials.ray_executor import check_executor
 
     check_executor(args.executor, args.address)
