@@ -105,12 +105,25 @@ def output_file(path: str | Path, keep_suffix: bool = True) -> Iterator[Path]:
             raise OSError(f"{path}: nothing was written")
         with open(tmp, "rb") as fh:
             os.fsync(fh.fileno())
+        _keep_mode_and_owner(path, tmp)
         os.replace(tmp, path)
         _fsync_dir(path.parent)
     except BaseException:
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise
+
+
+def _keep_mode_and_owner(old: Path, new: Path) -> None:
+    """A regular file being replaced passes its mode (and, where allowed, owner) to the new one."""
+    try:
+        st = os.lstat(old)
+    except OSError:
+        return
+    if stat.S_ISREG(st.st_mode):
+        os.chmod(new, stat.S_IMODE(st.st_mode))
+        with contextlib.suppress(OSError):
+            os.chown(new, st.st_uid, st.st_gid)
 
 
 def write_output(path: str | Path, data: str | bytes) -> Path:

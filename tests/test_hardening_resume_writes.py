@@ -349,3 +349,13 @@ def test_a_run_tree_with_a_symlinked_folder_is_refused(tmp_path, files, monkeypa
     link = tmp_path / "link"
     link.symlink_to(elsewhere, target_is_directory=True)
     assert main(_start(link, files)) == 2 and "a symlink" in _err(capsys)
+
+
+def test_an_output_that_replaces_a_file_keeps_its_mode(tmp_path):
+    from grasp_ctrl.safe_write import write_output
+
+    path = tmp_path / "out.json"
+    path.write_text("{}")
+    os.chmod(path, 0o640)
+    write_output(path, "[]")
+    assert path.read_text() == "[]" and stat.S_IMODE(path.stat().st_mode) == 0o640

@@ -34,6 +34,8 @@ def why_unplanned(rec: dict[str, Any], manifest: Any, fingerprints: set[str] | N
         return f"seed {rec['seed']} is not the run's seed for this trial"
     fp = rec.get("fingerprint")
     known = run_fingerprints(manifest) if fingerprints is None else fingerprints
+    if fp is not None and not isinstance(fp, str):
+        return "its fingerprint is not a SHA-256 text"
     if fp is not None and known and fp not in known:
         return "ran with another fingerprint (other policy, hand or settings files)"
     return None
