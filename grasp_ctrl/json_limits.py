@@ -44,11 +44,11 @@ def parse_json(text: str, max_depth: int = MAX_DEPTH) -> Any:
     try:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise JsonFileError(f"not valid JSON ({exc.msg} at line {exc.lineno})") from None
+        raise JsonFileError(f"not JSON ({exc.msg} at line {exc.lineno}; truncated or corrupt?)") from None
     except RecursionError:
         raise JsonFileError(f"nested deeper than {max_depth} levels") from None
     except ValueError as exc:   # e.g. an integer of more digits than Python converts
-        raise JsonFileError(f"not valid JSON ({str(exc)[:120]})") from None
+        raise JsonFileError(f"not JSON ({str(exc)[:120]})") from None
     if depth(doc) > max_depth:
         raise JsonFileError(f"nested deeper than {max_depth} levels")
     return doc
@@ -62,9 +62,10 @@ def read_json(path: str | Path, max_bytes: int = MAX_BYTES, max_depth: int = MAX
     except IsADirectoryError:
         raise JsonFileError("a directory, not a JSON file") from None
     except OSError as exc:
-        raise JsonFileError(f"unreadable ({exc.strerror or exc.__class__.__name__})") from None
+        raise JsonFileError(f"cannot read ({exc.strerror or exc.__class__.__name__})") from None
     if len(raw) > max_bytes:
-        raise JsonFileError(f"larger than {max_bytes // (1024 * 1024)} MiB")
+        size = f"{max_bytes // (1024 * 1024)} MiB" if max_bytes >= 1024 * 1024 else f"{max_bytes} bytes"
+        raise JsonFileError(f"larger than {size}")
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
