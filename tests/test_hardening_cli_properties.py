@@ -260,3 +260,36 @@ def test_resume_never_mixes_a_changed_run(stub_run, meta, edit):
         else:         # refused: nothing ran
             assert rc == 2
             assert sorted(p.read_bytes() for p in run_dir.glob("trials/*/*/*.json")) == records
+
+
+def _numeric_flags() -> list[tuple[str, str]]:
+    """(command, flag) for every number flag of every command."""
+    from grasp_ctrl.cli import build_parser
+
+    out = []
+    sub = next(a for a in build_parser()._actions if a.choices and isinstance(a.choices, dict))
+    for name, parser in sub.choices.items():
+        for action in parser._actions:
+            flag = next((s for s in action.option_strings if s.startswith("--")), None)
+            if flag and getattr(action.type, "__name__", "") in ("float", "int") and action.type not in (int, float):
+                out.append((name, flag))
+    return sorted(out)
+
+
+NUMERIC_FLAGS = _numeric_flags()
+
+
+def test_every_float_flag_of_every_command_is_checked():
+    assert ("plot", "--fps") in NUMERIC_FLAGS and ("pushing-gt", "--k") in NUMERIC_FLAGS
+    assert len({c for c, _ in NUMERIC_FLAGS}) >= 10
+
+
+@settings(max_examples=40, deadline=None)
+@given(case=st.sampled_from(NUMERIC_FLAGS),
+       value=st.sampled_from(["nan", "-nan", "inf", "-inf", "1e999", "-1e999", "9" * 400, "-" + "9" * 400, "x", ""]))
+def test_hostile_numbers_in_any_command_flag_are_one_line(case, value):
+    command, flag = case
+    with _sandbox() as root:
+        rc, err = _call([command, f"{flag}={value}"])
+        assert rc == 2 and flag in err
+        assert list(root.iterdir()) == []
