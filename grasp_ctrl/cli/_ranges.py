@@ -32,7 +32,7 @@ RANGES: dict[str, dict[str, tuple]] = {
               "--lr": (0.0, 10.0, True), "--patience": (1, 1_000_000), "--threads": THREADS, "--jobs": (1, 1024),
               "--synthetic": (0, 100_000_000), "--seed": SEED, "--tare-frames": FRAMES,
               "--test-per-source": (0, 100_000_000)},
-    "synth": {"--n": (1, 100_000_000), "--seed": SEED},
+    "synth": {"--seed": SEED},   # --n: synth says it itself
     "hand-check": {"--baud": (9600, 4_500_000), "--step": (0.0, 3.2, True)},
     "lift-capacity": {"--min-margin": (0.0, 1000.0, True)},
     "biotac-anchors": {"--n": (1, 10_000_000), "--seed": SEED},
