@@ -105,7 +105,8 @@ def check_shape(doc: Any, where: str) -> dict[str, Any] | None:
         return None
     ok = isinstance(doc, dict) and isinstance(doc.get("sha256"), str) \
         and isinstance(doc.get("files"), dict) and isinstance(doc.get("settings"), dict) \
-        and all(isinstance(v, dict) and isinstance(v.get("sha256"), (str, type(None))) for v in doc["files"].values()) \
+        and all(isinstance(v, dict) and isinstance(v.get("path"), str) and "sha256" in v
+                and isinstance(v["sha256"], (str, type(None))) for v in doc["files"].values()) \
         and all(isinstance(v, str) for v in doc["settings"].values())
     if not ok:
         raise UsageError(f"{where}: fingerprint: a table of sha256, files and settings (as 'run' writes it)")
@@ -119,11 +120,11 @@ def differences(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
     for role in sorted(set(old_files) | set(new_files)):
         a, b = old_files.get(role), new_files.get(role)
         if a is None:
-            out.append(f"{role} ({b['path']}) is new")
-        elif b is None or b["sha256"] is None:
-            out.append(f"{role} ({a['path']}) is gone")
-        elif a["sha256"] != b["sha256"]:
-            out.append(f"{role} ({b['path']}) changed")
+            out.append(f"{role} ({b.get('path')}) is new")
+        elif b is None or b.get("sha256") is None:
+            out.append(f"{role} ({a.get('path')}) is gone")
+        elif a.get("sha256") != b.get("sha256"):
+            out.append(f"{role} ({b.get('path')}) changed")
     old_set, new_set = old.get("settings", {}), new.get("settings", {})
     for key in sorted(set(old_set) | set(new_set)):
         if old_set.get(key) != new_set.get(key):
