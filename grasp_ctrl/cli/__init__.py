@@ -17,6 +17,7 @@ import threading
 from types import ModuleType
 from typing import Sequence
 
+from grasp_ctrl.cli._ranges import apply_ranges
 from grasp_ctrl.errors import GraspCtrlError, Terminated
 
 PROG = "grasp-ctrl"
@@ -46,6 +47,7 @@ def build_parser() -> argparse.ArgumentParser:
     for mod in _command_modules():
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=getattr(mod, "DESCRIPTION", mod.HELP))
         mod.add_arguments(p)
+        apply_ranges(mod.NAME, p)   # every number flag checked for type and range (cli/_ranges.py)
         p.set_defaults(_run=mod.run)
     return parser
 
@@ -74,7 +76,10 @@ def _main(argv: Sequence[str] | None = None) -> int:
     if bad is not None:   # no file or name can hold one; open() would raise deep inside
         print(f"{PROG}: error: argument {bad!r}: contains a NUL character", file=sys.stderr)
         return 2
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:   # argparse printed its usage and one error line (or the help)
+        return exc.code if isinstance(exc.code, int) else 2
     if not getattr(args, "_run", None):
         parser.print_help()
         return 2

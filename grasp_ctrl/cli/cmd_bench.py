@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "bench"
 HELP = "measure the performance figures (DESIGN.md 5.6)"
@@ -36,7 +37,6 @@ def run(args: argparse.Namespace) -> int:
             "machine": machine_description(),
             "figures": {n: {"median": f.median, "p99": f.p99, "unit": f.unit} for n, f in results.items()},
         }
-        from grasp_ctrl.storage import write_text_atomic
 
-        write_text_atomic(args.json, json.dumps(doc, indent=2) + "\n")
+        write_output(check_output(args.json, "--json"), json.dumps(doc, indent=2) + "\n")
     return 0

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 from dataclasses import asdict
-from pathlib import Path
+from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "biotac-anchors"
 HELP = "measure the simulated BioTac against real recordings and the authors' real-data network"
@@ -53,5 +53,5 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         figures = asdict(report) | {"pad_scan": {"x_m": list(PAD_SCAN_X_M), "forces_n": list(PAD_SCAN_FORCES_N),
                                                  "ratio": ratios.tolist()}}
-        Path(args.json).write_text(json.dumps(figures, indent=2) + "\n", encoding="utf-8")
+        write_output(check_output(args.json, "--json"), json.dumps(figures, indent=2) + "\n")
     return 0

@@ -27,6 +27,9 @@ MODELS = ("gains", "linear", "affine", "residual")   # grasp_ctrl.learning.calib
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data", required=True, metavar="REC.csv", help="labelled recording (dataset CSV/Parquet, or plate normals)")
+    p.add_argument("--skip-bad-rows", action="store_true",
+                   help="plate-normal recordings: leave out rows that are short, not numbers, out of range or "
+                        "with a non-unit normal (counted on stderr) instead of stopping at the first")
     p.add_argument("--policy", required=True, metavar="NAME", help="base policy (name in policies/, or a .json path)")
     p.add_argument("--out", required=True, metavar="NAME",
                    help="new policy: a name (writes policies/NAME.json) or a path ending in .json")
@@ -41,6 +44,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="plate recordings: also require tared pdc >= this (default 50; drops release drift)")
     p.add_argument("--threads", type=int, default=1, help="onnxruntime threads")
     p.add_argument("--force", action="store_true", help="overwrite an existing policy of that name")
+    p.add_argument("--allow-worse", action="store_true",
+                   help="write the calibration even when it makes the error worse or collapses an axis "
+                        "(refused otherwise; a warning is printed)")
 
 
 def _ids(text: str | None) -> list[str]:
@@ -64,6 +70,8 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.estimators.registry import load_policy, read_metadata, resolve_policy_path
     from grasp_ctrl.evaluation.direction import policy_directions
     from grasp_ctrl.learning.calibration import calibrate, load_data
+    from grasp_ctrl.learning.calibration_checks import fit_problems
+    from grasp_ctrl.safe_write import check_output, write_output
     from grasp_ctrl.paths import policies_dir
 
     if args.ridge < 0 or args.threads < 1 or (args.tare_frames is not None and args.tare_frames < 1):
@@ -77,6 +85,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--policy: {base_json} is itself calibrated; calibrate its base policy "
                          f"{(base_meta.get('base_policy') or {}).get('name')!r} instead")
     out = _out_path(args.out)
+    check_output(out, "--out")
     if out.resolve() == base_json.resolve():
         raise UsageError("--out: that is the base policy itself; choose a new name")
     if out.exists() and not args.force:
@@ -85,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--out: {out.parent}: no such folder")
     base = load_policy(str(base_json), None, args.threads)
 
-    data = load_data(data_path, args.tare_frames, args.min_pdc)
+    data = load_data(data_path, args.tare_frames, args.min_pdc, skip_bad_rows=args.skip_bad_rows)
     fit_ids, test_ids = _ids(args.trials), _ids(args.test_trials)
     if set(fit_ids) & set(test_ids):
         raise UsageError("--trials and --test-trials overlap")
@@ -100,6 +109,11 @@ def run(args: argparse.Namespace) -> int:
         print(note)
 
     result = calibrate(policy_directions(base), fit, test, args.model, args.ridge)
+    problems = fit_problems(result.correction.matrix, result.metrics)
+    if problems and not args.allow_worse:
+        raise UsageError(f"calibrate: {'; '.join(problems)}; nothing written (--allow-worse writes it anyway)")
+    for problem in problems:
+        print(f"WARNING: {problem}; written because of --allow-worse", file=sys.stderr)
     name = out.stem
     labels = ("direction only: plate normals in a frame fixed to the mount (unknown rotation and sign); the "
               "mount frame was estimated from the base policy's directions; magnitudes stay the base policy's"
@@ -137,7 +151,7 @@ def run(args: argparse.Namespace) -> int:
         "licence": "BSD-3-Clause (grasp_ctrl); the base policy's licence applies to it",
     }
     try:
-        out.write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
+        write_output(out, json.dumps(meta, indent=2) + "\n")   # replaces a symlink there, never writes through
     except OSError as exc:
         raise UsageError(f"--out: {out}: cannot write ({exc.strerror or exc})") from None
     load_policy(str(out), None, args.threads)      # the registry must load what we wrote

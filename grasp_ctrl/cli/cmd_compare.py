@@ -29,7 +29,12 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.trials.analysis.compare import fig6_table, format_paired, ordered_names, paired_counts
     from grasp_ctrl.trials.runs.scoring import report_problems, score_run
 
-    scored = score_run(Path(args.run_dir))
+    from grasp_ctrl.safe_write import IMAGE_FORMATS, check_output
+
+    run_dir = Path(args.run_dir)
+    if not args.no_plot:   # before any work: a bad --png is one line, and never a run's own file
+        check_output(args.png or run_dir / "compare.png", "--png", run_dirs=[run_dir], formats=IMAGE_FORMATS)
+    scored = score_run(run_dir)
     report_problems(scored)
     print(fig6_table(scored.summary, scored.policies, scored.objects))
     pols, _ = ordered_names(scored.summary, scored.policies, scored.objects)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "diagram"
 HELP = "print the controller state machine as a Mermaid diagram (or draw it as SVG/PNG)"
@@ -28,9 +29,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     text = mermaid()
     if args.out:
-        from grasp_ctrl.storage import write_text_atomic
 
-        write_text_atomic(args.out, text + "\n")
+        write_output(check_output(args.out, "--out"), text + "\n")
     else:
         print(text)
     return 0

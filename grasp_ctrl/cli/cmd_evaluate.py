@@ -11,6 +11,7 @@ import numpy as np
 
 from grasp_ctrl.cli._learning_args import add_data_arguments, data_spec
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "evaluate"
 HELP = "force-estimation metrics of a checkpoint or policy on a test set"
@@ -93,9 +94,8 @@ def run(args: argparse.Namespace) -> int:
             cells = " ".join(f"{s[m]['median']:8.3f} [{s[m]['q1']:6.2f},{s[m]['q3']:6.2f}]" for m in METRICS)
             print(f"  {src:16s} {cells}")
     if args.json:
-        from grasp_ctrl.storage import write_text_atomic
 
-        write_text_atomic(args.json, json.dumps(doc, indent=2) + "\n")
+        write_output(check_output(args.json, "--json"), json.dumps(doc, indent=2) + "\n")
     if args.plot:
         from grasp_ctrl.learning.plots import box_plots
 

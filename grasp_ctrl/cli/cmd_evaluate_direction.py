@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "evaluate-direction"
 HELP = "angle between estimated force directions and labelled plate normals on real BioTac data"
@@ -24,6 +25,9 @@ DEFAULT_ESTIMATORS = "policy:icra19_official,analytic,surface-normal"
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data", required=True, help="robotic_finger_tidy.csv (../shared/data/robotic_finger/)")
+    p.add_argument("--skip-bad-rows", action="store_true",
+                   help="plate-normal recordings: leave out rows that are short, not numbers, out of range or "
+                        "with a non-unit normal (counted on stderr) instead of stopping at the first")
     p.add_argument("--estimators", default=DEFAULT_ESTIMATORS,
                    help=f"comma-separated list (default: {DEFAULT_ESTIMATORS})")
     p.add_argument("--trials", default="paper",
@@ -60,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.tare_frames < 1 or args.frames < 1:
         raise UsageError("--tare-frames and --frames must be >= 1")
-    trials = read_trials(Path(args.data))
+    trials = read_trials(Path(args.data), skip_bad_rows=args.skip_bad_rows)
     if args.trials == "paper":
         chosen = [t for t in trials if t.in_paper]
     else:
@@ -107,7 +111,6 @@ def run(args: argparse.Namespace) -> int:
                         for r in all_results],
             "pooled": pooled,
         }
-        from grasp_ctrl.storage import write_text_atomic
 
-        write_text_atomic(args.json, json.dumps(doc, indent=2) + "\n")
+        write_output(check_output(args.json, "--json"), json.dumps(doc, indent=2) + "\n")
     return 0

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from grasp_ctrl.cli._learning_args import require_torch
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "export"
 HELP = "export a trained model as a policy (ONNX + metadata JSON, checked against torch)"
@@ -41,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError(f"{src}: not an analytic policy")
         meta["name"] = args.name
         out_dir.mkdir(parents=True, exist_ok=True)
-        json_path.write_text(json.dumps(meta, indent=2) + "\n")
+        write_output(json_path, json.dumps(meta, indent=2) + "\n")
         print(f"wrote {json_path}")
         return 0
     require_torch()

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "fit-mock-policies"
 HELP = "fit the analytic, linear and MLP policies on simulated presses and write their JSON into policies/"
@@ -108,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
         metas.append(mlp)
     for meta in metas:
         path = out_dir / f"{meta['name']}.json"
-        path.write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
+        write_output(path, json.dumps(meta, indent=2) + "\n")
         m = meta["metrics"]
         print(f"{meta['name']}: median angle {m['median_angle_deg']} deg, "
               f"median magnitude error {m['median_magnitude_error_n']} N -> {path}")

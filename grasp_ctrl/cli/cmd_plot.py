@@ -46,6 +46,10 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.trials.analysis.trial_plot import trial_figure
     from grasp_ctrl.trials.analysis.trial_view import hand_for_replay, load_trial
 
+    from grasp_ctrl.safe_write import IMAGE_FORMATS, check_output
+
+    check_output(args.out, "--out", formats=IMAGE_FORMATS)
+    check_output(args.animate, "--animate", formats=("gif",))
     view = load_trial(Path(args.trial))
     stem = view.ticks_path.name.split("_ticks.")[0]
     if args.rrd is not None:

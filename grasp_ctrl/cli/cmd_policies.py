@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 from typing import Any
+from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "policies"
 HELP = "list the force-estimator policies (policies/*.json) with their metadata"
@@ -63,7 +64,6 @@ def run(args: argparse.Namespace) -> int:
             print(f"{'':28s} {desc}")
     print(f"{'oracle, oracle:scale=K':28s} debugging policies of the mock world (true contact force)")
     if args.json:
-        from grasp_ctrl.storage import write_text_atomic
 
-        write_text_atomic(args.json, json.dumps(docs, indent=2) + "\n")
+        write_output(check_output(args.json, "--json"), json.dumps(docs, indent=2) + "\n")
     return status

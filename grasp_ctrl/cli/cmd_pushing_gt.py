@@ -20,6 +20,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="columns t, x, y, theta, contact_x, contact_y, in_contact (SI units)")
     p.add_argument("--object", required=True, metavar="OBJECT.toml", help="mass_kg, size_m = [lx, ly], mu; optional izz_kgm2, gravity")
     p.add_argument("--out", required=True, metavar="FORCES.csv", help="output: t, fx_world, fy_world, fx_object, fy_object, moving")
+    p.add_argument("--skip-bad-rows", action="store_true",
+                   help="leave out trajectory rows that are short, not numbers or out of range (counted on stderr)")
     p.add_argument("--method", choices=("closed-form", "slsqp"), default="closed-form")
     p.add_argument("--particles", type=int, default=80, help="particles on the footprint (paper: 80)")
     p.add_argument("--k", type=float, default=10.0, help="weight of the linear-acceleration term (paper: 10)")
@@ -32,6 +34,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from grasp_ctrl.errors import UsageError
+    from grasp_ctrl.safe_write import check_output
     from grasp_ctrl.pushing.box import load_box
     from grasp_ctrl.pushing.io import read_push_csv, write_forces_csv
     from grasp_ctrl.pushing.kinematics import planar_motion
@@ -44,7 +47,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.window_s > 0 or not args.speed_threshold >= 0:
         raise UsageError("--window-s must be > 0 and --speed-threshold >= 0")
     box = load_box(args.object)
-    cols = read_push_csv(args.trajectory)
+    check_output(args.out, "--out", formats=("csv",))
+    cols = read_push_csv(args.trajectory, skip_bad_rows=args.skip_bad_rows)
     try:
         motion = planar_motion(cols["t"], cols["x"], cols["y"], cols["theta"], window_s=args.window_s)
     except ValueError as exc:

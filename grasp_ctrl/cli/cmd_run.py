@@ -74,6 +74,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--resume", default=None, metavar="RUN_DIR",
                    help="continue an interrupted run with the parameters in RUN_DIR/run.json")
     p.add_argument("--json", default=None, metavar="FILE", help="also write the run summary JSON here")
+    p.add_argument("--force", action="store_true",
+                   help="with --resume: continue although a policy, hand or object file or run.json's settings "
+                        "changed since the run started (recorded in run.json)")
     p.add_argument("--threads", type=int, default=1, metavar="N", help="inference threads per policy (default 1)")
     p.add_argument("--jobs", type=int, default=None, metavar="N",
                    help="mock trials run in N processes at once (default: one per CPU core, at most "
@@ -139,7 +142,8 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
 def _resumed(args: argparse.Namespace, run_dir: Path) -> tuple[Any, Any]:
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.paths import default_hand_file
-    from grasp_ctrl.trials.runs.manifest import file_sha256, read_manifest
+    from grasp_ctrl.trials.runs.fingerprint import check_resume
+    from grasp_ctrl.trials.runs.manifest import read_manifest
     from grasp_ctrl.config.hand import load_hand
 
     given = [f"--{f.replace('_', '-')}" for f in PLAN_FLAGS if getattr(args, f) is not None]
@@ -157,8 +161,7 @@ def _resumed(args: argparse.Namespace, run_dir: Path) -> tuple[Any, Any]:
     if hand.name != manifest.hand:
         raise UsageError(f"--resume: {hand_file} describes hand {hand.name!r}, the run used {manifest.hand!r} "
                          f"({run_dir}/run.json: hand)")
-    if manifest.hand_sha256 and file_sha256(hand_file) != manifest.hand_sha256:
-        print(f"warning: {hand_file} changed since the run started", file=sys.stderr)
+    check_resume(manifest, run_dir / "run.json", args.force)   # no mixed experiments (trials/runs/fingerprint.py)
     return hand, manifest
 
 
@@ -195,7 +198,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.trials.runs.records import load_records
     from grasp_ctrl.trials.episode.runner import run_series
     from grasp_ctrl.trials.runs.summary import format_table
-    from grasp_ctrl.storage import write_text_atomic
+    from grasp_ctrl.safe_write import check_output, check_run_tree, write_output
 
     if args.threads < 1:
         raise UsageError("--threads: must be at least 1")
@@ -210,6 +213,10 @@ def run(args: argparse.Namespace) -> int:
         stamp = time.strftime("%Y%m%d-%H%M%S")
         tag = f"-{manifest.preset}" if manifest.preset else ""
         run_dir = Path(args.out) if args.out else Path("runs") / f"{stamp}{tag}-seed{manifest.seed}"
+    if args.force and not args.resume:
+        raise UsageError("--force: only with --resume")
+    check_output(args.json, "--json", run_dirs=[run_dir])
+    check_run_tree(run_dir, "--resume" if args.resume else "--out")
     from grasp_ctrl.trials.runs.ray_executor import check_executor
 
     check_executor(args.executor, args.address)
@@ -250,8 +257,11 @@ def run(args: argparse.Namespace) -> int:
             backend=manifest.backend, jobs=jobs, executor=args.executor, address=args.address,
         )
     except (KeyboardInterrupt, OperatorQuit) as exc:
-        done = len(load_records(run_dir).records)
         why = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc)
+        if not (run_dir / "run.json").is_file():   # stopped before the run existed: nothing to resume
+            print(f"{why} before the run started; nothing was recorded", file=sys.stderr)
+            return 143 if isinstance(exc, Terminated) else 130
+        done = len(load_records(run_dir).records)
         print(f"{why}: {done} of {manifest.total} trials are recorded in {run_dir}; "
               f"continue with: grasp-ctrl run --resume {run_dir}", file=sys.stderr)
         return 143 if isinstance(exc, Terminated) else 130
@@ -262,6 +272,6 @@ def run(args: argparse.Namespace) -> int:
 
         print(f"recordings: {len(record_run(run_dir, Path(args.rrd)))} in {args.rrd}  (open: rerun FILE.rrd)")
     if args.json:
-        write_text_atomic(args.json, json.dumps(summary, indent=2) + "\n")
+        write_output(args.json, json.dumps(summary, indent=2) + "\n")
         print(f"summary: {args.json}")
     return 0

@@ -25,12 +25,13 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.trials.runs.scoring import report_problems, score_run
     from grasp_ctrl.trials.runs.summary import format_table
 
+    from grasp_ctrl.safe_write import check_output, write_output
+
+    check_output(args.json, "--json", run_dirs=[Path(args.run_dir)])
     scored = score_run(Path(args.run_dir))
     report_problems(scored)
     print(format_table(scored.summary))
     if args.json:
-        from grasp_ctrl.storage import write_text_atomic
-
-        write_text_atomic(args.json, json.dumps(scored.summary, indent=2) + "\n")
+        write_output(args.json, json.dumps(scored.summary, indent=2) + "\n")
         print(f"summary: {args.json}")
     return 0

@@ -35,6 +35,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-reconnect", action="store_true", help="do not reopen an unplugged port")
     emu = p.add_argument_group("emulator (no hardware needed)")
     emu.add_argument("--emulate", action="store_true", help="stream from a built-in sensor-bridge emulator on a pseudo-terminal")
+    emu.add_argument("--skip-bad-rows", action="store_true",
+                     help="with --emulate-from: leave out rows that are short, not numbers or out of range "
+                          "(counted on stderr) instead of stopping at the first")
     emu.add_argument("--emulate-from", metavar="CSV", help="replay this recording (columns pdc, e1..e19) instead of synthetic presses")
     emu.add_argument("--emulate-corrupt", type=float, default=0.0, metavar="P", help="probability of a corrupted frame (bit flips)")
 
@@ -75,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
     emulator = None
     port = args.port
     if args.emulate:
-        emulator = _make_emulator(hand, mode, args.emulate_from, args.emulate_corrupt)
+        emulator = _make_emulator(hand, mode, args.emulate_from, args.emulate_corrupt, args.skip_bad_rows)
         port = emulator.port
 
     kwargs: dict = {"mode": mode, "keep_history": 1_000_000}
@@ -111,14 +114,14 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _make_emulator(hand, mode: str, recording: str | None, corrupt: float):
+def _make_emulator(hand, mode: str, recording: str | None, corrupt: float, skip_bad_rows: bool = False):
     from grasp_ctrl.emulators.tactile_bridge import FaultConfig, RecordingSource, TactileBridgeEmulator
     from grasp_ctrl.errors import UsageError
 
     source = None
     if recording:
         try:
-            source = RecordingSource(Path(recording))
+            source = RecordingSource(Path(recording), skip_bad_rows=skip_bad_rows)
         except (OSError, ValueError) as exc:
             raise UsageError(f"--emulate-from {recording}: {exc}") from None
     return TactileBridgeEmulator(

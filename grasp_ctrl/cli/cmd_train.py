@@ -9,6 +9,7 @@ from typing import Any
 
 from grasp_ctrl.cli._learning_args import add_data_arguments, data_spec, parse_sources, require_torch
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "train"
 HELP = "train a force model on recorded or synthetic data (needs the train extra)"
@@ -141,7 +142,7 @@ def _train(args: argparse.Namespace, spec: Any, status: Any) -> int:
     if args.arch == "analytic":
         from grasp_ctrl.learning.export import analytic_policy
 
-        Path(out).write_text(json.dumps(analytic_policy(Path(out).stem, info["gains"], data, info["metrics"]), indent=2) + "\n")
+        write_output(check_output(out, "--out"), json.dumps(analytic_policy(Path(out).stem, info["gains"], data, info["metrics"]), indent=2) + "\n")
     else:
         from grasp_ctrl.learning.train import save_checkpoint
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "view"
 HELP = "look at the MuJoCo scene of one object (hand at its start pose) in MuJoCo's viewer"
@@ -46,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--object: no object {args.object!r} (known: {', '.join(objects)})")
     world = MuJoCoWorld(hand, objects[args.object], args.seed)
     if args.save_xml:
-        Path(args.save_xml).write_text(world.scene.xml, encoding="utf-8")
+        write_output(check_output(args.save_xml, "--save-xml"), world.scene.xml)
         print(f"scene: {args.save_xml}")
     if not has_display():
         if not args.save_xml:

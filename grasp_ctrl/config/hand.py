@@ -14,6 +14,11 @@ from grasp_ctrl.config.toml_reader import Table, read_toml
 SAFE_ACTIONS = ("hold", "open", "torque_off")
 ARM_KINDS = ("mock", "dynamixel", "external")
 SERIAL_MODES = ("binary", "text")
+DXL_MAX_BAUD = 4_500_000        # the fastest rate of the Dynamixel X series' bus
+DXL_MAX_PROFILE = 32_767        # Profile Velocity / Acceleration registers (velocity-based profile)
+SERIAL_MAX_BAUD = 12_000_000    # a full-speed USB serial bridge's fastest rate
+MAX_OFFSET_M = 10.0             # any position or offset in the file, per component
+MAX_ANGLE_RAD = 10.0            # any roll, pitch or yaw
 
 
 @dataclass(frozen=True)
@@ -172,8 +177,8 @@ def _joint(t: Table) -> JointConfig:
         name=t.str("name"),
         servo_id=t.int("servo_id", lo=0, hi=252),
         axis=t.vector("axis", 3, unit=True),  # type: ignore[arg-type]
-        origin_xyz=t.vector("origin_xyz", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
-        origin_rpy=t.vector("origin_rpy", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
+        origin_xyz=t.vector("origin_xyz", 3, (0.0, 0.0, 0.0), bound=MAX_OFFSET_M),  # type: ignore[arg-type]
+        origin_rpy=t.vector("origin_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),  # type: ignore[arg-type]
         lower_rad=lower,
         upper_rad=upper,
         open_rad=open_rad,
@@ -196,11 +201,11 @@ def _finger(t: Table) -> FingerConfig:
         sensor_id=t.int("sensor_id", lo=0, hi=255),
         grasp=t.bool("grasp", True),
         task_vector_hand=t.vector("task_vector_hand", 3, unit=True),  # type: ignore[arg-type]
-        base_xyz=t.vector("base_xyz", 3),  # type: ignore[arg-type]
-        base_rpy=t.vector("base_rpy", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
+        base_xyz=t.vector("base_xyz", 3, bound=MAX_OFFSET_M),  # type: ignore[arg-type]
+        base_rpy=t.vector("base_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),  # type: ignore[arg-type]
         joints=joints,
-        tip_xyz=t.vector("tip_xyz", 3),  # type: ignore[arg-type]
-        tip_rpy=t.vector("tip_rpy", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
+        tip_xyz=t.vector("tip_xyz", 3, bound=MAX_OFFSET_M),  # type: ignore[arg-type]
+        tip_rpy=t.vector("tip_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),  # type: ignore[arg-type]
     )
 
 
@@ -232,12 +237,12 @@ def load_hand(path: str | Path) -> HandConfig:
     })
     dynamixel = DynamixelConfig(
         port=d.str("port", DynamixelConfig.port),
-        baud=d.int("baud", DynamixelConfig.baud, lo=9600),
+        baud=d.int("baud", DynamixelConfig.baud, lo=9600, hi=DXL_MAX_BAUD),
         model=d.str("model", DynamixelConfig.model),
         packet_timeout_ms=d.float("packet_timeout_ms", DynamixelConfig.packet_timeout_ms, lo=1.0, hi=1000.0),
         retries=d.int("retries", DynamixelConfig.retries, lo=0, hi=10),
-        profile_velocity=d.int("profile_velocity", 0, lo=0),
-        profile_acceleration=d.int("profile_acceleration", 0, lo=0),
+        profile_velocity=d.int("profile_velocity", 0, lo=0, hi=DXL_MAX_PROFILE),
+        profile_acceleration=d.int("profile_acceleration", 0, lo=0, hi=DXL_MAX_PROFILE),
         fast_sync_read=d.bool("fast_sync_read", True),
         latency_timer_ms=d.int("latency_timer_ms", 1, lo=1, hi=255),
         position_p_gain=d.int("position_p_gain", None, lo=0, hi=16383) if d.has("position_p_gain") else None,
@@ -259,10 +264,10 @@ def load_hand(path: str | Path) -> HandConfig:
     tactile = TactileConfig(
         sensor_type=s.str("sensor_type", "biotac", choices=("biotac",)),
         port=s.str("port", TactileConfig.port),
-        baud=s.int("baud", TactileConfig.baud, lo=9600),
+        baud=s.int("baud", TactileConfig.baud, lo=9600, hi=SERIAL_MAX_BAUD),
         mode=s.str("mode", "binary", choices=SERIAL_MODES),
         stale_after_s=s.float("stale_after_s", 0.05, lo=0.0, hi=10.0, lo_open=True),
-        contact_pdc_threshold=s.float("contact_pdc_threshold", 10.0, lo=0.0, lo_open=True),
+        contact_pdc_threshold=s.float("contact_pdc_threshold", 10.0, lo=0.0, hi=4095.0, lo_open=True),
         contact_frames=s.int("contact_frames", 10, lo=1, hi=1000),
         tare_frames=s.int("tare_frames", 50, lo=1, hi=10000),
         ports=tuple(ports),
@@ -279,16 +284,16 @@ def load_hand(path: str | Path) -> HandConfig:
         kind=a.str("kind", "mock", choices=ARM_KINDS),
         max_speed_m_s=a.float("max_speed_m_s", 0.05, lo=0.0, hi=1.0, lo_open=True),
         lift_height_m=a.float("lift_height_m", 0.10, lo=0.0, hi=1.0, lo_open=True),
-        z_min_m=a.float("z_min_m", 0.0),
-        z_max_m=a.float("z_max_m", 0.6),
+        z_min_m=a.float("z_min_m", 0.0, lo=-10.0, hi=10.0),
+        z_max_m=a.float("z_max_m", 0.6, lo=-10.0, hi=10.0),
         port=a.str("port", ArmConfig.port),
-        baud=a.int("baud", ArmConfig.baud, lo=9600),
+        baud=a.int("baud", ArmConfig.baud, lo=9600, hi=DXL_MAX_BAUD),
         model=a.str("model", ArmConfig.model),
         joints=arm_joints,
-        base_xyz=a.vector("base_xyz", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
-        base_rpy=a.vector("base_rpy", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
-        tool_xyz=a.vector("tool_xyz", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
-        tool_rpy=a.vector("tool_rpy", 3, (0.0, 0.0, 0.0)),  # type: ignore[arg-type]
+        base_xyz=a.vector("base_xyz", 3, (0.0, 0.0, 0.0), bound=MAX_OFFSET_M),  # type: ignore[arg-type]
+        base_rpy=a.vector("base_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),  # type: ignore[arg-type]
+        tool_xyz=a.vector("tool_xyz", 3, (0.0, 0.0, 0.0), bound=MAX_OFFSET_M),  # type: ignore[arg-type]
+        tool_rpy=a.vector("tool_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),  # type: ignore[arg-type]
         line_xy=a.vector("line_xy", 2) if a.has("line_xy") else None,  # type: ignore[arg-type]
         tolerance_m=a.float("tolerance_m", 0.002, lo=0.0, hi=0.1, lo_open=True),
         confirm_step_m=a.float("confirm_step_m", 0.02, lo=0.0, hi=1.0, lo_open=True),

@@ -15,6 +15,7 @@ from grasp_ctrl.config.toml_reader import Table, read_toml
 from grasp_ctrl.names import SAFE_NAME_RULE, is_safe_name
 
 SHAPES = ("cylinder", "box")
+MIN_MASS_KG = 0.001   # 1 g: lighter bodies make MuJoCo's inertias degenerate
 
 
 @dataclass(frozen=True)
@@ -74,9 +75,10 @@ def _object(name: str, t: Table) -> ObjectProfile:
             raise t.fail("size_m", "two sizes between 0.005 and 0.5 m")
         size = (sx, sy)
     height = t.float("height_m", lo=0.01, hi=1.0)
-    mass = t.float("mass_kg", lo=0.0, hi=5.0, lo_open=True)
+    # the engines need a body they can integrate: MuJoCo refuses masses and inertias near zero
+    mass = t.float("mass_kg", lo=MIN_MASS_KG, hi=5.0)
     deformable = t.bool("deformable", False)
-    crush = t.float("crush_force_n", lo=0.0, lo_open=True) if deformable else None
+    crush = t.float("crush_force_n", lo=0.0, hi=1000.0, lo_open=True) if deformable else None
     if not deformable and t.has("crush_force_n"):
         raise t.fail("crush_force_n", "absent for a rigid object (set deformable = true)")
     grasp_h = t.float("grasp_height_m", 0.5 * height, lo=0.005, hi=height)
@@ -92,7 +94,7 @@ def _object(name: str, t: Table) -> ObjectProfile:
         deformable=deformable,
         crush_force_n=crush,
         grasp_height_m=grasp_h,
-        tip_force_n=t.float("tip_force_n", 15.0, lo=0.0, lo_open=True),
+        tip_force_n=t.float("tip_force_n", 15.0, lo=0.0, hi=1000.0, lo_open=True),
         cap=cap,
         tau_n=t.float("tau_n", 2.0, lo=0.1, hi=20.0),
         # the release rule is dot(-f_world, n_world) < -threshold: a positive number

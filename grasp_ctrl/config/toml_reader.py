@@ -14,6 +14,19 @@ from typing import Any, Sequence
 from grasp_ctrl.errors import ConfigError
 
 _MISSING = object()
+# A vector's components beyond this are refused (no length or angle in a hand or object file
+# comes near it; 1e308 would overflow the norm and "normalise" to zero).
+MAX_VECTOR_COMPONENT = 1e3
+
+
+def finite_number(value: Any) -> bool:
+    """An int or float (not a bool) that is finite as a float: a 400-digit integer is not."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:
@@ -103,24 +116,24 @@ class Table:
         lo_open: bool = False,
     ) -> float:
         value = self._get(name, default)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise self.fail(name, "a finite number")
+        if not finite_number(value):
+            span = "" if lo is None and hi is None else f" from {lo if lo is not None else '-inf'} to {hi if hi is not None else 'inf'}"
+            raise self.fail(name, f"a finite number{span} (got {_shown(value)})")
         if lo_open and lo is not None and value <= lo:
             raise self.fail(name, f"a number > {lo} (got {value})")
         _check_range(self, name, float(value), lo, hi)
         return float(value)
 
-    def vector(self, name: str, n: int, default: Any = _MISSING, unit: bool = False) -> tuple[float, ...]:
+    def vector(self, name: str, n: int, default: Any = _MISSING, unit: bool = False,
+               bound: float = MAX_VECTOR_COMPONENT) -> tuple[float, ...]:
         value = self._get(name, default)
-        if (
-            not isinstance(value, (list, tuple))
-            or len(value) != n
-            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
-        ):
+        if not isinstance(value, (list, tuple)) or len(value) != n or not all(finite_number(v) for v in value):
             raise self.fail(name, f"a list of {n} finite numbers")
         vec = tuple(float(v) for v in value)
+        if any(abs(v) > bound for v in vec):
+            raise self.fail(name, f"a list of {n} numbers from {-bound:g} to {bound:g} (got {list(vec)})")
         if unit:
-            norm = math.sqrt(sum(v * v for v in vec))
+            norm = math.hypot(*vec)
             if norm < 1e-9:
                 raise self.fail(name, "a non-zero vector")
             vec = tuple(v / norm for v in vec)
@@ -133,8 +146,13 @@ class Table:
                 raise self.fail(k, f"a known key (allowed: {', '.join(sorted(allowed))})")
 
 
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else f"{text[:20]}... ({len(text)} characters)"
+
+
 def _check_range(t: Table, name: str, value: float, lo: float | None, hi: float | None) -> None:
     if lo is not None and value < lo:
-        raise t.fail(name, f"a value >= {lo} (got {value})")
+        raise t.fail(name, f"a value >= {lo} (got {_shown(value)})")
     if hi is not None and value > hi:
-        raise t.fail(name, f"a value <= {hi} (got {value})")
+        raise t.fail(name, f"a value <= {hi} (got {_shown(value)})")

@@ -30,6 +30,7 @@ from grasp_ctrl.controller import tick_kernels as tk
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import ConfigError
+from grasp_ctrl.finite import all_finite
 from grasp_ctrl.kinematics.chain import HandKinematics
 
 STATES = ["tare", "reach", "close", "ramp", "lift", "hold", "lower", "release", "retreat", "done", "fault"]
@@ -320,8 +321,8 @@ class GraspController:
     def _force_checks(self, snap: Snapshot, limit: float) -> int:
         """``tk.FORCE_NOT_FINITE`` or ``tk.OVERFORCE`` (the largest |f_sensor| above ``limit``), or 0."""
         force_sq = self._force_sq(snap)
-        if not all(map(math.isfinite, force_sq)):
-            return tk.FORCE_NOT_FINITE
+        if not all(map(math.isfinite, force_sq)) and not all_finite(np.asarray(snap.f_sensor, dtype=float)):
+            return tk.FORCE_NOT_FINITE   # (finite components whose square overflows are overforce)
         return tk.OVERFORCE if max(force_sq, default=0.0) > limit * limit else 0
 
     def _compiled_checks(self, snap: Snapshot, limit: float) -> int:
@@ -491,8 +492,9 @@ class GraspController:
         elif checks & tk.OVERFORCE:   # all finite here
             force_sq = self._force_sq(snap)
             i = force_sq.index(max(force_sq))
+            magnitude = math.hypot(*np.asarray(snap.f_sensor, dtype=float)[i])   # no overflow for huge components
             self.fail(reason="overforce",
-                      detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {math.sqrt(force_sq[i]):.2f} N > {limit:g} N")
+                      detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {magnitude:.4g} N > {limit:g} N")
         else:
             for guard in self._guards[self.state]:  # type: ignore[attr-defined]
                 if guard():

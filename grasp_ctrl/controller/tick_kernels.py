@@ -59,7 +59,9 @@ def tick_checks(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.ndarray, 
         x, y, z = f_sensor[i, 0], f_sensor[i, 1], f_sensor[i, 2]
         sq = ((0.0 + x * x) + z * z) + y * y
         if not math.isfinite(sq):
-            return out | FORCE_NOT_FINITE
+            if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
+                return out | FORCE_NOT_FINITE
+            sq = math.inf   # finite components whose square overflows: above any limit (overforce)
         if i == 0 or sq > largest:
             largest = sq
     if f_sensor.shape[0] and largest > limit * limit:

@@ -16,7 +16,6 @@ POSIX only (pseudo-terminals).
 
 from __future__ import annotations
 
-import csv
 import errno
 import os
 import tempfile
@@ -90,19 +89,19 @@ class RecordingSource:
     """Replays rows of a CSV with columns ``pdc, e1..e19`` (e.g. robotic_finger_tidy.csv),
     looping; each fingertip starts at a different row so the tips do not move in lockstep."""
 
-    def __init__(self, path: str | Path, seed: int = 0, max_rows: int | None = None) -> None:
-        with open(path, newline="", encoding="utf-8") as fh:
-            reader = csv.DictReader(fh)
-            cols = ["e%d" % i for i in range(1, 20)] + ["pdc"]
-            missing = [c for c in cols if c not in (reader.fieldnames or [])]
-            if missing:
-                raise ValueError(f"{path}: recording lacks columns {missing}")
-            rows = []
-            for i, row in enumerate(reader):
-                if max_rows is not None and i >= max_rows:
-                    break
-                rows.append([float(row[c]) for c in cols])
-        if not rows:
+    def __init__(self, path: str | Path, seed: int = 0, max_rows: int | None = None,
+                 skip_bad_rows: bool = False) -> None:
+        from grasp_ctrl.csv_rows import Column, read_rows
+        from grasp_ctrl.errors import UsageError
+
+        cols = [Column(f"e{i}", 0.0, 4095.0) for i in range(1, 20)] + [Column("pdc", 0.0, 4095.0)]
+        try:
+            rows = read_rows(path, cols, skip_bad_rows=skip_bad_rows).values
+        except UsageError as exc:   # the callers report ValueError naming the flag
+            raise ValueError(str(exc)) from None
+        if max_rows is not None:
+            rows = rows[:max_rows]
+        if not len(rows):
             raise ValueError(f"{path}: recording has no rows")
         self._data = np.asarray(rows)  # (n, 20): e1..e19, pdc
         self.seed = seed

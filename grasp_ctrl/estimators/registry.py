@@ -10,7 +10,6 @@ are built by the trial runner, not here.
 from __future__ import annotations
 
 import importlib
-import json
 from pathlib import Path
 from typing import Any, Callable
 
@@ -18,6 +17,7 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.analytic import AnalyticEstimator
 from grasp_ctrl.estimators.base import ForceEstimator
+from grasp_ctrl.json_limits import JsonFileError, read_json
 from grasp_ctrl.paths import policies_dir
 
 DEFAULT_POLICY = "mlp_mock"
@@ -48,9 +48,9 @@ def resolve_policy_path(spec: str) -> Path:
 
 def read_metadata(json_path: Path) -> dict[str, Any]:
     try:
-        meta = json.loads(json_path.read_text(encoding="utf-8"))
-    except (OSError, ValueError, RecursionError) as exc:   # ValueError: bad JSON or bad UTF-8
-        raise PolicyError(f"{json_path}: unreadable policy metadata ({type(exc).__name__}: {str(exc)[:200]})") from None
+        meta = read_json(json_path)
+    except JsonFileError as exc:
+        raise PolicyError(f"{json_path}: unreadable policy metadata ({exc})") from None
     if not isinstance(meta, dict) or "kind" not in meta:
         raise PolicyError(f"{json_path}: kind: required key is missing")
     return meta

@@ -8,17 +8,23 @@ in_paper_trial. The recordings hold no pac/tdc/tac, so those channels of the
 
 from __future__ import annotations
 
-import csv
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from grasp_ctrl.csv_rows import Column, read_rows
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PDC
 
 _ELECTRODE_COLS = [f"e{i}" for i in range(1, 20)]
-_REQUIRED = ["trial_id", "pdc", *_ELECTRODE_COLS, "nx", "ny", "nz", "in_paper_trial"]
+COUNT_MAX = 4095.0          # a 12-bit BioTac channel
+NORMAL_TOLERANCE = 0.01     # the labelled normals are unit vectors to 1e-8
+COLUMNS = [Column("pdc", 0.0, COUNT_MAX), *(Column(c, 0.0, COUNT_MAX) for c in _ELECTRODE_COLS),
+           Column("nx", -1.0 - NORMAL_TOLERANCE, 1.0 + NORMAL_TOLERANCE),
+           Column("ny", -1.0 - NORMAL_TOLERANCE, 1.0 + NORMAL_TOLERANCE),
+           Column("nz", -1.0 - NORMAL_TOLERANCE, 1.0 + NORMAL_TOLERANCE), Column("in_paper_trial", 0.0, 1.0)]
 
 
 @dataclass(frozen=True)
@@ -32,29 +38,26 @@ class Trial:
         return self.raw.shape[0]
 
 
-def read_trials(path: str | Path) -> list[Trial]:
-    """All trials in file order; raises UsageError naming the file on bad input."""
+def _unit_normal(values: np.ndarray) -> str | None:
+    norm = math.hypot(*values[20:23])
+    return None if abs(norm - 1.0) <= NORMAL_TOLERANCE else \
+        f"nx, ny, nz: a unit plate normal (got length {norm:.4g})"
+
+
+def read_trials(path: str | Path, skip_bad_rows: bool = False) -> list[Trial]:
+    """All trials in file order; raises UsageError naming the file, line and column of the
+    first bad row (a short row, a non-number, NaN, a count outside 0..4095, a normal that
+    is not a unit vector), or with ``skip_bad_rows`` leaves such rows out with a warning."""
     path = Path(path)
-    try:
-        fh = path.open(newline="", encoding="utf-8")
-    except OSError as exc:
-        raise UsageError(f"{path}: cannot read ({exc.strerror or exc})") from None
-    with fh:
-        reader = csv.DictReader(fh)
-        missing = [c for c in _REQUIRED if c not in (reader.fieldnames or [])]
-        if missing:
-            raise UsageError(f"{path}: missing column(s) {', '.join(missing)}")
-        rows: dict[str, list[dict[str, str]]] = {}
-        for row in reader:
-            rows.setdefault(row["trial_id"], []).append(row)
+    rows = read_rows(path, COLUMNS, ["trial_id"], skip_bad_rows=skip_bad_rows, what="plate-normal recording",
+                     row_check=_unit_normal)
+    order: dict[str, list[int]] = {}
+    for i, (tid,) in enumerate(rows.text):
+        order.setdefault(tid, []).append(i)
     trials = []
-    for tid, rs in rows.items():
-        try:
-            vals = np.array([[float(r[c]) for c in ["pdc", *_ELECTRODE_COLS, "nx", "ny", "nz", "in_paper_trial"]]
-                             for r in rs])
-        except ValueError as exc:
-            raise UsageError(f"{path}: trial {tid}: non-numeric value ({exc})") from None
-        raw = np.zeros((len(rs), FRAME_LEN))
+    for tid, idx in order.items():
+        vals = rows.values[idx]
+        raw = np.zeros((len(idx), FRAME_LEN))
         raw[:, PDC] = vals[:, 0]
         raw[:, ELECTRODES] = vals[:, 1:20]
         trials.append(Trial(tid, raw, vals[:, 20:23], bool(vals[0, 23])))

@@ -72,7 +72,8 @@ def is_plate_recording(path: Path) -> bool:
     return all(c in [h.strip() for h in head] for c in PLATE_COLUMNS)
 
 
-def load_data(path: Path, tare_frames: int | None = None, min_pdc: float = 50.0) -> CalibrationData:
+def load_data(path: Path, tare_frames: int | None = None, min_pdc: float = 50.0,
+              skip_bad_rows: bool = False) -> CalibrationData:
     """Labelled in-contact frames from a dataset file or a plate-normal recording.
 
     ``tare_frames``: dataset RAW files: minimum tare rows per trial (default 10); plate
@@ -83,7 +84,7 @@ def load_data(path: Path, tare_frames: int | None = None, min_pdc: float = 50.0)
         from grasp_ctrl.evaluation.direction import gate_trial
         from grasp_ctrl.evaluation.robotic_finger import read_trials
 
-        parts = [gate_trial(t, tare_frames or 50, 10.0, 10, min_pdc) for t in read_trials(path)]
+        parts = [gate_trial(t, tare_frames or 50, 10.0, 10, min_pdc) for t in read_trials(path, skip_bad_rows)]
         parts = [p for p in parts if len(p.tared)]
         if not parts:
             raise UsageError(f"{path}: no frames in contact")

@@ -26,8 +26,11 @@ Extra columns are ignored. Bad rows are reported with their line number (CSV) or
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import io
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
@@ -321,9 +324,19 @@ def _cells(values: np.ndarray) -> list[str]:
     return [repr(float(v)) for v in values]
 
 
+@contextlib.contextmanager
+def _text_output(path: str | Path) -> Iterator[io.StringIO]:
+    """Collect the text, then write it as a new file (a symlink there is replaced, not followed)."""
+    from grasp_ctrl.safe_write import write_output
+
+    buf = io.StringIO(newline="")
+    yield buf
+    write_output(path, buf.getvalue())
+
+
 def write_csv(path: str | Path, ds: Dataset) -> None:
     """A TARED dataset file: one row per force sample."""
-    with Path(path).open("w", newline="", encoding="utf-8") as fh:
+    with _text_output(path) as fh:
         w = csv.writer(fh)
         w.writerow(header())
         for i in range(len(ds)):
@@ -344,7 +357,7 @@ class RawTrial:
 
 
 def write_raw_csv(path: str | Path, trials: Iterable[RawTrial]) -> None:
-    with Path(path).open("w", newline="", encoding="utf-8") as fh:
+    with _text_output(path) as fh:
         w = csv.writer(fh)
         w.writerow(header(raw=True))
         for tr in trials:

@@ -24,6 +24,7 @@ import torch
 
 from grasp_ctrl.learning.features import model_inputs
 from grasp_ctrl.learning.models import ARCHS, build_model, input_shapes
+from grasp_ctrl.safe_write import output_file, write_output
 
 STATE_DICT_KEY = "grasp_ctrl.torch_state_dict"
 ARCH_KEY = "grasp_ctrl.arch"
@@ -94,7 +95,8 @@ def export_onnx(model: torch.nn.Module, arch: str, onnx_path: Path) -> float:
         entry.key, entry.value = key, value
     onnx.checker.check_model(proto)
     onnx_path.parent.mkdir(parents=True, exist_ok=True)
-    onnx.save(proto, str(onnx_path))
+    with output_file(onnx_path) as tmp:   # a symlink at onnx_path is replaced, not followed
+        onnx.save(proto, str(tmp))
     # parity on other inputs than the tracing ones, including a batch of one
     sess = ort.InferenceSession(str(onnx_path), providers=["CPUExecutionProvider"])
     worst = 0.0
@@ -216,7 +218,7 @@ def export_checkpoint(ckpt: dict[str, Any], name: str, out_dir: Path,
     parity = export_onnx(model, ckpt["arch"], onnx_path)
     json_path = out_dir / f"{name}.json"
     sha = hashlib.sha256(onnx_path.read_bytes()).hexdigest()
-    json_path.write_text(json.dumps(policy_metadata(name, ckpt["arch"], ckpt, parity, sha, description), indent=2) + "\n", encoding="utf-8")
+    write_output(json_path, json.dumps(policy_metadata(name, ckpt["arch"], ckpt, parity, sha, description), indent=2) + "\n")
     return onnx_path, json_path, parity
 
 

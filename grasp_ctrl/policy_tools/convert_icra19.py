@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from grasp_ctrl.policy_tools import icra19_net
+from grasp_ctrl.safe_write import write_output
 from grasp_ctrl.tactile.voxel import GRID_SHAPE, VoxelGrid
 
 OPSET = 17
@@ -325,7 +326,7 @@ def convert(npz_path: str | Path, out_dir: str | Path, name: str, seed: int = DE
     out_dir.mkdir(parents=True, exist_ok=True)
     onnx_path = out_dir / f"{name}.onnx"
     json_path = out_dir / f"{name}.json"
-    onnx_path.write_bytes(data)
+    write_output(onnx_path, data)   # a symlink there is replaced, never written through
     meta = metadata(name, weights, npz_path, onnx_path, seed if weights.dropout else None, parity)
-    json_path.write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
+    write_output(json_path, json.dumps(meta, indent=2) + "\n")
     return onnx_path, json_path, parity

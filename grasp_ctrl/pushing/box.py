@@ -31,14 +31,14 @@ def load_box(path: str | Path) -> PushedBox:
     """OBJECT.toml of DESIGN.md 5.4: mass_kg, size_m = [lx, ly], mu; optional izz_kgm2, gravity."""
     t = Table(path, read_toml(path))
     t.unknown_keys({"mass_kg", "size_m", "mu", "izz_kgm2", "gravity", "name"})
-    size = t.vector("size_m", 2)
+    size = t.vector("size_m", 2, bound=10.0)
     if min(size) <= 0:
         raise t.fail("size_m", f"two positive lengths in metres (got {list(size)})")
-    izz = t.float("izz_kgm2", None, lo=0.0, lo_open=True) if t.has("izz_kgm2") else None
+    izz = t.float("izz_kgm2", None, lo=1e-12, hi=1e6) if t.has("izz_kgm2") else None
     return PushedBox(
-        mass_kg=t.float("mass_kg", lo=0.0, lo_open=True),
+        mass_kg=t.float("mass_kg", lo=1e-4, hi=1e4),
         size_m=(size[0], size[1]),
-        mu=t.float("mu", lo=0.0, lo_open=True),   # no friction: no force to estimate
+        mu=t.float("mu", lo=0.0, hi=10.0, lo_open=True),   # no friction: no force to estimate
         izz_kgm2=izz,
-        gravity=t.float("gravity", STANDARD_GRAVITY, lo=0.0, lo_open=True),
+        gravity=t.float("gravity", STANDARD_GRAVITY, lo=0.0, hi=100.0, lo_open=True),
     )

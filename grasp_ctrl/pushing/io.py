@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import io
 import math
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
+from grasp_ctrl.csv_rows import Column, read_rows
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.safe_write import write_output
 from grasp_ctrl.pushing.solver import PushForces
 from grasp_ctrl.pushing.simulate import SimulatedPush
 
@@ -16,45 +21,40 @@ PUSH_COLUMNS = ("t", "x", "y", "theta", "contact_x", "contact_y", "in_contact")
 FORCE_COLUMNS = ("t", "fx_world", "fy_world", "fx_object", "fy_object", "moving")
 
 
-def read_push_csv(path: str | Path) -> dict[str, np.ndarray]:
-    """Columns of PUSH.csv as float arrays (extra columns ignored)."""
+PUSH_RANGES = {"t": 1e7, "x": 100.0, "y": 100.0, "theta": 1e4, "contact_x": 100.0, "contact_y": 100.0,
+               "in_contact": 1.0}   # |value| at most: s, m, rad (unwrapped), m
+
+
+def _contact_flag(values: np.ndarray) -> str | None:
+    return None if values[6] in (0.0, 1.0) else f"in_contact: 0 or 1 (got {values[6]:g})"
+
+
+def read_push_csv(path: str | Path, skip_bad_rows: bool = False) -> dict[str, np.ndarray]:
+    """Columns of PUSH.csv as float arrays (extra columns ignored). A bad row (short, not
+    numbers, NaN, out of range, binary junk) is named by line, or left out with ``skip_bad_rows``."""
     p = Path(path)
-    try:
-        fh = p.open(newline="", encoding="utf-8")
-    except OSError as exc:
-        raise UsageError(f"{p}: cannot read the trajectory ({exc.strerror or exc})") from None
-    with fh:
-        reader = csv.reader(fh)
-        header = next(reader, None)
-        if header is None:
-            raise UsageError(f"{p}: empty file, expected a header with {', '.join(PUSH_COLUMNS)}")
-        header = [h.strip() for h in header]
-        missing = [c for c in PUSH_COLUMNS if c not in header]
-        if missing:
-            raise UsageError(f"{p}: line 1: missing column(s) {', '.join(missing)}")
-        cols = [header.index(c) for c in PUSH_COLUMNS]
-        rows: list[list[float]] = []
-        for line_no, row in enumerate(reader, start=2):
-            if not row or all(not v.strip() for v in row):
-                continue
-            try:
-                values = [float(row[i]) for i in cols]
-            except (ValueError, IndexError):
-                raise UsageError(f"{p}: line {line_no}: expected numbers in columns {', '.join(PUSH_COLUMNS)}") from None
-            bad = [PUSH_COLUMNS[j] for j, v in enumerate(values) if not math.isfinite(v)]
-            if bad:
-                raise UsageError(f"{p}: line {line_no}: {bad[0]}: a finite number")
-            if values[6] not in (0.0, 1.0):
-                raise UsageError(f"{p}: line {line_no}: in_contact: 0 or 1 (got {row[cols[6]]!r})")
-            rows.append(values)
-    if len(rows) < 2:
+    cols = [Column(c, -PUSH_RANGES[c], PUSH_RANGES[c]) for c in PUSH_COLUMNS]
+    rows = read_rows(p, cols, skip_bad_rows=skip_bad_rows, what="trajectory", row_check=_contact_flag)
+    if len(rows.values) < 2:
         raise UsageError(f"{p}: need at least two samples")
-    arr = np.asarray(rows)
-    return {c: arr[:, j] for j, c in enumerate(PUSH_COLUMNS)}
+    t = rows.values[:, 0]
+    back = np.flatnonzero(np.diff(t) <= 0)
+    if back.size:
+        raise UsageError(f"{p}: line {rows.lines[back[0] + 1]}: t: increasing times (got {t[back[0] + 1]:g} "
+                         f"after {t[back[0]]:g})")
+    return {c: rows.values[:, j] for j, c in enumerate(PUSH_COLUMNS)}
+
+
+@contextlib.contextmanager
+def _text_output(path: str | Path) -> Iterator[io.StringIO]:
+    """Collect the text, then write it as a new file (a symlink there is replaced, not followed)."""
+    buf = io.StringIO(newline="")
+    yield buf
+    write_output(path, buf.getvalue())
 
 
 def write_push_csv(path: str | Path, push: SimulatedPush) -> None:
-    with Path(path).open("w", newline="", encoding="utf-8") as fh:
+    with _text_output(path) as fh:
         w = csv.writer(fh)
         w.writerow(PUSH_COLUMNS)
         for i in range(len(push.t)):
@@ -67,7 +67,7 @@ def write_forces_csv(path: str | Path, forces: PushForces) -> None:
     def fmt(v: float) -> str:
         return "nan" if math.isnan(v) else f"{v:.9g}"
 
-    with Path(path).open("w", newline="", encoding="utf-8") as fh:
+    with _text_output(path) as fh:
         w = csv.writer(fh)
         w.writerow(FORCE_COLUMNS)
         for i in range(len(forces.t)):

@@ -6,29 +6,32 @@ only the fields that differ from the defaults; docs/mock_world.md lists every fi
 
 from __future__ import annotations
 
-import json
-import math
 from dataclasses import fields, replace
 from pathlib import Path
 
+from grasp_ctrl.config.toml_reader import finite_number
 from grasp_ctrl.sim.biotac_model import DEFAULT_PARAMS, BioTacParams, rise_weights_of
 
 
+MAX_MAGNITUDE = 1e9   # no parameter of the model (m, N/m, counts, ratios) comes near it
+
+
 def _number(path: Path, name: str, value: object) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ValueError(f"{path}: {name}: need a finite number, got {value!r}")
-    return float(value)
+    if not finite_number(value) or abs(float(value)) > MAX_MAGNITUDE:  # type: ignore[arg-type]
+        shown = repr(value) if len(repr(value)) <= 40 else f"{repr(value)[:20]}..."
+        raise ValueError(f"{path}: {name}: need a finite number from {-MAX_MAGNITUDE:g} to {MAX_MAGNITUDE:g}, got {shown}")
+    return float(value)  # type: ignore[arg-type]
 
 
 def load_biotac_params(path: str | Path) -> BioTacParams:
     """The defaults with the file's overrides; ValueError naming the file and field on bad input."""
     path = Path(path)
+    from grasp_ctrl.json_limits import JsonFileError, read_json
+
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ValueError(f"{path}: cannot read ({exc.strerror})") from None
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not JSON ({exc.msg}, line {exc.lineno})") from None
+        doc = read_json(path)
+    except JsonFileError as exc:
+        raise ValueError(f"{path}: {exc}") from None
     if isinstance(doc, dict) and isinstance(doc.get("params"), dict):
         doc = doc["params"]
     if not isinstance(doc, dict):

@@ -69,6 +69,9 @@ def _mujoco():
         from grasp_ctrl.errors import UsageError
 
         raise UsageError("--backend mujoco needs the sim extra: pip install -e '.[sim]' (mujoco>=3.1)") from None
+    from grasp_ctrl.sim.mujoco_log import install
+
+    install(mujoco)   # its warnings: the run directory or nowhere, never ./MUJOCO_LOG.TXT
     return mujoco
 
 

@@ -8,6 +8,7 @@ Rows are flushed after every batch so a crash or Ctrl-C loses nothing written.
 from __future__ import annotations
 
 import csv
+import os
 from pathlib import Path
 from typing import Iterable
 
@@ -22,7 +23,10 @@ class FrameRecorder:
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
         try:
-            self._fh = open(self.path, "w", newline="", encoding="utf-8")
+            if self.path.is_symlink():   # a new file replaces the link; its target is never written
+                self.path.unlink()
+            fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | getattr(os, "O_NOFOLLOW", 0), 0o666)
+            self._fh = os.fdopen(fd, "w", newline="", encoding="utf-8")
         except OSError as exc:
             raise UsageError(f"--record {self.path}: cannot write ({exc.strerror})") from None
         self._writer = csv.writer(self._fh)

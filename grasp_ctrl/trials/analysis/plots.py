@@ -11,6 +11,7 @@ from typing import Any, Mapping
 
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.plotting import pyplot
+from grasp_ctrl.safe_write import save_figure
 from grasp_ctrl.trials.analysis.compare import ordered_names, success_matrix
 from grasp_ctrl.loop.ticklog import read_tick_log
 
@@ -45,9 +46,10 @@ def comparison_chart(summary: Mapping[str, Any], path: Path, policies: list[str]
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.28), ncol=max(len(pols), 1), frameon=False)
     ax.set_title(title or f"lift-and-place success ({summary.get('backend', '')}, seed {summary.get('seed', '')})")
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
+    try:
+        save_figure(fig, path)   # format from the extension; a symlink there is replaced, not followed
+    finally:
+        plt.close(fig)
     return path
 
 
@@ -102,7 +104,8 @@ def force_traces(ticks_file: Path, path: Path, frame: str = "sensor", title: str
     axes[-1, 0].set_xlabel("t (s)")
     fig.suptitle(title or ticks_file.name, y=0.995, fontsize=10)
     fig.tight_layout(rect=(0, 0.05, 1, 0.97))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
+    try:
+        save_figure(fig, path)   # format from the extension; a symlink there is replaced, not followed
+    finally:
+        plt.close(fig)
     return path

@@ -19,6 +19,7 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.safe_write import output_file
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.plotting import pyplot
 from grasp_ctrl.trials.analysis.trial_view import TrialView
@@ -139,7 +140,9 @@ def animate(view: TrialView, hand: HandConfig, path: Path, fps: float = 12.0, ma
         return out
 
     anim = FuncAnimation(fig, draw, frames=len(fr["idx"]), blit=False)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    anim.save(str(path), writer=PillowWriter(fps=fps))
-    plt.close(fig)
+    try:
+        with output_file(path) as tmp:   # a symlink at ``path`` is replaced, not followed
+            anim.save(str(tmp), writer=PillowWriter(fps=fps))
+    finally:
+        plt.close(fig)
     return path

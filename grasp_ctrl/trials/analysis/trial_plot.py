@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.safe_write import save_figure
 from grasp_ctrl.trials.analysis.plots import STATE_COLOURS, pyplot, state_spans
 from grasp_ctrl.trials.analysis.trial_view import TrialView
 
@@ -109,7 +110,8 @@ def trial_figure(view: TrialView, path: Path) -> Path:
     fig.suptitle(view.title(), y=0.995, fontsize=10)
     legend_rows = (len(labels) + 3) // 4
     fig.tight_layout(rect=(0, 0.018 * legend_rows + 0.02, 1, 0.975))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
+    try:
+        save_figure(fig, path)   # format from the extension; a symlink there is replaced, not followed
+    finally:
+        plt.close(fig)
     return path

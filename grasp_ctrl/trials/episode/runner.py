@@ -38,12 +38,15 @@ from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
+from grasp_ctrl.sim.mujoco_log import set_log_dir as set_engine_log_dir
 from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
 from grasp_ctrl.sim.world import MockWorld, WorldParams
+from grasp_ctrl.trials.runs.fingerprint import stamp, sync_manifest
 from grasp_ctrl.trials.episode.mock_tick import MockTick
-from grasp_ctrl.trials.runs.manifest import RunManifest, read_manifest, write_manifest
+from grasp_ctrl.trials.runs.manifest import RunManifest, read_manifest
 from grasp_ctrl.trials.episode.outcome import judge
 from grasp_ctrl.loop.sensing import SensingPipeline
+from grasp_ctrl.trials.runs.planned import why_unplanned
 from grasp_ctrl.loop.tick import control_tick
 from grasp_ctrl.trials.runs.progress import Progress
 from grasp_ctrl.trials.runs.records import canonical_order, load_records, record_files
@@ -473,8 +476,7 @@ def run_series(
                 raise UsageError(f"{run_dir}/run.json describes other trials than these parameters; resume with its own parameters")
             for tmp in stale_temp_files(run_dir):   # left by a writer that died; we hold the lock
                 tmp.unlink(missing_ok=True)
-            if existing is None:
-                write_manifest(run_dir, plan)
+            sync_manifest(run_dir, plan, existing)   # new run, or a resume that recorded --force
             started = True
             return _run_locked(hand, plan, policies, trials, seed, run_dir, progress, resume, run_trial,
                                after_trial, warn, jobs, threads, executor, address)
@@ -502,11 +504,11 @@ def _run_locked(
             warn(f"skipping {path}: {why}; that trial will run again")
         for rec in loaded.records:
             key = (rec["policy"], rec["object"], rec["trial"])
-            if rec["policy"] in policies and rec["object"] in plan.object_names and rec["trial"] < trials \
-                    and rec["seed"] == trial_seed(seed, rec["object"], rec["trial"]):
+            why = why_unplanned(rec, plan)
+            if why is None:
                 done[key] = rec
             else:
-                warn(f"ignoring {record_path(run_dir, *key)}: not a trial of this run's parameters")
+                warn(f"ignoring {record_path(run_dir, *key)}: not a trial of this run ({why})")
 
     reporter = progress if isinstance(progress, Progress) else Progress(plan.total, enabled=bool(progress))
     reporter.resumed(canonical_order(list(done.values()), list(policies), plan.object_names))
@@ -528,12 +530,13 @@ def _run_locked(
         key = (rec["policy"], rec["object"], rec["trial"])
         if key in tick_logs and tick_logs[key][0].exists():
             commit_temp(*tick_logs[key])
-        write_json(record_path(run_dir, *key), rec)
+        write_json(record_path(run_dir, *key), stamp(rec, plan))
         done[key] = rec
         reporter.trial_done(rec)
         if after_trial:
             after_trial(rec)
 
+    set_engine_log_dir(run_dir)   # MuJoCo's warnings of in-process trials: the run directory, not ./
     try:
         if executor == "ray" and pending:
             from grasp_ctrl.trials.runs.ray_executor import ray_trials
@@ -556,6 +559,7 @@ def _run_locked(
             for args in pending:
                 finish(run_trial(*args))
     finally:
+        set_engine_log_dir(None)
         reporter.close()
         for tmp, _final in tick_logs.values():   # the trial in progress when interrupted
             tmp.unlink(missing_ok=True)

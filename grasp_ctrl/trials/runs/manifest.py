@@ -10,16 +10,16 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import json
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from grasp_ctrl.config.objects import ObjectProfile, profile_from_json
+from grasp_ctrl.config.toml_reader import finite_number
 from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import ConfigError, UsageError
+from grasp_ctrl.json_limits import JsonFileError, read_json
 from grasp_ctrl.storage import RUN_FILE, write_json
 
 FORMAT = 1
@@ -28,6 +28,7 @@ BACKENDS = ("mock", "mujoco", "dynamixel", EMULATED_BACKEND)
 MAX_TRIALS = 100_000
 # settings that may be zero (no slow zone, no overshoot, no retreat)
 SETTING_CHOICES = {"grip_targets": GRIP_TARGET_MODES}   # the text settings and their values
+MAX_SETTING = 1e6   # no controller setting (seconds, metres, newtons, ratios) comes near it
 ZERO_ALLOWED = ("lower_overshoot_m", "lower_slow_zone_m", "retreat_m", "grip_weight_margin")
 
 
@@ -45,6 +46,8 @@ class RunManifest:
     object_file: str | None = None
     preset: str | None = None
     settings: ControllerSettings = field(default_factory=ControllerSettings)
+    fingerprint: dict[str, Any] | None = None     # trials/runs/fingerprint.py
+    forced: list[dict[str, Any]] = field(default_factory=list)   # resumes with --force despite changes
 
     @property
     def object_names(self) -> list[str]:
@@ -69,6 +72,8 @@ class RunManifest:
             "objects": [dataclasses.asdict(o) for o in self.objects],
             "tick_logs": self.tick_logs,
             "settings": dataclasses.asdict(self.settings),
+            "fingerprint": self.fingerprint,
+            "forced": list(self.forced),
         }
 
     @classmethod
@@ -118,10 +123,17 @@ class RunManifest:
             if doc.get(key) is not None and not isinstance(doc[key], str):
                 raise bad(key, "a string or null")
         settings = settings_from_json(doc.get("settings") or {}, where)
+        from grasp_ctrl.trials.runs.fingerprint import check_shape
+
+        fingerprint = check_shape(doc.get("fingerprint"), where)
+        forced = doc.get("forced") or []
+        if not isinstance(forced, list) or not all(isinstance(f, dict) for f in forced):
+            raise bad("forced", "a list of tables (resumes with --force)")
         return cls(
             backend=backend, hand=hand, seed=seed, trials=trials, policies=list(policies), objects=objects,
             tick_logs=tick_logs, hand_file=doc.get("hand_file"), hand_sha256=doc.get("hand_sha256"),
             object_file=doc.get("object_file"), preset=doc.get("preset"), settings=settings,
+            fingerprint=fingerprint, forced=forced,
         )
 
     def same_plan(self, other: "RunManifest") -> bool:
@@ -154,10 +166,10 @@ def settings_from_json(d: Any, where: str) -> ControllerSettings:
             choices = SETTING_CHOICES.get(key, ())
             if v not in choices:
                 raise UsageError(f"{where}: settings.{key}: one of {', '.join(choices)} (got {v!r})")
-        elif isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0 \
-                or (v == 0 and key not in ZERO_ALLOWED):
-            need = "a finite number >= 0" if key in ZERO_ALLOWED else "a finite number > 0"
-            raise UsageError(f"{where}: settings.{key}: {need} (got {v!r})")
+        elif not finite_number(v) or v < 0 or v > MAX_SETTING or (v == 0 and key not in ZERO_ALLOWED):
+            need = f"a finite number {'>=' if key in ZERO_ALLOWED else '>'} 0 and <= {MAX_SETTING:g}"
+            shown = repr(v) if len(repr(v)) <= 40 else f"{repr(v)[:20]}..."
+            raise UsageError(f"{where}: settings.{key}: {need} (got {shown})")
         values[key] = v
     return ControllerSettings(**values)
 
@@ -171,7 +183,11 @@ def manifest_path(run_dir: Path) -> Path:
 
 
 def write_manifest(run_dir: Path, m: RunManifest) -> None:
+    from grasp_ctrl.trials.runs.fingerprint import compute
+
     run_dir.mkdir(parents=True, exist_ok=True)
+    if m.fingerprint is None:
+        m.fingerprint = compute(m)
     write_json(manifest_path(run_dir), m.to_json())
 
 
@@ -181,7 +197,7 @@ def read_manifest(run_dir: Path) -> RunManifest | None:
     if not path.is_file():
         return None
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise UsageError(f"{path}: unreadable run file ({exc.__class__.__name__})") from None
+        doc = read_json(path)
+    except JsonFileError as exc:
+        raise UsageError(f"{path}: unreadable run file ({exc})") from None
     return RunManifest.from_json(doc, str(path))

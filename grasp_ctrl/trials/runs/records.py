@@ -7,13 +7,15 @@ with the reason and left out; it never stops scoring or resuming.
 
 from __future__ import annotations
 
-import json
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from grasp_ctrl.json_limits import JsonFileError, read_json
 from grasp_ctrl.storage import TRIALS_DIR, safe_name
+
+MAX_RECORD_BYTES = 4 * 1024 * 1024
 
 RECORD_NAME = re.compile(r"^trial_(\d{3,})\.json$")
 REASON_WORD = re.compile(r"^[a-z][a-z0-9_]*$")
@@ -59,17 +61,9 @@ def check_record(doc: Any, path: Path | None = None) -> str | None:
 def read_record(path: Path) -> tuple[dict[str, Any] | None, str | None]:
     """(record, None) or (None, why it is unusable)."""
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        return None, f"unreadable ({exc.__class__.__name__})"
-    if not text.strip():
-        return None, "empty file"
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as exc:
-        return None, f"not valid JSON (truncated or corrupt: {exc.msg} at line {exc.lineno})"
-    except (RecursionError, ValueError):
-        return None, "not valid JSON (nested too deeply or unparsable numbers)"
+        doc = read_json(path, MAX_RECORD_BYTES)
+    except JsonFileError as exc:
+        return None, str(exc)
     why = check_record(doc, path)
     return (None, why) if why else (doc, None)
 

@@ -17,11 +17,16 @@ from pathlib import Path
 from typing import Callable
 
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.json_limits import JsonFileError, read_json
 from grasp_ctrl.storage import LOCK_FILE
 
 
+MAX_LOCK_BYTES = 64 * 1024
+MAX_PID = 2**31 - 1   # pid_t
+
+
 def pid_alive(pid: int) -> bool:
-    if pid <= 0:
+    if not 0 < pid <= MAX_PID:
         return False
     try:
         os.kill(pid, 0)
@@ -41,11 +46,18 @@ class RunLock:
         self.held = False
 
     def _owner(self) -> dict[str, object] | None:
+        """The lock's owner, or None when the file is unreadable or not a lock of ours (garbage,
+        a pid that no process can have, an absurd size or depth)."""
         try:
-            doc = json.loads(self.path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, ValueError):
+            doc = read_json(self.path, max_bytes=MAX_LOCK_BYTES)
+        except JsonFileError:
             return None
-        return doc if isinstance(doc, dict) else None
+        if not isinstance(doc, dict):
+            return None
+        pid = doc.get("pid")
+        if not (isinstance(pid, int) and not isinstance(pid, bool) and 0 < pid <= MAX_PID):
+            return None
+        return doc
 
     def acquire(self) -> "RunLock":
         me = {"pid": os.getpid(), "host": socket.gethostname(), "started": time.strftime("%Y-%m-%dT%H:%M:%S")}

@@ -2,15 +2,15 @@
 
 from __future__ import annotations
 
-import json
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.json_limits import JsonFileError, read_json
 from grasp_ctrl.trials.runs.manifest import RunManifest, read_manifest
-from grasp_ctrl.trials.runs.records import canonical_order, load_records
+from grasp_ctrl.trials.runs.records import LoadedRecords, canonical_order, load_records
 from grasp_ctrl.storage import SUMMARY_FILE
 from grasp_ctrl.trials.runs.summary import summarize
 
@@ -39,8 +39,8 @@ class Scored:
 
 def _read_live(run_dir: Path) -> dict[str, Any] | None:
     try:
-        doc = json.loads((run_dir / SUMMARY_FILE).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        doc = read_json(run_dir / SUMMARY_FILE)
+    except JsonFileError:
         return None
     return doc if isinstance(doc, dict) else None
 
@@ -57,6 +57,8 @@ def score_run(run_dir: Path) -> Scored:
         backend, hand, seed = live["backend"], live["hand"], live["seed"]
     else:
         raise UsageError(f"{run_dir}: neither run.json nor summary.json says which run this is")
+    if manifest is not None:
+        loaded = only_planned(loaded, manifest, run_dir)
     if not loaded.records:
         where = f" ({len(loaded.problems)} unusable)" if loaded.problems else ""
         raise UsageError(f"{run_dir}: no usable trial records{where}")
@@ -64,6 +66,23 @@ def score_run(run_dir: Path) -> Scored:
                               manifest.object_names if manifest else None)
     summary = summarize(records, str(run_dir), backend, hand, seed)
     return Scored(run_dir, summary, records, loaded.problems, manifest, live)
+
+
+def only_planned(loaded: LoadedRecords, manifest: RunManifest, run_dir: Path) -> LoadedRecords:
+    """The records of the run's plan; the others move to ``problems`` with the reason."""
+    from grasp_ctrl.trials.runs.planned import run_fingerprints, why_unplanned
+    from grasp_ctrl.storage import TRIALS_DIR, safe_name
+
+    known = run_fingerprints(manifest)
+    out = LoadedRecords(problems=list(loaded.problems))
+    for rec in loaded.records:
+        why = why_unplanned(rec, manifest, known)
+        if why is None:
+            out.records.append(rec)
+        else:
+            path = run_dir / TRIALS_DIR / safe_name(rec["policy"]) / rec["object"] / f"trial_{rec['trial']:03d}.json"
+            out.problems.append((path, f"not a planned trial of this run ({why}); not counted"))
+    return out
 
 
 def report_problems(scored: Scored, stream: TextIO | None = None) -> None:

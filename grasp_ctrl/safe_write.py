@@ -1,0 +1,212 @@
+"""Writing only where asked: outputs, a run's managed files and edits in place.
+
+- :func:`check_output` refuses an output path (``--json``, ``--png``, ``--out``) that
+  is one of a run's managed files (``run.json``, ``summary.json``, ``run.lock``, a
+  trial record or tick log), a directory, or (with ``formats``) has an extension
+  the writer does not know; it says so on one line naming the flag.
+- :func:`write_output` / :func:`output_file` write a new file under a temporary
+  name beside it and rename it into place: a symlink at the destination is
+  replaced by the new file, never written through.
+- :func:`save_figure` saves a matplotlib figure that way, its format checked.
+- :func:`replace_in_place` edits an existing file: a symlink is resolved to its
+  target (the target changes, the link stays), and the new file keeps the old
+  one's mode and owner.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import secrets
+import stat
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+from typing import Any
+
+from grasp_ctrl.errors import UsageError
+
+RUN_FILE = "run.json"   # = trials.storage.RUN_FILE (no import: storage is heavier and imports us)
+MANAGED_TOP = ("run.json", "summary.json", "run.lock")
+MANAGED_TRIAL = re.compile(r"^(trial_\d{3,}\.json|trial_\d{3,}_ticks\.(parquet|csv))$")
+IMAGE_FORMATS = ("png", "pdf", "svg", "svgz", "jpg", "jpeg", "eps", "ps", "tif", "tiff", "webp", "pgf", "raw", "rgba")
+
+
+def _destinations(path: Path) -> list[Path]:
+    """What writing ``path`` would replace: the name in its real folder, and where a symlink there points."""
+    parent = Path(os.path.realpath(path.parent if str(path.parent) else "."))
+    out = [parent / path.name]
+    if path.is_symlink():
+        out.append(Path(os.path.realpath(path)))
+    return out
+
+
+def managed_by_run(path: Path, run_dirs: Iterable[Path] = ()) -> Path | None:
+    """The run directory whose managed file ``path`` is (or would replace), else None."""
+    known = [Path(os.path.realpath(d)) for d in run_dirs]
+    for dest in _destinations(path):
+        for folder in dest.parents:
+            if folder in known or (folder / RUN_FILE).is_file():
+                rel = dest.relative_to(folder).parts
+                if (len(rel) == 1 and rel[0] in MANAGED_TOP) or \
+                        (len(rel) == 4 and rel[0] == "trials" and MANAGED_TRIAL.match(rel[-1])):
+                    return folder
+    return None
+
+
+def check_output(path: str | Path | None, flag: str, *, run_dirs: Iterable[Path] = (),
+                 formats: Iterable[str] | None = None) -> Path | None:
+    """``path`` checked as an output of ``flag`` (see the module's doc); None passes through."""
+    if path is None:
+        return None
+    text = str(path)
+    if not text.strip():
+        raise UsageError(f"{flag}: an empty path")
+    p = Path(text)
+    run = managed_by_run(p, run_dirs)
+    if run is not None:
+        raise UsageError(f"{flag} {p}: a file that the run in {run} manages; choose another path")
+    if p.is_dir() and not p.is_symlink():
+        raise UsageError(f"{flag} {p}: is a directory; give a file name")
+    if formats is not None:
+        allowed = sorted(set(formats))
+        ext = p.suffix.lower().lstrip(".")
+        if ext not in allowed:
+            raise UsageError(f"{flag} {p}: an extension of {', '.join('.' + f for f in allowed)} "
+                             f"(got {p.suffix or 'none'})")
+    return p
+
+
+def temp_beside(path: Path, keep_suffix: bool = False) -> Path:
+    """A fresh name in ``path``'s folder for the writer of ``path`` (``.NAME.PID.RANDOM.tmp``)."""
+    tail = path.suffix if keep_suffix else ""
+    return path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp{tail}")
+
+
+def _fsync_dir(folder: Path) -> None:
+    with contextlib.suppress(OSError):
+        fd = os.open(folder, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+@contextlib.contextmanager
+def output_file(path: str | Path, keep_suffix: bool = True) -> Iterator[Path]:
+    """``with output_file(p) as tmp: write tmp``: ``tmp`` is renamed onto ``p`` on success
+    (replacing a symlink there, never following it) and removed on error."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = temp_beside(path, keep_suffix)
+    try:
+        yield tmp
+        if not tmp.is_file():
+            raise OSError(f"{path}: nothing was written")
+        with open(tmp, "rb") as fh:
+            os.fsync(fh.fileno())
+        _keep_mode_and_owner(path, tmp)
+        os.replace(tmp, path)
+        _fsync_dir(path.parent)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
+def _keep_mode_and_owner(old: Path, new: Path) -> None:
+    """A regular file being replaced passes its mode (and, where allowed, owner) to the new one."""
+    try:
+        st = os.lstat(old)
+    except OSError:
+        return
+    if stat.S_ISREG(st.st_mode):
+        os.chmod(new, stat.S_IMODE(st.st_mode))
+        with contextlib.suppress(OSError):
+            os.chown(new, st.st_uid, st.st_gid)
+
+
+def write_output(path: str | Path, data: str | bytes) -> Path:
+    """Write ``data`` to ``path`` as a new file (see :func:`output_file`)."""
+    with output_file(path) as tmp:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o666)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data.encode("utf-8") if isinstance(data, str) else data)
+    return Path(path)
+
+
+def image_formats(fig: Any = None) -> tuple[str, ...]:
+    """The extensions matplotlib can save (its canvas's list when a figure is given)."""
+    if fig is not None:
+        with contextlib.suppress(Exception):
+            return tuple(fig.canvas.get_supported_filetypes())
+    return IMAGE_FORMATS
+
+
+def save_figure(fig: Any, path: str | Path, flag: str = "--out", **kwargs: Any) -> Path:
+    """``fig.savefig`` to ``path`` through a temporary file, in the format its extension names."""
+    p = Path(path)
+    fmt = p.suffix.lower().lstrip(".")
+    allowed = image_formats(fig)
+    if fmt not in allowed:
+        raise UsageError(f"{flag} {p}: an extension of {', '.join('.' + f for f in sorted(allowed))} "
+                         f"(got {p.suffix or 'none'})")
+    with output_file(p) as tmp:
+        fig.savefig(tmp, format=fmt, **kwargs)
+    return p
+
+
+def replace_in_place(path: str | Path, data: str | bytes) -> Path:
+    """Replace the content of the existing file ``path`` (an edit such as ``tune --write``).
+
+    A symlink is followed to its target, which is the file that changes (the link stays a
+    link). The new content is written beside the target, given the target's mode and owner
+    (when this process may not set the owner, the target is rewritten in place instead, which
+    keeps both), fsynced and renamed over it. Returns the file that was written."""
+    target = Path(os.path.realpath(path))
+    try:
+        st = os.stat(target)
+    except FileNotFoundError:
+        raise UsageError(f"{path}: no such file to edit") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise UsageError(f"{path}: not a regular file; nothing written")
+    raw = data.encode("utf-8") if isinstance(data, str) else data
+    tmp = temp_beside(target)
+    try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o600)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(raw)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, stat.S_IMODE(st.st_mode))
+        now = os.stat(tmp)
+        if (now.st_uid, now.st_gid) != (st.st_uid, st.st_gid):
+            try:
+                os.chown(tmp, st.st_uid, st.st_gid)
+            except PermissionError:
+                tmp.unlink()
+                with open(target, "r+b") as fh:   # keeps owner and mode; not atomic
+                    fh.truncate(0)
+                    fh.write(raw)
+                    fh.flush()
+                    os.fsync(fh.fileno())
+                return target
+        os.replace(tmp, target)
+        _fsync_dir(target.parent)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+    return target
+
+
+def check_run_tree(run_dir: Path, flag: str) -> None:
+    """A run directory whose files would land elsewhere is refused: ``--out`` naming a symlink,
+    or a symlinked folder inside its ``trials`` tree (records would be written through it)."""
+    run_dir = Path(run_dir)
+    if flag == "--out" and run_dir.is_symlink():
+        raise UsageError(f"--out {run_dir}: a symlink; give the directory itself")
+    trials = run_dir / "trials"
+    for folder in (trials, *sorted(trials.glob("*")), *sorted(trials.glob("*/*"))):
+        if folder.is_symlink():
+            raise UsageError(f"{flag} {run_dir}: {folder} is a symlink; a run's files stay inside its directory")
