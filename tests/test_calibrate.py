@@ -16,7 +16,7 @@ from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.linear import fit_linear
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.evaluation.direction import angles_deg
-from grasp_ctrl.learning.calibration import MODELS, Correction, fit_correction
+from grasp_ctrl.evaluation.calibration import MODELS, Correction, fit_correction
 from grasp_ctrl.learning.dataset import write_raw_csv
 from grasp_ctrl.learning.synthetic import generate, generate_trials, mock_biotac_forward
 

@@ -265,7 +265,7 @@ def test_a_finite_but_huge_estimate_is_overforce(hand, objects, value):
 
 
 def test_a_fit_that_collapses_an_axis_or_makes_the_error_worse_is_named():
-    from grasp_ctrl.learning.calibration_checks import fit_problems
+    from grasp_ctrl.evaluation.calibration_checks import fit_problems
 
     good = {"fit": {"before": {"median_deg": 20.0}, "after": {"median_deg": 5.0}}}
     assert fit_problems(np.eye(3), good) == []

@@ -22,7 +22,7 @@ DESCRIPTION = (
     "the data file's hash, the fitted numbers and the errors before and after."
 )
 ORDER = 73
-MODELS = ("gains", "linear", "affine", "residual")   # grasp_ctrl.learning.calibration.MODELS (not imported: scipy)
+MODELS = ("gains", "linear", "affine", "residual")   # grasp_ctrl.evaluation.calibration.MODELS (not imported: scipy)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -69,8 +69,8 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.estimators.calibrated import policy_files, sha256_of
     from grasp_ctrl.estimators.registry import load_policy, read_metadata, resolve_policy_path
     from grasp_ctrl.evaluation.direction import policy_directions
-    from grasp_ctrl.learning.calibration import calibrate, load_data
-    from grasp_ctrl.learning.calibration_checks import fit_problems
+    from grasp_ctrl.evaluation.calibration import calibrate, load_data
+    from grasp_ctrl.evaluation.calibration_checks import fit_problems
     from grasp_ctrl.safe_write import check_output, write_output
     from grasp_ctrl.paths import policies_dir
 
@@ -147,7 +147,7 @@ def run(args: argparse.Namespace) -> int:
                    "meaning": "force the environment exerts on the sensor skin"},
         "has_variance": bool(base.has_variance),
         "calibration": calib,
-        "provenance": "fitted by `launch.py calibrate` (grasp_ctrl/learning/calibration.py)",
+        "provenance": "fitted by `launch.py calibrate` (grasp_ctrl/evaluation/calibration.py)",
         "licence": "BSD-3-Clause (grasp_ctrl); the base policy's licence applies to it",
     }
     try:

@@ -2,7 +2,7 @@
 
 ``f_sensor = A f_base + W e + b``: ``f_base`` the base policy's estimate, ``e`` the 19 tared
 electrodes, ``A`` (3, 3), ``W`` (3, 19) N/count (zero unless the ``residual`` model was fitted),
-``b`` (3,) N. Written by ``launch.py calibrate`` (grasp_ctrl/learning/calibration.py).
+``b`` (3,) N. Written by ``launch.py calibrate`` (grasp_ctrl/evaluation/calibration.py).
 
 The base policy is found beside the calibrated policy's JSON first, then at the path recorded
 at calibration, then in the registry's folder; its files must hash as when it was calibrated (a retrained base would silently
