@@ -18,7 +18,7 @@ def test_oracle_trial_on_the_dynamixel_backend(hand, objects, monkeypatch: pytes
         return made[-1]
 
     monkeypatch.setattr(runner, "MockHand", factory)
-    r = runner.run_mock_trial(hand, objects["chips_can"], runner.estimator_factory("oracle", hand), 3, "oracle")
+    r = runner.run_sim_trial(hand, objects["chips_can"], runner.estimator_factory("oracle", hand), 3, "oracle")
     assert r.success, (r.reason, r.transitions)
     states = [b for _, _, b in r.transitions]
     assert states[-1] == "done" and "lift" in states

@@ -7,11 +7,11 @@ import json
 import pytest
 
 from grasp_ctrl.cli import main
-from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 
 
 def _trial(hand, obj, policy, seed=3):
-    return run_mock_trial(hand, obj, estimator_factory(policy, hand), seed, policy)
+    return run_sim_trial(hand, obj, estimator_factory(policy, hand), seed, policy)
 
 
 def test_oracle_lifts_and_places_a_rigid_object(hand, objects):

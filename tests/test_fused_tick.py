@@ -27,7 +27,7 @@ from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.limits import clipped_equals
 from grasp_ctrl.sim import world as world_mod
-from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 from grasp_ctrl.vec3 import dot3, norm3
 
 edge = st.sampled_from([0.0, -0.0, 1.0, -1.0, 0.25, 2.0, 3e-9, -7.5, 14.9, np.nan, np.inf, -np.inf])
@@ -47,7 +47,7 @@ def _record(hand, obj, seed, path, settings=None, policy=DEFAULT_POLICY, disturb
         if disturb:
             disturb(ticks[0], world, ctrl)
 
-    rec = run_mock_trial(hand, obj, estimator_factory(policy, hand), seed, policy, settings=settings, log_path=path,
+    rec = run_sim_trial(hand, obj, estimator_factory(policy, hand), seed, policy, settings=settings, log_path=path,
                          kin=HandKinematics(hand), on_tick=on_tick).to_json()
     rec.pop("wall_duration_s")
     return rec

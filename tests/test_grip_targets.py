@@ -14,7 +14,7 @@ from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import ConfigError, UsageError
 from grasp_ctrl.trials.runs.manifest import settings_from_json
-from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 
 LEAP_VECTORS = np.array([[-1.0, 0, 0], [-1.0, 0, 0], [-1.0, 0, 0], [1.0, 0, 0]])   # index, middle, ring, thumb
 LEAP_GRASP = np.array([True, True, False, True])
@@ -78,7 +78,7 @@ def _ramp_grips(hand, obj, settings):
         if ctrl.state == "ramp":
             grips.append(ctrl.snap.grip_n.copy())
 
-    run_mock_trial(hand, obj, estimator_factory("oracle", hand), 3, "oracle", settings=settings, on_tick=on_tick)
+    run_sim_trial(hand, obj, estimator_factory("oracle", hand), 3, "oracle", settings=settings, on_tick=on_tick)
     return np.array(grips)
 
 

@@ -27,7 +27,7 @@ from grasp_ctrl.estimators.registry import list_policy_names, load_policy
 from grasp_ctrl.paths import default_objects_file, policies_dir
 from grasp_ctrl.trials.runs.manifest import read_manifest
 from grasp_ctrl.trials.runs.records import load_records
-from grasp_ctrl.trials.episode.runner import run_mock_trial, run_series
+from grasp_ctrl.trials.episode.runner import run_sim_trial, run_series
 from grasp_ctrl.storage import LOCK_FILE, record_path, safe_name, temp_path, ticks_path
 from grasp_ctrl.loop.ticklog import read_tick_log
 
@@ -91,7 +91,7 @@ def test_2_non_finite_estimate_is_a_recorded_safe_fault(tmp_path, hand, objects,
     policy = _NanPolicy(inner, value, after=5)
 
     def trial_fn(pol, obj, trial, seed, log_path):
-        return run_mock_trial(hand, obj, lambda w: policy, seed, pol, trial, log_path=log_path).to_json()
+        return run_sim_trial(hand, obj, lambda w: policy, seed, pol, trial, log_path=log_path).to_json()
 
     run_dir = tmp_path / "run"
     summary = run_series(hand, [objects["lego"]], ["linear_mock"], 1, 0, run_dir, progress=False, trial_fn=trial_fn)
@@ -157,7 +157,7 @@ def test_2_non_finite_goal_is_goal_invalid_and_never_sent(hand, objects, monkeyp
         return q
 
     monkeypatch.setattr(motion.FingertipMotion, "next_goal", broken_next_goal)
-    r = run_mock_trial(hand, objects["lego"], lambda w: load_policy("linear_mock", hand), 0)
+    r = run_sim_trial(hand, objects["lego"], lambda w: load_policy("linear_mock", hand), 0)
     assert r.final_state == "fault" and r.reason == "goal_invalid"
     assert "non-finite goal" in r.fault_detail
 
@@ -206,7 +206,7 @@ def test_4_failed_start_leaves_no_run_directory_and_the_retry_works(tmp_path, ca
         return lambda p, obj, k, seed, log: {"object": obj.name, "policy": p, "trial": k, "seed": seed,
                                              "success": True, "reason": None}
 
-    monkeypatch.setattr(runner, "mock_trial_fn", fake_trial_fn)
+    monkeypatch.setattr(runner, "sim_trial_fn", fake_trial_fn)
     assert main(["run", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
     assert (run_dir / "run.json").is_file() and not (run_dir / LOCK_FILE).exists()
 
@@ -234,7 +234,7 @@ def _fake_records(monkeypatch):
             return {"object": obj.name, "policy": p, "trial": k, "seed": seed, "success": True, "reason": None}
         return run
 
-    monkeypatch.setattr(runner, "mock_trial_fn", fake_trial_fn)
+    monkeypatch.setattr(runner, "sim_trial_fn", fake_trial_fn)
     return seen
 
 
@@ -431,7 +431,7 @@ def test_9_a_mock_servo_fault_names_the_servo_in_the_record(hand, objects):
     mp = pytest.MonkeyPatch()
     mp.setattr(backends.MockHand, "__init__", spy_init)
     try:
-        r = run_mock_trial(hand, objects["lego"], lambda w: load_policy("linear_mock", hand), 0, on_tick=on_tick)
+        r = run_sim_trial(hand, objects["lego"], lambda w: load_policy("linear_mock", hand), 0, on_tick=on_tick)
     finally:
         mp.undo()
     assert r.reason == "hardware_error"
@@ -442,7 +442,7 @@ def test_9_a_mock_servo_fault_names_the_servo_in_the_record(hand, objects):
 def test_9_overforce_names_the_fingertip_and_the_force(hand, objects):
     from grasp_ctrl.sim.oracle import OracleEstimator
 
-    r = run_mock_trial(hand, objects["lego"], lambda w: OracleEstimator(w, 100.0, name="oracle:scale=100"), 0)
+    r = run_sim_trial(hand, objects["lego"], lambda w: OracleEstimator(w, 100.0, name="oracle:scale=100"), 0)
     assert r.reason == "overforce"
     assert "N >" in r.fault_detail and any(f.name in r.fault_detail for f in hand.fingers)
 
@@ -480,7 +480,7 @@ def test_interrupted_run_of_every_default_object_resumes_to_the_same_summary(tmp
     full, cut = tmp_path / "full", tmp_path / "cut"
     assert main(["run", "--trials", "1", "--out", str(full), "--quiet", "--no-tick-logs"]) == 0
 
-    real = runner.mock_trial_fn
+    real = runner.sim_trial_fn
     calls = {"n": 0}
 
     def interrupted_fn(*a, **k):
@@ -493,10 +493,10 @@ def test_interrupted_run_of_every_default_object_resumes_to_the_same_summary(tmp
             return run(*args)
         return trial
 
-    monkeypatch.setattr(runner, "mock_trial_fn", interrupted_fn)
+    monkeypatch.setattr(runner, "sim_trial_fn", interrupted_fn)
     assert main(["run", "--trials", "1", "--out", str(cut), "--quiet", "--no-tick-logs"]) == 130
     assert len(load_records(cut).records) == 3 and not (cut / LOCK_FILE).exists()
-    monkeypatch.setattr(runner, "mock_trial_fn", real)
+    monkeypatch.setattr(runner, "sim_trial_fn", real)
     capsys.readouterr()
     assert main(["run", "--resume", str(cut), "--quiet"]) == 0
     a = json.loads((full / "summary.json").read_text())

@@ -99,14 +99,14 @@ def stub_run(tmp_path_factory) -> Path:
             return {"object": obj.name, "policy": p, "trial": k, "seed": seed, "success": True, "reason": None}
         return run
 
-    real = runner.mock_trial_fn
-    runner.mock_trial_fn = fake_trial_fn
+    real = runner.sim_trial_fn
+    runner.sim_trial_fn = fake_trial_fn
     try:
         run_dir = tmp_path_factory.mktemp("stub") / "run"
         assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "2", "--quiet",
                      "--no-tick-logs", "--out", str(run_dir)]) == 0
     finally:
-        runner.mock_trial_fn = real
+        runner.sim_trial_fn = real
     return run_dir
 
 
@@ -168,12 +168,12 @@ def _stubbed_trials() -> Iterator[None]:
             return {"object": obj.name, "policy": p, "trial": k, "seed": seed, "success": True, "reason": None}
         return run
 
-    real = runner.mock_trial_fn
-    runner.mock_trial_fn = fake_trial_fn
+    real = runner.sim_trial_fn
+    runner.sim_trial_fn = fake_trial_fn
     try:
         yield
     finally:
-        runner.mock_trial_fn = real
+        runner.sim_trial_fn = real
 
 
 @SETTINGS

@@ -72,7 +72,7 @@ def _stub_trials(monkeypatch: pytest.MonkeyPatch) -> None:
                     "reason": None if k % 2 == 0 else "slipped"}
         return run
 
-    monkeypatch.setattr(runner, "mock_trial_fn", fake_trial_fn)
+    monkeypatch.setattr(runner, "sim_trial_fn", fake_trial_fn)
 
 
 def _call(argv: list[str]) -> tuple[int, str, str]:

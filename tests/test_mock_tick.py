@@ -16,7 +16,7 @@ from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.sim.backends import MockHand, MockSensors
 from grasp_ctrl.trials.episode import mock_tick
-from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 from grasp_ctrl.loop.tick_kernels import track_peaks
 
 pytestmark = pytest.mark.skipif(not jit.JIT, reason="the fused tick needs the compiled kernels (sim extra)")
@@ -50,7 +50,7 @@ def _trial(hand, obj, seed, path, fused: bool, monkeypatch, disturb=None):
         if disturb:
             disturb(ticks[0], world, parts["hand"], parts["sensors"], ctrl)
 
-    rec = run_mock_trial(hand, obj, estimator_factory(DEFAULT_POLICY, hand), seed, DEFAULT_POLICY, log_path=path,
+    rec = run_sim_trial(hand, obj, estimator_factory(DEFAULT_POLICY, hand), seed, DEFAULT_POLICY, log_path=path,
                          kin=HandKinematics(hand), on_tick=on_tick, make_backends=backends).to_json()
     rec.pop("wall_duration_s")
     monkeypatch.undo()

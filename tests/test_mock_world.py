@@ -13,11 +13,11 @@ from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.sim.biotac_model import BioTacSensorModel
 from grasp_ctrl.sim.grip import solve_object_height, tangential_forces
 from grasp_ctrl.tactile.layout import ELECTRODES, PDC
-from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 
 
 def _trial(hand, obj, policy="oracle", seed=7, on_tick=None):
-    return run_mock_trial(hand, obj, estimator_factory(policy, hand), seed, policy, on_tick=on_tick)
+    return run_sim_trial(hand, obj, estimator_factory(policy, hand), seed, policy, on_tick=on_tick)
 
 
 def test_too_little_grip_lets_a_heavy_object_slip(hand, objects):
@@ -52,7 +52,7 @@ class _WrongShearSign:
 
 def test_an_early_release_drops_the_object(hand, objects):
     obj = objects["chips_can"]
-    r = run_mock_trial(hand, obj, _WrongShearSign, 7, "wrong_shear_sign")
+    r = run_sim_trial(hand, obj, _WrongShearSign, 7, "wrong_shear_sign")
     assert not r.success and r.reason == "dropped_early"
     assert any(e["kind"] == "fell" for e in r.events)
     released = [t for t, _, b in r.transitions if b == "release"][0]
@@ -176,7 +176,7 @@ def test_oracle_succeeds_with_contacts_on_the_skin(hand, objects):
     from grasp_ctrl.sim.world import WorldParams
 
     obj = objects["chips_can"]
-    r = run_mock_trial(hand, obj, estimator_factory("oracle", hand), 7, "oracle", world_params=WorldParams(skin_contact=True))
+    r = run_sim_trial(hand, obj, estimator_factory("oracle", hand), 7, "oracle", world_params=WorldParams(skin_contact=True))
     assert r.success, (r.reason, r.events)
 
 

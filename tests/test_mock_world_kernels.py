@@ -66,7 +66,7 @@ def test_chains_of_different_lengths_are_padded_with_fixed_joints(hand):
 
 def _grasped_world(hand, objects, name="chips_can", skin_contact=True, state="hold"):
     from grasp_ctrl.sim.world import WorldParams
-    from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial
+    from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 
     seen = {}
 
@@ -76,7 +76,7 @@ def _grasped_world(hand, objects, name="chips_can", skin_contact=True, state="ho
             raise _Stop
 
     try:
-        run_mock_trial(hand, objects[name], estimator_factory("oracle", hand), 3, "oracle", on_tick=grab,
+        run_sim_trial(hand, objects[name], estimator_factory("oracle", hand), 3, "oracle", on_tick=grab,
                        world_params=WorldParams(skin_contact=skin_contact))
     except _Stop:
         pass
@@ -115,14 +115,14 @@ import numpy as np
 from grasp_ctrl import jit
 from grasp_ctrl.config import load_hand, load_objects
 from grasp_ctrl.paths import default_hand_file, default_objects_file
-from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 hand = load_hand(default_hand_file())
 obj = load_objects(default_objects_file())[sys.argv[1]]
 rows = []
 def tick(world, ctrl):
     if len(rows) < 700:
         rows.append([world.obj_z, *world.q, *world.normal_n, *world.f_sensor.ravel(), float(world.raw.sum())])
-r = run_mock_trial(hand, obj, estimator_factory("oracle", hand), 5, "oracle", on_tick=tick)
+r = run_sim_trial(hand, obj, estimator_factory("oracle", hand), 5, "oracle", on_tick=tick)
 print(json.dumps({"jit": jit.JIT, "rows": rows, "transitions": [b for _, _, b in r.transitions]}))
 """
 

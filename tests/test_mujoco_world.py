@@ -8,7 +8,7 @@ import pytest
 pytest.importorskip("mujoco")
 
 from grasp_ctrl.sim.mujoco_world import MuJoCoWorld  # noqa: E402
-from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial  # noqa: E402
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial  # noqa: E402
 
 
 class _Stop(Exception):
@@ -26,7 +26,7 @@ def test_an_oracle_grasp_lifts_the_chips_can(hand, objects):
             raise _Stop
 
     with pytest.raises(_Stop):
-        run_mock_trial(hand, obj, estimator_factory("oracle", hand), 1, "oracle", backend="mujoco",
+        run_sim_trial(hand, obj, estimator_factory("oracle", hand), 1, "oracle", backend="mujoco",
                        on_tick=stop_when_held)
     assert seen["z"] >= 0.8 * obj.lift_height_m          # carried up by friction alone
     assert seen["tilt"] < np.radians(10)
@@ -34,7 +34,7 @@ def test_an_oracle_grasp_lifts_the_chips_can(hand, objects):
 
 def test_a_too_weak_grasp_slips(hand, objects):
     # The oracle read 4x too high: the real grip is a quarter of tau, too little to carry the can.
-    r = run_mock_trial(hand, objects["chips_can"], estimator_factory("oracle:scale=4", hand), 1,
+    r = run_sim_trial(hand, objects["chips_can"], estimator_factory("oracle:scale=4", hand), 1,
                        "oracle:scale=4", backend="mujoco")
     assert not r.success and r.reason == "slipped"
     assert r.max_object_z_m < 0.01
@@ -43,7 +43,7 @@ def test_a_too_weak_grasp_slips(hand, objects):
 
 def test_squeezing_the_paper_cup_too_hard_crushes_it(hand, objects):
     obj = objects["paper_cup"]
-    r = run_mock_trial(hand, obj, estimator_factory("oracle:scale=0.5", hand), 1, "oracle:scale=0.5",
+    r = run_sim_trial(hand, obj, estimator_factory("oracle:scale=0.5", hand), 1, "oracle:scale=0.5",
                        backend="mujoco")
     assert r.reason == "crushed"
     crushed = [e for e in r.events if e["kind"] == "crushed"]

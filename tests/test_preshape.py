@@ -15,7 +15,7 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.pad_ik import Facing, PadIK
 from grasp_ctrl.kinematics.preshape import side_gap, solve_preshape, surface_hit
-from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 
 STANDOFF_M = 0.01
 
@@ -108,7 +108,7 @@ def _shear_over_normal_at_ramp_end(hand, obj, preshape: bool) -> float:
 
     # At the pad centre the pad's pitch shows as shear (the skin contact would move the
     # contact point along the skin instead).
-    r = run_mock_trial(hand, obj, estimator_factory("oracle", hand), 3, "oracle",
+    r = run_sim_trial(hand, obj, estimator_factory("oracle", hand), 3, "oracle",
                        settings=ControllerSettings(preshape=preshape), on_tick=on_tick,
                        world_params=WorldParams(skin_contact=False))
     assert r.success, (r.reason, r.events)

@@ -49,6 +49,21 @@ def test_run_and_resume_on_ray_match_the_local_run(local_ray, tmp_path, hand, ob
     assert _records(tmp_path / "local", policies) == _records(tmp_path / "ray", policies)
 
 
+def test_mujoco_trials_on_ray_match_the_local_run(local_ray, tmp_path, hand, objects):
+    """The Ray worker builds the world the run names (not the mock's)."""
+    pytest.importorskip("mujoco")
+    profiles = [objects["lego"]]
+    local = run_series(hand, profiles, ["oracle"], 1, 3, tmp_path / "local", progress=False, backend="mujoco")
+    on_ray = run_series(hand, profiles, ["oracle"], 1, 3, tmp_path / "ray", progress=False, backend="mujoco",
+                        executor="ray", jobs=1)
+    assert {k: v for k, v in on_ray.items() if k != "run_dir"} == {k: v for k, v in local.items() if k != "run_dir"}
+    ray_rec = json.loads(record_path(tmp_path / "ray", "oracle", "lego", 0).read_text())
+    local_rec = json.loads(record_path(tmp_path / "local", "oracle", "lego", 0).read_text())
+    assert ray_rec["backend"] == "mujoco"
+    ray_rec.pop("wall_duration_s"), local_rec.pop("wall_duration_s")
+    assert ray_rec == local_rec
+
+
 def test_tune_on_ray_ranks_like_local(local_ray, tmp_path):
     pytest.importorskip("optuna")
     common = ["tune", "--backend", "mock", "--object", "lego", "--param", "tau=1.5,2.5", "--trials", "1", "--quiet"]
@@ -80,4 +95,4 @@ def test_executor_errors_are_one_line(tmp_path, capsys):
     assert "--address: only with --executor ray" in capsys.readouterr().err
     assert main(["run", "--backend", "dynamixel", "--emulate", "--executor", "ray", "--objects", "lego",
                  "--out", str(tmp_path / "y")]) == 2
-    assert "only mock trials" in capsys.readouterr().err
+    assert "only simulated trials" in capsys.readouterr().err

@@ -17,7 +17,7 @@ from grasp_ctrl.errors import HardwareError
 from grasp_ctrl.tactile.layout import PDC
 from grasp_ctrl.trials.runs.manifest import read_manifest
 from grasp_ctrl.trials.episode.preflight import preflight_hardware
-from grasp_ctrl.trials.episode.runner import estimator_factory, run_mock_trial, trial_seed
+from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial, trial_seed
 
 pytestmark = pytest.mark.skipif(not hasattr(__import__("os"), "openpty"), reason="needs POSIX pseudo-terminals")
 
@@ -38,7 +38,7 @@ def test_one_emulated_trial_runs_like_the_mock(tmp_path, hand, objects, capsys):
     assert main(["run", "--resume", str(run_dir), "--yes", "--quiet", "--json", str(tmp_path / "again.json")]) == 0
     assert json.loads((tmp_path / "again.json").read_text())["policies"] == summary["policies"]
     # The same trial on the mock backends: the emulated links quantise goals and counts, nothing more.
-    mock = run_mock_trial(hand, objects["chips_can"], estimator_factory(DEFAULT_POLICY, hand),
+    mock = run_sim_trial(hand, objects["chips_can"], estimator_factory(DEFAULT_POLICY, hand),
                           trial_seed(4, "chips_can", 0), DEFAULT_POLICY)
     assert rec["success"] == mock.success and rec["reason"] == mock.reason
     assert rec["sim_duration_s"] == pytest.approx(mock.sim_duration_s, abs=0.5)

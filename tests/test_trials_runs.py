@@ -215,7 +215,7 @@ def test_ctrl_c_keeps_finished_trials_and_resume_completes(tmp_path, monkeypatch
                     "success": trial % 2 == 0, "reason": None if trial % 2 == 0 else "slipped"}
         return run
 
-    monkeypatch.setattr(runner, "mock_trial_fn", fake_trial_fn)
+    monkeypatch.setattr(runner, "sim_trial_fn", fake_trial_fn)
     run_dir = tmp_path / "run"
     assert main(["run", "--objects", "lego", "--trials", "3", "--out", str(run_dir), "--quiet"]) == 130
     assert "1 of 3 trials are recorded" in capsys.readouterr().err

@@ -217,11 +217,13 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--force: only with --resume")
     check_output(args.json, "--json", run_dirs=[run_dir])
     check_run_tree(run_dir, "--resume" if args.resume else "--out")
+    from grasp_ctrl.sim.registry import is_simulated
     from grasp_ctrl.trials.runs.ray_executor import check_executor
 
     check_executor(args.executor, args.address)
-    if args.executor != "local" and manifest.backend != "mock":
-        raise UsageError("--executor ray: only mock trials; a (real or emulated) hand runs here, one trial at a time")
+    if args.executor != "local" and not is_simulated(manifest.backend):
+        raise UsageError("--executor ray: only simulated trials (mujoco, mock); a (real or emulated) hand runs "
+                         "here, one trial at a time")
     trial_fn = None
     if args.record_video is not None and manifest.backend != "mujoco":
         raise UsageError("--record-video: only with --backend mujoco")
@@ -231,9 +233,9 @@ def run(args: argparse.Namespace) -> int:
         trial_fn = _hardware_trial_fn(hand, manifest, args.threads, args.port, args.sensor_port)
     elif manifest.backend == EMULATED:
         from grasp_ctrl.emulators.world_rig import emulated_backends
-        from grasp_ctrl.trials.episode.runner import mock_trial_fn
+        from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
-        trial_fn = mock_trial_fn(hand, manifest.policies, manifest.settings, args.threads,
+        trial_fn = sim_trial_fn(hand, manifest.policies, manifest.settings, args.threads,
                                  make_backends=emulated_backends, backend=EMULATED)
     elif manifest.backend == "mujoco" and args.record_video:
         from grasp_ctrl.trials.episode.mujoco_video import video_trial_fn

@@ -158,9 +158,9 @@ def run(args: argparse.Namespace) -> int:
                        args.study_name, prune=not args.no_prune) for obj in objects]
     trial_fn = None
     if args.backend != "dynamixel":   # the policy and world load here, so a bad one fails before any study
-        from grasp_ctrl.trials.episode.runner import mock_trial_fn
+        from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
-        trial_fn = mock_trial_fn(hand, [args.policy], backend=args.backend)
+        trial_fn = sim_trial_fn(hand, [args.policy], backend=args.backend)
     docs = []
     for plan in plans:
         doc = _tune_one(plan, args, hand, trial_fn)

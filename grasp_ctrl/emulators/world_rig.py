@@ -87,5 +87,5 @@ class EmulatedTactileSensors:
 
 
 def emulated_backends(world: Any, hand: HandConfig) -> tuple[EmulatedDynamixelHand, EmulatedTactileSensors]:
-    """The hand and sensor backends of one emulated trial (runner.run_mock_trial's ``make_backends``)."""
+    """The hand and sensor backends of one emulated trial (runner.run_sim_trial's ``make_backends``)."""
     return EmulatedDynamixelHand(world, hand), EmulatedTactileSensors(world, hand)

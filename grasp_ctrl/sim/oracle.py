@@ -9,7 +9,7 @@ import numpy as np
 
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.base import Estimate
-from grasp_ctrl.sim.world import MockWorld
+from grasp_ctrl.sim.world_api import World
 
 _SPEC = re.compile(r"^oracle(?::scale=(?P<k>[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?))?$")
 
@@ -33,7 +33,7 @@ class OracleEstimator:
 
     has_variance = False
 
-    def __init__(self, world: MockWorld, scale: float = 1.0, name: str = "oracle") -> None:
+    def __init__(self, world: World, scale: float = 1.0, name: str = "oracle") -> None:
         self.world = world
         self.scale = scale
         self.name = name

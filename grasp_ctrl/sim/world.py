@@ -503,5 +503,8 @@ class MockWorld:
     def set_phase(self, phase: str) -> None:
         self.phase = phase
 
+    def close(self) -> None:
+        """End of the trial: nothing to finish (sim/world_api.World)."""
+
     def true_f_sensor(self, finger: str) -> np.ndarray:
         return self.f_sensor[self.fingers.index(finger)].copy()

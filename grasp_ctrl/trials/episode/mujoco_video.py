@@ -113,14 +113,14 @@ def video_trial_fn(hand: HandConfig, policies: Sequence[str], settings: Controll
     """The mujoco trial runner with each trial recorded to VIDEO_DIR/POLICY-OBJECT-TRIAL.(mp4|gif)."""
     choose_gl_backend()
     from grasp_ctrl.sim.mujoco_backends import mujoco_backends
-    from grasp_ctrl.trials.episode.runner import mock_trial_fn
+    from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
     current: dict[str, Path] = {}
 
     def make_world(hand: HandConfig, obj: ObjectProfile, seed: int, params: Any) -> RecordingWorld:
         return RecordingWorld(hand, obj, seed, params, current["path"])
 
-    inner = mock_trial_fn(hand, policies, settings, threads, make_backends=mujoco_backends, backend="mujoco",
+    inner = sim_trial_fn(hand, policies, settings, threads, make_backends=mujoco_backends, backend="mujoco",
                           make_world=make_world)
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:

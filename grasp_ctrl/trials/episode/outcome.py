@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 from grasp_ctrl.controller.machine import GraspController
-from grasp_ctrl.sim.world import MockWorld
+from grasp_ctrl.sim.world_api import World
 
 LIFTED_FRACTION = 0.8     # of the commanded lift height
 RESTING_Z_M = 0.001
 
 
-def judge(world: MockWorld, controller: GraspController) -> tuple[bool, str | None]:
+def judge(world: World, controller: GraspController) -> tuple[bool, str | None]:
     """(success, failure reason). Physical damage outranks the controller's own view."""
     if world.crushed:
         return False, "crushed"

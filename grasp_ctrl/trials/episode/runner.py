@@ -41,6 +41,7 @@ from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
 from grasp_ctrl.sim.mujoco_log import set_log_dir as set_engine_log_dir
 from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
 from grasp_ctrl.sim.world import MockWorld, WorldParams
+from grasp_ctrl.sim.world_api import World
 from grasp_ctrl.trials.runs.fingerprint import stamp, sync_manifest
 from grasp_ctrl.trials.episode.mock_tick import MockTick
 from grasp_ctrl.trials.runs.manifest import RunManifest, read_manifest
@@ -58,6 +59,7 @@ from grasp_ctrl.storage import (
 from grasp_ctrl.trials.runs.summary import summarize
 from grasp_ctrl.loop.tick_kernels import track_peaks
 from grasp_ctrl.loop.ticklog import TickLog
+from grasp_ctrl.sim.registry import BackendFactory, WorldFactory, simulated_backend
 from grasp_ctrl.trials.runs.workers import ignore_interrupts, interrupts_deferred, worker_context
 
 MAX_TRIAL_S = 60.0
@@ -101,21 +103,16 @@ def trial_seed(seed: int, obj_name: str, trial: int) -> int:
     return int(ss.generate_state(1)[0])
 
 
-EstimatorFactory = Callable[[MockWorld], ForceEstimator]
+EstimatorFactory = Callable[[World], ForceEstimator]
 # The hand and sensor backends of a trial on a world: the mock's own, or the real
 # backends on emulators (emulators/world_rig.py, ``run --backend dynamixel --emulate``).
-BackendFactory = Callable[[MockWorld, HandConfig], tuple[Any, Any]]
 # The world of a trial: the mock world, or MuJoCo's (``run --backend mujoco``, sim/mujoco_world.py).
-WorldFactory = Callable[[HandConfig, ObjectProfile, int, Any], Any]
 
 
 def world_for_backend(backend: str) -> tuple[WorldFactory, BackendFactory]:
-    """The world and the hand/sensor backends behind ``backend`` (mujoco is imported only when asked)."""
-    if backend == "mujoco":
-        from grasp_ctrl.sim.mujoco_backends import make_world, mujoco_backends
-
-        return make_world, mujoco_backends
-    return MockWorld, mock_backends
+    """The world and the hand/sensor backends behind a simulated ``backend`` (sim/registry.py)."""
+    entry = simulated_backend(backend)
+    return entry.make_world, entry.make_backends
 
 
 def mock_backends(world: MockWorld, hand: HandConfig) -> tuple[MockHand, MockSensors]:
@@ -171,7 +168,7 @@ def trial_settings(hand: HandConfig, obj: ObjectProfile, settings: ControllerSet
     }
 
 
-def run_mock_trial(
+def run_sim_trial(
     hand: HandConfig,
     obj: ObjectProfile,
     make_estimator: EstimatorFactory,
@@ -182,7 +179,7 @@ def run_mock_trial(
     world_params: WorldParams | None = None,
     log_path: Path | None = None,
     kin: HandKinematics | None = None,
-    on_tick: Callable[[MockWorld, GraspController], None] | None = None,
+    on_tick: Callable[[World, GraspController], None] | None = None,
     make_backends: BackendFactory | None = None,
     backend: str = "mock",
     make_world: WorldFactory | None = None,
@@ -298,7 +295,7 @@ def _close_all(*parts: Any, raise_error: bool = True) -> None:
 TrialFn = Callable[[str, ObjectProfile, int, int, "Path | None"], dict[str, Any]]
 
 
-def mock_trial_fn(
+def sim_trial_fn(
     hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None = None, threads: int = 1,
     make_backends: BackendFactory | None = None, backend: str = "mock", make_world: WorldFactory | None = None,
 ) -> TrialFn:
@@ -310,7 +307,7 @@ def mock_trial_fn(
         make_world = make_world or default_world
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
-        return run_mock_trial(hand, obj, factories[policy], seed, policy, trial, settings, log_path=log_path, kin=kin,
+        return run_sim_trial(hand, obj, factories[policy], seed, policy, trial, settings, log_path=log_path, kin=kin,
                               make_backends=make_backends, backend=backend, make_world=make_world).to_json()
 
     return run
@@ -324,7 +321,7 @@ def _init_worker(hand: HandConfig, policies: list[str], settings: ControllerSett
                  backend: str = "mock") -> None:
     global _WORKER_TRIAL_FN
     ignore_interrupts()
-    _WORKER_TRIAL_FN = mock_trial_fn(hand, policies, settings, threads, backend=backend)
+    _WORKER_TRIAL_FN = sim_trial_fn(hand, policies, settings, threads, backend=backend)
 
 
 def _worker_trial(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
@@ -339,7 +336,7 @@ def parallel_trials(
     jobs: int, hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None,
     threads: int, tasks: Sequence[TrialTask], backend: str = "mock",
 ) -> Iterator[tuple[int, dict[str, Any]]]:
-    """Mock trials in ``jobs`` processes: yields (task index, record) as each finishes."""
+    """Simulated trials in ``jobs`` processes: yields (task index, record) as each finishes."""
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
@@ -426,7 +423,7 @@ def run_series(
     ``resume``: keep the valid records already in ``run_dir`` (the run's
     parameters must match its ``run.json``) and run only the missing trials.
     ``after_trial(record)`` is called once each new record is on disk.
-    ``jobs``: mock trials in that many worker processes (records arrive out of
+    ``jobs``: simulated trials in that many worker processes (records arrive out of
     order; the summary does not depend on it). ``executor="ray"``: the trials are
     Ray tasks instead (``address``: a running cluster; else a local instance of
     ``jobs`` CPUs), see ray_executor.py.
@@ -458,7 +455,7 @@ def run_series(
         except ConfigError as exc:
             raise ConfigError(source, f"object {obj.name!r}: {exc.key}", exc.expected) from None
     other_world = {} if plan.backend == "mock" else {"backend": plan.backend}   # e.g. mujoco
-    run_trial = trial_fn or mock_trial_fn(hand, policies, plan.settings, threads, **other_world)  # bad policies fail here
+    run_trial = trial_fn or sim_trial_fn(hand, policies, plan.settings, threads, **other_world)  # bad policies fail here
 
     created = not run_dir.exists()
     if run_dir.exists() and not run_dir.is_dir():
@@ -542,7 +539,7 @@ def _run_locked(
             from grasp_ctrl.trials.runs.ray_executor import ray_trials
 
             with contextlib.closing(ray_trials(address, jobs, hand, policies, plan.settings, threads,
-                                               pending)) as results:
+                                               pending, plan.backend)) as results:
                 for _, rec in results:
                     finish(rec)
         elif jobs > 1 and len(pending) > 1:

@@ -64,15 +64,16 @@ def ray_session(address: str | None, cpus: int | None) -> Iterator[Any]:
             ray.shutdown()
 
 
-def _trial_in_worker(token: str, hand: Any, policies: list[str], settings: Any, threads: int,
+def _trial_in_worker(token: str, hand: Any, policies: list[str], settings: Any, threads: int, backend: str,
                      task: tuple) -> dict[str, Any]:
-    """One trial in a Ray worker; its policies are loaded once per worker and sweep (``token``)."""
-    from grasp_ctrl.trials.episode.runner import mock_trial_fn
+    """One trial on the simulated ``backend`` in a Ray worker; its policies are loaded once per
+    worker and sweep (``token``)."""
+    from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
     key = ("trial", token)
     if key not in _CACHE:
         _CACHE.clear()   # a worker of a long-lived cluster keeps only the current sweep's
-        _CACHE[key] = mock_trial_fn(hand, policies, settings, threads)
+        _CACHE[key] = sim_trial_fn(hand, policies, settings, threads, backend=backend)
     return _CACHE[key](*task)
 
 
@@ -106,12 +107,12 @@ def _fan_out(ray: Any, remote_fn: Any, args_list: Sequence[tuple], in_flight: in
 
 def ray_trials(
     address: str | None, jobs: int | None, hand: Any, policies: Sequence[str], settings: Any, threads: int,
-    tasks: Sequence[tuple],
+    tasks: Sequence[tuple], backend: str = "mock",
 ) -> Iterator[tuple[int, dict[str, Any]]]:
-    """Mock trials as Ray tasks: yields (task index, record) as each finishes."""
+    """Trials on a simulated ``backend`` as Ray tasks: yields (task index, record) as each finishes."""
     with ray_session(address, jobs) as ray:
         remote = ray.remote(num_cpus=1)(_trial_in_worker)
-        shared = (uuid.uuid4().hex, ray.put(hand), list(policies), ray.put(settings), threads)
+        shared = (uuid.uuid4().hex, ray.put(hand), list(policies), ray.put(settings), threads, backend)
         parallel = jobs or int(ray.cluster_resources().get("CPU", 1))
         yield from _fan_out(ray, remote, [(*shared, task) for task in tasks], 2 * max(parallel, 1))
 

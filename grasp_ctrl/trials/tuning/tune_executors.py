@@ -87,12 +87,12 @@ class ProcessExecutor:
 
 def _tune_trial_in_worker(token: str, hand: Any, policy: str, backend: str, task: TrialTask) -> dict[str, Any]:
     """One trial in a Ray worker; the policy is loaded once per worker and study (``token``)."""
-    from grasp_ctrl.trials.episode.runner import mock_trial_fn
+    from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
     key = ("tune", token)
     if key not in _CACHE:
         _CACHE.clear()
-        _CACHE[key] = mock_trial_fn(hand, [policy], backend=backend)
+        _CACHE[key] = sim_trial_fn(hand, [policy], backend=backend)
     return _CACHE[key](*task)
 
 
