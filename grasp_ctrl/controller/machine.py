@@ -109,6 +109,9 @@ def raised_reach_posture(hand: HandConfig, finger: str, raise_m: float) -> np.nd
 class GraspController:
     """The model of the state machine. ``tick(snapshot) -> Command``."""
 
+    #: The current state's name; set by the ``transitions`` machine (``build_machine``).
+    state: str
+
     def __init__(
         self,
         hand: HandConfig,
@@ -198,7 +201,7 @@ class GraspController:
 
     @property
     def terminal(self) -> bool:
-        return self.state in TERMINAL  # type: ignore[attr-defined]
+        return self.state in TERMINAL
 
     def _reason_setter(self, reason: str):
         def setter(*_: Any, **__: Any) -> None:
@@ -212,7 +215,7 @@ class GraspController:
     def _on_enter(self, *_: Any, **__: Any) -> None:
         prev = self.history[-1][2] if self.history else "tare"
         t = self.snap.t if self.snap is not None else 0.0
-        self.history.append((t, prev, self.state))  # type: ignore[attr-defined]
+        self.history.append((t, prev, self.state))
         self.ticks_in_state = 0
         self.settle_count = 0
         self.ramp_settle.reset()
@@ -304,7 +307,7 @@ class GraspController:
                 within = False
                 break
         self.settle_count = self.settle_count + 1 if within else 0
-        if self.state == "ramp":  # type: ignore[attr-defined]
+        if self.state == "ramp":
             self.ramp_settle.update(self.grip_targets[self.grasp_mask] - snap.grip_n[self.grasp_mask])
         fraction = self.s.grip_lost_fraction
         self.lost_count = [count + 1 if not touching or g < fraction * t else 0
@@ -340,7 +343,7 @@ class GraspController:
                                self.s.grip_lost_fraction * tau, self.release_idx, self.obj.release_threshold_n,
                                limit, self._lost)
         self.settle_count = self.settle_count + 1 if flags & tk.WITHIN_TOLERANCE else 0
-        if self.state == "ramp":  # type: ignore[attr-defined]
+        if self.state == "ramp":
             self.ramp_settle.update(tau - grip[self.grasp_mask])
         self.release_count = self.release_count + 1 if flags & tk.RELEASE_BELOW else 0
         return flags & (tk.FORCE_NOT_FINITE | tk.OVERFORCE)
@@ -353,7 +356,7 @@ class GraspController:
         (``ticks_in_state`` counting it), so that a caller can run it, in one compiled call
         with more (trials/episode/mock_tick.py), before ``squeeze_done``. None otherwise. What
         stays within a state is made once (``_squeeze_statics``)."""
-        state = _SQUEEZE_STATES.get(self.state)  # type: ignore[attr-defined]
+        state = _SQUEEZE_STATES.get(self.state)
         p = self.palm_target
         if (state is None or not self._compiled or not self.torque_on or type(p) is not np.ndarray
                 or p.dtype is not _FLOAT64 or p.shape != (3,)):
@@ -467,7 +470,7 @@ class GraspController:
             self.palm_target = snap.p_palm_world.copy()
             self.motion.sync(snap.q)
         if not self.terminal:
-            if self.state in _SQUEEZE_STATES:  # type: ignore[attr-defined]
+            if self.state in _SQUEEZE_STATES:
                 cmd = self._squeeze_state_tick(snap)   # the usual tick of these states, compiled
                 if cmd is not None:
                     return cmd
@@ -496,7 +499,7 @@ class GraspController:
             self.fail(reason="overforce",
                       detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {magnitude:.4g} N > {limit:g} N")
         else:
-            for guard in self._guards[self.state]:  # type: ignore[attr-defined]
+            for guard in self._guards[self.state]:
                 if guard():
                     self.step()
                     break
@@ -562,7 +565,7 @@ class GraspController:
                                 np.asarray(snap.q, dtype=float), max_speed * dt)
 
     def _act(self, snap: Snapshot) -> None:
-        state = self.state  # type: ignore[attr-defined]
+        state = self.state
         s = self.s
         if state == "tare":
             pass  # stay still in free space while the baseline is recorded

@@ -41,7 +41,7 @@ def control_tick(
     except FrameError as exc:
         if fault is None:
             fault, detail = "sensor_invalid", str(exc)
-    snap = pipeline.snapshot(raw, hand.read(), arm.position(), ctrl.state == "tare", fault, detail)  # type: ignore[attr-defined]
+    snap = pipeline.snapshot(raw, hand.read(), arm.position(), ctrl.state == "tare", fault, detail)
     cmd = send_command(hand, arm, ctrl, snap, ctrl.tick(snap))
     return snap, cmd, raw
 

@@ -82,7 +82,7 @@ def run_hardware_trial(
                 np.maximum(peak, np.linalg.norm(snap.f_sensor, axis=1), out=peak)
                 peak_grip = max(peak_grip, float(np.max(snap.grip_n[grasp], initial=0.0)))
                 if log:
-                    log.append(ctrl.state, snap, cmd, pipeline.tared, raw=raw, grip_target_n=ctrl.tau)  # type: ignore[attr-defined]
+                    log.append(ctrl.state, snap, cmd, pipeline.tared, raw=raw, grip_target_n=ctrl.tau)
                 if ctrl.terminal:
                     settle_ticks -= 1
                     if settle_ticks <= 0:
@@ -110,8 +110,8 @@ def run_hardware_trial(
     record = {
         "object": obj.name,
         "controller": controller_view(ctrl),
-        "final_state": ctrl.state,  # type: ignore[attr-defined]
-        "success": ctrl.state == "done",  # type: ignore[attr-defined]
+        "final_state": ctrl.state,
+        "success": ctrl.state == "done",
         "reason": ctrl.failure_reason if ctrl.state != "done" else None,  # type: ignore[attr-defined]
         "fault_detail": ctrl.failure_detail,
         "wall_duration_s": round(end, 4),

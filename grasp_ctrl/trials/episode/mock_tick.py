@@ -222,7 +222,7 @@ class MockTick:
         before it and the step and the inputs run in one call (``step_inputs``)."""
         world, hand, sensors, pipeline = self.world, self.hand, self.sensors, self.pipeline
         tactile = pipeline.tactile
-        if (not hand.fault and not sensors.paused and ctrl.state != "tare" and tactile.tare.ready  # type: ignore[attr-defined]
+        if (not hand.fault and not sensors.paused and ctrl.state != "tare" and tactile.tare.ready
                 and tactile.validate and type(world.raw) is np.ndarray and world.raw.shape == self._frame_shape):
             n = self._n
             empty = np.empty
@@ -233,7 +233,7 @@ class MockTick:
             code = step_inputs(*step, hand._q_prev, tactile.tare.baseline, gate.count, gate.threshold, gate.frames, q,
                                palm, raw, tared, in_contact, touching)
             world.end_packed_step(step[5], code & STEP_EVENTS)
-            world.set_phase(ctrl.state)  # type: ignore[attr-defined]
+            world.set_phase(ctrl.state)
             sensors._delivered = (world.raw, world.seq, world.t)   # what latest_matrix notes
             bits = (code & (STEP_EVENTS - 1)) - 2
             if bits >= 0:
@@ -244,7 +244,7 @@ class MockTick:
                 return
         else:
             world.step()
-            world.set_phase(ctrl.state)  # type: ignore[attr-defined]
+            world.set_phase(ctrl.state)
         # the generic tick (it reads the backends again: the same values)
         snap, cmd, raw = control_tick(hand, self.arm, sensors, pipeline, ctrl, world.t)
         self._track_and_log(ctrl, snap, cmd, raw)
@@ -346,7 +346,7 @@ class MockTick:
         world._q_goal = goal
         world._palm_target = target
         if row >= 0 and done == WRITTEN:
-            log._states.append(ctrl.state)  # type: ignore[union-attr, attr-defined]
+            log._states.append(ctrl.state)  # type: ignore[union-attr]
             log._n = row + 1  # type: ignore[union-attr]
         elif log is not None:
             self._append(ctrl, snap, ctrl_command(ctrl) if cmd is None else cmd, raw)
@@ -358,6 +358,6 @@ class MockTick:
 
     def _append(self, ctrl: GraspController, snap: Snapshot, cmd: Command, raw: np.ndarray) -> None:
         w = self.world
-        self.log.append(ctrl.state, snap, cmd, self.pipeline.tared, w.f_sensor, w.obj_z, w.table_n,  # type: ignore[union-attr, attr-defined]
+        self.log.append(ctrl.state, snap, cmd, self.pipeline.tared, w.f_sensor, w.obj_z, w.table_n,  # type: ignore[union-attr]
                         raw=raw, grip_target_n=ctrl.tau)
 

@@ -16,7 +16,7 @@ def judge(world: World, controller: GraspController) -> tuple[bool, str | None]:
     if world.knocked_over:
         return False, "knocked_over"
     fell_in = [e.detail.rsplit(" while ", 1)[-1] for e in world.events if e.kind == "fell"]
-    if controller.state == "fault":  # type: ignore[attr-defined]
+    if controller.state == "fault":
         if any(phase in ("lift", "hold") for phase in fell_in):
             return False, "slipped"
         return False, controller.failure_reason or "aborted"

@@ -147,8 +147,8 @@ def state_timings(transitions: Sequence[tuple[float, str, str]], end_t: float) -
 def controller_view(ctrl: GraspController) -> dict[str, Any]:
     """What the controller itself concluded (no ground truth): kept beside any label."""
     return {
-        "final_state": ctrl.state,  # type: ignore[attr-defined]
-        "success": ctrl.state == "done",  # type: ignore[attr-defined]
+        "final_state": ctrl.state,
+        "success": ctrl.state == "done",
         "reason": ctrl.failure_reason,
         "detail": ctrl.failure_detail,   # what failed (servo id and error bits, port, fingertip)
     }
@@ -218,7 +218,7 @@ def run_sim_trial(
                 fast.tick(ctrl)
             else:
                 world.step()
-                world.set_phase(ctrl.state)  # type: ignore[attr-defined]
+                world.set_phase(ctrl.state)
                 snap, cmd, raw = control_tick(hand_backend, arm, sensors, pipeline, ctrl, world.t)
                 if jit.JIT:
                     track_peaks(snap.f_sensor, snap.grip_n, world.normal_n, tip_force_sq, tip_grip, tip_true)
@@ -228,7 +228,7 @@ def run_sim_trial(
                     np.maximum(tip_grip, snap.grip_n, out=tip_grip)
                     np.maximum(tip_true, world.normal_n, out=tip_true)
                 if log:
-                    log.append(ctrl.state, snap, cmd, pipeline.tared, world.f_sensor, world.obj_z, world.table_n,  # type: ignore[attr-defined]
+                    log.append(ctrl.state, snap, cmd, pipeline.tared, world.f_sensor, world.obj_z, world.table_n,
                                raw=raw, grip_target_n=ctrl.tau)
             if on_tick:
                 on_tick(world, ctrl)
@@ -258,7 +258,7 @@ def run_sim_trial(
         seed=seed,
         success=success,
         reason=reason,
-        final_state=ctrl.state,  # type: ignore[attr-defined]
+        final_state=ctrl.state,
         sim_duration_s=round(world.t, 4),
         wall_duration_s=round(wall, 4),
         peak_grip_est_n=round(peak_est, 4),

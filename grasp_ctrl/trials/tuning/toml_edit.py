@@ -10,12 +10,12 @@ from __future__ import annotations
 import difflib
 import os
 import re
-import stat
 import tempfile
 from pathlib import Path
 
 from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.safe_write import replace_in_place
 
 _HEADER = re.compile(r"^\s*\[\s*([^\]]+?)\s*\]")
 _KEY = re.compile(r"^(\s*)([A-Za-z0-9_\-]+)(\s*=\s*)([^#\n]*?)(\s*(#.*)?)$")
@@ -69,9 +69,9 @@ def update_object_file(path: Path, obj: str, values: dict[str, float | int]) -> 
 
 def update_objects_file(path: Path, values: dict[str, dict[str, float | int]]) -> str:
     """Write every object's new values into ``path`` at once; returns the unified diff ('' when
-    unchanged). A symlink is followed and its target replaced (the link stays); the file keeps
-    its mode and, where this process may set it, its owner and group. The new text is written to
-    a temporary file beside the target, loaded and checked, fsynced, then renamed over it."""
+    unchanged). The new text must load and read back the values; then the file is replaced in
+    place (``safe_write.replace_in_place``: a symlink is followed and its target replaced, the
+    link stays; the file keeps its mode and owner)."""
     path = Path(path)
     target = Path(os.path.realpath(path))
     if not target.is_file():
@@ -83,43 +83,19 @@ def update_objects_file(path: Path, values: dict[str, dict[str, float | int]]) -
             new = set_object_value(new, obj, key, value)
     if new == old:
         return ""
-    st = target.stat()
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(new)
-            fh.flush()
-            os.fsync(fh.fileno())
-        profiles = load_objects(tmp)  # refuse to write a file that would not load
-        for obj, obj_values in values.items():
-            for key, value in obj_values.items():
-                if abs(float(getattr(profiles[obj], key)) - float(value)) > 1e-12:
-                    raise UsageError(f"{path}: {key} of {obj} did not read back as {value}")
-        os.chmod(tmp, stat.S_IMODE(st.st_mode))
-        if hasattr(os, "chown"):
-            try:
-                os.chown(tmp, st.st_uid, st.st_gid)
-            except PermissionError:   # not ours to give away: the file keeps this user's ownership
-                pass
-        os.replace(tmp, target)
-        os.chmod(target, stat.S_IMODE(st.st_mode))
-        _fsync_dir(target.parent)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    _check_loads(new, path, values)
+    replace_in_place(path, new)   # follows a symlink; keeps the target's mode and owner (safe_write.py)
     return "".join(difflib.unified_diff(old.splitlines(keepends=True), new.splitlines(keepends=True),
                                         fromfile=f"{path} (before)", tofile=f"{path} (after)"))
 
 
-def _fsync_dir(folder: Path) -> None:
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
+def _check_loads(text: str, path: Path, values: dict[str, dict[str, float | int]]) -> None:
+    """Refuse to write an object file that would not load or not read the new values back."""
+    with tempfile.TemporaryDirectory() as folder:
+        probe = Path(folder) / Path(path).name
+        probe.write_text(text, encoding="utf-8")
+        profiles = load_objects(probe)
+    for obj, obj_values in values.items():
+        for key, value in obj_values.items():
+            if abs(float(getattr(profiles[obj], key)) - float(value)) > 1e-12:
+                raise UsageError(f"{path}: {key} of {obj} did not read back as {value}")
