@@ -53,3 +53,17 @@ def test_any_bad_value_is_rejected_naming_fingertip_and_channel(row: int, col: i
 def test_non_numeric_is_rejected() -> None:
     with pytest.raises(FrameError, match="not a numeric array"):
         validate_frames([["a"] * FRAME_LEN])
+
+
+def test_the_frame_layout_is_the_sensor_types():
+    """The hand file's sensor type names its frame layout; an unknown type is one line."""
+    import pytest
+
+    from grasp_ctrl.errors import UsageError
+    from grasp_ctrl.tactile.layout import BIOTAC, FRAME_LEN, LAYOUTS, layout_for
+
+    assert layout_for("biotac") is BIOTAC and set(LAYOUTS) == {"biotac"}
+    assert BIOTAC.frame_len == FRAME_LEN == 44 and BIOTAC.channel_names[BIOTAC.pdc] == "pdc"
+    assert BIOTAC.channel_names[BIOTAC.tdc] == "tdc" and BIOTAC.channel_names[BIOTAC.pac][0] == "pac1"
+    with pytest.raises(UsageError, match="unknown"):
+        layout_for("digit")

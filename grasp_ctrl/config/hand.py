@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from grasp_ctrl.tactile.layout import LAYOUTS, SensorLayout, layout_for
 from grasp_ctrl.config.toml_reader import Table, read_toml
 
 SAFE_ACTIONS = ("hold", "open", "torque_off")
@@ -69,7 +70,7 @@ class DynamixelConfig:
 
 @dataclass(frozen=True)
 class TactileConfig:
-    sensor_type: str = "biotac"
+    sensor_type: str = "biotac"               # one of tactile/layout.py's LAYOUTS
     port: str = "/dev/ttyACM0"
     baud: int = 1_000_000
     mode: str = "binary"
@@ -83,6 +84,11 @@ class TactileConfig:
 
     def port_for(self, finger_name: str) -> str:
         return dict(self.ports).get(finger_name, self.port)
+
+    @property
+    def layout(self) -> SensorLayout:
+        """The channel layout of this sensor type's frames."""
+        return layout_for(self.sensor_type)
 
 
 @dataclass(frozen=True)
@@ -262,7 +268,7 @@ def load_hand(path: str | Path) -> HandConfig:
             raise port_table.fail(finger_name, f"one of the finger names {names}")
         ports.append((finger_name, port_table.str(finger_name)))
     tactile = TactileConfig(
-        sensor_type=s.str("sensor_type", "biotac", choices=("biotac",)),
+        sensor_type=s.str("sensor_type", "biotac", choices=tuple(LAYOUTS)),
         port=s.str("port", TactileConfig.port),
         baud=s.int("baud", TactileConfig.baud, lo=9600, hi=SERIAL_MAX_BAUD),
         mode=s.str("mode", "binary", choices=SERIAL_MODES),

@@ -14,7 +14,6 @@ from grasp_ctrl.finite import all_finite
 from grasp_ctrl.hardware.base import JointState, SensorBackend, TactileFrame
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.pad_ik import shared_pad_ik
-from grasp_ctrl.tactile.layout import FRAME_LEN
 from grasp_ctrl.estimators.pipeline import TactilePipeline
 from grasp_ctrl.loop.tick_kernels import place_forces, sense_forces, sense_inputs
 
@@ -34,10 +33,11 @@ class SensingPipeline:
         n = len(self.names)
         self.tactile = TactilePipeline.from_hand(hand, estimator)
         self._tare_window: list[np.ndarray] = []
-        self._frame_shape = (n, FRAME_LEN)
+        self.frame_len = hand.tactile.layout.frame_len   # values per frame of this sensor type
+        self._frame_shape = (n, self.frame_len)
         self._stale_after_s = hand.tactile.stale_after_s
-        self.raw = np.zeros((n, FRAME_LEN))
-        self.tared = np.zeros((n, FRAME_LEN))
+        self.raw = np.zeros(self._frame_shape)
+        self.tared = np.zeros(self._frame_shape)
         self.joint_names = [j.name for j in hand.joints]
         # the last finite joint angles and palm position (used when a reading is not finite)
         self._last_q = np.array([j.open_rad for j in hand.joints])
@@ -58,7 +58,7 @@ class SensingPipeline:
     def frames_matrix(self, frames: dict[int, TactileFrame], now: float) -> np.ndarray:
         """(n_tips, 44) raw counts in finger order; a missing or old frame is a fault."""
         stale_after = self.hand.tactile.stale_after_s
-        raw = np.empty((len(self.names), FRAME_LEN))
+        raw = np.empty(self._frame_shape)
         for i, sid in enumerate(self.sensor_ids):
             frame = frames.get(sid)
             if frame is None:
