@@ -1,7 +1,7 @@
 """Exception types shared across the package.
 
 Each carries a stable snake_case ``reason`` where it can end a trial, so the
-trial runner can report it in the run summary (DESIGN.md 5.2).
+trial runner can report it in the run summary (docs/design.md 5.2).
 """
 
 from __future__ import annotations

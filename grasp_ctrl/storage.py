@@ -2,7 +2,7 @@
 
     RUN_DIR/run.json                              the run's parameters (resume reads them)
     RUN_DIR/run.lock                              held while a process writes the run
-    RUN_DIR/summary.json                          the run summary (DESIGN.md 5.2)
+    RUN_DIR/summary.json                          the run summary (docs/design.md 5.2)
     RUN_DIR/trials/POLICY/OBJECT/trial_NNN.json   one record per finished trial
     RUN_DIR/trials/POLICY/OBJECT/trial_NNN_ticks.parquet   per-tick log (ticklog.py)
 

@@ -1,4 +1,4 @@
-"""`bench`: figure discovery, the JSON contract of DESIGN.md 5.6, bad names."""
+"""`bench`: figure discovery, the JSON contract of docs/design.md 5.6, bad names."""
 
 from __future__ import annotations
 

@@ -7,8 +7,8 @@ pooled median angle moved from 18.9 to 30.8 deg over seeds 1-10) and simulated i
 the real long recordings A and B of robotic_finger_tidy.csv. Skipped without
 ../shared/data.
 
-Each figure is asserted twice where the model does not reach issue 15's target yet:
-a regression bound at the level measured on 2026-11-23 (session 10; a change that makes the
+Each figure is asserted twice where the model does not reach its target yet:
+a regression bound at the level measured on 2026-11-23 (a change that makes the
 model less real fails), and the target itself as a strict xfail (a change that
 reaches it fails too, so that the bound is raised and the xfail removed).
 """
@@ -60,15 +60,15 @@ def test_official_net_magnitudes_track_the_true_force(report):
 
 
 def test_official_net_reads_the_pooled_presses_near_its_real_data_level(report):
-    # regression bounds (measured 2026-11-23, session 10: pooled 21.0 deg, ball-ft 32.2 deg;
+    # regression bounds (measured 2026-11-23: pooled 21.0 deg, ball-ft 32.2 deg;
     # seeds 1-5: pooled 22.1-24.1 deg)
     assert report.pooled.median_angle_deg <= 23.0
     assert report.per_source["ball-ft"].median_angle_deg <= 35.0
 
 
-@pytest.mark.xfail(strict=True, reason="issue 15 target not reached: pooled 21.0 deg at 200 presses per source")
+@pytest.mark.xfail(strict=True, reason="target not reached: pooled 21.0 deg at 200 presses per source (decision record 0002)")
 def test_official_net_reads_the_pooled_presses_at_its_real_data_level(report):
-    """Issue 15 anchor (a): <= 20 deg median over rigid-ft + ball-ft (the net reads a real
+    """Anchor (a): <= 20 deg median over rigid-ft + ball-ft (the net reads a real
     BioTac of another lab at about 16 deg)."""
     assert report.pooled.median_angle_deg <= 20.0
 
@@ -97,7 +97,7 @@ def test_simulated_error_by_tilt(report):
     assert sim[(60.0, 90.0)] <= 45.0
 
 
-@pytest.mark.xfail(strict=True, reason="issue 15: the simulated error grows with tilt (31 / 42 deg at 45-60 / "
+@pytest.mark.xfail(strict=True, reason="target not reached: the simulated error grows with tilt (31 / 42 deg at 45-60 / "
                                        "60-90 deg), the real stays 18-26 deg")
 def test_simulated_error_by_tilt_target(report):
     """Where the real recordings cover the tilt (0-90 deg), within 5 deg of the real level in every bin."""
@@ -114,12 +114,12 @@ def test_simulated_patterns_look_real(report):
     assert sim.rest_noise_sd == pytest.approx(report.real_b.rest_noise_sd, abs=0.12)
     assert 0.3 <= sim.drop_vs_pdc_loglog_slope <= 0.7
     assert sim.max_rise_median == pytest.approx(report.real_b.max_rise_median, rel=0.3)
-    # regression bounds (measured 2026-11-23, session 10: 0.491 and 0.377)
+    # regression bounds (measured 2026-11-23: 0.491 and 0.377)
     assert sim.variance_in_real_a_top5 >= 0.46
     assert sim.best_match_residual_median <= 0.40
 
 
-@pytest.mark.xfail(strict=True, reason="issue 15 target not reached: PCA share 0.49, best match 0.38")
+@pytest.mark.xfail(strict=True, reason="target not reached: PCA share 0.49, best match 0.38 (decision record 0002)")
 def test_simulated_patterns_target(report):
     sim = report.simulated
     assert sim.variance_in_real_a_top5 >= 0.69
@@ -182,7 +182,7 @@ def test_official_net_on_steady_pad_presses(pad_scan):
 
 @pytest.fixture(scope="module")
 def rise_fit_report():
-    """The per-electrode rise weights fitted in session 10 (docs/mock_world.md, anchor (b));
+    """The fitted per-electrode rise weights (docs/mock_world.md, anchor (b); decision record 0002);
     not the default model: adopting it means retraining every policy."""
     if not SHARED_DATA.is_dir():
         pytest.skip("../shared/data is not present beside the checkout")

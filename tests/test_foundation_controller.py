@@ -246,7 +246,7 @@ def test_diagram_lists_every_transition_with_its_guard_and_fault_reason():
     assert {e.split()[0] for e in edges if "--> fault" in e} == set(ACTIVE)
     assert all("→" in e for e in edges if "--> fault" in e)
     assert all(r in "\n".join(lines) for r in RUNTIME_FAULTS)
-    # issue 17's fault reasons (sensing pipeline, controller, control tick) are runtime faults too
+    # the hardening's fault reasons (sensing pipeline, controller, control tick) are runtime faults too
     assert {"sensor_invalid", "estimate_invalid", "goal_invalid"} <= set(RUNTIME_FAULTS)
     assert "Class" not in "\n".join(lines)   # no styling noise
 

@@ -1,6 +1,6 @@
 """Statics of the grasp (controller/grasp_capacity.py, ``lift-capacity``): the liftable weight
 balances the pads' forces, scales with the servos' torque and friction, and on the shipped LEAP
-mount names the two heavy boxes that slip in MuJoCo (docs/mujoco.md, session 10)."""
+mount names the two heavy boxes that slip in MuJoCo (docs/mujoco.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Issue 17: hostile values for every config loader, run.json on resume, the policy loader
+"""Hardening: hostile values for every config loader, run.json on resume, the policy loader
 and the command-line parsers. Each must give a valid result or a clean error naming
 the file or flag (one line, no traceback), and write nothing outside the run directory.
 

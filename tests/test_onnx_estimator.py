@@ -45,7 +45,7 @@ def test_batched_call_equals_one_by_one(name: str) -> None:
 
 
 def test_pad_press_gives_f_sensor_along_plus_z() -> None:
-    """DESIGN.md 4: a press on the pad gives f_sensor mostly along +z (sign converted)."""
+    """docs/design.md 4: a press on the pad gives f_sensor mostly along +z (sign converted)."""
     est = load_policy("icra19_official", threads=1)
     t = np.zeros((1, 44))
     t[0, 16:19] = -250.0  # e17..e19, the pad's centre line

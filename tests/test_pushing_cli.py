@@ -1,4 +1,4 @@
-"""``pushing-gt`` command: DESIGN.md 5.4 contract, errors as one line."""
+"""``pushing-gt`` command: docs/design.md 5.4 contract, errors as one line."""
 
 from __future__ import annotations
 

@@ -28,7 +28,7 @@ from grasp_ctrl.loop.sensing import SensingPipeline
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="the emulator needs POSIX pseudo-terminals")
 
 
-# issue 17 (9): an unplugged tactile port ends the trial as sensor_stale (it was hardware_error)
+# an unplugged tactile port ends the trial as sensor_stale (it was hardware_error)
 @pytest.mark.parametrize("event, reason", [("pause", "sensor_stale"), ("disconnect", "sensor_stale")])
 def test_serial_fault_stops_the_controller_safely(event: str, reason: str) -> None:
     hand = load_hand(default_hand_file())

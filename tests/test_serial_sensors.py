@@ -152,7 +152,7 @@ def test_unplug_is_reported_clearly_and_replug_reconnects(emulator) -> None:
         with pytest.raises(HardwareError) as info:
             sens.check_stale()
         err = info.value
-        # issue 17 (9): an unplugged tactile port is a stale sensor, not a servo fault
+        # an unplugged tactile port is a stale sensor, not a servo fault
         assert isinstance(err, SensorStaleError) and err.reason == "sensor_stale"
         msg = str(err)
         assert f"tactile port {emu.port} disconnected" in msg and "index, middle, ring, thumb" in msg

@@ -52,7 +52,7 @@ def test_gate_fires_at_the_recorded_onset(long_trials: list[Trial]) -> None:
 
 
 def test_official_network_expects_value_minus_baseline(long_trials: list[Trial]) -> None:
-    """With the DESIGN.md tare sign the magnitude tracks pdc and a pad press is +z;
+    """With the docs/design.md tare sign the magnitude tracks pdc and a pad press is +z;
     with the opposite sign the correlation turns negative."""
     from grasp_ctrl.estimators.registry import load_policy
     from grasp_ctrl.evaluation.direction import gate_trial

@@ -1,4 +1,4 @@
-"""Benchmarks (``python launch.py bench``, DESIGN.md 5.6).
+"""Benchmarks (``python launch.py bench``, docs/design.md 5.6).
 
 Each ``grasp_ctrl/bench/fig_<topic>.py`` module exposes ``FIGURES``: a dict
 from a stable figure name to a function ``measure(quick: bool) -> Figure``.

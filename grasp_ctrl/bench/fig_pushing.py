@@ -1,4 +1,4 @@
-"""Planar-pushing ground truth throughput: samples solved per second (DESIGN.md 5.6).
+"""Planar-pushing ground truth throughput: samples solved per second (docs/design.md 5.6).
 
 Each measurement solves whole simulated pushes from tracked (noisy) poses:
 Savitzky-Golay differentiation, 80-particle friction and the least squares,

@@ -1,4 +1,4 @@
-"""``bench``: performance figures (DESIGN.md 5.6)."""
+"""``bench``: performance figures (docs/design.md 5.6)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import json
 from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "bench"
-HELP = "measure the performance figures (DESIGN.md 5.6)"
+HELP = "measure the performance figures (docs/design.md 5.6)"
 ORDER = 50
 
 

@@ -1,4 +1,4 @@
-"""``pushing-gt``: pusher force from a tracked planar push (DESIGN.md 5.4)."""
+"""``pushing-gt``: pusher force from a tracked planar push (docs/design.md 5.4)."""
 
 from __future__ import annotations
 

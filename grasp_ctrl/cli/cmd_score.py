@@ -9,7 +9,7 @@ from pathlib import Path
 NAME = "score"
 HELP = "recompute a run's summary from its per-trial records"
 DESCRIPTION = (
-    "Recompute the run summary (DESIGN.md 5.2) from RUN_DIR/trials/*/*/trial_NNN.json. Unreadable, "
+    "Recompute the run summary (docs/design.md 5.2) from RUN_DIR/trials/*/*/trial_NNN.json. Unreadable, "
     "truncated or inconsistent record files are named on stderr and skipped. Notes on stderr when "
     "trials are missing or the result differs from the run's own summary.json."
 )

@@ -3,7 +3,7 @@
 Input: tared frames (raw counts minus a no-contact baseline, ``value - baseline``,
 so pressed electrodes are negative) for the fingertips in contact, one row each.
 Output: ``f_sensor`` in N: the force the environment exerts ON the sensor skin,
-in the sensor frame (DESIGN.md 4). A pad press gives mostly +z.
+in the sensor frame (docs/design.md 4). A pad press gives mostly +z.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ contact point). numpy + onnxruntime only, no torch.
 
 Voxel-grid policies (``input.kind == "voxel_grids"``) are served by
 ``grasp_ctrl.estimators.onnx_estimator``; this module handles the other two input kinds
-with the same metadata layout (DESIGN.md 5.5).
+with the same metadata layout (docs/design.md 5.5).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Checks of an ONNX policy file against its metadata (DESIGN.md 5.5), before and after loading.
+"""Checks of an ONNX policy file against its metadata (docs/design.md 5.5), before and after loading.
 
 - ``model_sha256``: the model file's SHA-256 must equal the metadata's; checked before
   onnxruntime parses the file, so a swapped or corrupted model never runs.

@@ -1,7 +1,7 @@
 """ONNX force estimators (voxel-grid networks such as the ICRA 2019 model).
 
 One ``onnxruntime.InferenceSession`` per policy; all fingertips in contact go
-through one batched ``run``. The policy JSON (DESIGN.md 5.5) is checked on load
+through one batched ``run``. The policy JSON (docs/design.md 5.5) is checked on load
 against the hand's sensors and against the ONNX file's own inputs/outputs, so a
 mismatch fails with a :class:`PolicyError` naming the file and the field.
 

@@ -1,6 +1,6 @@
 """Raw frames -> per-fingertip f_sensor: validate, tare, gate contact, estimate.
 
-One call per control tick for all fingertips (DESIGN.md 3). The estimator runs
+One call per control tick for all fingertips (docs/design.md 3). The estimator runs
 once, batched, on the fingertips in contact; the others get zero force (and
 zero variance), as the paper did.
 """

@@ -1,6 +1,6 @@
 """Load a force-estimator policy by name or path.
 
-A policy is ``policies/NAME.json`` (metadata, DESIGN.md 5.5), plus
+A policy is ``policies/NAME.json`` (metadata, docs/design.md 5.5), plus
 ``policies/NAME.onnx`` for network policies. The metadata's ``kind`` picks the
 loader; each loader checks the metadata against the hand's sensors.
 ``oracle`` and ``oracle:scale=K`` are debugging policies of the mock world and

@@ -2,7 +2,7 @@
 
 The pad point lies on the BioTac surface model (cylinder of radius 5.5 mm about
 the sensor x axis) under the central pad electrodes; its outward normal is -z
-of the sensor frame (the pad faces -z, DESIGN.md 4).
+of the sensor frame (the pad faces -z, docs/design.md 4).
 """
 
 from __future__ import annotations

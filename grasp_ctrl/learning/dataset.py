@@ -5,7 +5,7 @@ Columns (CSV header or Parquet column names):
 - ``trial_id`` (text), ``source`` (``rigid-ft``, ``ball-ft``, ``planar-pushing``), ``t`` (s);
 - the 44 signals, either TARED under the channel names ``e1..e19, pdc, pac1..pac22, tdc, tac``
   (value - baseline, counts) or RAW under ``raw_e1 .. raw_tac``;
-- ``fx, fy, fz``: force label in N, sensor frame, the force ON the sensor skin (DESIGN.md 4);
+- ``fx, fy, fz``: force label in N, sensor frame, the force ON the sensor skin (docs/design.md 4);
 - ``projected`` (0/1): only the components parallel to the support plane are trusted
   (planar pushing); then ``r00 .. r22`` (row-major R_world_sensor, the sensor orientation in
   the world, whose z axis is the support-surface normal) are required.

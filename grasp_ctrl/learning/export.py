@@ -1,4 +1,4 @@
-"""Export a trained network to ``policies/NAME.onnx`` + ``NAME.json`` (DESIGN.md 5.5).
+"""Export a trained network to ``policies/NAME.onnx`` + ``NAME.json`` (docs/design.md 5.5).
 
 The ONNX graph takes the model's named inputs (see ``models.input_shapes``) and returns
 ``f_sensor`` (n, 3) [N, sensor frame, force on the skin] and, for the dropout model,
@@ -140,11 +140,11 @@ _MEANING = {
 
 def policy_metadata(name: str, arch: str, ckpt: dict[str, Any], parity: float, sha256: str,
                     description: str | None = None) -> dict[str, Any]:
-    """Metadata in the layout read by grasp_ctrl.estimators.onnx_estimator (DESIGN.md 5.5);
+    """Metadata in the layout read by grasp_ctrl.estimators.onnx_estimator (docs/design.md 5.5);
     ``description`` replaces the generic one (say what the policy is: base, data, seed...)."""
     has_var = arch == "voxel-dropout"
     out_tensors = {"f_sensor": {"shape": ["batch", 3], "dtype": "float32", "units": "N",
-                                "meaning": "force ON the sensor skin (DESIGN.md 4); a pad press gives +z"}}
+                                "meaning": "force ON the sensor skin (docs/design.md 4); a pad press gives +z"}}
     if has_var:
         out_tensors["variance"] = {"shape": ["batch", 3], "dtype": "float32", "units": "N^2",
                                    "meaning": "per-axis variance over the 10 heads"}
@@ -229,7 +229,7 @@ def analytic_policy(name: str, gains: np.ndarray, data: dict[str, Any] | None, m
         "kind": "analytic",
         "sensor_type": "biotac",
         "gains_n_per_count": [float(g) for g in gains],
-        "output_quantity": "f_sensor: force ON the sensor skin (DESIGN.md 4)",
+        "output_quantity": "f_sensor: force ON the sensor skin (docs/design.md 4)",
         "output_units": "N",
         "output_frame": "sensor",
         "has_variance": False,

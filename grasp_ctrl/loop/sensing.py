@@ -1,6 +1,6 @@
 """One control tick's sensing: raw frames -> (tactile pipeline: validate, tare,
 contact gate, estimator) -> forces in sensor, hand and world frames -> Snapshot
-(DESIGN.md 3)."""
+(docs/design.md 3)."""
 
 from __future__ import annotations
 

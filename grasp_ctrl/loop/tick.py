@@ -1,4 +1,4 @@
-"""One control tick over any backends (mock or real), DESIGN.md 3.
+"""One control tick over any backends (mock or real), docs/design.md 3.
 
 read health and sensors -> snapshot (tare, gate, estimate, frames) -> controller
 -> one goal write and one arm command. Faults of the hardware become the

@@ -4,7 +4,7 @@ Reads ``icra19_weights.npz`` or ``ll4ma_lab_dropout_weights.npz`` (official_icra
 README), builds the same network as an ONNX graph (opset 17), checks the ONNX
 output against the numpy forward pass of :mod:`icra19_net` on random inputs
 (max abs difference must stay below ``tol``, 1e-5 N by default), and writes
-``NAME.onnx`` and ``NAME.json`` (DESIGN.md 5.5).
+``NAME.onnx`` and ``NAME.json`` (docs/design.md 5.5).
 
 ONNX inputs ``electrode_voxels`` and ``contact_voxels``: float32 (batch, 16, 16, 8),
 the grids of :class:`grasp_ctrl.tactile.voxel.VoxelGrid` (variant ``icra19``).

@@ -28,7 +28,7 @@ class PushedBox:
 
 
 def load_box(path: str | Path) -> PushedBox:
-    """OBJECT.toml of DESIGN.md 5.4: mass_kg, size_m = [lx, ly], mu; optional izz_kgm2, gravity."""
+    """OBJECT.toml of docs/design.md 5.4: mass_kg, size_m = [lx, ly], mu; optional izz_kgm2, gravity."""
     t = Table(path, read_toml(path))
     t.unknown_keys({"mass_kg", "size_m", "mu", "izz_kgm2", "gravity", "name"})
     size = t.vector("size_m", 2, bound=10.0)

@@ -1,4 +1,4 @@
-"""PUSH.csv in, FORCES.csv out (DESIGN.md 5.4). Bad rows are reported by line."""
+"""PUSH.csv in, FORCES.csv out (docs/design.md 5.4). Bad rows are reported by line."""
 
 from __future__ import annotations
 

@@ -118,7 +118,7 @@ def pusher_forces(
 
 def plane_force_to_sensor(f_plane_world: np.ndarray, r_world_sensor: np.ndarray) -> np.ndarray:
     """The 3D label f_3d = R f_c in the sensor frame: the force ON the sensor skin
-    (DESIGN.md 4) is the reaction -f_c of the pusher force, rotated by
+    (docs/design.md 4) is the reaction -f_c of the pusher force, rotated by
     R_sensor_world = R_world_sensor^T. r_world_sensor: (s, 3, 3) or (3, 3)."""
     f3 = np.zeros(f_plane_world.shape[:-1] + (3,))
     f3[..., :2] = -f_plane_world

@@ -1,4 +1,4 @@
-"""Validation of raw BioTac frames (44 counts each, DESIGN.md 5.3 order).
+"""Validation of raw BioTac frames (44 counts each, docs/design.md 5.3 order).
 
 A frame that is the wrong length, holds NaN/inf, or leaves the 12-bit range
 0..4095 is rejected with a :class:`FrameError` naming the fingertip, the

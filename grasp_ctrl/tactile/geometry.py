@@ -1,6 +1,6 @@
 """BioTac electrode geometry in the sensor frame (metres).
 
-Sensor frame (DESIGN.md 4): x toward the tip, the pad faces -z. Positions are
+Sensor frame (docs/design.md 4): x toward the tip, the pad faces -z. Positions are
 the published electrode coordinates of the BioTac (given in mm in the product
 documentation); normals are the outward electrode orientations used by the
 analytic model of Lin et al. (2013).

@@ -1,6 +1,6 @@
 """Per-fingertip taring and pdc-based contact gating (vectorised over fingertips).
 
-Tared value = raw - baseline (DESIGN.md 4): electrodes drop under contact, so a
+Tared value = raw - baseline (docs/design.md 4): electrodes drop under contact, so a
 pressed electrode is negative and pdc is positive. Contact = tared pdc above a
 threshold for N consecutive frames (paper: 10 counts, 10 frames).
 """

@@ -1,4 +1,4 @@
-"""The serial link to the fingertip sensor bridge (protocol v1, DESIGN.md 5.3).
+"""The serial link to the fingertip sensor bridge (protocol v1, docs/design.md 5.3).
 
 - ``protocol``: frame layout, CRC, the reference encoder.
 - ``decoder``: incremental, resynchronising decoders for the binary and text modes.

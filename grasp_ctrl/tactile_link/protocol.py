@@ -1,4 +1,4 @@
-"""Protocol v1 of the tactile serial stream (DESIGN.md 5.3): constants, CRC, reference encoder.
+"""Protocol v1 of the tactile serial stream (docs/design.md 5.3): constants, CRC, reference encoder.
 
 Binary frame, little-endian, one frame per fingertip per sample::
 

@@ -5,7 +5,7 @@ Per fingertip: the normal force (along the pad normal, sensor z) and the
 tangential force (across it) estimated, and on the mock the true ones (dashed),
 with tau, the grip the force controller aims for. Then the release fingertip's
 force on the object along the support normal (+z), ``-f_world_z``, with
-``-release_threshold_n`` (DESIGN.md 4: release below it), and the object's and
+``-release_threshold_n`` (docs/design.md 4: release below it), and the object's and
 palm's heights. Controller states are shaded and named in every panel; the
 moment the controller ended (done or fault, with its reason) and the world's
 events (object fell, crushed, knocked over) are marked.

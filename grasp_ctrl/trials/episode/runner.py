@@ -418,7 +418,7 @@ def run_series(
     executor: str = "local",
     address: str | None = None,
 ) -> dict[str, Any]:
-    """objects x policies x trials with shared seeds; returns the summary (DESIGN.md 5.2).
+    """objects x policies x trials with shared seeds; returns the summary (docs/design.md 5.2).
 
     ``resume``: keep the valid records already in ``run_dir`` (the run's
     parameters must match its ``run.json``) and run only the missing trials.

@@ -1,4 +1,4 @@
-"""The run summary (DESIGN.md 5.2) from per-trial records."""
+"""The run summary (docs/design.md 5.2) from per-trial records."""
 
 from __future__ import annotations
 
