@@ -3,22 +3,24 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 import grasp_ctrl.trials.episode.runner as runner
 from grasp_ctrl.emulators.world_hand import EmulatedDynamixelHand
 from grasp_ctrl.hardware.dynamixel.calibration import Calibration
+from grasp_ctrl.sim.backends import MockSensors
+from grasp_ctrl.sim.world import MockWorld
 
 
-def test_oracle_trial_on_the_dynamixel_backend(hand, objects, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_oracle_trial_on_the_dynamixel_backend(hand, objects) -> None:
     made: list[EmulatedDynamixelHand] = []
 
-    def factory(world, hand_cfg):
+    def backends(world, hand_cfg):
+        """The mock world's sensors, the hand through the Dynamixel backend and its emulator."""
         made.append(EmulatedDynamixelHand(world, hand_cfg))
-        return made[-1]
+        return made[-1], MockSensors(world)
 
-    monkeypatch.setattr(runner, "MockHand", factory)
-    r = runner.run_sim_trial(hand, objects["chips_can"], runner.estimator_factory("oracle", hand), 3, "oracle")
+    r = runner.run_sim_trial(hand, objects["chips_can"], runner.estimator_factory("oracle", hand), 3, "oracle",
+                             make_world=MockWorld, make_backends=backends)
     assert r.success, (r.reason, r.transitions)
     states = [b for _, _, b in r.transitions]
     assert states[-1] == "done" and "lift" in states
