@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from grasp_ctrl.config.servos import MODELS as SERVO_MODELS
 from grasp_ctrl.tactile.layout import LAYOUTS, SensorLayout, layout_for
 from grasp_ctrl.config.toml_reader import Table, read_toml
 
@@ -244,7 +245,7 @@ def load_hand(path: str | Path) -> HandConfig:
     dynamixel = DynamixelConfig(
         port=d.str("port", DynamixelConfig.port),
         baud=d.int("baud", DynamixelConfig.baud, lo=9600, hi=DXL_MAX_BAUD),
-        model=d.str("model", DynamixelConfig.model),
+        model=d.str("model", DynamixelConfig.model, choices=tuple(SERVO_MODELS)),
         packet_timeout_ms=d.float("packet_timeout_ms", DynamixelConfig.packet_timeout_ms, lo=1.0, hi=1000.0),
         retries=d.int("retries", DynamixelConfig.retries, lo=0, hi=10),
         profile_velocity=d.int("profile_velocity", 0, lo=0, hi=DXL_MAX_PROFILE),
@@ -294,7 +295,7 @@ def load_hand(path: str | Path) -> HandConfig:
         z_max_m=a.float("z_max_m", 0.6, lo=-10.0, hi=10.0),
         port=a.str("port", ArmConfig.port),
         baud=a.int("baud", ArmConfig.baud, lo=9600, hi=DXL_MAX_BAUD),
-        model=a.str("model", ArmConfig.model),
+        model=a.str("model", ArmConfig.model, choices=tuple(SERVO_MODELS)),
         joints=arm_joints,
         base_xyz=a.vector("base_xyz", 3, (0.0, 0.0, 0.0), bound=MAX_OFFSET_M),  # type: ignore[arg-type]
         base_rpy=a.vector("base_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),  # type: ignore[arg-type]

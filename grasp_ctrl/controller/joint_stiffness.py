@@ -1,38 +1,38 @@
-"""Each joint's position stiffness (N m/rad) from the hand file's servo gains.
+"""Each joint's position stiffness (N m/rad) from the hand file's servo model and gains.
 
 A Dynamixel in (current-based) position mode is a spring about its goal: the
 squeeze's force on an object is that spring's torque, so the controller needs
 each joint's stiffness to turn a wanted fingertip force into goal changes
 (``kinematics/pad_ik.py``, the stiffness-aware squeeze; docs/mujoco.md).
 
-XC330-M288-T (ROBOTIS e-manual): stall torque 0.93 N m at 1.8 A and 5 V. The
-position controller's output is a PWM duty of (P/128) per encoder pulse (4096 per
-turn) out of 885, and (D/16) per pulse per millisecond; a full duty at stall gives
-the stall torque. With the LEAP API's P = 600, D = 200: kp = 3.2 N m/rad (the LEAP
-simulation and MuJoCo Menagerie use 3.0), kv = 0.0086 N m s/rad (Menagerie: 0.01).
+The servo's facts come from the model table (config/servos.py) by the hand file's
+``[dynamixel] model``. For the LEAP Hand's XC330-M288-T (stall torque 0.93 N m at 1.8 A):
+with the LEAP API's P = 600, D = 200, kp = 3.2 N m/rad (the LEAP simulation and MuJoCo
+Menagerie use 3.0), kv = 0.0086 N m s/rad (Menagerie: 0.01).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.config.servos import ServoModel, servo_model
 
-STALL_TORQUE_NM = 0.93
-NO_LOAD_SPEED_RAD_S = 103.0 * 2.0 * math.pi / 60.0
-PULSES_PER_RAD = 4096.0 / (2.0 * math.pi)
-PWM_FULL = 885.0
-
-
-def servo_kp_nm_per_rad(p_gain: float) -> float:
-    return (p_gain / 128.0) / PWM_FULL * PULSES_PER_RAD * STALL_TORQUE_NM
+#: The LEAP Hand's servo: the default where no hand file names one.
+DEFAULT_MODEL = "XC330-M288-T"
+_DEFAULT = servo_model(DEFAULT_MODEL)
+STALL_TORQUE_NM = _DEFAULT.stall_torque_nm
+NO_LOAD_SPEED_RAD_S = _DEFAULT.no_load_speed_rad_s
 
 
-def servo_kv_nm_s_per_rad(d_gain: float) -> float:
-    return (d_gain / 16.0) / PWM_FULL * PULSES_PER_RAD * 1e-3 * STALL_TORQUE_NM
+def servo_kp_nm_per_rad(p_gain: float, model: ServoModel = _DEFAULT) -> float:
+    return model.kp_nm_per_rad(p_gain)
+
+
+def servo_kv_nm_s_per_rad(d_gain: float, model: ServoModel = _DEFAULT) -> float:
+    return model.kv_nm_s_per_rad(d_gain)
 
 
 @dataclass(frozen=True)
@@ -58,6 +58,10 @@ def joint_stiffness(hand: HandConfig) -> JointStiffness:
                                     "gains this file does not know)")
     if p_gain <= 0:
         return JointStiffness(None, f"hand {hand.name!r}: [dynamixel] position_p_gain = {p_gain} (no position stiffness)")
-    kp = np.array([servo_kp_nm_per_rad(p_gain) * j.gain_scale for j in hand.joints])
+    model = servo_model(hand.dynamixel.model)
+    if model.stall_torque_nm is None:
+        return JointStiffness(None, f"hand {hand.name!r}: servo model {model.name} has no stall torque in "
+                                    "config/servos.py (its stiffness is unknown)")
+    kp = np.array([model.kp_nm_per_rad(p_gain) * j.gain_scale for j in hand.joints])
     return JointStiffness(kp, f"[dynamixel] position_p_gain = {p_gain} x gain_scale: kp "
                               f"{kp.min():.3g} to {kp.max():.3g} N m/rad")

@@ -6,7 +6,10 @@ Addresses and sizes from the ROBOTIS e-manual's X-series control table.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+
+# The servo models (register units and data-sheet facts) live with the configuration, where
+# the controller and the simulated worlds read them too.
+from grasp_ctrl.config.servos import MODELS, ServoModel, model_by_number  # noqa: F401  (re-exported)
 
 # EEPROM (writable with torque off only)
 ADDR_MODEL_NUMBER = 0            # 2
@@ -52,39 +55,6 @@ COUNTS_PER_REV = 4096
 CENTER_COUNTS = 2048
 RAD_PER_COUNT = 2.0 * math.pi / COUNTS_PER_REV
 RAD_S_PER_VELOCITY_UNIT = 0.229 * 2.0 * math.pi / 60.0  # 0.229 rpm per unit
-
-
-@dataclass(frozen=True)
-class ServoModel:
-    name: str
-    model_number: int
-    amp_per_current_unit: float   # Present/Goal Current, Current Limit unit
-    max_current_limit: int        # largest Current Limit register value
-    has_current_control: bool = True
-
-
-# Model numbers as the servos report them on PING (XC330-M288-T, XC330-T288-T and
-# XL330-M288-T checked against the e-manual; the others from the same tables, unverified here).
-MODELS: dict[str, ServoModel] = {
-    m.name: m
-    for m in (
-        ServoModel("XC330-M288-T", 1240, 0.001, 2352),  # checked against the e-manual table
-        ServoModel("XC330-M181-T", 1230, 0.001, 1750),
-        ServoModel("XC330-T288-T", 1220, 0.001, 1750),
-        ServoModel("XC330-T181-T", 1210, 0.001, 1750),
-        ServoModel("XL330-M288-T", 1200, 0.001, 1750),
-        ServoModel("XL330-M077-T", 1190, 0.001, 1750),
-        ServoModel("XM430-W350-T", 1020, 0.00269, 1193),
-        ServoModel("XM430-W210-T", 1030, 0.00269, 1193),
-    )
-}
-
-
-def model_by_number(number: int) -> ServoModel | None:
-    for m in MODELS.values():
-        if m.model_number == number:
-            return m
-    return None
 
 
 def hardware_error_names(bits: int) -> list[str]:
