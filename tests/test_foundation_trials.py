@@ -43,7 +43,7 @@ def test_overestimating_forces_lets_the_cleanser_slip(hand, objects):
 
 def test_run_json_summary_matches_contract(tmp_path, capsys):
     out = tmp_path / "out.json"
-    status = main(["run", "--trials", "2", "--objects", "lego", "--policy", "linear_mock",
+    status = main(["run", "--backend", "mock", "--trials", "2", "--objects", "lego", "--policy", "linear_mock",
                    "--seed", "5", "--out", str(tmp_path / "run"), "--json", str(out), "--quiet", "--no-tick-logs"])
     assert status == 0
     doc = json.loads(out.read_text())
@@ -63,8 +63,8 @@ def test_run_json_summary_matches_contract(tmp_path, capsys):
 
 
 def test_run_rejects_unknown_object_and_policy(capsys):
-    assert main(["run", "--objects", "banana", "--trials", "1"]) == 2
+    assert main(["run", "--backend", "mock", "--objects", "banana", "--trials", "1"]) == 2
     assert "banana" in capsys.readouterr().err
-    assert main(["run", "--objects", "lego", "--policy", "nosuchpolicy", "--trials", "1"]) == 2
+    assert main(["run", "--backend", "mock", "--objects", "lego", "--policy", "nosuchpolicy", "--trials", "1"]) == 2
     assert "nosuchpolicy" in capsys.readouterr().err
-    assert main(["run", "--objects", "lego", "--policy", "oracle:scale=-1", "--trials", "1"]) == 2
+    assert main(["run", "--backend", "mock", "--objects", "lego", "--policy", "oracle:scale=-1", "--trials", "1"]) == 2

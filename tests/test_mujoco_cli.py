@@ -25,7 +25,7 @@ def test_run_backend_mujoco_scores_from_the_simulation(tmp_path, capsys):
 
 
 def test_record_video_needs_the_mujoco_backend(tmp_path, capsys):
-    assert main(["run", "--objects", "lego", "--trials", "1", "--out", str(tmp_path / "r"),
+    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(tmp_path / "r"),
                  "--record-video", str(tmp_path / "v")]) != 0
     assert "--record-video: only with --backend mujoco" in capsys.readouterr().err
 

@@ -196,7 +196,7 @@ def test_preset_paper_is_six_objects_five_trials_two_policies():
 
     _, m = _plan(build_parser().parse_args(["run", "--preset", "paper"]))
     assert (len(m.objects), m.trials, m.policies, m.preset) == (6, 5, list(PAPER_POLICIES), "paper")
-    _, m = _plan(build_parser().parse_args(["run", "--preset", "paper", "--trials", "2", "--objects", "lego"]))
+    _, m = _plan(build_parser().parse_args(["run", "--backend", "mock", "--preset", "paper", "--trials", "2", "--objects", "lego"]))
     assert (m.object_names, m.trials) == (["lego"], 2)
 
 
@@ -217,7 +217,7 @@ def test_ctrl_c_keeps_finished_trials_and_resume_completes(tmp_path, monkeypatch
 
     monkeypatch.setattr(runner, "mock_trial_fn", fake_trial_fn)
     run_dir = tmp_path / "run"
-    assert main(["run", "--objects", "lego", "--trials", "3", "--out", str(run_dir), "--quiet"]) == 130
+    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "3", "--out", str(run_dir), "--quiet"]) == 130
     assert "1 of 3 trials are recorded" in capsys.readouterr().err
     assert main(["run", "--resume", str(run_dir)]) == 0
     captured = capsys.readouterr()

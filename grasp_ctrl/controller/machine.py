@@ -130,10 +130,12 @@ class GraspController:
         # With the sim extra, the per-tick counters, force checks and squeeze run compiled
         # (controller/tick_kernels.py); the Python code below stays the reference.
         # Each fingertip's grip target (controller/grip_targets.py); all tau by default.
+        # An object's profile may choose its own mode (a heavy box: force_closure, objects.toml).
         if self.s.grip_targets not in GRIP_TARGET_MODES:
             raise ConfigError("controller settings", "grip_targets",
                               f"one of {', '.join(GRIP_TARGET_MODES)} (got {self.s.grip_targets!r})")
-        self.grip_targets = grip_targets(self.motion.task_vectors, self.grasp_mask, obj.tau_n, self.s.grip_targets,
+        mode = obj.grip_targets or self.s.grip_targets
+        self.grip_targets = grip_targets(self.motion.task_vectors, self.grasp_mask, obj.tau_n, mode,
                                          obj.mass_kg, obj.mu, self.s.grip_weight_margin)
         self._targets = self.grip_targets.tolist()
         # The compiled kernels take one target for every fingertip: unequal targets run the
