@@ -111,3 +111,31 @@ def test_preflight_names_a_silent_and_a_pressed_fingertip(rig):
             preflight_hardware(hand, port=dxl.port, sensor_port=bridge.port)
     finally:
         bridge.close()
+
+
+def test_an_overheating_servo_ends_the_trial_in_a_safe_stop_and_a_record(hand, objects):
+    """On the Dynamixel backend (emulated, MuJoCo behind it) a servo that reports overheating in
+    its Hardware Error Status mid-lift ends the trial: fault, reason hardware_error, the servo
+    named in the record, the hand file's safe action (open) taken and the trial recorded."""
+    from grasp_ctrl.emulators import world_rig
+    from grasp_ctrl.sim.mujoco_backends import make_world
+
+    rigs: list = []
+
+    def backends(world, hand_cfg):
+        pair = world_rig.emulated_backends(world, hand_cfg)
+        rigs.append(pair[0])
+        return pair
+
+    def on_tick(world, ctrl):
+        if ctrl.state == "lift" and not getattr(world, "_hot", False):
+            world._hot = True
+            rigs[0].emu.inject_hardware_error(14, 0x04)   # thumb_mcp, the joint raised to 1.2 A: overheating
+
+    r = run_mock_trial(hand, objects["chips_can"], estimator_factory("oracle", hand), trial_seed(0, "chips_can", 0),
+                       "oracle", make_world=make_world, make_backends=backends, backend="dynamixel-emulated",
+                       on_tick=on_tick)
+    assert not r.success and r.reason == "hardware_error" and r.final_state == "fault"
+    assert "thumb_mcp (id 14): overheating" in r.fault_detail
+    assert [b for _, _, b in r.transitions][-1] == "fault"
+    assert r.to_json()["controller"]["detail"] == r.fault_detail
