@@ -13,7 +13,12 @@ import pytest
 
 from grasp_ctrl.cli import main
 from grasp_ctrl.paths import default_hand_file
-from grasp_ctrl.trials.capacity_check import CapacityRefused, check_object, check_objects, preflight_capacity
+from grasp_ctrl.trials.capacity_check import (
+    CapacityRefused,
+    check_object,
+    check_objects,
+    preflight_capacity,
+)
 
 
 def _halved_hand(tmp_path: Path) -> Path:
