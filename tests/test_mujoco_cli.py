@@ -50,6 +50,20 @@ def test_view_names_an_unknown_object(capsys):
 
 def test_the_realtime_figure_is_listed():
     assert "mujoco_realtime_factor" in all_figures()
+    assert "mujoco_bare_realtime_factor" in all_figures()
+
+
+def test_the_bare_engine_figure_runs():
+    """mj_step alone on the recorded inputs of a short trial: a finite rate."""
+    import mujoco
+    import numpy as np
+
+    from grasp_ctrl.bench import fig_mujoco
+
+    assert fig_mujoco._bare_steps(0.3, 0) > 0.0
+    rec = fig_mujoco._StepRecorder(mujoco)
+    assert rec.mjtState is mujoco.mjtState and rec.inputs == []
+    assert np.isfinite(fig_mujoco.mujoco_bare_realtime_factor(True).median)
 
 
 def test_recording_world_writes_a_video_or_says_why(tmp_path, capsys, hand, objects):
