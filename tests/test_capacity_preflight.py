@@ -94,3 +94,14 @@ def test_an_emulated_dynamixel_hand_refuses_it_before_any_trial(tmp_path, capsys
     err = capsys.readouterr().err
     assert "error: capacity: cleanser: the grasp carries" in err and "--force" in err
     assert "pre-flight:" not in err and not run_dir.exists()
+
+
+def test_a_mujoco_summary_has_no_test_double_flag_and_a_mock_one_has(tmp_path, capsys):
+    for backend in ("mujoco", "mock"):
+        run_dir = tmp_path / backend
+        assert main(["run", "--backend", backend, "--objects", "lego", "--trials", "1", "--out", str(run_dir),
+                     "--quiet", "--no-tick-logs"]) == 0
+        doc = json.loads((run_dir / "summary.json").read_text())
+        assert doc.get("test_double", False) is (backend == "mock")
+        assert "capacity_short" not in doc
+        assert ("test double" in capsys.readouterr().out) is (backend == "mock")

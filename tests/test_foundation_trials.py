@@ -48,8 +48,11 @@ def test_run_json_summary_matches_contract(tmp_path, capsys):
                    "--seed", "5", "--out", str(tmp_path / "run"), "--json", str(out), "--quiet", "--no-tick-logs"])
     assert status == 0
     doc = json.loads(out.read_text())
-    assert set(doc) == {"run_dir", "backend", "hand", "seed", "policies"}
+    # the mock world is a test double: its summary says so (trials/summary_flags.py)
+    assert set(doc) == {"run_dir", "backend", "hand", "seed", "policies", "test_double"}
     assert doc["backend"] == "mock" and doc["hand"] == "leap_hand" and doc["seed"] == 5
+    captured = capsys.readouterr()
+    assert doc["test_double"] is True and "test double" in captured.out
     entry = doc["policies"]["linear_mock"]["objects"]["lego"]
     assert set(entry) == {"trials", "successes", "success_rate", "failures"}
     assert entry["trials"] == 2
@@ -59,7 +62,7 @@ def test_run_json_summary_matches_contract(tmp_path, capsys):
     assert overall == {"trials": 2, "successes": entry["successes"], "success_rate": entry["success_rate"]}
     trial_files = sorted((tmp_path / "run" / "trials" / "linear_mock" / "lego").glob("trial_*.json"))
     assert len(trial_files) == 2
-    table = capsys.readouterr().out
+    table = captured.out
     assert "lego" in table and "all" in table
 
 

@@ -54,7 +54,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backend", choices=("mock", "mujoco", "dynamixel"), default=None,
                    help="mujoco (default): the reference world, a MuJoCo scene built from the hand and "
                         "object files (docs/mujoco.md); mock: the hand-written world, a fast test double whose "
-                        "figures are not results (docs/results.md); dynamixel: the real hand, the operator "
+                        "success rates are not results (docs/results.md); dynamixel: the real hand, the operator "
                         "labels each trial")
     p.add_argument("--emulate", action="store_true", default=None,
                    help="with --backend dynamixel: the servo chain (Protocol 2.0) and the fingertip stream "
@@ -221,11 +221,13 @@ def run(args: argparse.Namespace) -> int:
     trial_fn = None
     if args.record_video is not None and manifest.backend != "mujoco":
         raise UsageError("--record-video: only with --backend mujoco")
-    from grasp_ctrl.trials.capacity_check import flag_summary, preflight_capacity
+    from grasp_ctrl.trials.capacity_check import preflight_capacity
+    from grasp_ctrl.trials.summary_flags import MOCK_NOTE, flag_summary
 
     short = preflight_capacity(hand, list(manifest.objects), manifest.settings,
                                on_hand=manifest.backend in ("dynamixel", EMULATED), force=args.force,
-                               say=lambda text: print(text, file=sys.stderr, flush=True))
+                               say=lambda text: print(text, file=sys.stderr, flush=True),
+                               source=str(run_dir / "run.json") if args.resume else str(manifest.object_file))
     if manifest.backend in ("dynamixel", EMULATED):
         _preflight(hand, manifest, args)
     if manifest.backend == "dynamixel":
@@ -260,13 +262,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"{why}: {done} of {manifest.total} trials are recorded in {run_dir}; "
               f"continue with: grasp-ctrl run --resume {run_dir}", file=sys.stderr)
         return 130
-    if short:   # the objects the statics found short are flagged in summary.json
+    flagged = flag_summary(summary, short)
+    if flagged != summary:   # short objects, the mock's test-double flag: written into summary.json
         from grasp_ctrl.trials.storage import SUMMARY_FILE, write_json
 
-        summary = flag_summary(summary, short)
+        summary = flagged
         write_json(run_dir / SUMMARY_FILE, summary)
     print(format_table(summary))
     print(f"logs: {run_dir}  (compare: grasp-ctrl compare {run_dir})")
+    if summary.get("test_double"):
+        print(f"note: {MOCK_NOTE}")
     if args.json:
         write_text_atomic(args.json, json.dumps(summary, indent=2) + "\n")
         print(f"summary: {args.json}")

@@ -13,10 +13,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
+from grasp_ctrl.config.checks import check_objects_for_hand
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.grip_targets import grip_targets
@@ -90,9 +90,12 @@ class CapacityRefused(GraspCtrlError):
 
 
 def preflight_capacity(hand: HandConfig, objects: list[ObjectProfile], settings: ControllerSettings | None,
-                       on_hand: bool, force: bool, say: Callable[[str], None]) -> list[CapacityVerdict]:
+                       on_hand: bool, force: bool, say: Callable[[str], None],
+                       source: str = "the object file") -> list[CapacityVerdict]:
     """The objects the grasp cannot carry, each named through ``say``. On a (real or emulated)
-    Dynamixel hand they are refused (CapacityRefused) unless ``force``; in simulation they run."""
+    Dynamixel hand they are refused (CapacityRefused) unless ``force``; in simulation they run.
+    The objects are first checked against the hand (ConfigError naming ``source``'s key)."""
+    check_objects_for_hand(objects, hand, source)
     short = [v for v in check_objects(hand, objects, settings) if not v.carried]
     if not short:
         return []
@@ -104,7 +107,3 @@ def preflight_capacity(hand: HandConfig, objects: list[ObjectProfile], settings:
         say(f"capacity: {v.line()}; its trials will likely fail" + (" (--force)" if on_hand else ""))
     return short
 
-
-def flag_summary(summary: dict[str, Any], short: list[CapacityVerdict]) -> dict[str, Any]:
-    """The run summary with the objects the preflight found short (``capacity_short``)."""
-    return dict(summary, capacity_short=[v.to_json() for v in short]) if short else summary
