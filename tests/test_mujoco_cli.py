@@ -1,15 +1,13 @@
-"""`run --backend mujoco`, `view`, `--record-video` and the bench figure (skipped without mujoco)."""
+"""`run --backend mujoco`, `view`, `--record-video` and the bench figures (mujoco is a dependency)."""
 
 from __future__ import annotations
 
 import json
 
-import pytest
+import mujoco
 
-pytest.importorskip("mujoco")
-
-from grasp_ctrl.bench.runner import all_figures  # noqa: E402
-from grasp_ctrl.cli import main  # noqa: E402
+from grasp_ctrl.bench.runner import all_figures
+from grasp_ctrl.cli import main
 
 
 def test_run_backend_mujoco_scores_from_the_simulation(tmp_path, capsys):
@@ -38,8 +36,6 @@ def test_view_without_a_display_says_so(monkeypatch, capsys, tmp_path):
     assert "no display" in capsys.readouterr().err
     xml = tmp_path / "scene.xml"
     assert main(["view", "--object", "paper_cup", "--save-xml", str(xml)]) == 0
-    import mujoco
-
     assert mujoco.MjModel.from_xml_path(str(xml)).nu == 16
 
 
@@ -55,7 +51,6 @@ def test_the_realtime_figure_is_listed():
 
 def test_the_bare_engine_figure_runs():
     """mj_step alone on the recorded inputs of a short trial: a finite rate."""
-    import mujoco
     import numpy as np
 
     from grasp_ctrl.bench import fig_mujoco

@@ -1,11 +1,9 @@
-"""Trials in the MuJoCo world through the real runner and controller (skipped without mujoco)."""
+"""Trials in the MuJoCo world through the real runner and controller."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-
-pytest.importorskip("mujoco")
 
 from grasp_ctrl.sim.mujoco_world import MuJoCoWorld  # noqa: E402
 from grasp_ctrl.trials.runner import estimator_factory, run_mock_trial  # noqa: E402

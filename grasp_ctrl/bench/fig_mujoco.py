@@ -124,6 +124,6 @@ def _has_mujoco() -> bool:
     return True
 
 
-# Without mujoco (the sim extra) the figure is not listed, so 'bench' runs the others.
+# Without mujoco (a broken install) the figures are not listed, so 'bench' runs the others.
 FIGURES = ({"mujoco_realtime_factor": mujoco_realtime_factor,
             "mujoco_bare_realtime_factor": mujoco_bare_realtime_factor} if _has_mujoco() else {})

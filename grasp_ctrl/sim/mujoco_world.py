@@ -69,7 +69,7 @@ def _mujoco():
     except ImportError:
         from grasp_ctrl.errors import UsageError
 
-        raise UsageError("--backend mujoco needs the sim extra: pip install -e '.[sim]' (mujoco>=3.1)") from None
+        raise UsageError("the MuJoCo world needs mujoco>=3.1, a dependency of grasp-ctrl: pip install -e .") from None
     return mujoco
 
 
