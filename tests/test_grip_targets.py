@@ -98,3 +98,18 @@ def test_a_profile_chooses_its_own_mode(hand, objects):
     for name in ("paper_cup", "plastic_bottle"):
         assert objects[name].tau_n == 2.0 and objects[name].grip_targets is None
         assert GraspController(hand, objects[name], np.zeros(3)).grip_targets.tolist() == [2.0] * 4
+
+
+def test_an_object_file_grip_targets_key_is_checked_and_round_trips(tmp_path, objects):
+    from grasp_ctrl.config.objects import load_objects, profile_table, revalidate
+    from grasp_ctrl.errors import ConfigError
+    from grasp_ctrl.paths import default_objects_file
+
+    text = default_objects_file().read_text()
+    bad = tmp_path / "objects.toml"
+    bad.write_text(text.replace('grip_targets = "force_closure"', 'grip_targets = "tighter"', 1))
+    with pytest.raises(ConfigError, match=r"cleanser\.grip_targets.*one of equal, force_closure"):
+        load_objects(bad)
+    for obj in objects.values():   # run.json and tune's edits go through profile_table
+        assert revalidate(obj, "x") == obj
+        assert ("grip_targets" in profile_table(obj)) is (obj.grip_targets is not None)
