@@ -197,6 +197,10 @@ def test_preset_paper_is_six_objects_five_trials_two_policies():
 
     _, m = _plan(build_parser().parse_args(["run", "--preset", "paper"]))
     assert (len(m.objects), m.trials, m.policies, m.preset) == (6, 5, list(PAPER_POLICIES), "paper")
+    # in the reference world, with the authors' network fine-tuned on the simulated sensor
+    assert m.backend == "mujoco" and PAPER_POLICIES[-1] == "icra19_finetuned_mock"
+    _, m = _plan(build_parser().parse_args(["run"]))   # the main job
+    assert m.backend == "mujoco"
     _, m = _plan(build_parser().parse_args(["run", "--backend", "mock", "--preset", "paper", "--trials", "2", "--objects", "lego"]))
     assert (m.object_names, m.trials) == (["lego"], 2)
 
