@@ -588,6 +588,14 @@ class GraspController:
         elif state == "release":
             # Back the pads off along their closing vectors: swinging straight to the open
             # posture can sweep a fingertip (the LEAP thumb) into the table beside the object.
+            # First relax the servos in place (goals = the measured angles): under grip the
+            # joints' springs are deflected, and not along the closing vectors, so backing off
+            # from the deflected goals swings the pads as they unload (the LEAP thumb's tip rose
+            # 11 mm on the mustard bottle) and drags a heavy object off the table by friction.
+            # (The first release tick always runs here, also when the state's other ticks are
+            # compiled: the kernel then backs off from these goals.)
+            if self.ticks_in_state == 0:
+                self.motion.set_posture(np.asarray(snap.q, dtype=float))
             self.motion.advance_all(np.where(self.grasp_mask, -s.release_back_off_m_s * self.dt, 0.0))
         elif state == "retreat":
             if self._retreat_goal is None:
