@@ -66,7 +66,7 @@ def test_official_net_reads_the_pooled_presses_near_its_real_data_level(report):
     assert report.per_source["ball-ft"].median_angle_deg <= 35.0
 
 
-@pytest.mark.xfail(strict=True, reason="target not reached: pooled 21.0 deg at 200 presses per source (decision record 0002)")
+@pytest.mark.xfail(strict=True, reason="target not reached: pooled 21.0 deg at 200 presses per source (decision record 0003)")
 def test_official_net_reads_the_pooled_presses_at_its_real_data_level(report):
     """Anchor (a): <= 20 deg median over rigid-ft + ball-ft (the net reads a real
     BioTac of another lab at about 16 deg)."""
@@ -119,7 +119,7 @@ def test_simulated_patterns_look_real(report):
     assert sim.best_match_residual_median <= 0.40
 
 
-@pytest.mark.xfail(strict=True, reason="target not reached: PCA share 0.49, best match 0.38 (decision record 0002)")
+@pytest.mark.xfail(strict=True, reason="target not reached: PCA share 0.49, best match 0.38 (decision record 0003)")
 def test_simulated_patterns_target(report):
     sim = report.simulated
     assert sim.variance_in_real_a_top5 >= 0.69
@@ -182,7 +182,7 @@ def test_official_net_on_steady_pad_presses(pad_scan):
 
 @pytest.fixture(scope="module")
 def rise_fit_report():
-    """The fitted per-electrode rise weights (docs/mock_world.md, anchor (b); decision record 0002);
+    """The fitted per-electrode rise weights (docs/mock_world.md, anchor (b); decision record 0003);
     not the default model: adopting it means retraining every policy."""
     if not SHARED_DATA.is_dir():
         pytest.skip("../shared/data is not present beside the checkout")

@@ -102,7 +102,7 @@ def test_unparsable_and_missing_files(tmp_path):
 
 def test_cli_bad_hand_one_line_exit_2(tmp_path, capsys):
     bad = _mutate(tmp_path, LEAP, "rate_hz = 100.0", "rate_hz = -5.0")
-    status = main(["run", "--hand", str(bad), "--trials", "1", "--objects", "lego", "--quiet"])
+    status = main(["run", "--backend", "mock", "--hand", str(bad), "--trials", "1", "--objects", "lego", "--quiet"])
     assert status == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1
@@ -113,7 +113,7 @@ def test_cli_subprocess_no_traceback(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("this is not toml = = =")
     proc = subprocess.run(
-        [sys.executable, str(REPO_ROOT / "launch.py"), "run", "--hand", str(bad)],
+        [sys.executable, str(REPO_ROOT / "launch.py"), "run", "--backend", "mock", "--hand", str(bad)],
         capture_output=True, text=True, timeout=60,
     )
     assert proc.returncode == 2

@@ -64,20 +64,27 @@ def test_more_friction_never_lifts_less(hand, cleanser_grasp) -> None:
     assert weights[0] < weights[-1]
 
 
-def test_shipped_mount_the_heavy_boxes_exceed_what_the_thumb_servo_lifts(hand, objects) -> None:
+def test_shipped_hand_carries_every_default_object_with_margin(hand, objects) -> None:
+    """The shipped hand (thumb_mcp raised to 1.2 A) carries every object at least 1.3x its weight;
+    at the LEAP API's 0.55 A everywhere the heavy boxes are beyond the thumb's MCP servo."""
+    import dataclasses
+
     for name, obj in objects.items():
         cap, _, _ = object_capacity(hand, obj)
-        ratio = cap.weight_n / (obj.mass_kg * GRAVITY_M_S2)
-        if name in ("cleanser", "mustard_bottle"):
-            assert ratio < 1.0, name
-            assert {ld.finger: ld.joint for ld in cap.loads if ld.torque_share > 0.999}["thumb"] == "thumb_mcp"
-        else:
-            assert ratio > 2.0, name
+        assert cap.weight_n / (obj.mass_kg * GRAVITY_M_S2) >= 1.3, name
+    low = dataclasses.replace(hand, fingers=tuple(
+        dataclasses.replace(f, joints=tuple(dataclasses.replace(j, current_limit_a=0.55) for j in f.joints))
+        for f in hand.fingers))
+    for name in ("cleanser", "mustard_bottle"):
+        cap, _, _ = object_capacity(low, objects[name])
+        assert cap.weight_n / (objects[name].mass_kg * GRAVITY_M_S2) < 1.0, name
+        assert {ld.finger: ld.joint for ld in cap.loads if ld.torque_share > 0.999}["thumb"] == "thumb_mcp"
 
 
 def test_cli_exit_codes(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["lift-capacity"]) == 1
-    assert "below 1x the weight: cleanser, mustard_bottle" in capsys.readouterr().out
+    assert main(["lift-capacity", "--min-margin", "1.3"]) == 0
+    assert main(["lift-capacity", "--min-margin", "3"]) == 1
+    assert "below 3x the weight: cleanser, mustard_bottle" in capsys.readouterr().out
     assert main(["lift-capacity", "--objects", "lego", "chips_can", "--min-margin", "2"]) == 0
     assert main(["lift-capacity", "--objects", "nope"]) == 2
     assert "unknown object" in capsys.readouterr().err

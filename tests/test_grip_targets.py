@@ -52,7 +52,7 @@ def test_the_weight_margin_scales_the_targets_only_when_they_cannot_carry_the_we
 
 
 def test_the_controller_keeps_its_targets_and_refuses_an_unknown_mode(hand, objects):
-    obj = objects["cleanser"]
+    obj = objects["cleanser"].with_params(grip_targets=None)   # the controller's mode decides
     default = GraspController(hand, obj, np.zeros(3))
     assert default.grip_targets.tolist() == [obj.tau_n] * 4
     closure = GraspController(hand, obj, np.zeros(3), ControllerSettings(grip_targets="force_closure"))
@@ -88,3 +88,28 @@ def test_in_the_mock_world_the_thumb_ramps_toward_twice_tau_with_force_closure(h
     closure = _ramp_grips(hand, obj, ControllerSettings(grip_targets="force_closure"))
     assert equal[:, 3].max() < 1.5 + 0.5
     assert closure[:, 3].max() > 1.5 + 1.0        # toward 3 N while the index and middle aim at 1.5 N
+
+
+def test_a_profile_chooses_its_own_mode(hand, objects):
+    """The heavy boxes ask for force-closure targets in objects.toml; the deformables keep 2 N, equal."""
+    cleanser = GraspController(hand, objects["cleanser"], np.zeros(3))
+    assert objects["cleanser"].grip_targets == "force_closure"
+    np.testing.assert_allclose(cleanser.grip_targets, [2.5, 2.5, 2.5, 5.0], rtol=1e-9)
+    for name in ("paper_cup", "plastic_bottle"):
+        assert objects[name].tau_n == 2.0 and objects[name].grip_targets is None
+        assert GraspController(hand, objects[name], np.zeros(3)).grip_targets.tolist() == [2.0] * 4
+
+
+def test_an_object_file_grip_targets_key_is_checked_and_round_trips(tmp_path, objects):
+    from grasp_ctrl.config.objects import load_objects, profile_table, revalidate
+    from grasp_ctrl.errors import ConfigError
+    from grasp_ctrl.paths import default_objects_file
+
+    text = default_objects_file().read_text()
+    bad = tmp_path / "objects.toml"
+    bad.write_text(text.replace('grip_targets = "force_closure"', 'grip_targets = "tighter"', 1))
+    with pytest.raises(ConfigError, match=r"cleanser\.grip_targets.*one of equal, force_closure"):
+        load_objects(bad)
+    for obj in objects.values():   # run.json and tune's edits go through profile_table
+        assert revalidate(obj, "x") == obj
+        assert ("grip_targets" in profile_table(obj)) is (obj.grip_targets is not None)

@@ -172,7 +172,7 @@ def test_3_object_names_are_safe_identifiers(tmp_path, capsys):
     with pytest.raises(ConfigError, match="object names become directory names"):
         load_objects(bad)
     before = _files_under(tmp_path)
-    assert main(["run", "--object-file", str(bad), "--objects", EVIL, "--out", str(tmp_path / "a" / "b" / "run"),
+    assert main(["run", "--backend", "mock", "--object-file", str(bad), "--objects", EVIL, "--out", str(tmp_path / "a" / "b" / "run"),
                  "--trials", "1", "--quiet", "--no-tick-logs"]) == 2
     assert EVIL in _err_line(capsys)
     assert _files_under(tmp_path) == before
@@ -198,7 +198,7 @@ def test_4_failed_start_leaves_no_run_directory_and_the_retry_works(tmp_path, ca
     import grasp_ctrl.trials.episode.runner as runner
 
     run_dir = tmp_path / "run"
-    assert main(["run", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet", *bad]) == 2
+    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet", *bad]) == 2
     assert "no_such_policy" in _err_line(capsys)
     assert not run_dir.exists()
 
@@ -207,7 +207,7 @@ def test_4_failed_start_leaves_no_run_directory_and_the_retry_works(tmp_path, ca
                                              "success": True, "reason": None}
 
     monkeypatch.setattr(runner, "sim_trial_fn", fake_trial_fn)
-    assert main(["run", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
+    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
     assert (run_dir / "run.json").is_file() and not (run_dir / LOCK_FILE).exists()
 
 
@@ -241,7 +241,7 @@ def _fake_records(monkeypatch):
 def test_5_resume_is_refused_while_another_process_holds_the_run(tmp_path, capsys, monkeypatch):
     _fake_records(monkeypatch)
     run_dir = tmp_path / "run"
-    assert main(["run", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
+    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
     record_path(run_dir, DEFAULT_POLICY, "lego", 0).unlink()
     pid, proc = _child_pid(alive=True)
     try:
@@ -257,7 +257,7 @@ def test_5_resume_is_refused_while_another_process_holds_the_run(tmp_path, capsy
 def test_5_a_stale_lock_is_taken_over_with_a_warning(tmp_path, capsys, monkeypatch):
     _fake_records(monkeypatch)
     run_dir = tmp_path / "run"
-    assert main(["run", "--objects", "lego", "--trials", "2", "--out", str(run_dir), "--quiet"]) == 0
+    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "2", "--out", str(run_dir), "--quiet"]) == 0
     record_path(run_dir, DEFAULT_POLICY, "lego", 1).unlink()
     pid, _ = _child_pid(alive=False)
     (run_dir / LOCK_FILE).write_text(json.dumps({"pid": pid, "host": os.uname().nodename, "started": "x"}))
@@ -299,7 +299,7 @@ def test_5_tick_logs_are_written_under_a_unique_temporary_name_then_renamed(tmp_
 def test_6_a_bad_run_json_is_refused_on_resume_naming_the_field(tmp_path, capsys, monkeypatch, edit, field):
     _fake_records(monkeypatch)
     run_dir = tmp_path / "run"
-    assert main(["run", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
+    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
     doc = json.loads((run_dir / "run.json").read_text())
     edit(doc)
     (run_dir / "run.json").write_text(json.dumps(doc))
@@ -345,7 +345,7 @@ def test_7_policy_file_problems_are_one_line_naming_file_and_field(tmp_path, han
 def test_7_a_replaced_model_file_is_refused_before_it_is_parsed(tmp_path, hand, capsys):
     path = copy_policy(tmp_path, lambda m: None, "su_rigid_ft_mock")
     shutil.copy(policies_dir() / "voxel_alpha_mixed_mock.onnx", tmp_path / "su_rigid_ft_mock.onnx")
-    assert main(["run", "--policy", str(path), "--objects", "lego", "--trials", "1", "--out", str(tmp_path / "r")]) == 2
+    assert main(["run", "--backend", "mock", "--policy", str(path), "--objects", "lego", "--trials", "1", "--out", str(tmp_path / "r")]) == 2
     assert "model_sha256" in _err_line(capsys)
     assert not (tmp_path / "r").exists()
 
@@ -383,7 +383,7 @@ def test_8_cross_field_and_bound_errors_name_the_field(tmp_path, capsys, replace
     path = _objects_file(tmp_path, extra, replace)
     obj = key.split(".")[1]
     run_dir = tmp_path / "run"
-    assert main(["run", "--object-file", str(path), "--objects", obj, "--trials", "1", "--out", str(run_dir),
+    assert main(["run", "--backend", "mock", "--object-file", str(path), "--objects", obj, "--trials", "1", "--out", str(run_dir),
                  "--quiet"]) == 2
     line = _err_line(capsys)
     assert str(path) in line and key in line
@@ -392,7 +392,7 @@ def test_8_cross_field_and_bound_errors_name_the_field(tmp_path, capsys, replace
 
 @pytest.mark.parametrize("seed", ["-1", "-99999999999999999999", str(2**63)])
 def test_8_negative_or_huge_seed_is_one_line(tmp_path, capsys, seed):
-    assert main(["run", "--seed", seed, "--objects", "lego", "--trials", "1", "--out", str(tmp_path / "r")]) == 2
+    assert main(["run", "--backend", "mock", "--seed", seed, "--objects", "lego", "--trials", "1", "--out", str(tmp_path / "r")]) == 2
     assert "--seed" in _err_line(capsys)
     assert not (tmp_path / "r").exists()
 
@@ -478,7 +478,7 @@ def test_interrupted_run_of_every_default_object_resumes_to_the_same_summary(tmp
     names = default_set(default_objects_file())
     assert "mustard_bottle" in names
     full, cut = tmp_path / "full", tmp_path / "cut"
-    assert main(["run", "--trials", "1", "--out", str(full), "--quiet", "--no-tick-logs"]) == 0
+    assert main(["run", "--backend", "mock", "--trials", "1", "--out", str(full), "--quiet", "--no-tick-logs"]) == 0
 
     real = runner.sim_trial_fn
     calls = {"n": 0}
@@ -494,7 +494,7 @@ def test_interrupted_run_of_every_default_object_resumes_to_the_same_summary(tmp
         return trial
 
     monkeypatch.setattr(runner, "sim_trial_fn", interrupted_fn)
-    assert main(["run", "--trials", "1", "--out", str(cut), "--quiet", "--no-tick-logs"]) == 130
+    assert main(["run", "--backend", "mock", "--trials", "1", "--out", str(cut), "--quiet", "--no-tick-logs"]) == 130
     assert len(load_records(cut).records) == 3 and not (cut / LOCK_FILE).exists()
     monkeypatch.setattr(runner, "sim_trial_fn", real)
     capsys.readouterr()

@@ -169,7 +169,7 @@ def test_run_with_hostile_files_runs_or_fails_cleanly_inside_the_run_dir(
         obj_file.write_text(_mutate_toml(OBJECTS_TOML, obj_line, obj_value) if which != "hand" else OBJECTS_TOML)
         before = {p for p in root.rglob("*") if p.is_file()}
         run_dir = root / "a" / "b" / "run"
-        rc, _, err = _call(["run", "--hand", str(hand_file), "--object-file", str(obj_file), "--trials", "2",
+        rc, _, err = _call(["run", "--backend", "mock", "--hand", str(hand_file), "--object-file", str(obj_file), "--trials", "2",
                             "--out", str(run_dir), "--quiet"])
         _assert_clean(rc, err)
         assert rc in (0, 2), err
@@ -214,7 +214,7 @@ def _set(doc: Any, path: tuple, value: Any, delete: bool) -> Any:
 @pytest.fixture(scope="module")
 def finished_run(tmp_path_factory, monkeypatch_session) -> Path:
     run_dir = tmp_path_factory.mktemp("resume") / "run"
-    rc, _, err = _call(["run", "--objects", "lego,mustard_bottle", "--trials", "2", "--out", str(run_dir), "--quiet"])
+    rc, _, err = _call(["run", "--backend", "mock", "--objects", "lego,mustard_bottle", "--trials", "2", "--out", str(run_dir), "--quiet"])
     assert rc == 0, err
     return run_dir
 
@@ -312,6 +312,8 @@ def test_any_arguments_give_a_result_or_one_clean_error(command, data, monkeypat
         argv += ["--quiet"]
         if command == "run" and "--out" not in argv and "--resume" not in argv:
             argv += ["--out", RUN_DIR]
+        if command == "run" and "--backend" not in argv and "--resume" not in argv:
+            argv += ["--backend", "mock"]   # argument handling is under test, not the world
         if command == "tune" and "--object" not in argv:
             argv += ["--object", "lego"]
         if command == "tune" and "--param" not in argv:

@@ -118,6 +118,8 @@ from grasp_ctrl.paths import default_hand_file, default_objects_file
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 hand = load_hand(default_hand_file())
 obj = load_objects(default_objects_file())[sys.argv[1]]
+if obj.grip_targets == "force_closure":   # the mock cannot balance a 2-tau thumb: its ramp times out, and
+    obj = obj.with_params(tau_n=2.0, grip_targets=None)   # rounding grows in that fight; equal targets
 rows = []
 def tick(world, ctrl):
     if len(rows) < 700:
@@ -172,6 +174,8 @@ def test_the_index_fingertip_presses_the_mustard_bottles_cap(hand, objects):
     # meets the body's wall just under its top edge instead (docs/mock_world.md).
     # Looked at as the lift starts: with friction on the dome's own normal this grasp
     # then slips (lifting unloads the cap contact; tests/test_mock_world.py).
+    # at equal 2 N targets: the mock cannot balance the profile's force-closure thumb (docs/results.md)
+    objects = dict(objects, mustard_bottle=objects["mustard_bottle"].with_params(tau_n=2.0, grip_targets=None))
     world = _grasped_world(hand, objects, "mustard_bottle", skin_contact=False, state="lift")
     obj = objects["mustard_bottle"]
     index = world.fingers.index(obj.cap.finger)

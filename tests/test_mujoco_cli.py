@@ -1,15 +1,13 @@
-"""`run --backend mujoco`, `view`, `--record-video` and the bench figure (skipped without mujoco)."""
+"""`run --backend mujoco`, `view`, `--record-video` and the bench figures (mujoco is a dependency)."""
 
 from __future__ import annotations
 
 import json
 
-import pytest
+import mujoco
 
-pytest.importorskip("mujoco")
-
-from grasp_ctrl.bench.runner import all_figures  # noqa: E402
-from grasp_ctrl.cli import main  # noqa: E402
+from grasp_ctrl.bench.runner import all_figures
+from grasp_ctrl.cli import main
 
 
 def test_run_backend_mujoco_scores_from_the_simulation(tmp_path, capsys):
@@ -25,7 +23,7 @@ def test_run_backend_mujoco_scores_from_the_simulation(tmp_path, capsys):
 
 
 def test_record_video_needs_the_mujoco_backend(tmp_path, capsys):
-    assert main(["run", "--objects", "lego", "--trials", "1", "--out", str(tmp_path / "r"),
+    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(tmp_path / "r"),
                  "--record-video", str(tmp_path / "v")]) != 0
     assert "--record-video: only with --backend mujoco" in capsys.readouterr().err
 
@@ -38,8 +36,6 @@ def test_view_without_a_display_says_so(monkeypatch, capsys, tmp_path):
     assert "no display" in capsys.readouterr().err
     xml = tmp_path / "scene.xml"
     assert main(["view", "--object", "paper_cup", "--save-xml", str(xml)]) == 0
-    import mujoco
-
     assert mujoco.MjModel.from_xml_path(str(xml)).nu == 16
 
 
@@ -50,6 +46,19 @@ def test_view_names_an_unknown_object(capsys):
 
 def test_the_realtime_figure_is_listed():
     assert "mujoco_realtime_factor" in all_figures()
+    assert "mujoco_bare_realtime_factor" in all_figures()
+
+
+def test_the_bare_engine_figure_runs():
+    """mj_step alone on the recorded inputs of a short trial: a finite rate."""
+    import numpy as np
+
+    from grasp_ctrl.bench import fig_mujoco
+
+    assert fig_mujoco._bare_steps(0.3, 0) > 0.0
+    rec = fig_mujoco._StepRecorder(mujoco)
+    assert rec.mjtState is mujoco.mjtState and rec.inputs == []
+    assert np.isfinite(fig_mujoco.mujoco_bare_realtime_factor(True).median)
 
 
 def test_recording_world_writes_a_video_or_says_why(tmp_path, capsys, hand, objects):

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import pytest
 
-mujoco = pytest.importorskip("mujoco")
+import mujoco  # a run-time dependency: no skip
 
 from grasp_ctrl.kinematics.fingertip import SKIN_RADIUS_M  # noqa: E402
 from grasp_ctrl.sim.mujoco_scene import (  # noqa: E402

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-mujoco = pytest.importorskip("mujoco")
+import mujoco  # a run-time dependency: no skip
 
 from grasp_ctrl.controller.joint_stiffness import servo_kp_nm_per_rad, servo_kv_nm_s_per_rad  # noqa: E402
 from grasp_ctrl.kinematics.chain import HandKinematics  # noqa: E402

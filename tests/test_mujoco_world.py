@@ -1,11 +1,9 @@
-"""Trials in the MuJoCo world through the real runner and controller (skipped without mujoco)."""
+"""Trials in the MuJoCo world through the real runner and controller."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-
-pytest.importorskip("mujoco")
 
 from grasp_ctrl.sim.mujoco_world import MuJoCoWorld  # noqa: E402
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial  # noqa: E402
@@ -78,3 +76,24 @@ def test_tall_objects_are_grasped_below_their_top_with_the_hand_clear(hand, obje
         assert obj.grasp_height_m <= w.grasp_height_m < obj.height_m
         # at the start nothing of the hand touches the object
         assert w.other_hand_contact_n == 0.0 and not w.in_contact.any()
+
+
+def test_release_relaxes_in_place_and_does_not_drag_the_mustard_bottle_up(hand, objects):
+    """At release the servos first take their measured angles as goals, then back off: the pads
+    let go where they are. Backing off from the deflected goals swung the thumb's tip up 11 mm
+    and dragged the bottle off the table (seed 1, trial 1: dropped_early by the fell rule)."""
+    from grasp_ctrl.trials.episode.runner import trial_seed
+
+    thumb = [f.name for f in hand.fingers].index("thumb")
+    tip_z, obj_z = [], []
+
+    def on_tick(world, ctrl):
+        if ctrl.state == "release":
+            tip_z.append(world.sensor_pose(thumb)[1][2])
+            obj_z.append(world.data.xpos[world._obj_body][2] - world._z_rest)
+
+    r = run_sim_trial(hand, objects["mustard_bottle"], estimator_factory("oracle", hand),
+                       trial_seed(1, "mustard_bottle", 1), "oracle", 1, backend="mujoco", on_tick=on_tick)
+    assert r.success, r.reason
+    assert max(tip_z) - tip_z[0] < 0.005          # (before: 11 mm)
+    assert max(obj_z) < obj_z[0] + 0.0005         # the bottle never rises (before: 2.3 mm, off the table)

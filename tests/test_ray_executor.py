@@ -90,7 +90,7 @@ def test_fig3_style_experiment_on_ray_trains_the_same_models(local_ray, tmp_path
 
 
 def test_executor_errors_are_one_line(tmp_path, capsys):
-    assert main(["run", "--objects", "lego", "--trials", "1", "--address", "10.0.0.1:6379",
+    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--address", "10.0.0.1:6379",
                  "--out", str(tmp_path / "x")]) == 2
     assert "--address: only with --executor ray" in capsys.readouterr().err
     assert main(["run", "--backend", "dynamixel", "--emulate", "--executor", "ray", "--objects", "lego",

@@ -38,7 +38,7 @@ def _session(sid: int) -> dict[int, int]:
 def _start(out: Path, trials: int = 4) -> subprocess.Popen:
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     return subprocess.Popen(
-        [sys.executable, str(ROOT / "launch.py"), "run", "--objects", "chips_can,lego,cleanser", "--trials", str(trials),
+        [sys.executable, str(ROOT / "launch.py"), "run", "--backend", "mock", "--objects", "chips_can,lego,cleanser", "--trials", str(trials),
          "--jobs", "2", "--out", str(out), "--quiet"],
         cwd=ROOT, env=env, start_new_session=True, preexec_fn=sigint_as_at_a_terminal,
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

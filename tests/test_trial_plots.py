@@ -12,7 +12,7 @@ from grasp_ctrl.cli import main
 def main_job_trial(tmp_path_factory):
     """One trial of the main job (`run` with its defaults, one object, one trial)."""
     run_dir = tmp_path_factory.mktemp("main") / "run"
-    assert main(["run", "--objects", "chips_can", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
+    assert main(["run", "--backend", "mock", "--objects", "chips_can", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
     return run_dir / "trials" / DEFAULT_POLICY / "chips_can" / "trial_000.json"
 
 

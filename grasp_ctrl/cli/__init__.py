@@ -40,7 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description=(
             "Tactile force-feedback lift-and-place grasping. With no command, runs the main "
-            "job: 5 lift-and-place trials per default object on the mock hand."
+            "job: 5 lift-and-place trials per default object in the MuJoCo world."
         ),
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")

@@ -38,6 +38,7 @@ def auto_jobs(backend: str, trials: int, cpus: int | None = None) -> int:
 # The flags that define which trials a run holds (run.json stores them).
 PLAN_FLAGS = ("hand", "object_file", "backend", "emulate", "objects", "policy", "trials", "seed", "preset",
               "no_tick_logs")
+DEFAULT_BACKEND = "mujoco"        # the reference world (docs/mujoco.md)
 EMULATED = "dynamixel-emulated"   # the run's backend with --emulate (= manifest.EMULATED_BACKEND; lazy imports)
 
 
@@ -51,13 +52,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--object-file", default=None, metavar="FILE",
                    help="object profiles TOML (default: hand_configs/objects.toml)")
     p.add_argument("--backend", choices=("mock", "mujoco", "dynamixel"), default=None,
-                   help="mock: simulated hand, sensors and objects (default); mujoco: the same trials in a "
-                        "MuJoCo scene built from the hand and object files (the sim extra, docs/mujoco.md); "
-                        "dynamixel: the real hand, the operator labels each trial")
+                   help="mujoco (default): the reference world, a MuJoCo scene built from the hand and "
+                        "object files (docs/mujoco.md); mock: the hand-written world, a fast test double whose "
+                        "success rates are not results (docs/results.md); dynamixel: the real hand, the operator "
+                        "labels each trial")
     p.add_argument("--emulate", action="store_true", default=None,
                    help="with --backend dynamixel: the servo chain (Protocol 2.0) and the fingertip stream "
-                        "(protocol v1) are emulated on pseudo-terminals with the mock world's physics behind "
-                        "them, so the whole hardware path runs without hardware; scored like the mock")
+                        "(protocol v1) are emulated on pseudo-terminals with the MuJoCo world's physics behind "
+                        "them, so the whole hardware path runs without hardware; scored from that world")
     p.add_argument("--yes", action="store_true",
                    help="answer the pre-flight confirmation (arm at its start pose) with yes, for scripted runs")
     p.add_argument("--objects", default=None, metavar="a,b|all",
@@ -76,7 +78,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", default=None, metavar="FILE", help="also write the run summary JSON here")
     p.add_argument("--force", action="store_true",
                    help="with --resume: continue although a policy, hand or object file or run.json's settings "
-                        "changed since the run started (recorded in run.json)")
+                        "changed since the run started (recorded in run.json); on a Dynamixel hand (real or "
+                        "--emulate): run objects the grasp cannot carry at the configured currents and tau "
+                        "(the capacity preflight refuses them otherwise)")
     p.add_argument("--threads", type=int, default=1, metavar="N", help="inference threads per policy (default 1)")
     p.add_argument("--jobs", type=int, default=None, metavar="N",
                    help="mock trials run in N processes at once (default: one per CPU core, at most "
@@ -125,7 +129,7 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     policies = args.policy or (list(preset.policies) if preset else [DEFAULT_POLICY])
     if len(set(policies)) != len(policies):
         raise UsageError("--policy: each policy once")
-    backend = args.backend or "mock"
+    backend = args.backend or DEFAULT_BACKEND
     if args.emulate:
         if backend != "dynamixel":
             raise UsageError("--emulate: only with --backend dynamixel (it emulates the real hand's links)")
@@ -213,8 +217,6 @@ def run(args: argparse.Namespace) -> int:
         stamp = time.strftime("%Y%m%d-%H%M%S")
         tag = f"-{manifest.preset}" if manifest.preset else ""
         run_dir = Path(args.out) if args.out else Path("runs") / f"{stamp}{tag}-seed{manifest.seed}"
-    if args.force and not args.resume:
-        raise UsageError("--force: only with --resume")
     check_output(args.json, "--json", run_dirs=[run_dir])
     check_run_tree(run_dir, "--resume" if args.resume else "--out")
     from grasp_ctrl.sim.registry import is_simulated
@@ -227,16 +229,24 @@ def run(args: argparse.Namespace) -> int:
     trial_fn = None
     if args.record_video is not None and manifest.backend != "mujoco":
         raise UsageError("--record-video: only with --backend mujoco")
+    from grasp_ctrl.trials.episode.capacity_check import preflight_capacity
+    from grasp_ctrl.trials.runs.summary_flags import MOCK_NOTE, flag_summary
+
+    short = preflight_capacity(hand, list(manifest.objects), manifest.settings,
+                               on_hand=manifest.backend in ("dynamixel", EMULATED), force=args.force,
+                               say=lambda text: print(text, file=sys.stderr, flush=True),
+                               source=str(run_dir / "run.json") if args.resume else str(manifest.object_file))
     if manifest.backend in ("dynamixel", EMULATED):
         _preflight(hand, manifest, args)
     if manifest.backend == "dynamixel":
         trial_fn = _hardware_trial_fn(hand, manifest, args.threads, args.port, args.sensor_port)
     elif manifest.backend == EMULATED:
         from grasp_ctrl.emulators.world_rig import emulated_backends
+        from grasp_ctrl.sim.mujoco_backends import make_world
         from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
         trial_fn = sim_trial_fn(hand, manifest.policies, manifest.settings, args.threads,
-                                 make_backends=emulated_backends, backend=EMULATED)
+                                 make_backends=emulated_backends, backend=EMULATED, make_world=make_world)
     elif manifest.backend == "mujoco" and args.record_video:
         from grasp_ctrl.trials.episode.mujoco_video import video_trial_fn
 
@@ -267,8 +277,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"{why}: {done} of {manifest.total} trials are recorded in {run_dir}; "
               f"continue with: grasp-ctrl run --resume {run_dir}", file=sys.stderr)
         return 143 if isinstance(exc, Terminated) else 130
+    flagged = flag_summary(summary, short)
+    if flagged != summary:   # short objects, the mock's test-double flag: written into summary.json
+        from grasp_ctrl.storage import SUMMARY_FILE, write_json
+
+        summary = flagged
+        write_json(run_dir / SUMMARY_FILE, summary)
     print(format_table(summary))
     print(f"logs: {run_dir}  (compare: grasp-ctrl compare {run_dir})")
+    if summary.get("test_double"):
+        print(f"note: {MOCK_NOTE}")
     if args.rrd is not None:
         from grasp_ctrl.trials.analysis.rerun_log import record_run
 

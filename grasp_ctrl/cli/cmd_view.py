@@ -11,7 +11,7 @@ NAME = "view"
 HELP = "look at the MuJoCo scene of one object (hand at its start pose) in MuJoCo's viewer"
 DESCRIPTION = (
     "Builds the scene that 'run --backend mujoco' uses for OBJECT (hand file, object profile, seed) and "
-    "opens MuJoCo's interactive viewer on it (needs a display and the sim extra). The hand holds its open "
+    "opens MuJoCo's interactive viewer on it (needs a display). The hand holds its open "
     "posture above the object; the simulation runs in the viewer. Without a display: a clear message, or "
     "--save-xml FILE to write the scene's MJCF for another machine."
 )

@@ -14,6 +14,9 @@ from typing import Any
 from grasp_ctrl.config.toml_reader import Table, read_toml
 from grasp_ctrl.names import SAFE_NAME_RULE, is_safe_name
 
+#: How an object's grip targets are set (controller/grip_targets.py).
+GRIP_TARGET_MODES = ("equal", "force_closure")
+
 SHAPES = ("cylinder", "box")
 MIN_MASS_KG = 0.001   # 1 g: lighter bodies make MuJoCo's inertias degenerate
 
@@ -48,6 +51,7 @@ class ObjectProfile:
     release_debounce: int = 3
     lift_height_m: float = 0.10
     hold_s: float = 0.5
+    grip_targets: str | None = None  # equal | force_closure (controller/grip_targets.py); None: the controller's
 
     @property
     def half_width_m(self) -> float:
@@ -63,7 +67,7 @@ TUNABLE = ("tau_n", "release_threshold_n", "release_debounce", "lift_height_m", 
 def _object(name: str, t: Table) -> ObjectProfile:
     t.unknown_keys({
         "shape", "diameter_m", "size_m", "height_m", "mass_kg", "mu", "stiffness_n_per_m",
-        "deformable", "crush_force_n", "grasp_height_m", "tip_force_n", "cap", *TUNABLE,
+        "deformable", "crush_force_n", "grasp_height_m", "tip_force_n", "cap", "grip_targets", *TUNABLE,
     })
     shape = t.str("shape", choices=SHAPES)
     if shape == "cylinder":
@@ -102,6 +106,7 @@ def _object(name: str, t: Table) -> ObjectProfile:
         release_debounce=t.int("release_debounce", 3, lo=1, hi=1000),
         lift_height_m=t.float("lift_height_m", 0.10, lo=0.0, hi=1.0, lo_open=True),
         hold_s=t.float("hold_s", 0.5, lo=0.0, hi=60.0),
+        grip_targets=t.str("grip_targets", choices=GRIP_TARGET_MODES) if t.has("grip_targets") else None,
     )
 
 
@@ -127,6 +132,8 @@ def profile_table(obj: ObjectProfile) -> dict[str, Any]:
         doc["size_m"] = list(obj.size_m)
     if obj.crush_force_n is None:
         doc.pop("crush_force_n")
+    if obj.grip_targets is None:
+        doc.pop("grip_targets")
     if obj.cap is not None:
         cap = asdict(obj.cap)
         cap["offset_m"] = list(obj.cap.offset_m)

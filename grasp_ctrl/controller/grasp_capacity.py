@@ -67,9 +67,11 @@ class Capacity:
 
 def liftable_weight(hand: HandConfig, q_all: np.ndarray, contacts: list[PadContact], mu: float,
                     kin: HandKinematics | None = None,
-                    torque_per_amp_nm: float = TORQUE_PER_AMP_NM) -> Capacity:
+                    torque_per_amp_nm: float = TORQUE_PER_AMP_NM,
+                    normal_max_n: dict[str, float] | None = None) -> Capacity:
     """The largest weight (N) the pads in ``contacts`` carry at joint angles ``q_all`` (hand-file
-    order), the object's weight acting on the vertical line through the hand frame's origin."""
+    order), the object's weight acting on the vertical line through the hand frame's origin.
+    ``normal_max_n`` (finger -> N): each listed pad's normal force at most that (its grip target)."""
     from scipy.optimize import linprog
 
     kin = kin or HandKinematics(hand)
@@ -115,8 +117,8 @@ def liftable_weight(hand: HandConfig, q_all: np.ndarray, contacts: list[PadConta
         frames.append((cols, per_n, limits, finger))
     balance[2, -1] = -1.0
     bounds = [(None, None)] * nv
-    for i in range(len(contacts)):
-        bounds[4 * i] = (0.0, None)
+    for i, c in enumerate(contacts):
+        bounds[4 * i] = (0.0, (normal_max_n or {}).get(c.finger))
     bounds[-1] = (0.0, None)
     cost = np.zeros(nv)
     cost[-1] = -1.0
@@ -148,7 +150,8 @@ def _cap_contact(obj: ObjectProfile, pad: np.ndarray, top_z_hand: float) -> tupl
 
 
 def object_capacity(hand: HandConfig, obj: ObjectProfile, standoff_m: float = 0.01,
-                    step_m: float = 0.0005, kin: HandKinematics | None = None) -> tuple[Capacity, list[PadContact], np.ndarray]:
+                    step_m: float = 0.0005, kin: HandKinematics | None = None,
+                    normal_max_n: dict[str, float] | None = None) -> tuple[Capacity, list[PadContact], np.ndarray]:
     """The grasp of ``obj`` as the controller makes it (preshape, cap finger raised, pads closed
     along their task vectors until they touch), its capacity, the contacts and the posture.
     The hand frame's origin is ``[grasp] palm_above_contact_m`` above the reach height."""
@@ -186,4 +189,4 @@ def object_capacity(hand: HandConfig, obj: ObjectProfile, standoff_m: float = 0.
         pad = rot @ PAD_POINT_SENSOR + origin
         facing = math.degrees(math.acos(float(np.clip(-(rot @ PAD_NORMAL_SENSOR) @ normal, -1.0, 1.0))))
         contacts.append(PadContact(finger.name, pad, normal, facing))
-    return liftable_weight(hand, q, contacts, obj.mu, kin), contacts, q
+    return liftable_weight(hand, q, contacts, obj.mu, kin, normal_max_n=normal_max_n), contacts, q

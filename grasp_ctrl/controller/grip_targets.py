@@ -19,8 +19,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from grasp_ctrl.config.objects import GRIP_TARGET_MODES  # noqa: F401  (the modes, named with the profiles)
+
 GRAVITY_M_S2 = 9.81
-GRIP_TARGET_MODES = ("equal", "force_closure")
 
 
 def grip_targets(task_vectors_hand: np.ndarray, grasping: np.ndarray, tau_n: float, mode: str = "equal",

@@ -134,10 +134,12 @@ class GraspController:
         # With the sim extra, the per-tick counters, force checks and squeeze run compiled
         # (controller/tick_kernels.py); the Python code below stays the reference.
         # Each fingertip's grip target (controller/grip_targets.py); all tau by default.
+        # An object's profile may choose its own mode (a heavy box: force_closure, objects.toml).
         if self.s.grip_targets not in GRIP_TARGET_MODES:
             raise ConfigError("controller settings", "grip_targets",
                               f"one of {', '.join(GRIP_TARGET_MODES)} (got {self.s.grip_targets!r})")
-        self.grip_targets = grip_targets(self.motion.task_vectors, self.grasp_mask, obj.tau_n, self.s.grip_targets,
+        mode = obj.grip_targets or self.s.grip_targets
+        self.grip_targets = grip_targets(self.motion.task_vectors, self.grasp_mask, obj.tau_n, mode,
                                          obj.mass_kg, obj.mu, self.s.grip_weight_margin)
         self._targets = self.grip_targets.tolist()
         # The compiled kernels take one target for every fingertip: unequal targets run the
@@ -591,6 +593,14 @@ class GraspController:
         elif state == "release":
             # Back the pads off along their closing vectors: swinging straight to the open
             # posture can sweep a fingertip (the LEAP thumb) into the table beside the object.
+            # First relax the servos in place (goals = the measured angles): under grip the
+            # joints' springs are deflected, and not along the closing vectors, so backing off
+            # from the deflected goals swings the pads as they unload (the LEAP thumb's tip rose
+            # 11 mm on the mustard bottle) and drags a heavy object off the table by friction.
+            # (The first release tick always runs here, also when the state's other ticks are
+            # compiled: the kernel then backs off from these goals.)
+            if self.ticks_in_state == 0:
+                self.motion.set_posture(np.asarray(snap.q, dtype=float))
             self.motion.advance_all(np.where(self.grasp_mask, -s.release_back_off_m_s * self.dt, 0.0))
         elif state == "retreat":
             if self._retreat_goal is None:

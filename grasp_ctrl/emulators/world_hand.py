@@ -36,6 +36,15 @@ class _WorldClock:
         return float(self.world.t)
 
 
+def _present_current_a(world: Any) -> np.ndarray:
+    """The servos' present current (A): MuJoCo's actuator torques, or the mock world's servo
+    spring, over the torque constant."""
+    if hasattr(world, "joint_torque_nm"):   # MuJoCoWorld
+        return np.asarray(world.joint_torque_nm) / world.params.scene.torque_per_amp_nm
+    p = world.params
+    return p.servo_stiffness_nm_per_rad * (np.asarray(world.q_servo) - np.asarray(world.q)) / p.torque_per_amp_nm
+
+
 class EmulatedDynamixelHand:
     def __init__(self, world: Any, hand: HandConfig) -> None:
         self.world = world
@@ -68,8 +77,7 @@ class EmulatedDynamixelHand:
         q = np.asarray(w.q, dtype=float)
         dq = (q - self._q_prev) / w.dt
         self._q_prev = q.copy()
-        p = w.params
-        current_a = p.servo_stiffness_nm_per_rad * (np.asarray(w.q_servo) - q) / p.torque_per_amp_nm
+        current_a = _present_current_a(w)
         counts = self.cal.to_counts_float(q)
         amp_unit = self.dxl.amp_per_unit if self.dxl else 0.001
         for k, i in enumerate(self.ids):

@@ -68,7 +68,7 @@ def _mujoco():
     except ImportError:
         from grasp_ctrl.errors import UsageError
 
-        raise UsageError("--backend mujoco needs the sim extra: pip install -e '.[sim]' (mujoco>=3.1)") from None
+        raise UsageError("the MuJoCo world needs mujoco>=3.1, a dependency of grasp-ctrl: pip install -e .") from None
     from grasp_ctrl.sim.mujoco_log import install
 
     install(mujoco)   # its warnings: the run directory or nowhere, never ./MUJOCO_LOG.TXT

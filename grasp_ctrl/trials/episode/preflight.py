@@ -103,9 +103,9 @@ def preflight_hardware(hand: HandConfig, port: str | None = None, sensor_port: s
 def preflight_emulated(hand: HandConfig, obj: Any, seed: int) -> PreflightReport:
     """The emulated rig of ``run --emulate``, on a world of the first object (before any trial)."""
     from grasp_ctrl.emulators.world_rig import emulated_backends
-    from grasp_ctrl.sim.world import MockWorld
+    from grasp_ctrl.sim.mujoco_backends import make_world
 
-    world = MockWorld(hand, obj, seed)
+    world = make_world(hand, obj, seed)
     hand_backend, sensors = emulated_backends(world, hand)
     try:
         hand_backend.connect()

@@ -1,0 +1,109 @@
+"""Before any trial: can the grasp carry each object at the configured currents and grip targets?
+
+The statics of ``controller/grasp_capacity.py`` (the controller's grasp posture, friction cones,
+every joint within its current limit x 0.5 N m/A), with each grasping pad's normal force at
+most its grip target (the object's ``tau_n`` through the controller's grip-target rule): the
+largest weight that grasp carries, over the object's weight. Below 1 the object cannot be
+lifted whatever the estimator; ``run`` names such objects (ratio and what binds), refuses them
+on a Dynamixel hand (real or emulated) unless ``--force``, and flags them in a simulated run's
+summary.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from grasp_ctrl.config.checks import check_objects_for_hand
+from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.controller.grip_targets import grip_targets
+from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.errors import GraspCtrlError
+from grasp_ctrl.controller.grasp_capacity import GRAVITY_M_S2, object_capacity
+
+#: A joint at this share of its torque limit, or a pad at this share of its target, binds.
+BINDING_SHARE = 0.999
+
+
+@dataclass(frozen=True)
+class CapacityVerdict:
+    """What the statics say about one object at the configured currents and grip targets."""
+
+    object: str
+    ratio: float            # the liftable weight over the object's weight (0: no grasp)
+    binding: str            # what limits it: joint names (with current), grip targets, or why no grasp
+    targets_n: dict[str, float]
+
+    @property
+    def carried(self) -> bool:
+        return self.ratio >= 1.0
+
+    def line(self) -> str:
+        return f"{self.object}: the grasp carries {self.ratio:.2f}x its weight (binding: {self.binding})"
+
+    def to_json(self) -> dict[str, object]:
+        return {"object": self.object, "ratio": round(self.ratio, 4), "binding": self.binding,
+                "grip_targets_n": {k: round(v, 4) for k, v in self.targets_n.items()}}
+
+
+def object_targets(hand: HandConfig, obj: ObjectProfile, settings: ControllerSettings) -> dict[str, float]:
+    """Each grasping finger's grip target (N), as the controller computes it for ``obj``."""
+    vectors = np.array([f.task_vector_hand for f in hand.fingers], dtype=float)
+    mask = np.array([f.grasp for f in hand.fingers])
+    t = grip_targets(vectors, mask, obj.tau_n, obj.grip_targets or settings.grip_targets,
+                     obj.mass_kg, obj.mu, settings.grip_weight_margin)
+    return {f.name: float(t[i]) for i, f in enumerate(hand.fingers) if f.grasp}
+
+
+def check_object(hand: HandConfig, obj: ObjectProfile, settings: ControllerSettings | None = None) -> CapacityVerdict:
+    targets = object_targets(hand, obj, settings or ControllerSettings())
+    try:
+        cap, _, _ = object_capacity(hand, obj, normal_max_n=targets)
+    except ValueError as exc:   # a posture the hand cannot take (a cap out of reach, ...)
+        return CapacityVerdict(obj.name, 0.0, f"no grasp: {exc}", targets)
+    if not cap.loads:
+        return CapacityVerdict(obj.name, 0.0, "no grasp: the pads do not reach the object", targets)
+    currents = {j.name: j.current_limit_a for j in hand.joints}
+    binds = [f"{ld.joint} at {currents[ld.joint]:g} A" for ld in cap.loads if ld.torque_share >= BINDING_SHARE]
+    binds += [f"{ld.finger}'s grip target {targets[ld.finger]:.2f} N" for ld in cap.loads
+              if ld.normal_n >= BINDING_SHARE * targets[ld.finger]]
+    top = max(cap.loads, key=lambda ld: ld.torque_share)
+    if top.torque_share < BINDING_SHARE:   # name the joint closest to its limit as well
+        binds.append(f"most loaded joint {top.joint} at {100 * top.torque_share:.0f} % of "
+                     f"{currents[top.joint]:g} A")
+    ratio = cap.weight_n / (obj.mass_kg * GRAVITY_M_S2)
+    return CapacityVerdict(obj.name, ratio, ", ".join(binds), targets)
+
+
+def check_objects(hand: HandConfig, objects: list[ObjectProfile],
+                  settings: ControllerSettings | None = None) -> list[CapacityVerdict]:
+    return [check_object(hand, o, settings) for o in objects]
+
+
+class CapacityRefused(GraspCtrlError):
+    """A Dynamixel hand was asked to lift an object its grasp cannot carry (without --force)."""
+
+    exit_status = 2
+
+
+def preflight_capacity(hand: HandConfig, objects: list[ObjectProfile], settings: ControllerSettings | None,
+                       on_hand: bool, force: bool, say: Callable[[str], None],
+                       source: str = "the object file") -> list[CapacityVerdict]:
+    """The objects the grasp cannot carry, each named through ``say``. On a (real or emulated)
+    Dynamixel hand they are refused (CapacityRefused) unless ``force``; in simulation they run.
+    The objects are first checked against the hand (ConfigError naming ``source``'s key)."""
+    check_objects_for_hand(objects, hand, source)
+    short = [v for v in check_objects(hand, objects, settings) if not v.carried]
+    if not short:
+        return []
+    names = "; ".join(v.line() for v in short)
+    if on_hand and not force:
+        raise CapacityRefused(f"capacity: {names}; raise the current limits or tau_n (lift-capacity), "
+                              "leave the object out, or pass --force")
+    for v in short:
+        say(f"capacity: {v.line()}; its trials will likely fail" + (" (--force)" if on_hand else ""))
+    return short
+
