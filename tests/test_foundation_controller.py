@@ -251,15 +251,15 @@ def test_diagram_lists_every_transition_with_its_guard_and_fault_reason():
     assert "Class" not in "\n".join(lines)   # no styling noise
 
 
-def test_readme_diagram_is_the_diagram_commands_output(capsys):
+def test_design_docs_diagram_is_the_diagram_commands_output(capsys):
     from pathlib import Path
 
     from grasp_ctrl.cli import main
 
     assert main(["diagram"]) == 0
     printed = capsys.readouterr().out.strip()
-    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
-    assert f"```mermaid\n{printed}\n```" in readme
+    design = (Path(__file__).resolve().parents[1] / "docs" / "design.md").read_text(encoding="utf-8")
+    assert f"```mermaid\n{printed}\n```" in design
 
 
 def test_diagram_picture(tmp_path):

@@ -134,9 +134,11 @@ def test_resume_with_force_continues_and_records_what_changed(tmp_path, files, m
     assert "not counted" not in _err(capsys)
 
 
-def test_force_without_resume_is_refused(tmp_path, files, capsys):
-    assert main(_start(tmp_path / "run", files) + ["--force"]) == 2
-    assert "--force" in _err(capsys) and not (tmp_path / "run").exists()
+def test_force_names_both_of_its_uses(capsys):
+    """--force accepts a changed run on --resume, and on a hand an object the grasp cannot carry."""
+    assert main(["run", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "with --resume: continue although" in text and "the capacity preflight refuses" in text
 
 
 def test_resume_of_an_unchanged_run_still_works(tmp_path, files, monkeypatch):

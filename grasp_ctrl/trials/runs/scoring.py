@@ -13,6 +13,7 @@ from grasp_ctrl.trials.runs.manifest import RunManifest, read_manifest
 from grasp_ctrl.trials.runs.records import LoadedRecords, canonical_order, load_records
 from grasp_ctrl.storage import SUMMARY_FILE
 from grasp_ctrl.trials.runs.summary import summarize
+from grasp_ctrl.trials.runs.summary_flags import rescored_flags
 
 
 @dataclass
@@ -64,7 +65,7 @@ def score_run(run_dir: Path) -> Scored:
         raise UsageError(f"{run_dir}: no usable trial records{where}")
     records = canonical_order(loaded.records, manifest.policies if manifest else None,
                               manifest.object_names if manifest else None)
-    summary = summarize(records, str(run_dir), backend, hand, seed)
+    summary = rescored_flags(summarize(records, str(run_dir), backend, hand, seed), live)
     return Scored(run_dir, summary, records, loaded.problems, manifest, live)
 
 
