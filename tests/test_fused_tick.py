@@ -92,13 +92,17 @@ def test_squeeze_state_ticks_equal_the_python_controller(hand, objects, tmp_path
 
 @pytest.fixture(scope="module")
 def controllers(hand, objects):
-    """A controller with its kernels and one with its Python code (both with the kernel pad IK)."""
+    """A controller with its kernels and one with its Python code (both with the kernel pad IK),
+    at equal grip targets: the compiled tick's case (unequal targets run the Python tick)."""
+    import dataclasses
+
     from grasp_ctrl.kinematics.pad_ik import PadIK
 
     kin = HandKinematics(hand)
+    obj = dataclasses.replace(objects["mustard_bottle"], grip_targets="equal")
     made = []
     for compiled in (True, False):
-        ctrl = GraspController(hand, objects["mustard_bottle"], np.array([0.0, 0.0, 0.15]), kin=kin)
+        ctrl = GraspController(hand, obj, np.array([0.0, 0.0, 0.15]), kin=kin)
         ctrl.motion.ik = PadIK(kin, compiled=True)
         ctrl._compiled = compiled
         made.append(ctrl)

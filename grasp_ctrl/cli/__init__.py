@@ -52,19 +52,40 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+_signalled: list[int] = []   # SIGINT / SIGTERM received during this command
+
+
 def _raise_terminated(signum: int, frame: object) -> None:
+    _signalled.append(signum)
     raise Terminated()
 
 
+def _raise_interrupted(signum: int, frame: object) -> None:
+    _signalled.append(signum)
+    raise KeyboardInterrupt()
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    # SIGTERM takes Ctrl-C's path: hardware stops safely, the run stays resumable.
+    # SIGTERM takes Ctrl-C's path: hardware stops safely, the run stays resumable. Both are
+    # noted, because an interrupt inside an extension module's import can surface as another
+    # error (numpy's ImportError, say): after a signal any exception is the interrupt's.
+    handlers = None
     if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _raise_terminated)
+        handlers = (signal.signal(signal.SIGTERM, _raise_terminated),
+                    signal.signal(signal.SIGINT, _raise_interrupted))
+    _signalled.clear()
     try:
         return _main(argv)
-    except KeyboardInterrupt as exc:   # before a command started (loading the commands, say)
-        print(f"{PROG}: interrupted", file=sys.stderr)
-        return 143 if isinstance(exc, Terminated) else 130
+    except BaseException as exc:
+        if not (isinstance(exc, KeyboardInterrupt) or _signalled) or isinstance(exc, SystemExit):
+            raise
+        print(f"{PROG}: interrupted", file=sys.stderr)   # before a command started (loading the commands, say)
+        terminated = isinstance(exc, Terminated) or (_signalled and _signalled[-1] == signal.SIGTERM)
+        return 143 if terminated else 130
+    finally:
+        if handlers is not None:
+            signal.signal(signal.SIGTERM, handlers[0])
+            signal.signal(signal.SIGINT, handlers[1])
 
 
 def _main(argv: Sequence[str] | None = None) -> int:

@@ -29,11 +29,12 @@ def flag_summary(summary: dict[str, Any], short: list[CapacityVerdict]) -> dict[
 
 
 def rescored_flags(summary: dict[str, Any], previous: dict[str, Any] | None) -> dict[str, Any]:
-    """A summary recomputed from the records (``score``) with the flags the run wrote: the
-    preflight's ``capacity_short`` from the previous summary.json, ``test_double`` from the backend."""
+    """A summary recomputed from the records (``score``) with the flags the run wrote into its
+    summary.json: the preflight's ``capacity_short`` and the mock's ``test_double``."""
     out = dict(summary)
-    if previous is not None and isinstance(previous.get("capacity_short"), list):
-        out["capacity_short"] = previous["capacity_short"]
-    if summary.get("backend") == "mock":
-        out["test_double"] = True
+    if previous is not None:
+        if isinstance(previous.get("capacity_short"), list):
+            out["capacity_short"] = previous["capacity_short"]
+        if previous.get("test_double") is True and summary.get("backend") == "mock":
+            out["test_double"] = True
     return out

@@ -14,9 +14,15 @@ stops the workers itself (runner._stop_workers).
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import multiprocessing
+import os
+import shlex
+import shutil
 import signal
+import sys
+import tempfile
 import threading
 from typing import Any, Iterator
 
@@ -33,25 +39,43 @@ def worker_context() -> Any:
 
 
 def _start_forkserver_without_sigint() -> None:
-    """Start the fork server now with SIGINT ignored: an ignored signal stays ignored
-    across fork and exec, Python then installs no KeyboardInterrupt handler, and the
-    workers the server forks keep the disposition. Meanwhile SIGINT is blocked here too
-    (Linux queues a blocked signal even while it is ignored), so a Ctrl-C during the
-    start reaches this process as KeyboardInterrupt once its handler is back."""
-    from multiprocessing import forkserver
+    """Start the fork server now with SIGINT ignored from its first instruction: it is launched
+    through a two-line shell script (``trap '' INT; exec python ...``); an ignored signal stays
+    ignored across exec, Python then installs no KeyboardInterrupt handler, and the workers the
+    server forks keep the disposition. This process's own handling is never touched, so no
+    Ctrl-C is lost meanwhile. Where no POSIX shell exists, the server starts as Python starts it."""
+    from multiprocessing import forkserver, spawn
 
-    if threading.current_thread() is not threading.main_thread():
-        forkserver.ensure_running()   # signal handlers belong to the main thread
+    shell = shutil.which("sh")
+    if shell is None or not hasattr(os, "fork"):
+        forkserver.ensure_running()
         return
-    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    python = spawn.get_executable()
+    python = os.fsdecode(python) if python is not None else sys.executable
+    folder = tempfile.mkdtemp(prefix="grasp_ctrl_forkserver_")
+    # The shell opens the script after the exec returns: it goes when this command exits.
+    atexit.register(shutil.rmtree, folder, True)
+    launcher = os.path.join(folder, "python")
+    with open(launcher, "w", encoding="utf-8") as fh:
+        fh.write(f"#!{shell}\ntrap '' INT\nexec {shlex.quote(python)} \"$@\"\n")
+    os.chmod(launcher, 0o700)
+    if not _runs(launcher):   # a temporary folder mounted noexec, say
+        forkserver.ensure_running()
+        return
+    spawn.set_executable(launcher)
     try:
-        old_handler = signal.signal(signal.SIGINT, signal.SIG_IGN)
-        try:
-            forkserver.ensure_running()
-        finally:
-            signal.signal(signal.SIGINT, old_handler)
+        forkserver.ensure_running()
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
+        spawn.set_executable(python)
+
+
+def _runs(launcher: str) -> bool:
+    import subprocess
+
+    try:
+        return subprocess.run([launcher, "-c", "pass"], timeout=30, capture_output=True).returncode == 0
+    except (OSError, subprocess.SubprocessError):
+        return False
 
 
 @contextlib.contextmanager
