@@ -5,7 +5,6 @@ from __future__ import annotations
 import time
 from typing import Callable
 
-import numpy as np
 
 from grasp_ctrl.bench.figure import Figure, time_ms
 from grasp_ctrl.config import load_hand, load_objects

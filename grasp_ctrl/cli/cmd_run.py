@@ -171,7 +171,6 @@ def _resumed(args: argparse.Namespace, run_dir: Path) -> tuple[Any, Any]:
 
 def _hardware_trial_fn(hand: Any, manifest: Any, threads: int, port: str | None, sensor_port: str | None) -> Any:
     """The real-hand trial runner wrapped with the operator's labelling prompt."""
-    from grasp_ctrl.errors import UsageError
     from grasp_ctrl.trials.episode.labelling import OperatorLabeller, labelled
 
     from grasp_ctrl.trials.episode.hardware import hardware_trial_fn

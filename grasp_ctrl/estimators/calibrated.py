@@ -11,12 +11,12 @@ invalidate the correction).
 
 from __future__ import annotations
 
-import hashlib
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
+from grasp_ctrl.storage import file_sha256
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.base import Estimate, ForceEstimator
@@ -57,12 +57,7 @@ def policy_files(json_path: Path, meta: dict[str, Any]) -> list[Path]:
     return files
 
 
-def sha256_of(path: Path) -> str:
-    h = hashlib.sha256()
-    with path.open("rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
+sha256_of = file_sha256   # the policy files' hashes (storage.file_sha256)
 
 
 def _base_path(meta: dict[str, Any], json_path: Path) -> Path:

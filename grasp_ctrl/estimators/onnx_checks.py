@@ -11,11 +11,11 @@ Errors are :class:`PolicyError` naming the file and the field.
 
 from __future__ import annotations
 
-import hashlib
 import re
 from pathlib import Path
 from typing import Any
 
+from grasp_ctrl.storage import file_sha256
 from grasp_ctrl.errors import PolicyError
 
 SHA256_HEX = re.compile(r"^[0-9a-f]{64}$")
@@ -24,14 +24,6 @@ ORT_TYPES = {
     "float32": "tensor(float)", "float64": "tensor(double)", "float16": "tensor(float16)",
     "int64": "tensor(int64)", "int32": "tensor(int32)", "bool": "tensor(bool)",
 }
-
-
-def file_sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def verify_model_hash(meta: dict[str, Any], json_path: Path, model_file: Path) -> None:

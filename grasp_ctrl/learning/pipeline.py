@@ -14,7 +14,7 @@ import numpy as np
 from grasp_ctrl.estimators.analytic import electrode_normal_sums, fit_gains
 from grasp_ctrl.learning.dataset import SOURCES, Dataset, read_datasets
 from grasp_ctrl.learning.metrics import METRICS, by_source
-from grasp_ctrl.learning.splits import Split, split_by_trials
+from grasp_ctrl.learning.splits import Split
 
 COMBOS = {"rigid-ft": ("rigid-ft",), "planar-pushing": ("planar-pushing",), "ball-ft": ("ball-ft",), "mixed": SOURCES}
 # model name -> (arch, beta); beta None = no alpha weight

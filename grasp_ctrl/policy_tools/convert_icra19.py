@@ -24,13 +24,13 @@ Needs the ``onnx`` package (extra ``train``); the runtime needs only onnxruntime
 
 from __future__ import annotations
 
-import hashlib
 import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from grasp_ctrl.storage import file_sha256
 from grasp_ctrl.policy_tools import icra19_net
 from grasp_ctrl.safe_write import write_output
 from grasp_ctrl.tactile.voxel import GRID_SHAPE, VoxelGrid
@@ -220,8 +220,7 @@ def max_parity_error(model_bytes: bytes, weights: icra19_net.Icra19Weights, mask
     return err
 
 
-def _sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+_sha256 = file_sha256
 
 
 def metadata(name: str, weights: icra19_net.Icra19Weights, npz_path: Path, onnx_path: Path,

@@ -23,18 +23,11 @@ import time
 from pathlib import Path
 from typing import Any
 
+from grasp_ctrl.storage import file_sha256
 from grasp_ctrl.errors import GraspCtrlError, UsageError
 
 PLAN_KEYS = ("backend", "hand", "seed", "trials", "policies", "tick_logs", "settings")
 RECORD_KEY = "fingerprint"
-
-
-def sha256_file(path: Path) -> str:
-    h = hashlib.sha256()
-    with path.open("rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def sha256_json(value: Any) -> str:
@@ -63,7 +56,7 @@ def policy_files(spec: str) -> list[tuple[str, Path]]:
 def _entry(path: Path) -> dict[str, Any]:
     p = Path(path)
     try:
-        digest: str | None = sha256_file(p)
+        digest: str | None = file_sha256(p)
     except OSError:
         digest = None   # gone or unreadable: differs from any recorded hash
     return {"path": str(p.resolve()), "sha256": digest}

@@ -9,11 +9,11 @@ with a hash so a changed file is noticed.
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from grasp_ctrl.storage import file_sha256  # noqa: F401  (run's plan hashes its files with it)
 from grasp_ctrl.config.objects import ObjectProfile, profile_from_json
 from grasp_ctrl.config.toml_reader import finite_number
 from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES
@@ -172,10 +172,6 @@ def settings_from_json(d: Any, where: str) -> ControllerSettings:
             raise UsageError(f"{where}: settings.{key}: {need} (got {shown})")
         values[key] = v
     return ControllerSettings(**values)
-
-
-def file_sha256(path: str | Path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def manifest_path(run_dir: Path) -> Path:
