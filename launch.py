@@ -6,6 +6,6 @@ import sys
 if __name__ == "__main__":
     try:
         from grasp_ctrl.cli import main
-    except KeyboardInterrupt:   # Ctrl-C while the interpreter loads the package: no traceback
+    except KeyboardInterrupt:  # Ctrl-C while the interpreter loads the package: no traceback
         sys.exit(130)
     sys.exit(main())

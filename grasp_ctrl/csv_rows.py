@@ -21,7 +21,7 @@ import numpy as np
 
 from grasp_ctrl.errors import UsageError
 
-MAX_FIELD = 1 << 16   # characters in one field: a recording's numbers are short
+MAX_FIELD = 1 << 16  # characters in one field: a recording's numbers are short
 
 
 @dataclass(frozen=True)
@@ -33,10 +33,10 @@ class Column:
 
 @dataclass
 class Rows:
-    text: list[list[str]] = field(default_factory=list)   # the text columns of each good row
+    text: list[list[str]] = field(default_factory=list)  # the text columns of each good row
     values: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
-    lines: list[int] = field(default_factory=list)        # each good row's line number
-    skipped: list[str] = field(default_factory=list)      # why each bad row was left out
+    lines: list[int] = field(default_factory=list)  # each good row's line number
+    skipped: list[str] = field(default_factory=list)  # why each bad row was left out
 
 
 def _warn(msg: str) -> None:
@@ -47,15 +47,21 @@ def _shown(text: str) -> str:
     return repr(text if len(text) <= 24 else text[:24] + "...")
 
 
-def read_rows(path: str | Path, numeric: Sequence[Column], text: Sequence[str] = (), *,
-              skip_bad_rows: bool = False, what: str = "recording",
-              row_check: Callable[[np.ndarray], str | None] | None = None,
-              warn: Callable[[str], None] = _warn) -> Rows:
+def read_rows(
+    path: str | Path,
+    numeric: Sequence[Column],
+    text: Sequence[str] = (),
+    *,
+    skip_bad_rows: bool = False,
+    what: str = "recording",
+    row_check: Callable[[np.ndarray], str | None] | None = None,
+    warn: Callable[[str], None] = _warn,
+) -> Rows:
     """See the module's doc. ``row_check(values)`` may refuse a row whose numbers are each
     fine but not together (a zero normal vector); it returns why, or None."""
     p = Path(path)
     try:
-        fh = p.open(newline="", encoding="utf-8", errors="replace")   # junk bytes fail as numbers, by line
+        fh = p.open(newline="", encoding="utf-8", errors="replace")  # junk bytes fail as numbers, by line
     except OSError as exc:
         raise UsageError(f"{p}: cannot read the {what} ({exc.strerror or exc})") from None
     out = Rows()
@@ -69,8 +75,9 @@ def read_rows(path: str | Path, numeric: Sequence[Column], text: Sequence[str] =
             except csv.Error as exc:
                 raise UsageError(f"{p}: line 1: not a CSV header ({exc})") from None
             if not header:
-                raise UsageError(f"{p}: empty file, expected a header with "
-                                 f"{', '.join([*text, *(c.name for c in numeric)])}")
+                raise UsageError(
+                    f"{p}: empty file, expected a header with {', '.join([*text, *(c.name for c in numeric)])}"
+                )
             header = [h.strip() for h in header]
             missing = [c for c in [*text, *(c.name for c in numeric)] if c not in header]
             if missing:

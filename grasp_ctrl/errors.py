@@ -54,8 +54,7 @@ class HardwareError(GraspCtrlError):
         super().__init__(message)
 
     def __reduce__(self):  # type: ignore[no-untyped-def]
-        return (HardwareError, (str(self), self.reason)) if type(self) is HardwareError else \
-            (type(self), (str(self),))
+        return (HardwareError, (str(self), self.reason)) if type(self) is HardwareError else (type(self), (str(self),))
 
 
 class SensorStaleError(HardwareError):

@@ -14,8 +14,7 @@ import numpy as np
 from grasp_ctrl import jit
 from grasp_ctrl.jit import njit
 
-
-_FLOAT64 = np.dtype(np.float64)   # native float64: a singleton, so an identity test finds it
+_FLOAT64 = np.dtype(np.float64)  # native float64: a singleton, so an identity test finds it
 
 
 @njit

@@ -23,8 +23,9 @@ from __future__ import annotations
 
 import hashlib
 import os
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable, TypeVar, overload
+from typing import Any, TypeVar, overload
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -42,11 +43,24 @@ JIT = _numba is not None
 
 #: Modules that define compiled kernels (relative to the package).
 KERNEL_SOURCES = (
-    "jit.py", "sim/world_step.py", "sim/shapes.py", "sim/grip.py", "sim/biotac_model.py",
-    "kinematics/fingertip.py", "kinematics/multilinear.py", "kinematics/pad_ik.py", "limits.py",
-    "tactile/tare.py", "finite.py", "sim/backends.py",
-    "loop/tick_kernels.py", "sim/world.py", "controller/tick_kernels.py", "trials/episode/mock_tick.py",
-    "estimators/linear.py", "estimators/mlp.py",
+    "jit.py",
+    "sim/world_step.py",
+    "sim/shapes.py",
+    "sim/grip.py",
+    "sim/biotac_model.py",
+    "kinematics/fingertip.py",
+    "kinematics/multilinear.py",
+    "kinematics/pad_ik.py",
+    "limits.py",
+    "tactile/tare.py",
+    "finite.py",
+    "sim/backends.py",
+    "loop/tick_kernels.py",
+    "sim/world.py",
+    "controller/tick_kernels.py",
+    "trials/episode/mock_tick.py",
+    "estimators/linear.py",
+    "estimators/mlp.py",
 )
 
 

@@ -15,8 +15,8 @@ from typing import Any
 
 from grasp_ctrl.errors import GraspCtrlError
 
-MAX_BYTES = 16 * 1024 * 1024     # run.json, summary.json, policy metadata, trial records
-MAX_DEPTH = 32                   # the deepest file the program writes is about 6 levels
+MAX_BYTES = 16 * 1024 * 1024  # run.json, summary.json, policy metadata, trial records
+MAX_DEPTH = 32  # the deepest file the program writes is about 6 levels
 
 
 class JsonFileError(GraspCtrlError):
@@ -47,7 +47,7 @@ def parse_json(text: str, max_depth: int = MAX_DEPTH) -> Any:
         raise JsonFileError(f"not JSON ({exc.msg} at line {exc.lineno}; truncated or corrupt?)") from None
     except RecursionError:
         raise JsonFileError(f"nested deeper than {max_depth} levels") from None
-    except ValueError as exc:   # e.g. an integer of more digits than Python converts
+    except ValueError as exc:  # e.g. an integer of more digits than Python converts
         raise JsonFileError(f"not JSON ({str(exc)[:120]})") from None
     if depth(doc) > max_depth:
         raise JsonFileError(f"nested deeper than {max_depth} levels")

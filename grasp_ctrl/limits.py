@@ -48,8 +48,9 @@ def step_toward(goal: np.ndarray, sent: np.ndarray, max_step: float, lower: np.n
 
 
 @njit
-def limit_goal(goal: np.ndarray, prev: np.ndarray, max_step: float, lower: np.ndarray, upper: np.ndarray,
-               out: np.ndarray) -> None:
+def limit_goal(
+    goal: np.ndarray, prev: np.ndarray, max_step: float, lower: np.ndarray, upper: np.ndarray, out: np.ndarray
+) -> None:
     """``out`` = ``goal`` within ``max_step`` of ``prev`` per joint, then within [lower, upper]."""
     for j in range(goal.shape[0]):
         out[j] = clamp(clamp(goal[j], prev[j] - max_step, prev[j] + max_step), lower[j], upper[j])

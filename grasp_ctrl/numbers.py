@@ -28,8 +28,9 @@ def _shown(text: str) -> str:
     return repr(text if len(text) <= 40 else text[:20] + "...")
 
 
-def check_float(value: float, what: str, lo: float | None = None, hi: float | None = None,
-                lo_open: bool = False) -> float:
+def check_float(
+    value: float, what: str, lo: float | None = None, hi: float | None = None, lo_open: bool = False
+) -> float:
     """``value`` if finite and in range, else UsageError naming ``what`` and the range."""
     ok = isinstance(value, (int, float)) and not isinstance(value, bool)
     if ok:
@@ -37,14 +38,17 @@ def check_float(value: float, what: str, lo: float | None = None, hi: float | No
             value = float(value)
         except OverflowError:
             ok = False
-    if not ok or not math.isfinite(value) or (lo is not None and (value < lo or (lo_open and value == lo))) \
-            or (hi is not None and value > hi):
+    if (
+        not ok
+        or not math.isfinite(value)
+        or (lo is not None and (value < lo or (lo_open and value == lo)))
+        or (hi is not None and value > hi)
+    ):
         raise UsageError(f"{what}: {_span(lo, hi, lo_open)} (got {_shown(str(value))})")
     return value
 
 
-def parse_float(text: str, what: str, lo: float | None = None, hi: float | None = None,
-                lo_open: bool = False) -> float:
+def parse_float(text: str, what: str, lo: float | None = None, hi: float | None = None, lo_open: bool = False) -> float:
     """``text`` as a float checked by :func:`check_float` (``1e999``, ``nan``, ``inf`` refused)."""
     try:
         value = float(text)
@@ -55,7 +59,7 @@ def parse_float(text: str, what: str, lo: float | None = None, hi: float | None 
 
 def parse_int(text: str, what: str, lo: int | None = None, hi: int | None = None) -> int:
     text = str(text).strip()
-    if len(text) > 30:   # no count or seed here has more digits; int() of thousands is slow
+    if len(text) > 30:  # no count or seed here has more digits; int() of thousands is slow
         raise UsageError(f"{what}: {_span(lo, hi, integer=True)} (got {_shown(text)})")
     try:
         value = int(text)
@@ -72,6 +76,7 @@ def _argparse_type(parse: Callable[[str], float | int], name: str) -> Callable[[
             return parse(text)
         except UsageError as exc:
             raise argparse.ArgumentTypeError(str(exc).split(": ", 1)[-1]) from None
+
     convert.__name__ = name
     return convert
 
@@ -86,13 +91,13 @@ def int_type(lo: int | None = None, hi: int | None = None) -> Callable[[str], in
     return _argparse_type(lambda t: parse_int(t, "value", lo, hi), "int")  # type: ignore[return-value]
 
 
-def parse_values(text: str, what: str, lo: float, hi: float, integer: bool = False,
-                 max_count: int = 1000) -> list[float | int]:
+def parse_values(
+    text: str, what: str, lo: float, hi: float, integer: bool = False, max_count: int = 1000
+) -> list[float | int]:
     """A sweep's values: ``START:STOP:STEP`` (STOP included), ``A,B,C`` or one value, each
     checked by :func:`parse_float` (or :func:`parse_int`) against [lo, hi]; the count of a
     range is checked before the list is built, so ``1:1e300:1e-300`` costs nothing."""
-    one = (lambda t: parse_int(t, what, int(lo), int(hi))) if integer else \
-        (lambda t: parse_float(t, what, lo, hi))
+    one = (lambda t: parse_int(t, what, int(lo), int(hi))) if integer else (lambda t: parse_float(t, what, lo, hi))
     text = str(text).strip()
     if ":" in text:
         parts = text.split(":")
@@ -103,7 +108,7 @@ def parse_values(text: str, what: str, lo: float, hi: float, integer: bool = Fal
         if stop < start:
             raise UsageError(f"{what}: STOP below START (got {_shown(text)})")
         span = (stop - start) / step
-        if not span < max_count:   # also catches inf (a step of 1e-320)
+        if not span < max_count:  # also catches inf (a step of 1e-320)
             raise UsageError(f"{what}: at most {max_count} values (got {_shown(text)})")
         count = math.floor(span + 1e-9) + 1
         values = [start + i * step for i in range(count)]

@@ -9,7 +9,8 @@ is rewritten in place.
 from __future__ import annotations
 
 import sys
-from typing import Any, Callable, Iterable, TextIO, TypeVar
+from collections.abc import Callable, Iterable
+from typing import Any, TextIO, TypeVar
 
 from tqdm import tqdm
 
@@ -20,25 +21,54 @@ def shown(enabled: bool = True, stream: TextIO | None = None) -> bool:
     stream = stream or sys.stderr
     try:
         return bool(enabled) and stream.isatty()
-    except (AttributeError, ValueError):   # a closed or odd stream
+    except (AttributeError, ValueError):  # a closed or odd stream
         return False
 
 
-def progress_bar(total: int | None, desc: str, enabled: bool = True, stream: TextIO | None = None,
-                 unit: str = "it", every_update: bool = False) -> tqdm:
+def progress_bar(
+    total: int | None,
+    desc: str,
+    enabled: bool = True,
+    stream: TextIO | None = None,
+    unit: str = "it",
+    every_update: bool = False,
+) -> tqdm:
     """A tqdm bar on stderr (disabled unless ``shown``); use as a context manager.
     ``every_update``: redraw on every update (for slow items such as trials)."""
     stream = stream or sys.stderr
-    return tqdm(total=total, desc=desc, unit=unit, file=stream, disable=not shown(enabled, stream),
-                dynamic_ncols=True, leave=False, smoothing=0.1, mininterval=0.0 if every_update else 0.1)
+    return tqdm(
+        total=total,
+        desc=desc,
+        unit=unit,
+        file=stream,
+        disable=not shown(enabled, stream),
+        dynamic_ncols=True,
+        leave=False,
+        smoothing=0.1,
+        mininterval=0.0 if every_update else 0.1,
+    )
 
 
-def track(items: Iterable[T], desc: str, enabled: bool = True, total: int | None = None,
-          unit: str = "it", stream: TextIO | None = None) -> Iterable[T]:
+def track(
+    items: Iterable[T],
+    desc: str,
+    enabled: bool = True,
+    total: int | None = None,
+    unit: str = "it",
+    stream: TextIO | None = None,
+) -> Iterable[T]:
     """``items`` with a progress bar over them."""
     stream = stream or sys.stderr
-    return tqdm(items, desc=desc, total=total, unit=unit, file=stream, disable=not shown(enabled, stream),
-                dynamic_ncols=True, leave=False)
+    return tqdm(
+        items,
+        desc=desc,
+        total=total,
+        unit=unit,
+        file=stream,
+        disable=not shown(enabled, stream),
+        dynamic_ncols=True,
+        leave=False,
+    )
 
 
 class StatusLine:
@@ -50,8 +80,11 @@ class StatusLine:
         self.stream = stream or sys.stderr
         self.on = shown(enabled, self.stream)
         self.quiet_notes = quiet_notes
-        self._bar: Any = tqdm(total=None, bar_format="{desc}", file=self.stream, dynamic_ncols=True,
-                              leave=False) if self.on else None
+        self._bar: Any = (
+            tqdm(total=None, bar_format="{desc}", file=self.stream, dynamic_ncols=True, leave=False)
+            if self.on
+            else None
+        )
 
     def update(self, text: str) -> None:
         if self._bar is not None:
@@ -71,7 +104,7 @@ class StatusLine:
             self._bar.close()
             self._bar = None
 
-    def __enter__(self) -> "StatusLine":
+    def __enter__(self) -> StatusLine:
         return self
 
     def __exit__(self, *_: object) -> None:

@@ -26,7 +26,7 @@ from typing import Any
 
 from grasp_ctrl.errors import UsageError
 
-RUN_FILE = "run.json"   # = trials.storage.RUN_FILE (no import: storage is heavier and imports us)
+RUN_FILE = "run.json"  # = trials.storage.RUN_FILE (no import: storage is heavier and imports us)
 MANAGED_TOP = ("run.json", "summary.json", "run.lock")
 MANAGED_TRIAL = re.compile(r"^(trial_\d{3,}\.json|trial_\d{3,}_ticks\.(parquet|csv))$")
 IMAGE_FORMATS = ("png", "pdf", "svg", "svgz", "jpg", "jpeg", "eps", "ps", "tif", "tiff", "webp", "pgf", "raw", "rgba")
@@ -48,14 +48,16 @@ def managed_by_run(path: Path, run_dirs: Iterable[Path] = ()) -> Path | None:
         for folder in dest.parents:
             if folder in known or (folder / RUN_FILE).is_file():
                 rel = dest.relative_to(folder).parts
-                if (len(rel) == 1 and rel[0] in MANAGED_TOP) or \
-                        (len(rel) == 4 and rel[0] == "trials" and MANAGED_TRIAL.match(rel[-1])):
+                if (len(rel) == 1 and rel[0] in MANAGED_TOP) or (
+                    len(rel) == 4 and rel[0] == "trials" and MANAGED_TRIAL.match(rel[-1])
+                ):
                     return folder
     return None
 
 
-def check_output(path: str | Path | None, flag: str, *, run_dirs: Iterable[Path] = (),
-                 formats: Iterable[str] | None = None) -> Path | None:
+def check_output(
+    path: str | Path | None, flag: str, *, run_dirs: Iterable[Path] = (), formats: Iterable[str] | None = None
+) -> Path | None:
     """``path`` checked as an output of ``flag`` (see the module's doc); None passes through."""
     if path is None:
         return None
@@ -72,8 +74,9 @@ def check_output(path: str | Path | None, flag: str, *, run_dirs: Iterable[Path]
         allowed = sorted(set(formats))
         ext = p.suffix.lower().lstrip(".")
         if ext not in allowed:
-            raise UsageError(f"{flag} {p}: an extension of {', '.join('.' + f for f in allowed)} "
-                             f"(got {p.suffix or 'none'})")
+            raise UsageError(
+                f"{flag} {p}: an extension of {', '.join('.' + f for f in allowed)} (got {p.suffix or 'none'})"
+            )
     return p
 
 
@@ -149,8 +152,9 @@ def save_figure(fig: Any, path: str | Path, flag: str = "--out", **kwargs: Any) 
     fmt = p.suffix.lower().lstrip(".")
     allowed = image_formats(fig)
     if fmt not in allowed:
-        raise UsageError(f"{flag} {p}: an extension of {', '.join('.' + f for f in sorted(allowed))} "
-                         f"(got {p.suffix or 'none'})")
+        raise UsageError(
+            f"{flag} {p}: an extension of {', '.join('.' + f for f in sorted(allowed))} (got {p.suffix or 'none'})"
+        )
     with output_file(p) as tmp:
         fig.savefig(tmp, format=fmt, **kwargs)
     return p
@@ -185,7 +189,7 @@ def replace_in_place(path: str | Path, data: str | bytes) -> Path:
                 os.chown(tmp, st.st_uid, st.st_gid)
             except PermissionError:
                 tmp.unlink()
-                with open(target, "r+b") as fh:   # keeps owner and mode; not atomic
+                with open(target, "r+b") as fh:  # keeps owner and mode; not atomic
                     fh.truncate(0)
                     fh.write(raw)
                     fh.flush()

@@ -19,8 +19,9 @@ import hashlib
 import json
 import os
 import secrets
+from collections.abc import Iterator
 from pathlib import Path
-from typing import IO, Any, Iterator
+from typing import IO, Any
 
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.names import SAFE_NAME_RULE, is_safe_name, path_component
@@ -113,7 +114,6 @@ def fsync_dir(path: Path) -> None:
         pass
     finally:
         os.close(fd)
-
 
 
 def file_sha256(path: str | Path) -> str:

@@ -15,7 +15,6 @@ from grasp_ctrl.hardware.arm_dynamixel import DynamixelArm, arm_chain
 from grasp_ctrl.hardware.arm_external import ExternalArm
 from grasp_ctrl.hardware.base import ArmBackend
 from grasp_ctrl.hardware.dynamixel.calibration import Calibration
-
 from tests.dxl_helpers import LEAP
 
 ARM = """
@@ -40,7 +39,11 @@ open_rad = 0.6
 
 def arm_hand(tmp_path: Path, extra: str = ARM, kind: str = "dynamixel") -> HandConfig:
     text = LEAP.read_text()
-    text = text.replace('kind = "mock"', f'kind = "{kind}"\nbase_xyz = [0.0, 0.0, 0.3]\ntool_xyz = [0.2, 0.0, 0.0]\nmodel = "XM430-W350-T"', 1)
+    text = text.replace(
+        'kind = "mock"',
+        f'kind = "{kind}"\nbase_xyz = [0.0, 0.0, 0.3]\ntool_xyz = [0.2, 0.0, 0.0]\nmodel = "XM430-W350-T"',
+        1,
+    )
     path = tmp_path / "hand_with_arm.toml"
     path.write_text(text + extra)
     return load_hand(path)
@@ -72,7 +75,7 @@ def test_dynamixel_arm_lifts_along_a_vertical_line(tmp_path: Path) -> None:
             p1 = arm.position()
             assert p1[2] == pytest.approx(p0[2] + 0.02, abs=2e-3)
             path = np.array(xs)
-            assert np.max(np.abs(path[:, 0] - p0[0])) < 3e-3   # stayed on the line
+            assert np.max(np.abs(path[:, 0] - p0[0])) < 3e-3  # stayed on the line
             assert np.max(np.abs(path[:, 1] - p0[1])) < 1e-9
             # the set point never moved faster than max_speed per tick
             assert arm.z_set == pytest.approx(p0[2] + 0.02, abs=1e-6)

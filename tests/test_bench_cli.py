@@ -17,8 +17,19 @@ def test_stable_figure_names_are_registered():
 
 def test_bench_json_contract(tmp_path, capsys):
     out = tmp_path / "bench.json"
-    assert main(["bench", "--quick", "--only", "estimate_4tips_ms,mock_realtime_factor,trial_realtime_factor",
-                 "--json", str(out)]) == 0
+    assert (
+        main(
+            [
+                "bench",
+                "--quick",
+                "--only",
+                "estimate_4tips_ms,mock_realtime_factor,trial_realtime_factor",
+                "--json",
+                str(out),
+            ]
+        )
+        == 0
+    )
     doc = json.loads(out.read_text())
     assert set(doc) == {"machine", "figures"} and isinstance(doc["machine"], str)
     assert set(doc["figures"]) == {"estimate_4tips_ms", "mock_realtime_factor", "trial_realtime_factor"}

@@ -19,12 +19,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import SHARED_DATA
+
 REAL_CSV = SHARED_DATA / "robotic_finger" / "robotic_finger_tidy.csv"
 RISE_FIT = Path(__file__).resolve().parents[1] / "docs" / "biotac_params_rise_fit.json"
 from grasp_ctrl.evaluation.biotac_anchors import (
-    LOCATION_SCAN_X_M, PAD_SCAN_FORCES_N, PAD_SCAN_X_M, anchor_report, pad_press_ratios)
+    LOCATION_SCAN_X_M,
+    PAD_SCAN_FORCES_N,
+    PAD_SCAN_X_M,
+    anchor_report,
+    pad_press_ratios,
+)
 from grasp_ctrl.evaluation.tilt_profile import TILT_BINS_DEG
 
 
@@ -66,7 +71,9 @@ def test_official_net_reads_the_pooled_presses_near_its_real_data_level(report):
     assert report.per_source["ball-ft"].median_angle_deg <= 35.0
 
 
-@pytest.mark.xfail(strict=True, reason="target not reached: pooled 21.0 deg at 200 presses per source (decision record 0003)")
+@pytest.mark.xfail(
+    strict=True, reason="target not reached: pooled 21.0 deg at 200 presses per source (decision record 0003)"
+)
 def test_official_net_reads_the_pooled_presses_at_its_real_data_level(report):
     """Anchor (a): <= 20 deg median over rigid-ft + ball-ft (the net reads a real
     BioTac of another lab at about 16 deg)."""
@@ -97,12 +104,16 @@ def test_simulated_error_by_tilt(report):
     assert sim[(60.0, 90.0)] <= 45.0
 
 
-@pytest.mark.xfail(strict=True, reason="target not reached: the simulated error grows with tilt (31 / 42 deg at 45-60 / "
-                                       "60-90 deg), the real stays 18-26 deg")
+@pytest.mark.xfail(
+    strict=True,
+    reason="target not reached: the simulated error grows with tilt (31 / 42 deg at 45-60 / "
+    "60-90 deg), the real stays 18-26 deg",
+)
 def test_simulated_error_by_tilt_target(report):
     """Where the real recordings cover the tilt (0-90 deg), within 5 deg of the real level in every bin."""
-    for (lo, hi), sim, real in zip(TILT_BINS_DEG, report.tilt_simulated.median_error_deg,
-                                   report.tilt_real.median_error_deg):
+    for (lo, hi), sim, real in zip(
+        TILT_BINS_DEG, report.tilt_simulated.median_error_deg, report.tilt_real.median_error_deg
+    ):
         if hi <= 90.0:
             assert sim <= real + 5.0, (lo, hi)
 

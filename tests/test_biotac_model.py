@@ -9,7 +9,12 @@ from scipy.optimize import least_squares
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.learning.features import surface_point_and_normal
 from grasp_ctrl.sim.biotac_model import (
-    DEFAULT_PARAMS, GAIN_PDC, BioTacSensorModel, pack_params, pdc_rise_of, static_frames,
+    DEFAULT_PARAMS,
+    GAIN_PDC,
+    BioTacSensorModel,
+    pack_params,
+    pdc_rise_of,
+    static_frames,
 )
 from grasp_ctrl.tactile.layout import ELECTRODES, PDC, TDC
 
@@ -37,7 +42,7 @@ def test_shear_is_not_a_moved_contact():
     for tangential in ([0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]):
         sheared = _pattern(PAD_POINT_SENSOR, press + np.array(tangential))[:19]
         change = np.linalg.norm(sheared - base)
-        assert change > 20.0            # counts: the sensor sees shear at all
+        assert change > 20.0  # counts: the sensor sees shear at all
 
         def misfit(u: np.ndarray) -> np.ndarray:
             p = _on_surface(u[0], u[1])
@@ -45,8 +50,11 @@ def test_shear_is_not_a_moved_contact():
             return _pattern(p, -u[2] * n[0])[:19] - sheared
 
         best = min(
-            (least_squares(misfit, [x0, a0, 2.0], bounds=([-0.014, -1.6, 0.0], [0.0055, 1.6, 20.0]))
-             for x0 in (-0.006, -0.003, 0.0) for a0 in (-0.4, 0.0, 0.4)),
+            (
+                least_squares(misfit, [x0, a0, 2.0], bounds=([-0.014, -1.6, 0.0], [0.0055, 1.6, 20.0]))
+                for x0 in (-0.006, -0.003, 0.0)
+                for a0 in (-0.4, 0.0, 0.4)
+            ),
             key=lambda r: r.cost,
         )
         residual = np.linalg.norm(best.fun) / change
@@ -60,11 +68,11 @@ def test_shear_moves_fluid_toward_the_side_the_force_points_to():
     press = np.array([0.0, 0.0, 2.0])
     base = _pattern(PAD_POINT_SENSOR, press)[:19]
     toward_plus_y = _pattern(PAD_POINT_SENSOR, press + [0.0, 1.5, 0.0])[:19] - base
-    plus_side = [10, 11, 12, 13, 14, 15]         # e11..e16: normals along +y
-    minus_side = [0, 1, 2, 3, 4, 5]              # e1..e6
+    plus_side = [10, 11, 12, 13, 14, 15]  # e11..e16: normals along +y
+    minus_side = [0, 1, 2, 3, 4, 5]  # e1..e6
     assert toward_plus_y[minus_side].mean() < 0 < toward_plus_y[plus_side].mean()
     toward_tip = _pattern(PAD_POINT_SENSOR, press + [1.5, 0.0, 0.0])[:19] - base
-    assert toward_tip[[6, 7, 8, 9]].mean() > 0 > toward_tip[[5, 15, 18]].mean()   # tip e7..e10 vs back
+    assert toward_tip[[6, 7, 8, 9]].mean() > 0 > toward_tip[[5, 15, 18]].mean()  # tip e7..e10 vs back
     # the change reaches electrodes far from the footprint (a global term)
     assert abs(toward_plus_y[15]) > 3.0 and abs(toward_plus_y[5]) > 3.0
 
@@ -72,7 +80,7 @@ def test_shear_moves_fluid_toward_the_side_the_force_points_to():
 def test_pdc_is_nonlinear_and_saturates():
     rises = np.array([pdc_rise_of(f, C) for f in (0.5, 1.0, 2.0, 4.0, 8.0, 20.0, 200.0)])
     assert np.all(np.diff(rises) > 0)
-    assert rises[5] < 0.7 * 20 * rises[1]       # 20 N gives far less than 20x the 1 N rise
+    assert rises[5] < 0.7 * 20 * rises[1]  # 20 N gives far less than 20x the 1 N rise
     assert rises[-1] <= DEFAULT_PARAMS.pdc_max_rise + 1e-9
 
 
@@ -87,7 +95,7 @@ def test_footprint_widens_and_drops_saturate():
 def test_electrodes_away_from_the_contact_rise():
     e = _pattern(PAD_POINT_SENSOR, [0, 0, 3.0])[:19]
     assert (e > 20).sum() >= 3
-    assert e[16] < 0                             # e17 sits under the pad point
+    assert e[16] < 0  # e17 sits under the pad point
 
 
 def test_sensitivity_depends_on_where_the_skin_is_touched():
@@ -112,19 +120,23 @@ def test_hysteresis_leaves_a_pdc_offset_after_release_that_decays():
     params = DEFAULT_PARAMS
     model = BioTacSensorModel(1, np.random.default_rng(0), params)
     frames = _press_and_release(model, 6.0, 300, 3000)
-    pdc = frames[:, PDC] - model.baseline[0, PDC] - params.pdc_per_tdc * params.tdc_drift_per_s * \
-        0.01 * np.arange(1, len(frames) + 1)
+    pdc = (
+        frames[:, PDC]
+        - model.baseline[0, PDC]
+        - params.pdc_per_tdc * params.tdc_drift_per_s * 0.01 * np.arange(1, len(frames) + 1)
+    )
     just_after = pdc[310:330].mean()
     much_later = pdc[-50:].mean()
-    assert just_after > 5.0                     # counts above the baseline after release
-    assert much_later < 0.6 * just_after        # and it decays
+    assert just_after > 5.0  # counts above the baseline after release
+    assert much_later < 0.6 * just_after  # and it decays
 
 
 def test_tdc_drift_drags_the_baselines():
     model = BioTacSensorModel(1, np.random.default_rng(1))
     zeros = np.zeros((1, 3))
-    frames = np.array([model.frames(zeros, zeros, zeros, np.zeros(1, bool), np.zeros(1), 0.01)[0]
-                       for _ in range(6000)], dtype=float)
+    frames = np.array(
+        [model.frames(zeros, zeros, zeros, np.zeros(1, bool), np.zeros(1), 0.01)[0] for _ in range(6000)], dtype=float
+    )
     start, end = frames[:200].mean(axis=0), frames[-200:].mean(axis=0)
     assert end[TDC] - start[TDC] > 5.0
     assert abs(end[PDC] - start[PDC]) > 0.1

@@ -41,8 +41,8 @@ def test_the_side_weight_and_the_same_weights_given_per_electrode_give_the_same_
 def test_rise_weights_change_only_the_free_skin_rise():
     doubled = replace(DEFAULT_PARAMS, rise_weights=tuple(2.0 * rise_weights_of(DEFAULT_PARAMS)))
     before, after = _pad_frames(DEFAULT_PARAMS), _pad_frames(doubled)
-    np.testing.assert_array_equal(before[:, 19], after[:, 19])       # pdc untouched
-    assert np.any(after[:, :19] > before[:, :19] + 5.0)               # some electrodes rise more
+    np.testing.assert_array_equal(before[:, 19], after[:, 19])  # pdc untouched
+    assert np.any(after[:, :19] > before[:, :19] + 5.0)  # some electrodes rise more
 
 
 def test_the_shipped_fit_loads(tmp_path):
@@ -58,16 +58,19 @@ def test_an_empty_object_is_the_default_model(tmp_path):
     assert load_biotac_params(_write(tmp_path, {})) == DEFAULT_PARAMS
 
 
-@pytest.mark.parametrize("doc, field", [
-    ({"no_such_field": 1.0}, "no_such_field"),
-    ({"pdc_gain": "high"}, "pdc_gain"),
-    ({"pdc_gain": True}, "pdc_gain"),
-    ({"e_baseline_range": [3000.0]}, "e_baseline_range"),
-    ({"rise_weights": [1.0] * 18}, "rise_weights"),
-    ({"rise_weights": [1.0] * 18 + [-1.0]}, "rise_weights"),
-    ({"rise_weights": 2.0}, "rise_weights"),
-    ([1, 2], "JSON object"),
-])
+@pytest.mark.parametrize(
+    "doc, field",
+    [
+        ({"no_such_field": 1.0}, "no_such_field"),
+        ({"pdc_gain": "high"}, "pdc_gain"),
+        ({"pdc_gain": True}, "pdc_gain"),
+        ({"e_baseline_range": [3000.0]}, "e_baseline_range"),
+        ({"rise_weights": [1.0] * 18}, "rise_weights"),
+        ({"rise_weights": [1.0] * 18 + [-1.0]}, "rise_weights"),
+        ({"rise_weights": 2.0}, "rise_weights"),
+        ([1, 2], "JSON object"),
+    ],
+)
 def test_bad_files_are_refused_naming_the_field(tmp_path, doc, field):
     with pytest.raises(ValueError, match=field):
         load_biotac_params(_write(tmp_path, doc))

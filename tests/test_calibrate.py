@@ -15,8 +15,8 @@ from grasp_ctrl.cli.cmd_calibrate import MODELS as CLI_MODELS
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.linear import fit_linear
 from grasp_ctrl.estimators.registry import load_policy
-from grasp_ctrl.evaluation.direction import angles_deg
 from grasp_ctrl.evaluation.calibration import MODELS, Correction, fit_correction
+from grasp_ctrl.evaluation.direction import angles_deg
 from grasp_ctrl.learning.dataset import write_raw_csv
 from grasp_ctrl.learning.synthetic import generate, generate_trials, mock_biotac_forward
 
@@ -34,6 +34,7 @@ def _more_sensitive():
         raw = nominal(p, f, rng)
         rest = raw[np.linalg.norm(f, axis=1) == 0].mean(axis=0)
         return rest + SIGNAL_GAIN * (raw - rest)
+
     return forward
 
 
@@ -43,13 +44,19 @@ def sim(tmp_path_factory: pytest.TempPathFactory) -> dict:
     # a base policy made for the nominal sensor: a linear fit to its presses
     nominal = generate(3000, seed=11, sources=RIGID)
     w, b = fit_linear(nominal.tared, nominal.f_sensor)
-    base = {"name": "base_lin", "kind": "linear", "sensor_type": "biotac", "has_variance": False,
-            "weights_n_per_count": w.tolist(), "bias_n": b.tolist()}
+    base = {
+        "name": "base_lin",
+        "kind": "linear",
+        "sensor_type": "biotac",
+        "has_variance": False,
+        "weights_n_per_count": w.tolist(),
+        "bias_n": b.tolist(),
+    }
     (d / "base_lin.json").write_text(json.dumps(base))
     other = _more_sensitive()
     rows = [t.raw_rows() for t in generate_trials(3000, seed=12, forward=other, sources=RIGID)]
     for r in rows:
-        r.f_sensor = r.f_sensor @ LABEL_MAP.T           # 0 0 0 tare rows and NaN (no label) stay so
+        r.f_sensor = r.f_sensor @ LABEL_MAP.T  # 0 0 0 tare rows and NaN (no label) stay so
     write_raw_csv(d / "mysensor.csv", rows)
     test = generate(3000, seed=13, forward=other, sources=RIGID)
     test.f_sensor = test.f_sensor @ LABEL_MAP.T
@@ -65,8 +72,22 @@ def _median_angle(policy: str, test) -> float:
 def test_calibration_fixes_a_sensor_with_other_gains(sim: dict, model: str, capsys: pytest.CaptureFixture) -> None:
     d = sim["dir"]
     out = d / f"base_lin_mysensor_{model}.json"
-    assert main(["calibrate", "--data", str(d / "mysensor.csv"), "--policy", str(d / "base_lin.json"),
-                 "--out", str(out), "--model", model]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                "--data",
+                str(d / "mysensor.csv"),
+                "--policy",
+                str(d / "base_lin.json"),
+                "--out",
+                str(out),
+                "--model",
+                model,
+            ]
+        )
+        == 0
+    )
     assert "wrote" in capsys.readouterr().out
     before = _median_angle(str(d / "base_lin.json"), sim["test"])
     after = _median_angle(str(out), sim["test"])
@@ -88,18 +109,50 @@ def test_base_policy_must_not_change(sim: dict, tmp_path: Path) -> None:
     base = json.loads((d / "base_lin.json").read_text())
     (tmp_path / "base_lin.json").write_text(json.dumps(base))
     out = tmp_path / "cal.json"
-    assert main(["calibrate", "--data", str(d / "mysensor.csv"), "--policy", str(tmp_path / "base_lin.json"),
-                 "--out", str(out), "--model", "linear"]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                "--data",
+                str(d / "mysensor.csv"),
+                "--policy",
+                str(tmp_path / "base_lin.json"),
+                "--out",
+                str(out),
+                "--model",
+                "linear",
+            ]
+        )
+        == 0
+    )
     load_policy(str(out))
     base["bias_n"] = [0.0, 0.0, 0.1]
     (tmp_path / "base_lin.json").write_text(json.dumps(base))
     with pytest.raises(PolicyError, match="changed since the calibration"):
         load_policy(str(out))
     # refused: calibrating a calibrated policy, overwriting, the base as output
-    assert main(["calibrate", "--data", str(d / "mysensor.csv"), "--policy", str(out), "--out", str(tmp_path / "x.json")]) == 2
-    assert main(["calibrate", "--data", str(d / "mysensor.csv"), "--policy", str(tmp_path / "base_lin.json"),
-                 "--out", str(out)]) == 2
-    assert main(["calibrate", "--data", str(d / "nope.csv"), "--policy", "linear_mock", "--out", str(tmp_path / "y.json")]) == 2
+    assert (
+        main(["calibrate", "--data", str(d / "mysensor.csv"), "--policy", str(out), "--out", str(tmp_path / "x.json")])
+        == 2
+    )
+    assert (
+        main(
+            [
+                "calibrate",
+                "--data",
+                str(d / "mysensor.csv"),
+                "--policy",
+                str(tmp_path / "base_lin.json"),
+                "--out",
+                str(out),
+            ]
+        )
+        == 2
+    )
+    assert (
+        main(["calibrate", "--data", str(d / "nope.csv"), "--policy", "linear_mock", "--out", str(tmp_path / "y.json")])
+        == 2
+    )
     meta = json.loads(out.read_text())
     meta["correction"]["matrix"] = [[1, 0], [0, 1]]
     bad = tmp_path / "bad.json"
@@ -116,15 +169,20 @@ def test_correction_models_recover_a_known_map() -> None:
     tared[:, :19] = rng.normal(0, 100, (400, 19))
     a = Rotation.from_rotvec([0.1, -0.2, 0.3]).as_matrix() @ np.diag([1.5, 0.8, 1.1])
     w = rng.normal(0, 1e-3, (3, 19))
-    for model, target in (("gains", f_base @ a.T), ("linear", f_base @ a.T), ("affine", f_base @ a.T + [0.1, 0, -0.2]),
-                          ("residual", f_base @ a.T + tared[:, :19] @ w.T + [0.1, 0, -0.2])):
+    for model, target in (
+        ("gains", f_base @ a.T),
+        ("linear", f_base @ a.T),
+        ("affine", f_base @ a.T + [0.1, 0, -0.2]),
+        ("residual", f_base @ a.T + tared[:, :19] @ w.T + [0.1, 0, -0.2]),
+    ):
         corr = fit_correction(f_base, tared, target, model, ridge=0.0)
         assert isinstance(corr, Correction)
         np.testing.assert_allclose(corr.apply(f_base, tared), target, atol=1e-6, err_msg=model)
 
 
-def test_real_biotac_calibration_beats_the_official_net(shared_data: Path, tmp_path: Path,
-                                                        capsys: pytest.CaptureFixture) -> None:
+def test_real_biotac_calibration_beats_the_official_net(
+    shared_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
     """icra19_official calibrated on the long trial A, tested on B (plate normals, direction only)."""
     from grasp_ctrl.evaluation.direction import evaluate, gate_trial, policy_directions
     from grasp_ctrl.evaluation.robotic_finger import read_trials
@@ -132,18 +190,39 @@ def test_real_biotac_calibration_beats_the_official_net(shared_data: Path, tmp_p
     data = shared_data / "robotic_finger" / "robotic_finger_tidy.csv"
     trial_a, trial_b = "15330_1571242563995", "15834_1571243162016"
     out = tmp_path / "icra19_official_mysensor.json"
-    assert main(["calibrate", "--data", str(data), "--policy", "icra19_official", "--out", str(out),
-                 "--trials", trial_a, "--test-trials", trial_b]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                "--data",
+                str(data),
+                "--policy",
+                "icra19_official",
+                "--out",
+                str(out),
+                "--trials",
+                trial_a,
+                "--test-trials",
+                trial_b,
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     meta = json.loads(out.read_text())
     test = meta["calibration"]["metrics"]["test"]
     # evaluate-direction's protocol on the calibrated policy: rotation fitted on A, tested on B
     trials = {t.trial_id: t for t in read_trials(data)}
     samples = [gate_trial(trials[t], 50, 10.0, 10, 50.0) for t in (trial_a, trial_b)]
-    a_to_b = {name: next(r for r in evaluate(name, samples, policy_directions(load_policy(spec)))
-                         if r.train == trial_a).percentiles[50]
-              for name, spec in (("base", "icra19_official"), ("calibrated", str(out)))}
-    print(f"A -> B median angle: icra19_official {a_to_b['base']:.1f} deg, calibrated {a_to_b['calibrated']:.1f} deg "
-          f"(calibrate's own test figure {test['before']['median_deg']:.1f} -> {test['after']['median_deg']:.1f})")
+    a_to_b = {
+        name: next(
+            r for r in evaluate(name, samples, policy_directions(load_policy(spec))) if r.train == trial_a
+        ).percentiles[50]
+        for name, spec in (("base", "icra19_official"), ("calibrated", str(out)))
+    }
+    print(
+        f"A -> B median angle: icra19_official {a_to_b['base']:.1f} deg, calibrated {a_to_b['calibrated']:.1f} deg "
+        f"(calibrate's own test figure {test['before']['median_deg']:.1f} -> {test['after']['median_deg']:.1f})"
+    )
     assert 14.0 < a_to_b["base"] < 20.0
     assert a_to_b["calibrated"] < 10.0 and test["after"]["median_deg"] < 10.0

@@ -58,17 +58,38 @@ def test_refused_on_a_hand_unless_forced(hand, objects):
     said: list[str] = []
     with pytest.raises(CapacityRefused, match=r"capacity: cleanser: the grasp carries 0\.\d\dx its weight"):
         preflight_capacity(hand, [short], None, on_hand=True, force=False, say=said.append)
-    assert [v.object for v in preflight_capacity(hand, [short], None, on_hand=True, force=True,
-                                                  say=said.append)] == ["cleanser"]
-    assert [v.object for v in preflight_capacity(hand, [short, objects["lego"]], None, on_hand=False,
-                                                  force=False, say=said.append)] == ["cleanser"]
+    assert [v.object for v in preflight_capacity(hand, [short], None, on_hand=True, force=True, say=said.append)] == [
+        "cleanser"
+    ]
+    assert [
+        v.object
+        for v in preflight_capacity(hand, [short, objects["lego"]], None, on_hand=False, force=False, say=said.append)
+    ] == ["cleanser"]
     assert all(line.startswith("capacity: cleanser") for line in said)
 
 
 def test_a_simulated_run_names_the_problem_and_flags_the_summary(tmp_path, capsys):
     run_dir = tmp_path / "run"
-    assert main(["run", "--backend", "mock", "--hand", str(_halved_hand(tmp_path)), "--objects", "cleanser",
-                 "--trials", "1", "--out", str(run_dir), "--quiet", "--no-tick-logs"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                "--backend",
+                "mock",
+                "--hand",
+                str(_halved_hand(tmp_path)),
+                "--objects",
+                "cleanser",
+                "--trials",
+                "1",
+                "--out",
+                str(run_dir),
+                "--quiet",
+                "--no-tick-logs",
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err
     assert "capacity: cleanser: the grasp carries" in err and "Traceback" not in err
     flagged = json.loads((run_dir / "summary.json").read_text())["capacity_short"]
@@ -79,8 +100,24 @@ def test_the_default_world_runs_it_too(tmp_path, capsys):
     """The issue's check: a hand file with every current limit halved, ``run --objects cleanser``
     (the default backend, MuJoCo) names the capacity problem, no traceback."""
     run_dir = tmp_path / "run"
-    assert main(["run", "--hand", str(_halved_hand(tmp_path)), "--objects", "cleanser", "--trials", "1",
-                 "--out", str(run_dir), "--quiet", "--no-tick-logs"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                "--hand",
+                str(_halved_hand(tmp_path)),
+                "--objects",
+                "cleanser",
+                "--trials",
+                "1",
+                "--out",
+                str(run_dir),
+                "--quiet",
+                "--no-tick-logs",
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err
     assert "capacity: cleanser" in err and "Traceback" not in err
     assert json.loads((run_dir / "summary.json").read_text())["backend"] == "mujoco"
@@ -89,8 +126,27 @@ def test_the_default_world_runs_it_too(tmp_path, capsys):
 @pytest.mark.skipif(not hasattr(os, "openpty"), reason="needs POSIX pseudo-terminals")
 def test_an_emulated_dynamixel_hand_refuses_it_before_any_trial(tmp_path, capsys):
     run_dir = tmp_path / "emu"
-    assert main(["run", "--backend", "dynamixel", "--emulate", "--hand", str(_halved_hand(tmp_path)),
-                 "--objects", "cleanser", "--trials", "1", "--yes", "--out", str(run_dir), "--quiet"]) == 2
+    assert (
+        main(
+            [
+                "run",
+                "--backend",
+                "dynamixel",
+                "--emulate",
+                "--hand",
+                str(_halved_hand(tmp_path)),
+                "--objects",
+                "cleanser",
+                "--trials",
+                "1",
+                "--yes",
+                "--out",
+                str(run_dir),
+                "--quiet",
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err
     assert "error: capacity: cleanser: the grasp carries" in err and "--force" in err
     assert "pre-flight:" not in err and not run_dir.exists()
@@ -99,8 +155,24 @@ def test_an_emulated_dynamixel_hand_refuses_it_before_any_trial(tmp_path, capsys
 def test_a_mujoco_summary_has_no_test_double_flag_and_a_mock_one_has(tmp_path, capsys):
     for backend in ("mujoco", "mock"):
         run_dir = tmp_path / backend
-        assert main(["run", "--backend", backend, "--objects", "lego", "--trials", "1", "--out", str(run_dir),
-                     "--quiet", "--no-tick-logs"]) == 0
+        assert (
+            main(
+                [
+                    "run",
+                    "--backend",
+                    backend,
+                    "--objects",
+                    "lego",
+                    "--trials",
+                    "1",
+                    "--out",
+                    str(run_dir),
+                    "--quiet",
+                    "--no-tick-logs",
+                ]
+            )
+            == 0
+        )
         doc = json.loads((run_dir / "summary.json").read_text())
         assert doc.get("test_double", False) is (backend == "mock")
         assert "capacity_short" not in doc

@@ -53,14 +53,28 @@ def controllers(request, hand, objects):
 
 def _snapshot(f_sensor, f_world, grip, contact, q=None) -> Snapshot:
     q = np.zeros(16) if q is None else q
-    return Snapshot(t=0.0, q=q, p_palm_world=np.zeros(3), tare_ready=True, in_contact=contact,
-                    f_sensor=f_sensor, f_hand=f_world, f_world=f_world, grip_n=grip)
+    return Snapshot(
+        t=0.0,
+        q=q,
+        p_palm_world=np.zeros(3),
+        tare_ready=True,
+        in_contact=contact,
+        f_sensor=f_sensor,
+        f_hand=f_world,
+        f_world=f_world,
+        grip_n=grip,
+    )
 
 
 @settings(max_examples=150, deadline=None)
-@given(hnp.arrays(np.float64, (4, 3), elements=values), hnp.arrays(np.float64, (4, 3), elements=values),
-       hnp.arrays(np.float64, 4, elements=values), hnp.arrays(np.bool_, 4), st.sampled_from(["tare", "ramp", "lift"]),
-       st.lists(st.integers(0, 9), min_size=4, max_size=4))
+@given(
+    hnp.arrays(np.float64, (4, 3), elements=values),
+    hnp.arrays(np.float64, (4, 3), elements=values),
+    hnp.arrays(np.float64, 4, elements=values),
+    hnp.arrays(np.bool_, 4),
+    st.sampled_from(["tare", "ramp", "lift"]),
+    st.lists(st.integers(0, 9), min_size=4, max_size=4),
+)
 def test_tick_checks_equal_the_python_counters(controllers, f_sensor, f_world, grip, contact, state, lost):
     fast, slow = controllers
     snap = _snapshot(f_sensor, f_world, grip, contact)
@@ -69,15 +83,20 @@ def test_tick_checks_equal_the_python_counters(controllers, f_sensor, f_world, g
         ctrl.settle_count, ctrl.release_count, ctrl.lost_count = 3, 2, lost
         ctrl.ramp_settle.reset()
     limit = fast.hand.safety.max_fingertip_force_n
-    with np.errstate(all="ignore"):   # (the Python path's numpy warns on NaN and inf as numpy does)
+    with np.errstate(all="ignore"):  # (the Python path's numpy warns on NaN and inf as numpy does)
         got = fast._compiled_checks(snap, limit)
         slow._update_counters(snap)
         expected = slow._force_checks(snap, limit)
     assert got == expected >= 0
-    assert (fast.settle_count, fast.release_count, fast.lost_count) == \
-           (slow.settle_count, slow.release_count, slow.lost_count)
-    assert (fast.ramp_settle.within_ticks, fast.ramp_settle.steady_ticks) == \
-           (slow.ramp_settle.within_ticks, slow.ramp_settle.steady_ticks)
+    assert (fast.settle_count, fast.release_count, fast.lost_count) == (
+        slow.settle_count,
+        slow.release_count,
+        slow.lost_count,
+    )
+    assert (fast.ramp_settle.within_ticks, fast.ramp_settle.steady_ticks) == (
+        slow.ramp_settle.within_ticks,
+        slow.ramp_settle.steady_ticks,
+    )
 
 
 def test_tick_checks_leave_odd_snapshots_to_python(controllers):
@@ -89,8 +108,11 @@ def test_tick_checks_leave_odd_snapshots_to_python(controllers):
 
 
 @settings(max_examples=100, deadline=None)
-@given(hnp.arrays(np.float64, 4, elements=values), st.sampled_from([(0.01, 0.01), (0.005, 0.004)]),
-       st.integers(0, 2**31 - 1))
+@given(
+    hnp.arrays(np.float64, 4, elements=values),
+    st.sampled_from([(0.01, 0.01), (0.005, 0.004)]),
+    st.integers(0, 2**31 - 1),
+)
 def test_squeeze_kernel_equals_the_python_speeds(controllers, grip, gains, seed):
     fast, slow = controllers
     rng = np.random.default_rng(seed)
@@ -105,7 +127,7 @@ def test_squeeze_kernel_equals_the_python_speeds(controllers, grip, gains, seed)
         ctrl.palm_target = palm.copy()
     with np.errstate(all="ignore"):
         for k in range(3):
-            for ctrl in (fast, slow):   # the lift and the lowering also move the palm
+            for ctrl in (fast, slow):  # the lift and the lowering also move the palm
                 ctrl._squeeze(snap, *gains, *((goal, 0.4) if k else ()))
     assert same_bits(fast.palm_target, slow.palm_target)
     assert same_bits(fast.motion.q_goal, slow.motion.q_goal)
@@ -118,8 +140,11 @@ palm_values = st.one_of(st.sampled_from([0.0, -0.0, 1e-4, -3e-4, 0.5, np.nan, np
 
 
 @settings(max_examples=300, deadline=None)
-@given(hnp.arrays(np.float64, 3, elements=palm_values), hnp.arrays(np.float64, 3, elements=palm_values),
-       st.sampled_from([0.0, 0.01, 0.04, 0.005]))
+@given(
+    hnp.arrays(np.float64, 3, elements=palm_values),
+    hnp.arrays(np.float64, 3, elements=palm_values),
+    st.sampled_from([0.0, 0.01, 0.04, 0.005]),
+)
 def test_palm_move_kernel_equals_the_numpy_step(controllers, palm, target, speed):
     """The compiled straight-line palm step against numpy's (its distance: vec3.norm3, the
     squares summed left to right on either path, so bit for bit on any CPU)."""

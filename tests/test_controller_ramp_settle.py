@@ -39,10 +39,13 @@ def test_balanced_steady_grips_settle_after_the_steady_time():
     assert run([err] * (ticks(S.ramp_steady_s) + 1))
 
 
-@pytest.mark.parametrize("err", [
-    [0.3, 0.3, 0.3],          # steady, but the squeeze as a whole is short of tau
-    [0.1, 0.1, -0.5],         # mean on tau, one grip outside the balance band
-])
+@pytest.mark.parametrize(
+    "err",
+    [
+        [0.3, 0.3, 0.3],  # steady, but the squeeze as a whole is short of tau
+        [0.1, 0.1, -0.5],  # mean on tau, one grip outside the balance band
+    ],
+)
 def test_steady_grips_off_tau_never_settle(err):
     assert not run([np.array(err)] * ticks(3 * S.ramp_steady_s))
 
@@ -58,8 +61,17 @@ def snapshot(hand, t, grips, q, palm):
     grips = np.asarray(grips, dtype=float)
     f_world = np.zeros((n, 3))
     f_world[:, 0] = grips
-    return Snapshot(t=t, q=q, p_palm_world=palm, tare_ready=True, in_contact=grips > 0, f_sensor=np.zeros((n, 3)),
-                    f_hand=f_world, f_world=f_world, grip_n=grips)
+    return Snapshot(
+        t=t,
+        q=q,
+        p_palm_world=palm,
+        tare_ready=True,
+        in_contact=grips > 0,
+        f_sensor=np.zeros((n, 3)),
+        f_hand=f_world,
+        f_world=f_world,
+        grip_n=grips,
+    )
 
 
 def test_controller_lifts_a_balanced_grasp_and_backs_the_pads_off_on_release(hand, objects):

@@ -8,7 +8,6 @@ import pytest
 
 from grasp_ctrl.config.hand import load_hand
 from grasp_ctrl.errors import ConfigError
-
 from tests.dxl_helpers import LEAP
 
 

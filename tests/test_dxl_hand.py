@@ -16,7 +16,6 @@ from grasp_ctrl.hardware.base import HandBackend
 from grasp_ctrl.hardware.dynamixel import DynamixelHand
 from grasp_ctrl.hardware.dynamixel import control_table as ct
 from grasp_ctrl.hardware.dynamixel.calibration import Calibration
-
 from tests.dxl_helpers import leap
 
 
@@ -70,7 +69,7 @@ def test_read_write_round_trip_in_radians(emu: DynamixelChainEmulator, hand: Dyn
     s = hand.read()
     np.testing.assert_allclose(s.q, q0, atol=2 * ct.RAD_PER_COUNT)
     target = np.array([j.pregrasp_rad for j in hand.joints]) + 0.02
-    for _ in range(40):   # open -> pregrasp moves a joint up to 0.6 rad, 0.05 rad per write
+    for _ in range(40):  # open -> pregrasp moves a joint up to 0.6 rad, 0.05 rad per write
         hand.write_goals(target)
     hand.read()  # request/reply: the emulator has handled every earlier packet
     cal = Calibration.from_joints(hand.joints)
@@ -89,7 +88,7 @@ def test_units_and_signs_of_velocity_and_current(emu: DynamixelChainEmulator, ha
         emu.servo(j.servo_id).set((ct.ADDR_TORQUE_ENABLE, 1), 0)
     emu.servo(1).step = lambda dt: None  # type: ignore[method-assign]
     s = hand.read()
-    k = [j.servo_id for j in hand.joints].index(1)   # joint vectors follow the file, not the ids
+    k = [j.servo_id for j in hand.joints].index(1)  # joint vectors follow the file, not the ids
     assert s.current_a[k] == pytest.approx(-0.25)
     assert s.dq[k] == pytest.approx(100 * 0.229 * 2 * np.pi / 60)
 
@@ -186,7 +185,7 @@ def test_byte_stuffed_replies_are_decoded(emu: DynamixelChainEmulator, fast: boo
 def test_overload_mid_run_leads_to_a_safe_stop(emu: DynamixelChainEmulator, hand: DynamixelHand) -> None:
     emu.servo(1).motor.overload_after_s = 0.1
     cal = Calibration.from_joints(hand.joints)
-    k = [j.servo_id for j in hand.joints].index(1)   # index_mcp
+    k = [j.servo_id for j in hand.joints].index(1)  # index_mcp
     emu.block_joint(1, float(cal.to_counts_float(np.array([j.open_rad for j in hand.joints]))[k] + 20))
     target = np.array([j.pregrasp_rad for j in hand.joints])
     target[k] = 1.0  # push index_mcp into the wall

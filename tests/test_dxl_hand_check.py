@@ -9,7 +9,6 @@ import pytest
 from grasp_ctrl.cli import main
 from grasp_ctrl.emulators.dxl_chain import DynamixelChainEmulator
 from grasp_ctrl.emulators.dxl_servo import HW_OVERLOAD
-
 from tests.dxl_helpers import leap, leap_file
 
 
@@ -28,7 +27,9 @@ def test_all_good_and_move(emu: DynamixelChainEmulator, capsys: pytest.CaptureFi
     assert all(len(s.goal_history) > 2 for s in emu.servos.values())
 
 
-def test_missing_servo_and_hardware_error(emu: DynamixelChainEmulator, capsys: pytest.CaptureFixture[str], tmp_path) -> None:
+def test_missing_servo_and_hardware_error(
+    emu: DynamixelChainEmulator, capsys: pytest.CaptureFixture[str], tmp_path
+) -> None:
     emu.set_missing(6)
     emu.inject_hardware_error(13, HW_OVERLOAD)
     assert main(["hand-check", "--hand", str(leap_file(tmp_path)), "--port", emu.port, "--move"]) == 1
@@ -40,7 +41,9 @@ def test_missing_servo_and_hardware_error(emu: DynamixelChainEmulator, capsys: p
     assert not any(len(s.goal_history) for s in emu.servos.values())  # nothing moved
 
 
-def test_recover_reboots_a_faulted_servo(emu: DynamixelChainEmulator, capsys: pytest.CaptureFixture[str], tmp_path) -> None:
+def test_recover_reboots_a_faulted_servo(
+    emu: DynamixelChainEmulator, capsys: pytest.CaptureFixture[str], tmp_path
+) -> None:
     emu.inject_hardware_error(13, HW_OVERLOAD)
     assert main(["hand-check", "--hand", str(leap_file(tmp_path)), "--port", emu.port, "--recover"]) == 0
     assert "rebooted (was overload)" in capsys.readouterr().out

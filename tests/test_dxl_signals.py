@@ -12,7 +12,6 @@ import pytest
 from conftest import sigint_as_at_a_terminal
 
 from grasp_ctrl.emulators.dxl_chain import DynamixelChainEmulator
-
 from tests.dxl_helpers import REPO, leap, leap_file
 
 CHILD = r"""
@@ -39,7 +38,11 @@ def test_torque_off_after_signal(sig: signal.Signals, tmp_path) -> None:
         env = dict(os.environ, PYTHONPATH=str(REPO))
         child = subprocess.Popen(
             [sys.executable, "-c", CHILD, emu.port, str(hand_file)],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=REPO,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=env,
+            cwd=REPO,
             preexec_fn=sigint_as_at_a_terminal,
         )
         try:
@@ -48,7 +51,7 @@ def test_torque_off_after_signal(sig: signal.Signals, tmp_path) -> None:
             time.sleep(0.2)
             assert all(emu.servo(j.servo_id).torque_on for j in hand.joints)
             child.send_signal(sig)
-            child.wait(timeout=60)     # generous: a loaded CI host, first imports
+            child.wait(timeout=60)  # generous: a loaded CI host, first imports
         finally:
             if child.poll() is None:
                 child.kill()
@@ -56,8 +59,9 @@ def test_torque_off_after_signal(sig: signal.Signals, tmp_path) -> None:
         assert not any(emu.servo(j.servo_id).torque_on for j in hand.joints)
         # on_fault = open: the joints were brought to the open posture first
         opened = [emu.servo(j.servo_id).goal_history[-1] for j in hand.joints]
-        from grasp_ctrl.hardware.dynamixel.calibration import Calibration
         import numpy as np
+
+        from grasp_ctrl.hardware.dynamixel.calibration import Calibration
 
         expected = Calibration.from_joints(hand.joints).to_counts(np.array([j.open_rad for j in hand.joints]))
         assert list(expected) == opened

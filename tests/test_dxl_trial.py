@@ -19,8 +19,15 @@ def test_oracle_trial_on_the_dynamixel_backend(hand, objects) -> None:
         made.append(EmulatedDynamixelHand(world, hand_cfg))
         return made[-1], MockSensors(world)
 
-    r = runner.run_sim_trial(hand, objects["chips_can"], runner.estimator_factory("oracle", hand), 3, "oracle",
-                             make_world=MockWorld, make_backends=backends)
+    r = runner.run_sim_trial(
+        hand,
+        objects["chips_can"],
+        runner.estimator_factory("oracle", hand),
+        3,
+        "oracle",
+        make_world=MockWorld,
+        make_backends=backends,
+    )
     assert r.success, (r.reason, r.transitions)
     states = [b for _, _, b in r.transitions]
     assert states[-1] == "done" and "lift" in states

@@ -29,7 +29,23 @@ def test_an_unreachable_reach_posture_fails_the_run_before_any_trial(tmp_path):
     assert first in text
     hand = tmp_path / "hand.toml"
     hand.write_text(text.replace(first, "origin_rpy = [0.0, 0.0, 0.0]", 1))
-    rc = main(["run", "--backend", "mock", "--hand", str(hand), "--objects", "mustard_bottle", "--trials", "2", "--jobs", "2",
-               "--out", str(tmp_path / "run"), "--quiet"])
+    rc = main(
+        [
+            "run",
+            "--backend",
+            "mock",
+            "--hand",
+            str(hand),
+            "--objects",
+            "mustard_bottle",
+            "--trials",
+            "2",
+            "--jobs",
+            "2",
+            "--out",
+            str(tmp_path / "run"),
+            "--quiet",
+        ]
+    )
     assert rc == 2
     assert not (tmp_path / "run").exists()

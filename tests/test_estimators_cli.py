@@ -37,8 +37,17 @@ def test_evaluate_direction_on_synthetic_recordings(tmp_path: Path, capsys: pyte
     csv_path = tmp_path / "rec.csv"
     _write_synthetic_csv(csv_path, Rotation.from_rotvec([0.4, -0.2, 0.9]))
     out = tmp_path / "res.json"
-    rc = main(["evaluate-direction", "--data", str(csv_path), "--estimators", "surface-normal,analytic-unit",
-               "--json", str(out)])
+    rc = main(
+        [
+            "evaluate-direction",
+            "--data",
+            str(csv_path),
+            "--estimators",
+            "surface-normal,analytic-unit",
+            "--json",
+            str(out),
+        ]
+    )
     assert rc == 0
     doc = json.loads(out.read_text())
     res = {(r["estimator"], r["train"]): r for r in doc["results"]}
@@ -51,15 +60,19 @@ def test_evaluate_direction_on_synthetic_recordings(tmp_path: Path, capsys: pyte
     assert "surface-normal" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("argv,message", [
-    (["evaluate-direction", "--data", "/nonexistent.csv"], "cannot read"),
-    (["evaluate-direction", "--data", "{csv}", "--estimators", "bogus"], "unknown estimator 'bogus'"),
-    (["evaluate-direction", "--data", "{csv}", "--trials", "A"], "at least two trials"),
-    (["evaluate-direction", "--data", "{csv}", "--estimators", "policy:nope"], "policy 'nope'"),
-    (["convert-icra19", "{csv}", "--out", "{tmp}"], "not a .npz weight file"),
-])
-def test_bad_input_gives_one_line_error(tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str],
-                                        message: str) -> None:
+@pytest.mark.parametrize(
+    "argv,message",
+    [
+        (["evaluate-direction", "--data", "/nonexistent.csv"], "cannot read"),
+        (["evaluate-direction", "--data", "{csv}", "--estimators", "bogus"], "unknown estimator 'bogus'"),
+        (["evaluate-direction", "--data", "{csv}", "--trials", "A"], "at least two trials"),
+        (["evaluate-direction", "--data", "{csv}", "--estimators", "policy:nope"], "policy 'nope'"),
+        (["convert-icra19", "{csv}", "--out", "{tmp}"], "not a .npz weight file"),
+    ],
+)
+def test_bad_input_gives_one_line_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str], message: str
+) -> None:
     csv_path = tmp_path / "rec.csv"
     _write_synthetic_csv(csv_path, Rotation.identity())
     argv = [a.format(csv=csv_path, tmp=tmp_path) for a in argv]
@@ -81,14 +94,18 @@ def test_policies_lists_the_official_networks(tmp_path: Path, capsys: pytest.Cap
     assert doc["icra19_dropout_official"]["has_variance"] is True
 
 
-def test_evaluate_direction_prints_the_pooled_two_fold_figure(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_evaluate_direction_prints_the_pooled_two_fold_figure(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     from grasp_ctrl.evaluation.direction import evaluate, gate_trial, pooled_percentiles
     from grasp_ctrl.evaluation.robotic_finger import read_trials
 
     csv_path = tmp_path / "rec.csv"
     _write_synthetic_csv(csv_path, Rotation.from_rotvec([0.4, -0.2, 0.9]))
     out = tmp_path / "res.json"
-    assert main(["evaluate-direction", "--data", str(csv_path), "--estimators", "analytic-unit", "--json", str(out)]) == 0
+    assert (
+        main(["evaluate-direction", "--data", str(csv_path), "--estimators", "analytic-unit", "--json", str(out)]) == 0
+    )
     doc = json.loads(out.read_text())
     folds = [r for r in doc["results"] if r["estimator"] == "analytic-unit"]
     pooled = doc["pooled"]["analytic-unit"]

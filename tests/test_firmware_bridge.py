@@ -79,7 +79,7 @@ def split_info(stream: bytes) -> tuple[list[str], bytes]:
     head = stream[: first if first >= 0 else len(stream)]
     lines = head.decode("ascii").splitlines()
     assert all(line.startswith("# ") for line in lines), lines
-    return lines, stream[len(head):]
+    return lines, stream[len(head) :]
 
 
 def test_host_unit_tests_pass() -> None:
@@ -90,8 +90,9 @@ def test_host_unit_tests_pass() -> None:
 
 def test_teensy_layer_compiles_against_arduino_stand_ins() -> None:
     """Type-checks src/teensy/main.cpp (not a Teensy build: no Arm toolchain here)."""
-    proc = subprocess.run(["make", "-C", str(FW_DIR), "teensy-check"], check=False, capture_output=True, text=True,
-                          timeout=300)
+    proc = subprocess.run(
+        ["make", "-C", str(FW_DIR), "teensy-check"], check=False, capture_output=True, text=True, timeout=300
+    )
     assert proc.returncode == 0, proc.stdout + proc.stderr
 
 
@@ -116,7 +117,7 @@ def test_600_valid_frames_and_the_spi_trace_shows_the_biotac_sampling(bridge_hos
         assert fr.values.shape == (44,)  # n = 44 (the decoder accepts no other)
         by_finger[fr.finger].append(fr)
     assert sorted(by_finger) == [0, 1, 2, 3]
-    for f, frs in by_finger.items():
+    for frs in by_finger.values():
         assert [fr.seq for fr in frs] == list(range(150))  # +1 per fingertip
     # The press profile moves pdc and the electrodes of finger 0 (pressed from 1.0 s on).
     v0 = np.array([fr.values for fr in by_finger[0]])
@@ -124,7 +125,9 @@ def test_600_valid_frames_and_the_spi_trace_shows_the_biotac_sampling(bridge_hos
 
     # The trace: one line per 16-bit transfer, '<sensor> <mosi> <miso>' ('#' = 8-bit start-up).
     lines = trace.read_text().splitlines()
-    words = [tuple(int(x, 16) if i else int(x) for i, x in enumerate(ln.split())) for ln in lines if not ln.startswith("#")]
+    words = [
+        tuple(int(x, 16) if i else int(x) for i, x in enumerate(ln.split())) for ln in lines if not ln.startswith("#")
+    ]
     assert all(len(w) == 3 for w in words)
     for f in range(4):
         # start-up: serial number (0x15) and firmware version (0x13) read commands
@@ -184,8 +187,13 @@ def test_text_mode_carries_the_same_values(bridge_host: Path) -> None:
 
 
 def test_bad_arguments_are_refused(bridge_host: Path) -> None:
-    for args in (["--fingers", "0", "--samples", "1"], ["--fingers", "2"], ["--fingers", "9", "--samples", "1"],
-                 ["--fingers", "2", "--samples", "1", "--pty"], ["--bogus"]):
+    for args in (
+        ["--fingers", "0", "--samples", "1"],
+        ["--fingers", "2"],
+        ["--fingers", "9", "--samples", "1"],
+        ["--fingers", "2", "--samples", "1", "--pty"],
+        ["--bogus"],
+    ):
         proc = subprocess.run([str(bridge_host), *args], check=False, capture_output=True, timeout=30)
         assert proc.returncode == 2, args
 
@@ -270,7 +278,10 @@ def test_bridge_info_tool_shows_the_report_and_names_a_silent_sensor(bridge_host
     try:
         tool = subprocess.run(
             [sys.executable, str(FW_DIR / "tools" / "bridge_info.py"), path, "--seconds", "1"],
-            check=False, capture_output=True, text=True, timeout=60,
+            check=False,
+            capture_output=True,
+            text=True,
+            timeout=60,
         )
     finally:
         proc.wait(timeout=15)

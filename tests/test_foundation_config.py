@@ -31,7 +31,14 @@ def test_leap_hand_loads(hand):
 
 
 def test_paper_objects_present(objects):
-    assert set(default_set(OBJECTS)) == {"chips_can", "cleanser", "lego", "plastic_bottle", "paper_cup", "mustard_bottle"}
+    assert set(default_set(OBJECTS)) == {
+        "chips_can",
+        "cleanser",
+        "lego",
+        "plastic_bottle",
+        "paper_cup",
+        "mustard_bottle",
+    }
     for name in ("paper_cup", "plastic_bottle"):
         assert objects[name].deformable and objects[name].crush_force_n > 0
     for name in ("chips_can", "cleanser", "lego", "mustard_bottle"):
@@ -77,8 +84,18 @@ def test_bad_hand_file_names_file_and_key(tmp_path, old, new, key, expected):
         ('shape = "box"', 'shape = "sphere"', "objects.cleanser.shape", "cylinder, box"),
         ('"lego",', '"duplo",', "default_set", "unknown"),
         ("offset_m = [0.0, 0.02]", "offset_m = [0.0, 0.04]", "objects.mustard_bottle.cap.offset_m", "cap's base"),
-        ("contact_height_m = 0.162", "contact_height_m = 0.18", "objects.mustard_bottle.cap.contact_height_m", "below its top"),
-        ("contact_height_m = 0.162", "contact_height_m = 0.15", "objects.mustard_bottle.cap.contact_height_m", "> 0.16"),
+        (
+            "contact_height_m = 0.162",
+            "contact_height_m = 0.18",
+            "objects.mustard_bottle.cap.contact_height_m",
+            "below its top",
+        ),
+        (
+            "contact_height_m = 0.162",
+            "contact_height_m = 0.15",
+            "objects.mustard_bottle.cap.contact_height_m",
+            "> 0.16",
+        ),
         ('finger = "index"', 'finger = "index"\nshape = "dome"', "objects.mustard_bottle.cap.shape", "a known key"),
     ],
 )
@@ -114,7 +131,9 @@ def test_cli_subprocess_no_traceback(tmp_path):
     bad.write_text("this is not toml = = =")
     proc = subprocess.run(
         [sys.executable, str(REPO_ROOT / "launch.py"), "run", "--backend", "mock", "--hand", str(bad)],
-        capture_output=True, text=True, timeout=60,
+        capture_output=True,
+        text=True,
+        timeout=60,
     )
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr
@@ -127,7 +146,7 @@ def test_cap_finger_must_be_a_grasping_finger_of_the_hand(hand, objects):
     from grasp_ctrl.controller.machine import GraspController
 
     mustard = objects["mustard_bottle"]
-    for finger in ("pinky", "ring"):          # unknown; not grasping in the LEAP hand file
+    for finger in ("pinky", "ring"):  # unknown; not grasping in the LEAP hand file
         bad = replace(mustard, cap=replace(mustard.cap, finger=finger))
         with pytest.raises(ConfigError) as err:
             GraspController(hand, bad, np.zeros(3))
@@ -140,7 +159,7 @@ def test_cap_contact_out_of_the_fingers_reach_is_refused(hand, objects):
     from grasp_ctrl.controller.machine import GraspController
 
     mustard = objects["mustard_bottle"]
-    far = replace(mustard, grasp_height_m=0.02)     # the cap 14 cm above the other fingertips
+    far = replace(mustard, grasp_height_m=0.02)  # the cap 14 cm above the other fingertips
     with pytest.raises(ConfigError) as err:
         GraspController(hand, far, np.zeros(3))
     assert err.value.key == "cap.contact_height_m"

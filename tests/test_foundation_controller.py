@@ -35,14 +35,23 @@ class Script:
         f_world[:, 0] = grips
         f_world[:, 2] = f_world_z
         fs = np.zeros((self.n, 3)) if f_sensor is None else f_sensor
-        return Snapshot(t=self.t, q=self.q, p_palm_world=self.palm.copy(), tare_ready=tare,
-                        in_contact=in_contact, f_sensor=fs, f_hand=f_world, f_world=f_world,
-                        grip_n=grips, fault=fault)
+        return Snapshot(
+            t=self.t,
+            q=self.q,
+            p_palm_world=self.palm.copy(),
+            tare_ready=tare,
+            in_contact=in_contact,
+            f_sensor=fs,
+            f_hand=f_world,
+            f_world=f_world,
+            grip_n=grips,
+            fault=fault,
+        )
 
     def tick(self, **kw):
         self.t += self.hand.dt
         self.cmd = self.ctrl.tick(self.snap(**kw))
-        self.palm = self.cmd.p_palm_world.copy()   # an ideal arm
+        self.palm = self.cmd.p_palm_world.copy()  # an ideal arm
         return self.cmd
 
     def run_until(self, state, limit=5000, **kw):
@@ -84,7 +93,17 @@ def test_full_sequence_of_states(script):
     assert s.ctrl.state == "release"
     s.run_until("retreat")
     s.run_until("done")
-    assert [b for _, _, b in s.ctrl.history] == ["reach", "close", "ramp", "lift", "hold", "lower", "release", "retreat", "done"]
+    assert [b for _, _, b in s.ctrl.history] == [
+        "reach",
+        "close",
+        "ramp",
+        "lift",
+        "hold",
+        "lower",
+        "release",
+        "retreat",
+        "done",
+    ]
 
 
 def test_debounce_resets_on_a_single_positive_tick(script):
@@ -160,7 +179,7 @@ def test_runner_faults_from_every_active_state(hand, objects, state, fault):
     assert s.ctrl.state == "fault"
     assert s.ctrl.failure_reason == fault
     s.tick(**ADVANCE[state])
-    assert s.ctrl.state == "fault"       # terminal: nothing leaves it
+    assert s.ctrl.state == "fault"  # terminal: nothing leaves it
 
 
 def test_overforce_faults(script, hand):
@@ -186,7 +205,7 @@ def test_safe_action(hand, objects, action):
     for _ in range(100):
         s.tick(fault="sensor_stale")
     assert s.ctrl.state == "fault"
-    np.testing.assert_allclose(s.cmd.p_palm_world, palm, atol=1e-9)   # arm stopped
+    np.testing.assert_allclose(s.cmd.p_palm_world, palm, atol=1e-9)  # arm stopped
     open_q = np.array([j.open_rad for j in h.joints])
     if action == "open":
         np.testing.assert_allclose(s.cmd.q_goal, open_q, atol=1e-9)
@@ -225,7 +244,7 @@ def test_close_moves_pads_along_task_vectors_within_limits(script, hand):
         d = p1[f.name] - p0[f.name]
         if f.grasp:
             v = np.array(f.task_vector_hand)
-            assert np.dot(d, v) > 0.005, f.name                      # moved toward the object
+            assert np.dot(d, v) > 0.005, f.name  # moved toward the object
             assert np.linalg.norm(d - np.dot(d, v) * v) < 0.1 * np.linalg.norm(d), f.name
         else:
             assert np.linalg.norm(d) < 1e-9, f.name
@@ -248,7 +267,7 @@ def test_diagram_lists_every_transition_with_its_guard_and_fault_reason():
     assert all(r in "\n".join(lines) for r in RUNTIME_FAULTS)
     # the hardening's fault reasons (sensing pipeline, controller, control tick) are runtime faults too
     assert {"sensor_invalid", "estimate_invalid", "goal_invalid"} <= set(RUNTIME_FAULTS)
-    assert "Class" not in "\n".join(lines)   # no styling noise
+    assert "Class" not in "\n".join(lines)  # no styling noise
 
 
 def test_design_docs_diagram_is_the_diagram_commands_output(capsys):

@@ -44,8 +44,27 @@ def test_overestimating_forces_lets_the_cleanser_slip(hand, objects):
 
 def test_run_json_summary_matches_contract(tmp_path, capsys):
     out = tmp_path / "out.json"
-    status = main(["run", "--backend", "mock", "--trials", "2", "--objects", "lego", "--policy", "linear_mock",
-                   "--seed", "5", "--out", str(tmp_path / "run"), "--json", str(out), "--quiet", "--no-tick-logs"])
+    status = main(
+        [
+            "run",
+            "--backend",
+            "mock",
+            "--trials",
+            "2",
+            "--objects",
+            "lego",
+            "--policy",
+            "linear_mock",
+            "--seed",
+            "5",
+            "--out",
+            str(tmp_path / "run"),
+            "--json",
+            str(out),
+            "--quiet",
+            "--no-tick-logs",
+        ]
+    )
     assert status == 0
     doc = json.loads(out.read_text())
     # the mock world is a test double: its summary says so (trials/runs/summary_flags.py)

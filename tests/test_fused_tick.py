@@ -47,8 +47,17 @@ def _record(hand, obj, seed, path, settings=None, policy=DEFAULT_POLICY, disturb
         if disturb:
             disturb(ticks[0], world, ctrl)
 
-    rec = run_sim_trial(hand, obj, estimator_factory(policy, hand), seed, policy, settings=settings, log_path=path,
-                         kin=HandKinematics(hand), on_tick=on_tick).to_json()
+    rec = run_sim_trial(
+        hand,
+        obj,
+        estimator_factory(policy, hand),
+        seed,
+        policy,
+        settings=settings,
+        log_path=path,
+        kin=HandKinematics(hand),
+        on_tick=on_tick,
+    ).to_json()
     rec.pop("wall_duration_s")
     return rec
 
@@ -64,16 +73,23 @@ def _counting(monkeypatch, cls, name, counts):
 
 
 def _nan_goal(tick, world, ctrl):
-    if tick == 700:   # in the lift or the lowering: the next command is not finite
+    if tick == 700:  # in the lift or the lowering: the next command is not finite
         ctrl.motion.q_goal[2] = np.nan
 
 
-@pytest.mark.parametrize("name, seed, stiffness_aware, disturb", [
-    ("chips_can", 3, False, None), ("paper_cup", 1, False, None), ("mustard_bottle", 5, True, None),
-    ("cleanser", 2, False, None), ("lego", 7, False, _nan_goal),
-])
-def test_squeeze_state_ticks_equal_the_python_controller(hand, objects, tmp_path, monkeypatch, name, seed,
-                                                         stiffness_aware, disturb):
+@pytest.mark.parametrize(
+    "name, seed, stiffness_aware, disturb",
+    [
+        ("chips_can", 3, False, None),
+        ("paper_cup", 1, False, None),
+        ("mustard_bottle", 5, True, None),
+        ("cleanser", 2, False, None),
+        ("lego", 7, False, _nan_goal),
+    ],
+)
+def test_squeeze_state_ticks_equal_the_python_controller(
+    hand, objects, tmp_path, monkeypatch, name, seed, stiffness_aware, disturb
+):
     """Whole trials (with the fused mock tick) with and without the compiled squeeze-state
     tick: the same record and tick log, bit for bit."""
     s = ControllerSettings(stiffness_aware_squeeze=stiffness_aware)
@@ -110,13 +126,21 @@ def controllers(hand, objects):
 
 
 @settings(max_examples=120, deadline=None)
-@given(st.sampled_from(["lift", "hold", "lower", "close", "release", "reach", "retreat"]), hnp.arrays(np.float64, (4, 3), elements=values),
-       hnp.arrays(np.float64, 4, elements=st.one_of(edge, st.floats(0.0, 4.0))), hnp.arrays(np.bool_, 4),
-       st.sampled_from([0, 1, 39, 40, 41, 49, 50, 51, 399, 400, 401, 999, 1000, 1001]), st.integers(0, 4), st.lists(st.integers(0, 12), min_size=4, max_size=4),
-       st.sampled_from([0.0, 0.1495, 0.15, 0.2449, 0.25, 0.25004, 0.3]),
-       st.tuples(*[st.sampled_from([0.0, 0.0004, -0.0007, 0.002])] * 3), st.integers(0, 2**31 - 1))
-def test_squeeze_state_tick_equals_the_python_tick(controllers, state, f_sensor, grip, contact, ticks, releases,
-                                                   lost, palm_z, offset, seed):
+@given(
+    st.sampled_from(["lift", "hold", "lower", "close", "release", "reach", "retreat"]),
+    hnp.arrays(np.float64, (4, 3), elements=values),
+    hnp.arrays(np.float64, 4, elements=st.one_of(edge, st.floats(0.0, 4.0))),
+    hnp.arrays(np.bool_, 4),
+    st.sampled_from([0, 1, 39, 40, 41, 49, 50, 51, 399, 400, 401, 999, 1000, 1001]),
+    st.integers(0, 4),
+    st.lists(st.integers(0, 12), min_size=4, max_size=4),
+    st.sampled_from([0.0, 0.1495, 0.15, 0.2449, 0.25, 0.25004, 0.3]),
+    st.tuples(*[st.sampled_from([0.0, 0.0004, -0.0007, 0.002])] * 3),
+    st.integers(0, 2**31 - 1),
+)
+def test_squeeze_state_tick_equals_the_python_tick(
+    controllers, state, f_sensor, grip, contact, ticks, releases, lost, palm_z, offset, seed
+):
     """One tick of each squeeze state from the same controller state and snapshot, through
     the compiled call and through the Python tick: the same command, counters, goals,
     targets and transition (guards near their limits: lift height, hold time, release
@@ -132,21 +156,34 @@ def test_squeeze_state_tick_equals_the_python_tick(controllers, state, f_sensor,
         ctrl.failure_reason = ctrl.failure_detail = None
         ctrl.torque_on = True
         ctrl.motion.sync(q)
-        if state == "reach":   # the posture that the first reach tick sets
+        if state == "reach":  # the posture that the first reach tick sets
             ctrl.motion.set_posture(ctrl.reach_q)
         ctrl._retreat_goal = palm + np.array([offset[2], 0.0, offset[1]]) if state == "retreat" else None
         ctrl.palm_target = palm + 0.003
         ctrl.ticks_in_state, ctrl.release_count, ctrl.settle_count = ticks, releases, 0
         ctrl.lost_count = lost
-    snap = Snapshot(t=1.0, q=q - rng.normal(0.0, 0.02, q.size), p_palm_world=palm, tare_ready=True,
-                    in_contact=contact, f_sensor=f_sensor, f_hand=f_sensor * 0.5, f_world=f_sensor * 0.5, grip_n=grip)
+    snap = Snapshot(
+        t=1.0,
+        q=q - rng.normal(0.0, 0.02, q.size),
+        p_palm_world=palm,
+        tare_ready=True,
+        in_contact=contact,
+        f_sensor=f_sensor,
+        f_hand=f_sensor * 0.5,
+        f_world=f_sensor * 0.5,
+        grip_n=grip,
+    )
     with np.errstate(all="ignore"):
         a, b = fast.tick(snap), slow.tick(snap)
     assert same_bits(a.q_goal, b.q_goal) and same_bits(a.p_palm_world, b.p_palm_world)
     assert a.torque_on == b.torque_on
     assert fast.state == slow.state and fast.failure_reason == slow.failure_reason
-    assert (fast.ticks_in_state, fast.release_count, fast.settle_count, fast.lost_count) == \
-        (slow.ticks_in_state, slow.release_count, slow.settle_count, slow.lost_count)
+    assert (fast.ticks_in_state, fast.release_count, fast.settle_count, fast.lost_count) == (
+        slow.ticks_in_state,
+        slow.release_count,
+        slow.settle_count,
+        slow.lost_count,
+    )
     assert same_bits(fast.motion.q_goal, slow.motion.q_goal) and same_bits(fast.motion.targets, slow.motion.targets)
     assert same_bits(fast.motion.q_sent, slow.motion.q_sent)
 
@@ -161,7 +198,7 @@ def test_squeeze_plan_leaves_other_states_and_odd_palms_to_python(controllers):
     fast.palm_target = np.zeros(3)
     fast.motion.sync(fast.motion.open_q)
     fast._retreat_goal = None
-    for state in ("tare", "ramp", "done", "fault", "reach", "retreat"):   # reach: no posture set, retreat: no goal
+    for state in ("tare", "ramp", "done", "fault", "reach", "retreat"):  # reach: no posture set, retreat: no goal
         fast.machine.set_state(state, model=fast)
         assert fast.squeeze_plan(0.1) is None
 
@@ -170,7 +207,9 @@ def test_packed_world_step_equals_the_step_on_separate_arrays(hand, objects, tmp
     """A whole trial whose world steps with ``step_packed`` (one state buffer) and one whose
     world takes its plain path (``world_step`` on its separate arrays, ``_record`` every
     step): the same record, events and tick log."""
-    obj = objects["paper_cup"]   # contacts, a lift and, with the oracle at half the force (a squeeze twice too hard), a crush
+    obj = objects[
+        "paper_cup"
+    ]  # contacts, a lift and, with the oracle at half the force (a squeeze twice too hard), a crush
     packed = _record(hand, obj, 4, tmp_path / "a.parquet", policy="oracle:scale=0.5")
     monkeypatch.setattr(world_mod, "jit", types.SimpleNamespace(JIT=False))
     plain = _record(hand, obj, 4, tmp_path / "b.parquet", policy="oracle:scale=0.5")
@@ -210,13 +249,17 @@ def test_linear_bias_add_without_numba_is_the_same(monkeypatch):
 
 
 @settings(max_examples=300, deadline=None)
-@given(hnp.arrays(np.float64, 5, elements=values), hnp.arrays(np.float64, 5, elements=values),
-       hnp.arrays(np.float64, 5, elements=values), st.booleans())
+@given(
+    hnp.arrays(np.float64, 5, elements=values),
+    hnp.arrays(np.float64, 5, elements=values),
+    hnp.arrays(np.float64, 5, elements=values),
+    st.booleans(),
+)
 def test_clipped_equals_is_clip_then_array_equal(q, a, b, same):
     lower, upper = np.full(5, -2.0), np.full(5, 2.0)
     with np.errstate(all="ignore"):
         clipped = np.clip(q, lower, upper)
-        if same:   # mostly equal: the case the check exists for
+        if same:  # mostly equal: the case the check exists for
             a, b = clipped.copy(), clipped.copy()
         expected = np.array_equal(clipped, a) and np.array_equal(clipped, b)
     assert clipped_equals(q, lower, upper, a, b) == expected
@@ -227,7 +270,7 @@ def test_clipped_equals_is_clip_then_array_equal(q, a, b, same):
 def test_palm_distance_kernel_equals_numpy(a, b):
     with np.errstate(all="ignore"):
         d = a - b
-        expected = np.sqrt(0.0 + ((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2]))   # left to right, as vec3
+        expected = np.sqrt(0.0 + ((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2]))  # left to right, as vec3
         got = tk.distance3(a, b)
         assert same_bits(got, expected) or (np.isnan(got) and np.isnan(expected))
         assert same_bits(_distance(a, b), expected) or (np.isnan(expected) and np.isnan(_distance(a, b)))

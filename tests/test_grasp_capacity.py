@@ -34,9 +34,9 @@ def test_pads_touch_the_box_sides_facing_each_other(cleanser_grasp, objects) -> 
     half = 0.5 * objects["cleanser"].size_m[0]
     assert [c.finger for c in contacts] == ["index", "middle", "thumb"]
     for c in contacts:
-        assert abs(abs(c.point_hand[0]) - half) < 5e-4          # on the side, within the closing step
+        assert abs(abs(c.point_hand[0]) - half) < 5e-4  # on the side, within the closing step
         np.testing.assert_allclose(c.normal_hand, [np.sign(c.point_hand[0]), 0.0, 0.0], atol=1e-9)
-        assert c.facing_deg < 15.0   # the preshape faces the pads to the side (the thumb within 12 deg)
+        assert c.facing_deg < 15.0  # the preshape faces the pads to the side (the thumb within 12 deg)
 
 
 def test_the_best_grasp_carries_the_weight_within_friction_and_torque(cleanser_grasp, objects) -> None:
@@ -72,9 +72,13 @@ def test_shipped_hand_carries_every_default_object_with_margin(hand, objects) ->
     for name, obj in objects.items():
         cap, _, _ = object_capacity(hand, obj)
         assert cap.weight_n / (obj.mass_kg * GRAVITY_M_S2) >= 1.3, name
-    low = dataclasses.replace(hand, fingers=tuple(
-        dataclasses.replace(f, joints=tuple(dataclasses.replace(j, current_limit_a=0.55) for j in f.joints))
-        for f in hand.fingers))
+    low = dataclasses.replace(
+        hand,
+        fingers=tuple(
+            dataclasses.replace(f, joints=tuple(dataclasses.replace(j, current_limit_a=0.55) for j in f.joints))
+            for f in hand.fingers
+        ),
+    )
     for name in ("cleanser", "mustard_bottle"):
         cap, _, _ = object_capacity(low, objects[name])
         assert cap.weight_n / (objects[name].mass_kg * GRAVITY_M_S2) < 1.0, name

@@ -13,10 +13,10 @@ from grasp_ctrl.controller.grip_targets import GRAVITY_M_S2, grip_targets
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import ConfigError, UsageError
-from grasp_ctrl.trials.runs.manifest import settings_from_json
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
+from grasp_ctrl.trials.runs.manifest import settings_from_json
 
-LEAP_VECTORS = np.array([[-1.0, 0, 0], [-1.0, 0, 0], [-1.0, 0, 0], [1.0, 0, 0]])   # index, middle, ring, thumb
+LEAP_VECTORS = np.array([[-1.0, 0, 0], [-1.0, 0, 0], [-1.0, 0, 0], [1.0, 0, 0]])  # index, middle, ring, thumb
 LEAP_GRASP = np.array([True, True, False, True])
 
 
@@ -44,7 +44,7 @@ def test_force_closure_on_opposed_pairs_and_skewed_vectors_cancels_the_horizonta
 def test_the_weight_margin_scales_the_targets_only_when_they_cannot_carry_the_weight():
     heavy = grip_targets(LEAP_VECTORS, LEAP_GRASP, 2.0, "equal", mass_kg=0.45, mu=1.0, weight_margin=1.5)
     assert 1.0 * heavy[LEAP_GRASP].sum() == pytest.approx(1.5 * 0.45 * GRAVITY_M_S2)
-    assert np.ptp(heavy[LEAP_GRASP]) == 0.0                 # the same scale for every fingertip
+    assert np.ptp(heavy[LEAP_GRASP]) == 0.0  # the same scale for every fingertip
     light = grip_targets(LEAP_VECTORS, LEAP_GRASP, 2.0, "equal", mass_kg=0.03, mu=0.8, weight_margin=1.5)
     np.testing.assert_array_equal(light, [2.0, 2.0, 2.0, 2.0])
     off = grip_targets(LEAP_VECTORS, LEAP_GRASP, 2.0, "equal", mass_kg=0.45, mu=1.0, weight_margin=0.0)
@@ -52,12 +52,12 @@ def test_the_weight_margin_scales_the_targets_only_when_they_cannot_carry_the_we
 
 
 def test_the_controller_keeps_its_targets_and_refuses_an_unknown_mode(hand, objects):
-    obj = objects["cleanser"].with_params(grip_targets=None)   # the controller's mode decides
+    obj = objects["cleanser"].with_params(grip_targets=None)  # the controller's mode decides
     default = GraspController(hand, obj, np.zeros(3))
     assert default.grip_targets.tolist() == [obj.tau_n] * 4
     closure = GraspController(hand, obj, np.zeros(3), ControllerSettings(grip_targets="force_closure"))
     np.testing.assert_allclose(closure.grip_targets, [obj.tau_n, obj.tau_n, obj.tau_n, 2 * obj.tau_n], rtol=1e-9)
-    assert not closure._compiled            # unequal targets: the Python tick
+    assert not closure._compiled  # unequal targets: the Python tick
     with pytest.raises(ConfigError, match="grip_targets"):
         GraspController(hand, obj, np.zeros(3), ControllerSettings(grip_targets="tighter"))
 
@@ -87,7 +87,7 @@ def test_in_the_mock_world_the_thumb_ramps_toward_twice_tau_with_force_closure(h
     equal = _ramp_grips(hand, obj, None)
     closure = _ramp_grips(hand, obj, ControllerSettings(grip_targets="force_closure"))
     assert equal[:, 3].max() < 1.5 + 0.5
-    assert closure[:, 3].max() > 1.5 + 1.0        # toward 3 N while the index and middle aim at 1.5 N
+    assert closure[:, 3].max() > 1.5 + 1.0  # toward 3 N while the index and middle aim at 1.5 N
 
 
 def test_a_profile_chooses_its_own_mode(hand, objects):
@@ -110,6 +110,6 @@ def test_an_object_file_grip_targets_key_is_checked_and_round_trips(tmp_path, ob
     bad.write_text(text.replace('grip_targets = "force_closure"', 'grip_targets = "tighter"', 1))
     with pytest.raises(ConfigError, match=r"cleanser\.grip_targets.*one of equal, force_closure"):
         load_objects(bad)
-    for obj in objects.values():   # run.json and tune's edits go through profile_table
+    for obj in objects.values():  # run.json and tune's edits go through profile_table
         assert revalidate(obj, "x") == obj
         assert ("grip_targets" in profile_table(obj)) is (obj.grip_targets is not None)

@@ -17,19 +17,18 @@ import numpy as np
 import pytest
 from conftest import copy_policy
 
-from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.cli import main
 from grasp_ctrl.config.objects import CapProfile, load_objects
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.errors import ConfigError, PolicyError, UsageError
 from grasp_ctrl.estimators.base import Estimate
-from grasp_ctrl.estimators.registry import list_policy_names, load_policy
+from grasp_ctrl.estimators.registry import DEFAULT_POLICY, list_policy_names, load_policy
+from grasp_ctrl.loop.ticklog import read_tick_log
 from grasp_ctrl.paths import default_objects_file, policies_dir
+from grasp_ctrl.storage import LOCK_FILE, record_path, safe_name, temp_path, ticks_path
+from grasp_ctrl.trials.episode.runner import run_series, run_sim_trial
 from grasp_ctrl.trials.runs.manifest import read_manifest
 from grasp_ctrl.trials.runs.records import load_records
-from grasp_ctrl.trials.episode.runner import run_sim_trial, run_series
-from grasp_ctrl.storage import LOCK_FILE, record_path, safe_name, temp_path, ticks_path
-from grasp_ctrl.loop.ticklog import read_tick_log
 
 OBJECTS_TOML = Path(default_objects_file()).read_text()
 
@@ -115,8 +114,17 @@ def test_2_nan_force_never_passes_the_overforce_check(hand, objects):
     q = np.array([j.open_rad for j in hand.joints])
     f = np.zeros((n, 3))
     f[1] = np.nan
-    snap = Snapshot(t=0.0, q=q, p_palm_world=np.zeros(3), tare_ready=True, in_contact=np.ones(n, bool),
-                    f_sensor=f, f_hand=f, f_world=f, grip_n=np.zeros(n))
+    snap = Snapshot(
+        t=0.0,
+        q=q,
+        p_palm_world=np.zeros(3),
+        tare_ready=True,
+        in_contact=np.ones(n, bool),
+        f_sensor=f,
+        f_hand=f,
+        f_world=f,
+        grip_n=np.zeros(n),
+    )
     cmd = ctrl.tick(snap)
     assert ctrl.state == "fault" and ctrl.failure_reason == "estimate_invalid"
     assert np.all(np.isfinite(cmd.q_goal))
@@ -152,7 +160,7 @@ def test_2_non_finite_goal_is_goal_invalid_and_never_sent(hand, objects, monkeyp
     def broken_next_goal(self):
         calls["n"] += 1
         q = real(self)
-        if calls["n"] == 80:   # once, mid-reach: an IK step that blew up
+        if calls["n"] == 80:  # once, mid-reach: an IK step that blew up
             q = q * np.nan
         return q
 
@@ -163,17 +171,35 @@ def test_2_non_finite_goal_is_goal_invalid_and_never_sent(hand, objects, monkeyp
 
 
 # ---------------------------------------------------------------- 3. names never become paths outside the run
-EVIL = "../../../../x"   # from RUN_DIR/trials/POLICY/ this climbs out of RUN_DIR
+EVIL = "../../../../x"  # from RUN_DIR/trials/POLICY/ this climbs out of RUN_DIR
 
 
 def test_3_object_names_are_safe_identifiers(tmp_path, capsys):
-    lego = OBJECTS_TOML[OBJECTS_TOML.index("[objects.lego]"):].split("\n\n")[0]
+    lego = OBJECTS_TOML[OBJECTS_TOML.index("[objects.lego]") :].split("\n\n")[0]
     bad = _objects_file(tmp_path, "\n" + lego.replace("[objects.lego]", f'[objects."{EVIL}"]') + "\n")
     with pytest.raises(ConfigError, match="object names become directory names"):
         load_objects(bad)
     before = _files_under(tmp_path)
-    assert main(["run", "--backend", "mock", "--object-file", str(bad), "--objects", EVIL, "--out", str(tmp_path / "a" / "b" / "run"),
-                 "--trials", "1", "--quiet", "--no-tick-logs"]) == 2
+    assert (
+        main(
+            [
+                "run",
+                "--backend",
+                "mock",
+                "--object-file",
+                str(bad),
+                "--objects",
+                EVIL,
+                "--out",
+                str(tmp_path / "a" / "b" / "run"),
+                "--trials",
+                "1",
+                "--quiet",
+                "--no-tick-logs",
+            ]
+        )
+        == 2
+    )
     assert EVIL in _err_line(capsys)
     assert _files_under(tmp_path) == before
 
@@ -198,16 +224,27 @@ def test_4_failed_start_leaves_no_run_directory_and_the_retry_works(tmp_path, ca
     import grasp_ctrl.trials.episode.runner as runner
 
     run_dir = tmp_path / "run"
-    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet", *bad]) == 2
+    assert (
+        main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet", *bad])
+        == 2
+    )
     assert "no_such_policy" in _err_line(capsys)
     assert not run_dir.exists()
 
     def fake_trial_fn(hand, policies, settings=None, threads=1):
-        return lambda p, obj, k, seed, log: {"object": obj.name, "policy": p, "trial": k, "seed": seed,
-                                             "success": True, "reason": None}
+        return lambda p, obj, k, seed, log: {
+            "object": obj.name,
+            "policy": p,
+            "trial": k,
+            "seed": seed,
+            "success": True,
+            "reason": None,
+        }
 
     monkeypatch.setattr(runner, "sim_trial_fn", fake_trial_fn)
-    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
+    assert (
+        main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
+    )
     assert (run_dir / "run.json").is_file() and not (run_dir / LOCK_FILE).exists()
 
 
@@ -232,6 +269,7 @@ def _fake_records(monkeypatch):
             if log is not None:
                 log.write_text("t,state\n0.0,tare\n")
             return {"object": obj.name, "policy": p, "trial": k, "seed": seed, "success": True, "reason": None}
+
         return run
 
     monkeypatch.setattr(runner, "sim_trial_fn", fake_trial_fn)
@@ -241,7 +279,9 @@ def _fake_records(monkeypatch):
 def test_5_resume_is_refused_while_another_process_holds_the_run(tmp_path, capsys, monkeypatch):
     _fake_records(monkeypatch)
     run_dir = tmp_path / "run"
-    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
+    assert (
+        main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
+    )
     record_path(run_dir, DEFAULT_POLICY, "lego", 0).unlink()
     pid, proc = _child_pid(alive=True)
     try:
@@ -257,12 +297,14 @@ def test_5_resume_is_refused_while_another_process_holds_the_run(tmp_path, capsy
 def test_5_a_stale_lock_is_taken_over_with_a_warning(tmp_path, capsys, monkeypatch):
     _fake_records(monkeypatch)
     run_dir = tmp_path / "run"
-    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "2", "--out", str(run_dir), "--quiet"]) == 0
+    assert (
+        main(["run", "--backend", "mock", "--objects", "lego", "--trials", "2", "--out", str(run_dir), "--quiet"]) == 0
+    )
     record_path(run_dir, DEFAULT_POLICY, "lego", 1).unlink()
     pid, _ = _child_pid(alive=False)
     (run_dir / LOCK_FILE).write_text(json.dumps({"pid": pid, "host": os.uname().nodename, "started": "x"}))
     leftover = temp_path(record_path(run_dir, DEFAULT_POLICY, "lego", 1))
-    leftover.write_text("{half a rec")           # a dead writer's temporary file
+    leftover.write_text("{half a rec")  # a dead writer's temporary file
     capsys.readouterr()
     assert main(["run", "--resume", str(run_dir), "--quiet"]) == 0
     assert f"stale lock of process {pid}" in capsys.readouterr().err
@@ -284,22 +326,27 @@ def test_5_tick_logs_are_written_under_a_unique_temporary_name_then_renamed(tmp_
 
 
 # ---------------------------------------------------------------- 6. run.json revalidated on resume
-@pytest.mark.parametrize("edit, field", [
-    (lambda d: d["objects"][0].update(tau_n=float("nan")), "objects.lego.tau_n"),
-    (lambda d: d["objects"][0].update(tau_n=-1.0), "objects.lego.tau_n"),
-    (lambda d: d["objects"][0].update(mass_kg=0.0), "objects.lego.mass_kg"),
-    (lambda d: d["objects"][0].update(name="../../x"), "name"),
-    (lambda d: d.update(seed=-1), "seed"),
-    (lambda d: d.update(trials=0), "trials"),
-    (lambda d: d.update(backend="laser"), "backend"),
-    (lambda d: d["settings"].update(ramp_timeout_s=float("inf")), "settings.ramp_timeout_s"),
-    (lambda d: d["settings"].update(close_speed_m_s=-0.1), "settings.close_speed_m_s"),
-    (lambda d: d.update(objects="lego"), "objects"),
-])
+@pytest.mark.parametrize(
+    "edit, field",
+    [
+        (lambda d: d["objects"][0].update(tau_n=float("nan")), "objects.lego.tau_n"),
+        (lambda d: d["objects"][0].update(tau_n=-1.0), "objects.lego.tau_n"),
+        (lambda d: d["objects"][0].update(mass_kg=0.0), "objects.lego.mass_kg"),
+        (lambda d: d["objects"][0].update(name="../../x"), "name"),
+        (lambda d: d.update(seed=-1), "seed"),
+        (lambda d: d.update(trials=0), "trials"),
+        (lambda d: d.update(backend="laser"), "backend"),
+        (lambda d: d["settings"].update(ramp_timeout_s=float("inf")), "settings.ramp_timeout_s"),
+        (lambda d: d["settings"].update(close_speed_m_s=-0.1), "settings.close_speed_m_s"),
+        (lambda d: d.update(objects="lego"), "objects"),
+    ],
+)
 def test_6_a_bad_run_json_is_refused_on_resume_naming_the_field(tmp_path, capsys, monkeypatch, edit, field):
     _fake_records(monkeypatch)
     run_dir = tmp_path / "run"
-    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
+    assert (
+        main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
+    )
     doc = json.loads((run_dir / "run.json").read_text())
     edit(doc)
     (run_dir / "run.json").write_text(json.dumps(doc))
@@ -317,23 +364,45 @@ def test_7_every_shipped_policy_loads_with_its_hash_and_graph_checked(name, hand
     assert est.estimate(np.zeros((0, 44)), []).f_sensor.shape == (0, 3)
 
 
-@pytest.mark.parametrize("name, edit, message", [
-    ("icra19_official", lambda m: m.update(model_sha256="0" * 64), "model_sha256: icra19_official.onnx has SHA-256"),
-    ("icra19_official", lambda m: m.pop("model_sha256"), "model_sha256: required key is missing"),
-    ("icra19_official", lambda m: m.update(model_sha256="nope"), "model_sha256: 64 hexadecimal digits"),
-    ("icra19_official", lambda m: m["input"]["tensors"]["electrode_voxels"].update(dtype="float64"),
-     "input.tensors.electrode_voxels.dtype: metadata says float64"),
-    ("icra19_official", lambda m: m["output"]["tensors"]["force"].update(shape=["batch", 4]),
-     "output.tensors.force.shape"),
-    ("icra19_dropout_official", lambda m: m["output"]["tensors"]["force_heads"].update(shape=["batch", 9, 3]),
-     "output.tensors.force_heads.shape"),
-    ("su_rigid_ft_mock", lambda m: m["input"]["tensors"]["electrodes"].update(shape=["batch", 18]),
-     "input.tensors.electrodes.shape"),
-    ("su_rigid_ft_mock", lambda m: m["output"]["tensors"]["f_sensor"].update(dtype="int64"),
-     "output.tensors.f_sensor.dtype"),
-    ("su_rigid_ft_mock", lambda m: m["input"]["tensors"].pop("pdc"), "needs ['pdc'], not in the metadata"),
-    ("su_rigid_ft_mock", lambda m: m.update(input=["electrodes"]), "malformed policy metadata"),
-])
+@pytest.mark.parametrize(
+    "name, edit, message",
+    [
+        (
+            "icra19_official",
+            lambda m: m.update(model_sha256="0" * 64),
+            "model_sha256: icra19_official.onnx has SHA-256",
+        ),
+        ("icra19_official", lambda m: m.pop("model_sha256"), "model_sha256: required key is missing"),
+        ("icra19_official", lambda m: m.update(model_sha256="nope"), "model_sha256: 64 hexadecimal digits"),
+        (
+            "icra19_official",
+            lambda m: m["input"]["tensors"]["electrode_voxels"].update(dtype="float64"),
+            "input.tensors.electrode_voxels.dtype: metadata says float64",
+        ),
+        (
+            "icra19_official",
+            lambda m: m["output"]["tensors"]["force"].update(shape=["batch", 4]),
+            "output.tensors.force.shape",
+        ),
+        (
+            "icra19_dropout_official",
+            lambda m: m["output"]["tensors"]["force_heads"].update(shape=["batch", 9, 3]),
+            "output.tensors.force_heads.shape",
+        ),
+        (
+            "su_rigid_ft_mock",
+            lambda m: m["input"]["tensors"]["electrodes"].update(shape=["batch", 18]),
+            "input.tensors.electrodes.shape",
+        ),
+        (
+            "su_rigid_ft_mock",
+            lambda m: m["output"]["tensors"]["f_sensor"].update(dtype="int64"),
+            "output.tensors.f_sensor.dtype",
+        ),
+        ("su_rigid_ft_mock", lambda m: m["input"]["tensors"].pop("pdc"), "needs ['pdc'], not in the metadata"),
+        ("su_rigid_ft_mock", lambda m: m.update(input=["electrodes"]), "malformed policy metadata"),
+    ],
+)
 def test_7_policy_file_problems_are_one_line_naming_file_and_field(tmp_path, hand, name, edit, message):
     path = copy_policy(tmp_path, edit, name)
     with pytest.raises(PolicyError) as info:
@@ -345,7 +414,24 @@ def test_7_policy_file_problems_are_one_line_naming_file_and_field(tmp_path, han
 def test_7_a_replaced_model_file_is_refused_before_it_is_parsed(tmp_path, hand, capsys):
     path = copy_policy(tmp_path, lambda m: None, "su_rigid_ft_mock")
     shutil.copy(policies_dir() / "voxel_alpha_mixed_mock.onnx", tmp_path / "su_rigid_ft_mock.onnx")
-    assert main(["run", "--backend", "mock", "--policy", str(path), "--objects", "lego", "--trials", "1", "--out", str(tmp_path / "r")]) == 2
+    assert (
+        main(
+            [
+                "run",
+                "--backend",
+                "mock",
+                "--policy",
+                str(path),
+                "--objects",
+                "lego",
+                "--trials",
+                "1",
+                "--out",
+                str(tmp_path / "r"),
+            ]
+        )
+        == 2
+    )
     assert "model_sha256" in _err_line(capsys)
     assert not (tmp_path / "r").exists()
 
@@ -359,7 +445,7 @@ def test_7_checkpoints_load_weights_only(tmp_path):
     torch.save({"format": CHECKPOINT_FORMAT, "payload": _Exploit(str(marker))}, ckpt)
     with pytest.raises(ValueError, match="weights-only"):
         load_checkpoint(str(ckpt))
-    assert not marker.exists()   # the pickled code never ran
+    assert not marker.exists()  # the pickled code never ran
 
 
 class _Exploit:
@@ -371,20 +457,48 @@ class _Exploit:
 
 
 # ---------------------------------------------------------------- 8. cross-field checks
-@pytest.mark.parametrize("replace, extra, key", [
-    (("tip_force_n = 4.0\n", "tip_force_n = 4.0\ntau_n = 9.0\n"), "", "objects.lego.tau_n"),
-    (("tip_force_n = 4.0\n", "tip_force_n = 4.0\nrelease_threshold_n = -0.3\n"), "", "objects.lego.release_threshold_n"),
-    (("tip_force_n = 4.0\n", "tip_force_n = 4.0\nrelease_threshold_n = 0.0\n"), "", "objects.lego.release_threshold_n"),
-    (("mass_kg = 0.06\n", "mass_kg = -0.06\n"), "", "objects.lego.mass_kg"),
-    (('size_m = [0.032, 0.064]', 'size_m = [0.0, 0.064]'), "", "objects.lego.size_m"),
-    (('finger = "index"', 'finger = "palm"'), "", "objects.mustard_bottle.cap.finger"),
-])
+@pytest.mark.parametrize(
+    "replace, extra, key",
+    [
+        (("tip_force_n = 4.0\n", "tip_force_n = 4.0\ntau_n = 9.0\n"), "", "objects.lego.tau_n"),
+        (
+            ("tip_force_n = 4.0\n", "tip_force_n = 4.0\nrelease_threshold_n = -0.3\n"),
+            "",
+            "objects.lego.release_threshold_n",
+        ),
+        (
+            ("tip_force_n = 4.0\n", "tip_force_n = 4.0\nrelease_threshold_n = 0.0\n"),
+            "",
+            "objects.lego.release_threshold_n",
+        ),
+        (("mass_kg = 0.06\n", "mass_kg = -0.06\n"), "", "objects.lego.mass_kg"),
+        (('size_m = [0.032, 0.064]', 'size_m = [0.0, 0.064]'), "", "objects.lego.size_m"),
+        (('finger = "index"', 'finger = "palm"'), "", "objects.mustard_bottle.cap.finger"),
+    ],
+)
 def test_8_cross_field_and_bound_errors_name_the_field(tmp_path, capsys, replace, extra, key):
     path = _objects_file(tmp_path, extra, replace)
     obj = key.split(".")[1]
     run_dir = tmp_path / "run"
-    assert main(["run", "--backend", "mock", "--object-file", str(path), "--objects", obj, "--trials", "1", "--out", str(run_dir),
-                 "--quiet"]) == 2
+    assert (
+        main(
+            [
+                "run",
+                "--backend",
+                "mock",
+                "--object-file",
+                str(path),
+                "--objects",
+                obj,
+                "--trials",
+                "1",
+                "--out",
+                str(run_dir),
+                "--quiet",
+            ]
+        )
+        == 2
+    )
     line = _err_line(capsys)
     assert str(path) in line and key in line
     assert not run_dir.exists()
@@ -392,7 +506,24 @@ def test_8_cross_field_and_bound_errors_name_the_field(tmp_path, capsys, replace
 
 @pytest.mark.parametrize("seed", ["-1", "-99999999999999999999", str(2**63)])
 def test_8_negative_or_huge_seed_is_one_line(tmp_path, capsys, seed):
-    assert main(["run", "--backend", "mock", "--seed", seed, "--objects", "lego", "--trials", "1", "--out", str(tmp_path / "r")]) == 2
+    assert (
+        main(
+            [
+                "run",
+                "--backend",
+                "mock",
+                "--seed",
+                seed,
+                "--objects",
+                "lego",
+                "--trials",
+                "1",
+                "--out",
+                str(tmp_path / "r"),
+            ]
+        )
+        == 2
+    )
     assert "--seed" in _err_line(capsys)
     assert not (tmp_path / "r").exists()
 
@@ -456,13 +587,13 @@ def test_10_hand_check_shows_temperature_voltage_and_flags_a_hot_servo(tmp_path,
     if not hasattr(os, "openpty"):
         pytest.skip("needs POSIX pseudo-terminals")
     with DynamixelChainEmulator.for_hand(leap()) as emu:
-        emu.servo(5).set(PRESENT_TEMPERATURE, 68)     # limit 70 degC
-        emu.servo(9).set(PRESENT_INPUT_VOLTAGE, 40)   # 4.0 V, below 5.5 V
-        emu.inject_hardware_error(13, 0x24)           # overheating + overload
+        emu.servo(5).set(PRESENT_TEMPERATURE, 68)  # limit 70 degC
+        emu.servo(9).set(PRESENT_INPUT_VOLTAGE, 40)  # 4.0 V, below 5.5 V
+        emu.inject_hardware_error(13, 0x24)  # overheating + overload
         assert main(["hand-check", "--hand", str(leap_file(tmp_path)), "--port", emu.port]) == 1
     cap = capsys.readouterr()
     assert "temp_C" in cap.out and "input_V" in cap.out
-    assert " 30 " in cap.out and " 12.0 " in cap.out                     # every servo's reading
+    assert " 30 " in cap.out and " 12.0 " in cap.out  # every servo's reading
     assert "(id 5): HOT 68 degC" in cap.err
     assert "(id 9): INPUT VOLTAGE 4.0 V" in cap.err
     assert "(id 13): HARDWARE ERROR overheating,overload (status 0x24" in cap.err
@@ -489,8 +620,9 @@ def test_interrupted_run_of_every_default_object_resumes_to_the_same_summary(tmp
         def trial(*args):
             calls["n"] += 1
             if calls["n"] == 4:
-                raise KeyboardInterrupt   # the operator's Ctrl-C, mid-trial
+                raise KeyboardInterrupt  # the operator's Ctrl-C, mid-trial
             return run(*args)
+
         return trial
 
     monkeypatch.setattr(runner, "sim_trial_fn", interrupted_fn)
@@ -503,7 +635,11 @@ def test_interrupted_run_of_every_default_object_resumes_to_the_same_summary(tmp
     b = json.loads((cut / "summary.json").read_text())
     assert set(b["policies"][DEFAULT_POLICY]["objects"]) == set(names)
     assert {k: v for k, v in a.items() if k != "run_dir"} == {k: v for k, v in b.items() if k != "run_dir"}
-    for name in names:   # and trial by trial, the same outcome
+    for name in names:  # and trial by trial, the same outcome
         ra = json.loads(record_path(full, DEFAULT_POLICY, name, 0).read_text())
         rb = json.loads(record_path(cut, DEFAULT_POLICY, name, 0).read_text())
-        assert (ra["success"], ra["reason"], ra["sim_duration_s"]) == (rb["success"], rb["reason"], rb["sim_duration_s"])
+        assert (ra["success"], ra["reason"], ra["sim_duration_s"]) == (
+            rb["success"],
+            rb["reason"],
+            rb["sim_duration_s"],
+        )

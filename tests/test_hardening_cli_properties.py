@@ -26,18 +26,33 @@ from hypothesis import strategies as st
 from grasp_ctrl.cli import main
 from grasp_ctrl.paths import policies_dir
 
-SETTINGS = settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow,
-                                                                            HealthCheck.function_scoped_fixture])
+SETTINGS = settings(
+    max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture]
+)
 CASE_TIMEOUT_S = 30
 
 HOSTILE_BYTES = st.one_of(
     st.binary(max_size=300),
-    st.sampled_from([b"", b"\x00" * 64, b"[" * 3000, b"{" * 3000, b'{"format": 1}', b"nan,nan\n1,2\n",
-                     ("9" * 5000).encode(), b"\xff\xfe\xfd", b"t,x\n" + b"1," * 70000]),
+    st.sampled_from(
+        [
+            b"",
+            b"\x00" * 64,
+            b"[" * 3000,
+            b"{" * 3000,
+            b'{"format": 1}',
+            b"nan,nan\n1,2\n",
+            ("9" * 5000).encode(),
+            b"\xff\xfe\xfd",
+            b"t,x\n" + b"1," * 70000,
+        ]
+    ),
     st.text(max_size=300).map(lambda s: s.encode("utf-8", "surrogatepass")),
 )
-PLATE_HEADER = ("trial_id,sample_idx,timestamp,t_rel_s,pdc," + ",".join(f"e{i}" for i in range(1, 20))
-                + ",nx,ny,nz,label_norm,in_paper_trial")
+PLATE_HEADER = (
+    "trial_id,sample_idx,timestamp,t_rel_s,pdc,"
+    + ",".join(f"e{i}" for i in range(1, 20))
+    + ",nx,ny,nz,label_norm,in_paper_trial"
+)
 CELL = st.sampled_from(["0", "1", "3000", "-1", "nan", "inf", "1e308", "", "x", "0.5", "9" * 400, "\x00"])
 OUTPUT_KIND = st.sampled_from(["symlink", "managed", "directory", "bad_extension", "missing_folder", "plain"])
 
@@ -97,14 +112,31 @@ def stub_run(tmp_path_factory) -> Path:
     def fake_trial_fn(hand, policies, settings=None, threads=1, **_kw):
         def run(p, obj, k, seed, log):
             return {"object": obj.name, "policy": p, "trial": k, "seed": seed, "success": True, "reason": None}
+
         return run
 
     real = runner.sim_trial_fn
     runner.sim_trial_fn = fake_trial_fn
     try:
         run_dir = tmp_path_factory.mktemp("stub") / "run"
-        assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "2", "--quiet",
-                     "--no-tick-logs", "--out", str(run_dir)]) == 0
+        assert (
+            main(
+                [
+                    "run",
+                    "--backend",
+                    "mock",
+                    "--objects",
+                    "lego",
+                    "--trials",
+                    "2",
+                    "--quiet",
+                    "--no-tick-logs",
+                    "--out",
+                    str(run_dir),
+                ]
+            )
+            == 0
+        )
     finally:
         runner.sim_trial_fn = real
     return run_dir
@@ -166,6 +198,7 @@ def _stubbed_trials() -> Iterator[None]:
     def fake_trial_fn(hand, policies, settings=None, threads=1, **_kw):
         def run(p, obj, k, seed, log):
             return {"object": obj.name, "policy": p, "trial": k, "seed": seed, "success": True, "reason": None}
+
         return run
 
     real = runner.sim_trial_fn
@@ -182,12 +215,14 @@ def test_a_hostile_run_file_gives_one_line_to_score_compare_and_resume(stub_run,
     with _sandbox() as root:
         run_dir = root / "run"
         shutil.copytree(stub_run, run_dir)
-        path = run_dir / target if target != "trials/lego_record" else next(run_dir.glob("trials/*/lego/trial_000.json"))
+        path = (
+            run_dir / target if target != "trials/lego_record" else next(run_dir.glob("trials/*/lego/trial_000.json"))
+        )
         path.write_bytes(content)
         before = _snapshot(root)
         for argv in (["score", str(run_dir)], ["compare", str(run_dir), "--no-plot"]):
             _call(argv)
-        assert _snapshot(root) == before   # score and compare write nothing unasked
+        assert _snapshot(root) == before  # score and compare write nothing unasked
         with _stubbed_trials():
             rc, _ = _call(["run", "--resume", str(run_dir), "--quiet", "--jobs", "1"])
         assert rc in (0, 2)
@@ -226,11 +261,14 @@ def test_hostile_trajectories_for_pushing_gt(content, kind):
 
 
 @SETTINGS
-@given(meta=st.recursive(st.one_of(st.none(), st.floats(), st.integers(), st.text(max_size=5)),
-                         lambda inner: st.one_of(st.lists(inner, max_size=3),
-                                                 st.dictionaries(st.text(max_size=5), inner, max_size=3)),
-                         max_leaves=6),
-       edit=st.sampled_from(["replace_policy", "nested_run_json", "setting", "objects"]))
+@given(
+    meta=st.recursive(
+        st.one_of(st.none(), st.floats(), st.integers(), st.text(max_size=5)),
+        lambda inner: st.one_of(st.lists(inner, max_size=3), st.dictionaries(st.text(max_size=5), inner, max_size=3)),
+        max_leaves=6,
+    ),
+    edit=st.sampled_from(["replace_policy", "nested_run_json", "setting", "objects"]),
+)
 def test_resume_never_mixes_a_changed_run(stub_run, meta, edit):
     with _sandbox() as root:
         run_dir = root / "run"
@@ -253,11 +291,11 @@ def test_resume_never_mixes_a_changed_run(stub_run, meta, edit):
         records = sorted(p.read_bytes() for p in run_dir.glob("trials/*/*/*.json"))
         with _stubbed_trials():
             rc, _ = _call(["run", "--resume", str(run_dir), "--quiet", "--jobs", "1"])
-        if rc == 0:   # nothing that decides a trial changed: one fingerprint across the run
+        if rc == 0:  # nothing that decides a trial changed: one fingerprint across the run
             fp = json.loads((run_dir / "run.json").read_text())["fingerprint"]["sha256"]
             prints = {json.loads(p.read_text()).get("fingerprint") for p in run_dir.glob("trials/*/*/*.json")}
             assert prints == {fp}
-        else:         # refused: nothing ran
+        else:  # refused: nothing ran
             assert rc == 2
             assert sorted(p.read_bytes() for p in run_dir.glob("trials/*/*/*.json")) == records
 
@@ -285,8 +323,10 @@ def test_every_float_flag_of_every_command_is_checked():
 
 
 @settings(max_examples=40, deadline=None)
-@given(case=st.sampled_from(NUMERIC_FLAGS),
-       value=st.sampled_from(["nan", "-nan", "inf", "-inf", "1e999", "-1e999", "9" * 400, "-" + "9" * 400, "x", ""]))
+@given(
+    case=st.sampled_from(NUMERIC_FLAGS),
+    value=st.sampled_from(["nan", "-nan", "inf", "-inf", "1e999", "-1e999", "9" * 400, "-" + "9" * 400, "x", ""]),
+)
 def test_hostile_numbers_in_any_command_flag_are_one_line(case, value):
     command, flag = case
     with _sandbox() as root:

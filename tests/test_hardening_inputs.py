@@ -31,7 +31,7 @@ HUGE_INT = "9" * 400
 def _call(argv: list[str], capsys) -> tuple[int, str]:
     try:
         rc = main(argv)
-    except SystemExit as exc:   # argparse
+    except SystemExit as exc:  # argparse
         rc = exc.code if isinstance(exc.code, int) else 2
     err = capsys.readouterr().err
     assert "Traceback" not in err
@@ -51,12 +51,15 @@ def _replace_once(text: str, pattern: str, new: str) -> str:
     return out
 
 
-@pytest.mark.parametrize("pattern, value, key", [
-    (r"^mass_kg = .*$", f"mass_kg = {HUGE_INT}", "mass_kg"),
-    (r"^mass_kg = .*$", "mass_kg = 1e-300", "mass_kg"),
-    (r"^mu = .*$", f"mu = -{HUGE_INT}", "mu"),
-    (r"^height_m = .*$", f"height_m = {HUGE_INT}", "height_m"),
-])
+@pytest.mark.parametrize(
+    "pattern, value, key",
+    [
+        (r"^mass_kg = .*$", f"mass_kg = {HUGE_INT}", "mass_kg"),
+        (r"^mass_kg = .*$", "mass_kg = 1e-300", "mass_kg"),
+        (r"^mu = .*$", f"mu = -{HUGE_INT}", "mu"),
+        (r"^height_m = .*$", f"height_m = {HUGE_INT}", "height_m"),
+    ],
+)
 def test_object_file_numbers_are_range_checked(tmp_path, pattern, value, key):
     path = tmp_path / "objects.toml"
     path.write_text(_replace_once(OBJECTS_TOML, pattern, value))
@@ -69,19 +72,35 @@ def test_object_file_numbers_are_range_checked(tmp_path, pattern, value, key):
 def test_object_mass_of_1e_300_is_refused_by_run_before_anything_is_written(tmp_path, capsys):
     path = tmp_path / "objects.toml"
     path.write_text(_replace_once(OBJECTS_TOML, r"^mass_kg = .*$", "mass_kg = 1e-300"))
-    rc, err = _call(["run", "--backend", "mock", "--object-file", str(path), "--trials", "1",
-                     "--out", str(tmp_path / "r"), "--quiet"], capsys)
+    rc, err = _call(
+        [
+            "run",
+            "--backend",
+            "mock",
+            "--object-file",
+            str(path),
+            "--trials",
+            "1",
+            "--out",
+            str(tmp_path / "r"),
+            "--quiet",
+        ],
+        capsys,
+    )
     line = _one_error_line(err)
     assert rc == 2 and "mass_kg" in line and ">= 0.001" in line and not (tmp_path / "r").exists()
 
 
-@pytest.mark.parametrize("table, line, key", [
-    ("[dynamixel]", "profile_velocity = 100000000", "dynamixel.profile_velocity"),
-    ("[dynamixel]", "profile_acceleration = 99999999999", "dynamixel.profile_acceleration"),
-    ("[dynamixel]", "baud = 1000000000", "dynamixel.baud"),
-    ("[tactile]", f"baud = {HUGE_INT}", "tactile.baud"),
-    ("[safety]", f"max_fingertip_force_n = {HUGE_INT}", "safety.max_fingertip_force_n"),
-])
+@pytest.mark.parametrize(
+    "table, line, key",
+    [
+        ("[dynamixel]", "profile_velocity = 100000000", "dynamixel.profile_velocity"),
+        ("[dynamixel]", "profile_acceleration = 99999999999", "dynamixel.profile_acceleration"),
+        ("[dynamixel]", "baud = 1000000000", "dynamixel.baud"),
+        ("[tactile]", f"baud = {HUGE_INT}", "tactile.baud"),
+        ("[safety]", f"max_fingertip_force_n = {HUGE_INT}", "safety.max_fingertip_force_n"),
+    ],
+)
 def test_hand_file_bus_settings_and_huge_integers_are_range_checked(tmp_path, table, line, key):
     name = line.split(" =")[0]
     text = re.sub(rf"^{name} = .*\n", "", HAND_TOML.split(table, 1)[1], count=1, flags=re.MULTILINE)
@@ -102,15 +121,18 @@ def test_a_1e308_vector_is_refused_not_normalised_to_zero(tmp_path):
         load_hand(path)
 
 
-@pytest.mark.parametrize("argv", [
-    ["plot", "x.json", "--fps", "nan"],
-    ["plot", "x.json", "--fps", "inf"],
-    ["plot", "x.json", "--fps", "-1"],
-    ["plot", "x.json", "--frames", "9" * 400],
-    ["pushing-gt", "--trajectory", "t.csv", "--object", "o.toml", "--out", "f.csv", "--k", "1e999"],
-    ["sensors", "--seconds", "nan"],
-    ["evaluate-direction", "--data", "d.csv", "--threshold", "-inf"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["plot", "x.json", "--fps", "nan"],
+        ["plot", "x.json", "--fps", "inf"],
+        ["plot", "x.json", "--fps", "-1"],
+        ["plot", "x.json", "--frames", "9" * 400],
+        ["pushing-gt", "--trajectory", "t.csv", "--object", "o.toml", "--out", "f.csv", "--k", "1e999"],
+        ["sensors", "--seconds", "nan"],
+        ["evaluate-direction", "--data", "d.csv", "--threshold", "-inf"],
+    ],
+)
 def test_number_flags_are_checked_for_type_and_range(tmp_path, monkeypatch, capsys, argv):
     monkeypatch.chdir(tmp_path)
     rc, err = _call(argv, capsys)
@@ -129,16 +151,21 @@ def test_number_helpers_name_the_flag_and_range():
 
 
 # ---------------------------------------------------------------- JSON read with limits
-@pytest.mark.parametrize("content", [
-    "[" * 5000 + "]" * 5000,
-    '{"a": ' * 40 + "1" + "}" * 40,
-    "\x00\xff\xfe binary",
-    '{"format": 1, "seed": ' + "9" * 5000 + "}",
-])
+@pytest.mark.parametrize(
+    "content",
+    [
+        "[" * 5000 + "]" * 5000,
+        '{"a": ' * 40 + "1" + "}" * 40,
+        "\x00\xff\xfe binary",
+        '{"format": 1, "seed": ' + "9" * 5000 + "}",
+    ],
+)
 def test_a_corrupt_or_absurdly_nested_run_json_is_one_line(tmp_path, capsys, content):
     run_dir = tmp_path / "run"
     run_dir.mkdir()
-    (run_dir / "run.json").write_bytes(content.encode("utf-8", "surrogateescape") if isinstance(content, str) else content)
+    (run_dir / "run.json").write_bytes(
+        content.encode("utf-8", "surrogateescape") if isinstance(content, str) else content
+    )
     for argv in (["run", "--resume", str(run_dir)], ["score", str(run_dir)]):
         rc, err = _call(argv, capsys)
         assert rc == 2 and "run.json" in _one_error_line(err)
@@ -159,15 +186,20 @@ def test_a_nested_summary_json_does_not_stop_score(tmp_path, capsys, monkeypatch
 
     _stub_trials(monkeypatch)
     run_dir = tmp_path / "run"
-    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--quiet", "--out", str(run_dir)]) == 0
+    assert (
+        main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--quiet", "--out", str(run_dir)]) == 0
+    )
     (run_dir / "summary.json").write_text("[" * 100000)
     rc, _ = _call(["score", str(run_dir)], capsys)
     assert rc == 0
 
 
 # ---------------------------------------------------------------- 4. readers of recordings
-HEADER = ("trial_id,sample_idx,timestamp,t_rel_s,pdc," + ",".join(f"e{i}" for i in range(1, 20))
-          + ",nx,ny,nz,label_norm,in_paper_trial")
+HEADER = (
+    "trial_id,sample_idx,timestamp,t_rel_s,pdc,"
+    + ",".join(f"e{i}" for i in range(1, 20))
+    + ",nx,ny,nz,label_norm,in_paper_trial"
+)
 
 
 def _plate_row(tid: str = "A", pdc: str = "2449", normal: str = "0,0,1") -> str:
@@ -181,11 +213,11 @@ def _plate_file(tmp_path: Path, bad: str) -> Path:
 
 
 BAD_PLATE_ROWS = [
-    ("A,0,0,0,2449,3000", "field(s), the header has"),                 # a short row
-    (_plate_row(normal="nan,0,1"), "nx: a finite number"),             # a NaN normal
-    (_plate_row(normal="0,0,0"), "unit plate normal"),                 # a zero normal
+    ("A,0,0,0,2449,3000", "field(s), the header has"),  # a short row
+    (_plate_row(normal="nan,0,1"), "nx: a finite number"),  # a NaN normal
+    (_plate_row(normal="0,0,0"), "unit plate normal"),  # a zero normal
     (_plate_row(pdc="1e300"), "pdc: a number from 0 to 4095"),
-    ("\x00\x01\x02\xff junk", "field(s)"),                             # binary junk
+    ("\x00\x01\x02\xff junk", "field(s)"),  # binary junk
 ]
 
 
@@ -204,8 +236,9 @@ def test_plate_recording_bad_rows_are_named_by_line_or_skipped(tmp_path, bad, wh
 @pytest.mark.parametrize("command", ["evaluate-direction", "calibrate"])
 def test_plate_recording_commands_give_one_line_for_a_bad_row(tmp_path, capsys, command):
     path = _plate_file(tmp_path, BAD_PLATE_ROWS[1][0])
-    argv = [command, "--data", str(path)] + (["--policy", "linear_mock", "--out", str(tmp_path / "c.json")]
-                                              if command == "calibrate" else [])
+    argv = [command, "--data", str(path)] + (
+        ["--policy", "linear_mock", "--out", str(tmp_path / "c.json")] if command == "calibrate" else []
+    )
     rc, err = _call(argv, capsys)
     line = _one_error_line(err)
     assert rc == 2 and "line 3" in line and "nx" in line
@@ -224,20 +257,24 @@ def test_sensors_emulate_from_a_bad_recording_is_one_line(tmp_path):
 PUSH_HEADER = "t,x,y,theta,contact_x,contact_y,in_contact"
 
 
-@pytest.mark.parametrize("body, why", [
-    (b"\x89PNG\r\n\x1a\n\x00\x00binary", "missing column"),
-    ((PUSH_HEADER + "\n0,0,0,0,0,0,1\n0.1,1e300,0,0,0,0,1\n0.2,0,0,0,0,0,1\n").encode(), "line 3: x"),
-    ((PUSH_HEADER + "\n0,0,0,0,0,0,1\n0.1,0,0\n0.2,0,0,0,0,0,1\n").encode(), "line 3:"),
-    ((PUSH_HEADER + "\n0,0,0,0,0,0,1\n0,0,0,0,0,0,1\n").encode(), "increasing times"),
-    ((PUSH_HEADER + "\n" + "9" * 200000 + "\n").encode(), "line 2"),
-])
+@pytest.mark.parametrize(
+    "body, why",
+    [
+        (b"\x89PNG\r\n\x1a\n\x00\x00binary", "missing column"),
+        ((PUSH_HEADER + "\n0,0,0,0,0,0,1\n0.1,1e300,0,0,0,0,1\n0.2,0,0,0,0,0,1\n").encode(), "line 3: x"),
+        ((PUSH_HEADER + "\n0,0,0,0,0,0,1\n0.1,0,0\n0.2,0,0,0,0,0,1\n").encode(), "line 3:"),
+        ((PUSH_HEADER + "\n0,0,0,0,0,0,1\n0,0,0,0,0,0,1\n").encode(), "increasing times"),
+        ((PUSH_HEADER + "\n" + "9" * 200000 + "\n").encode(), "line 2"),
+    ],
+)
 def test_pushing_gt_on_binary_or_pathological_csv_is_one_line(tmp_path, capsys, body, why):
     traj = tmp_path / "push.csv"
     traj.write_bytes(body)
     obj = tmp_path / "box.toml"
     obj.write_text("mass_kg = 0.65\nsize_m = [0.12, 0.16]\nmu = 0.1\n")
-    rc, err = _call(["pushing-gt", "--trajectory", str(traj), "--object", str(obj), "--out",
-                     str(tmp_path / "f.csv")], capsys)
+    rc, err = _call(
+        ["pushing-gt", "--trajectory", str(traj), "--object", str(obj), "--out", str(tmp_path / "f.csv")], capsys
+    )
     line = _one_error_line(err)
     assert rc == 2 and why in line and str(traj) in line
     assert not (tmp_path / "f.csv").exists()
@@ -257,8 +294,17 @@ def test_a_finite_but_huge_estimate_is_overforce(hand, objects, value):
         q = np.array([j.open_rad for j in hand.joints])
         f = np.zeros((n, 3))
         f[1] = value
-        snap = Snapshot(t=0.0, q=q, p_palm_world=np.zeros(3), tare_ready=True, in_contact=np.ones(n, bool),
-                        f_sensor=f, f_hand=f, f_world=f, grip_n=np.zeros(n))
+        snap = Snapshot(
+            t=0.0,
+            q=q,
+            p_palm_world=np.zeros(3),
+            tare_ready=True,
+            in_contact=np.ones(n, bool),
+            f_sensor=f,
+            f_hand=f,
+            f_world=f,
+            grip_n=np.zeros(n),
+        )
         cmd = ctrl.tick(snap)
         assert ctrl.state == "fault" and ctrl.failure_reason == "overforce", ctrl.failure_detail
         assert "inf" not in ctrl.failure_detail and np.all(np.isfinite(cmd.q_goal))
@@ -270,8 +316,10 @@ def test_a_fit_that_collapses_an_axis_or_makes_the_error_worse_is_named():
     good = {"fit": {"before": {"median_deg": 20.0}, "after": {"median_deg": 5.0}}}
     assert fit_problems(np.eye(3), good) == []
     assert "collapses an axis" in fit_problems(np.diag([1.0, 1.0, 0.0]), good)[0]
-    worse = {"fit": {"before": {"median_deg": 5.0}, "after": {"median_deg": 9.0}},
-             "test": {"before": {"median_deg": 5.0}, "after": {"median_deg": 5.1}}}
+    worse = {
+        "fit": {"before": {"median_deg": 5.0}, "after": {"median_deg": 9.0}},
+        "test": {"before": {"median_deg": 5.0}, "after": {"median_deg": 5.1}},
+    }
     (problem,) = fit_problems(np.eye(3), worse)
     assert "fit error worse" in problem
     assert fit_problems(np.full((3, 3), math.nan), good)
@@ -284,21 +332,38 @@ def test_calibrate_refuses_a_degenerate_correction_unless_allowed(tmp_path, caps
 
     nominal = generate(600, seed=11, sources=("rigid-ft",))
     w, b = fit_linear(nominal.tared, nominal.f_sensor)
-    (tmp_path / "base.json").write_text(json.dumps({
-        "name": "base", "kind": "linear", "sensor_type": "biotac", "has_variance": False,
-        "weights_n_per_count": w.tolist(), "bias_n": b.tolist()}))
+    (tmp_path / "base.json").write_text(
+        json.dumps(
+            {
+                "name": "base",
+                "kind": "linear",
+                "sensor_type": "biotac",
+                "has_variance": False,
+                "weights_n_per_count": w.tolist(),
+                "bias_n": b.tolist(),
+            }
+        )
+    )
     rows = [t.raw_rows() for t in generate_trials(600, seed=12, sources=("rigid-ft",))]
     for r in rows:
-        r.f_sensor = r.f_sensor * np.array([0.0, 1.0, 1.0])   # labels without an x axis: stretch 0
+        r.f_sensor = r.f_sensor * np.array([0.0, 1.0, 1.0])  # labels without an x axis: stretch 0
     write_raw_csv(tmp_path / "flat.csv", rows)
-    argv = ["calibrate", "--data", str(tmp_path / "flat.csv"), "--policy", str(tmp_path / "base.json"),
-            "--out", str(tmp_path / "cal.json"), "--model", "gains"]
+    argv = [
+        "calibrate",
+        "--data",
+        str(tmp_path / "flat.csv"),
+        "--policy",
+        str(tmp_path / "base.json"),
+        "--out",
+        str(tmp_path / "cal.json"),
+        "--model",
+        "gains",
+    ]
     rc, err = _call(argv, capsys)
     assert rc == 2 and "collapses an axis" in _one_error_line(err)
     assert not (tmp_path / "cal.json").exists()
     rc, err = _call(argv + ["--allow-worse"], capsys)
     assert rc == 0 and "WARNING" in err and (tmp_path / "cal.json").exists()
-
 
 
 @pytest.mark.parametrize("spec", ["1:inf:1", "1:20:1e-320", "nan", "1,2,1e999", "3:1:1", "1:2", "0:1:0.1"])
@@ -310,15 +375,22 @@ def test_sweep_values_are_checked_before_the_list_is_built(spec):
     assert parse_values("1:2.5:0.5", "--param tau_n", 0.1, 20.0) == [1.0, 1.5, 2.0, 2.5]
 
 
-@pytest.mark.parametrize("key, value", [("settings", {"ramp_tolerance_n": int(HUGE_INT)}),
-                                        ("settings", {"ramp_tolerance_n": 1e300}),
-                                        ("objects", int(HUGE_INT))])
+@pytest.mark.parametrize(
+    "key, value",
+    [
+        ("settings", {"ramp_tolerance_n": int(HUGE_INT)}),
+        ("settings", {"ramp_tolerance_n": 1e300}),
+        ("objects", int(HUGE_INT)),
+    ],
+)
 def test_a_400_digit_number_in_run_json_is_one_line_on_resume(tmp_path, capsys, monkeypatch, key, value):
     from test_hardening_resume_writes import _stub_trials
 
     _stub_trials(monkeypatch)
     run_dir = tmp_path / "run"
-    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--quiet", "--out", str(run_dir)]) == 0
+    assert (
+        main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--quiet", "--out", str(run_dir)]) == 0
+    )
     doc = json.loads((run_dir / "run.json").read_text())
     if key == "settings":
         doc["settings"].update(value)

@@ -16,11 +16,13 @@ import os
 import re
 import shutil
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from grasp_ctrl.cli import main
 from grasp_ctrl.config.hand import HandConfig, load_hand
@@ -34,16 +36,48 @@ OBJECTS_TOML = Path(default_objects_file()).read_text()
 SETTINGS = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 # TOML literals a careless or hostile edit could put anywhere.
-HOSTILE_TOML = st.sampled_from([
-    "nan", "-nan", "inf", "-inf", "0", "-1", "0.0", "-0.0", "1e308", "-1e308", "99999999999999999",
-    '""', '"x"', '"../../x"', '"/etc/passwd"', "true", "false", "[]", "[nan, 1.0, 2.0]", "[1, 2]",
-    "[0.0, 0.0, 0.0]", '["a", "b"]', "{}", "{ a = 1 }", "2026-01-01", "[[1], [2]]", "-9", "1000000",
-])
+HOSTILE_TOML = st.sampled_from(
+    [
+        "nan",
+        "-nan",
+        "inf",
+        "-inf",
+        "0",
+        "-1",
+        "0.0",
+        "-0.0",
+        "1e308",
+        "-1e308",
+        "99999999999999999",
+        '""',
+        '"x"',
+        '"../../x"',
+        '"/etc/passwd"',
+        "true",
+        "false",
+        "[]",
+        "[nan, 1.0, 2.0]",
+        "[1, 2]",
+        "[0.0, 0.0, 0.0]",
+        '["a", "b"]',
+        "{}",
+        "{ a = 1 }",
+        "2026-01-01",
+        "[[1], [2]]",
+        "-9",
+        "1000000",
+    ]
+)
 # JSON values for run.json and policy metadata (NaN/Infinity are what json.dumps writes for floats).
 HOSTILE_JSON = st.recursive(
-    st.one_of(st.none(), st.booleans(), st.integers(min_value=-2**70, max_value=2**70),
-              st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=12),
-              st.sampled_from(["../../x", "/etc/passwd", "", "oracle:scale=nan", "linear_mock", "lego"])),
+    st.one_of(
+        st.none(),
+        st.booleans(),
+        st.integers(min_value=-(2**70), max_value=2**70),
+        st.floats(allow_nan=True, allow_infinity=True),
+        st.text(max_size=12),
+        st.sampled_from(["../../x", "/etc/passwd", "", "oracle:scale=nan", "linear_mock", "lego"]),
+    ),
     lambda inner: st.one_of(st.lists(inner, max_size=4), st.dictionaries(st.text(max_size=6), inner, max_size=4)),
     max_leaves=8,
 )
@@ -68,8 +102,15 @@ def _stub_trials(monkeypatch: pytest.MonkeyPatch) -> None:
         def run(p, obj, k, seed, log):
             if log is not None:
                 Path(log).write_text("t,state\n")
-            return {"object": obj.name, "policy": p, "trial": k, "seed": seed, "success": k % 2 == 0,
-                    "reason": None if k % 2 == 0 else "slipped"}
+            return {
+                "object": obj.name,
+                "policy": p,
+                "trial": k,
+                "seed": seed,
+                "success": k % 2 == 0,
+                "reason": None if k % 2 == 0 else "slipped",
+            }
+
         return run
 
     monkeypatch.setattr(runner, "sim_trial_fn", fake_trial_fn)
@@ -81,7 +122,7 @@ def _call(argv: list[str]) -> tuple[int, str, str]:
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         try:
             rc = main(argv)
-        except SystemExit as exc:   # argparse: usage line + "error:" line, status 2
+        except SystemExit as exc:  # argparse: usage line + "error:" line, status 2
             rc = exc.code if isinstance(exc.code, int) else 2
     return rc, out.getvalue(), err.getvalue()
 
@@ -92,13 +133,12 @@ def _assert_clean(rc: int, err: str) -> None:
         lines = [ln for ln in err.splitlines() if ln.strip()]
         assert lines, "a failure must say why"
         errors = [ln for ln in lines if "error:" in ln]
-        assert len(errors) == 1, err       # one line says what is wrong (argparse adds its usage line)
+        assert len(errors) == 1, err  # one line says what is wrong (argparse adds its usage line)
 
 
 def _new_files_outside(root: Path, before: set[Path], allowed: list[Path]) -> list[Path]:
     after = {p for p in root.rglob("*") if p.is_file()}
-    return sorted(p for p in after - before
-                  if not any(p == a or a in p.parents for a in allowed))
+    return sorted(p for p in after - before if not any(p == a or a in p.parents for a in allowed))
 
 
 def _mutate_toml(text: str, line_choice: int, value: str) -> str:
@@ -159,23 +199,43 @@ def test_object_file_with_a_hostile_value_loads_or_names_the_key(line: int, valu
 
 # ------------------------------------------------------------------------ the run command end to end (stubbed trials)
 @SETTINGS
-@given(hand_line=st.integers(0, 10_000), hand_value=HOSTILE_TOML, obj_line=st.integers(0, 10_000),
-       obj_value=HOSTILE_TOML, which=st.sampled_from(["hand", "objects", "both"]))
+@given(
+    hand_line=st.integers(0, 10_000),
+    hand_value=HOSTILE_TOML,
+    obj_line=st.integers(0, 10_000),
+    obj_value=HOSTILE_TOML,
+    which=st.sampled_from(["hand", "objects", "both"]),
+)
 def test_run_with_hostile_files_runs_or_fails_cleanly_inside_the_run_dir(
-        hand_line, hand_value, obj_line, obj_value, which, monkeypatch_session) -> None:
+    hand_line, hand_value, obj_line, obj_value, which, monkeypatch_session
+) -> None:
     with sandbox() as root:
         hand_file, obj_file = root / "hand.toml", root / "objects.toml"
         hand_file.write_text(_mutate_toml(HAND_TOML, hand_line, hand_value) if which != "objects" else HAND_TOML)
         obj_file.write_text(_mutate_toml(OBJECTS_TOML, obj_line, obj_value) if which != "hand" else OBJECTS_TOML)
         before = {p for p in root.rglob("*") if p.is_file()}
         run_dir = root / "a" / "b" / "run"
-        rc, _, err = _call(["run", "--backend", "mock", "--hand", str(hand_file), "--object-file", str(obj_file), "--trials", "2",
-                            "--out", str(run_dir), "--quiet"])
+        rc, _, err = _call(
+            [
+                "run",
+                "--backend",
+                "mock",
+                "--hand",
+                str(hand_file),
+                "--object-file",
+                str(obj_file),
+                "--trials",
+                "2",
+                "--out",
+                str(run_dir),
+                "--quiet",
+            ]
+        )
         _assert_clean(rc, err)
         assert rc in (0, 2), err
         assert not _new_files_outside(root, before, [run_dir])
         if rc != 0:
-            assert not run_dir.exists()       # a failed start leaves nothing behind
+            assert not run_dir.exists()  # a failed start leaves nothing behind
 
 
 @pytest.fixture(scope="module")
@@ -214,7 +274,20 @@ def _set(doc: Any, path: tuple, value: Any, delete: bool) -> Any:
 @pytest.fixture(scope="module")
 def finished_run(tmp_path_factory, monkeypatch_session) -> Path:
     run_dir = tmp_path_factory.mktemp("resume") / "run"
-    rc, _, err = _call(["run", "--backend", "mock", "--objects", "lego,mustard_bottle", "--trials", "2", "--out", str(run_dir), "--quiet"])
+    rc, _, err = _call(
+        [
+            "run",
+            "--backend",
+            "mock",
+            "--objects",
+            "lego,mustard_bottle",
+            "--trials",
+            "2",
+            "--out",
+            str(run_dir),
+            "--quiet",
+        ]
+    )
     assert rc == 0, err
     return run_dir
 
@@ -230,7 +303,7 @@ def test_resume_with_a_hostile_run_json_continues_or_names_the_field(finished_ru
         doc = _set(doc, paths[where % len(paths)], value, delete)
         (run_dir / "run.json").write_text(json.dumps(doc))
         for rec in list(run_dir.rglob("trial_001.json")):
-            rec.unlink()                  # something left to resume
+            rec.unlink()  # something left to resume
         before = {p for p in root.rglob("*") if p.is_file()}
         rc, _, err = _call(["run", "--resume", str(run_dir), "--quiet"])
         _assert_clean(rc, err)
@@ -243,8 +316,12 @@ def test_resume_with_a_hostile_run_json_continues_or_names_the_field(finished_ru
 
 # ------------------------------------------------------------------------ policy metadata
 @SETTINGS
-@given(name=st.sampled_from(["su_rigid_ft_mock", "icra19_official", "linear_mock", "analytic_mock", "mlp_mock"]),
-       where=st.integers(0, 10_000), value=HOSTILE_JSON, delete=st.booleans())
+@given(
+    name=st.sampled_from(["su_rigid_ft_mock", "icra19_official", "linear_mock", "analytic_mock", "mlp_mock"]),
+    where=st.integers(0, 10_000),
+    value=HOSTILE_JSON,
+    delete=st.booleans(),
+)
 def test_policy_with_hostile_metadata_loads_or_is_one_line_policy_error(hand, name, where, value, delete) -> None:
     with sandbox() as root:
         onnx = policies_dir() / f"{name}.onnx"
@@ -275,10 +352,45 @@ def test_policy_metadata_of_random_bytes_is_a_policy_error(hand, data) -> None:
 
 # ------------------------------------------------------------------------ command-line arguments
 VALUES = st.one_of(
-    st.sampled_from(["-1", "0", "1", "2", "nan", "inf", "-inf", "1e400", "9" * 30, "../../x", "../../../../../x", "",
-                     " ", "a,b", "all", "lego", "lego,lego", "mustard_bottle", ",", "oracle", "oracle:scale=-1",
-                     "oracle:scale=nan", "linear_mock", "no_such", "é", "/dev/null", "tau_n=1:3:0.5",
-                     "tau_n=3:1:1", "tau_n=nan", "tau_n=50", "hold_s=-1", "paper", "--", "-", "x\x00y"]),
+    st.sampled_from(
+        [
+            "-1",
+            "0",
+            "1",
+            "2",
+            "nan",
+            "inf",
+            "-inf",
+            "1e400",
+            "9" * 30,
+            "../../x",
+            "../../../../../x",
+            "",
+            " ",
+            "a,b",
+            "all",
+            "lego",
+            "lego,lego",
+            "mustard_bottle",
+            ",",
+            "oracle",
+            "oracle:scale=-1",
+            "oracle:scale=nan",
+            "linear_mock",
+            "no_such",
+            "é",
+            "/dev/null",
+            "tau_n=1:3:0.5",
+            "tau_n=3:1:1",
+            "tau_n=nan",
+            "tau_n=50",
+            "hold_s=-1",
+            "paper",
+            "--",
+            "-",
+            "x\x00y",
+        ]
+    ),
     st.text(max_size=10),
 )
 # Paths the user names: the only places a command may write.
@@ -286,8 +398,21 @@ RUN_DIR, JSON_FILE = "out/run", "x.json"
 PATHS = st.sampled_from([RUN_DIR, JSON_FILE, "", "out", "missing.toml", "x\x00y", "/dev/null"])
 PATH_FLAGS = {"--out", "--json", "--resume", "--hand", "--object-file"}
 COMMANDS = {
-    "run": ["--objects", "--policy", "--trials", "--seed", "--preset", "--threads", "--jobs", "--json", "--out",
-            "--hand", "--object-file", "--backend", "--resume"],
+    "run": [
+        "--objects",
+        "--policy",
+        "--trials",
+        "--seed",
+        "--preset",
+        "--threads",
+        "--jobs",
+        "--json",
+        "--out",
+        "--hand",
+        "--object-file",
+        "--backend",
+        "--resume",
+    ],
     "tune": ["--object", "--param", "--trials", "--seed", "--policy", "--jobs", "--json", "--hand", "--object-file"],
     "score": ["--json"],
     "diagram": [],
@@ -313,15 +438,15 @@ def test_any_arguments_give_a_result_or_one_clean_error(command, data, monkeypat
         if command == "run" and "--out" not in argv and "--resume" not in argv:
             argv += ["--out", RUN_DIR]
         if command == "run" and "--backend" not in argv and "--resume" not in argv:
-            argv += ["--backend", "mock"]   # argument handling is under test, not the world
+            argv += ["--backend", "mock"]  # argument handling is under test, not the world
         if command == "tune" and "--object" not in argv:
             argv += ["--object", "lego"]
         if command == "tune" and "--param" not in argv:
             argv += ["--param", "tau_n=2"]
         if command == "tune":
-            argv += ["--backend", "mock"]   # the fast world: the property is about the arguments
+            argv += ["--backend", "mock"]  # the fast world: the property is about the arguments
     with sandbox() as root:
-        cwd = root / "a" / "b" / "c" / "d" / "work"   # deep, so a climbing name would land inside root
+        cwd = root / "a" / "b" / "c" / "d" / "work"  # deep, so a climbing name would land inside root
         cwd.mkdir(parents=True)
         os.chdir(cwd)
         rc, _, err = _call(argv)

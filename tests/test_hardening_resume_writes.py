@@ -30,8 +30,15 @@ def _stub_trials(monkeypatch: pytest.MonkeyPatch) -> None:
         def run(p, obj, k, seed, log):
             if log is not None:
                 Path(log).write_text("t,state\n")
-            return {"object": obj.name, "policy": p, "trial": k, "seed": seed, "success": k % 2 == 0,
-                    "reason": None if k % 2 == 0 else "slipped"}
+            return {
+                "object": obj.name,
+                "policy": p,
+                "trial": k,
+                "seed": seed,
+                "success": k % 2 == 0,
+                "reason": None if k % 2 == 0 else "slipped",
+            }
+
         return run
 
     monkeypatch.setattr(runner, "sim_trial_fn", fake_trial_fn)
@@ -54,9 +61,25 @@ def files(tmp_path: Path) -> dict[str, Path]:
 
 
 def _start(run_dir: Path, files: dict[str, Path], trials: int = 2) -> list[str]:
-    return ["run", "--backend", "mock", "--objects", "lego", "--trials", str(trials), "--quiet", "--no-tick-logs",
-            "--policy", str(files["policy"]), "--hand", str(files["hand"]), "--object-file", str(files["objects"]),
-            "--out", str(run_dir)]
+    return [
+        "run",
+        "--backend",
+        "mock",
+        "--objects",
+        "lego",
+        "--trials",
+        str(trials),
+        "--quiet",
+        "--no-tick-logs",
+        "--policy",
+        str(files["policy"]),
+        "--hand",
+        str(files["hand"]),
+        "--object-file",
+        str(files["objects"]),
+        "--out",
+        str(run_dir),
+    ]
 
 
 def _records(run_dir: Path) -> list[Path]:
@@ -94,13 +117,16 @@ def test_a_model_file_is_part_of_its_policy_fingerprint():
     assert policy_files("oracle:scale=2") == []
 
 
-@pytest.mark.parametrize("edit, named", [
-    (lambda f, d: f["policy"].write_text(f["policy"].read_text().replace('"name"', '"name" ', 1)), "policy"),
-    (lambda f, d: f["hand"].write_text(f["hand"].read_text() + "\n# edited\n"), "hand"),
-    (lambda f, d: f["objects"].write_text(f["objects"].read_text() + "\n# tuned\n"), "object_file"),
-    (lambda f, d: _edit_run_json(d, lambda j: j["settings"].update(ramp_tolerance_n=0.123)), "run.json settings"),
-    (lambda f, d: _edit_run_json(d, lambda j: j["objects"][0].update(tau_n=1.5)), "run.json objects.lego"),
-])
+@pytest.mark.parametrize(
+    "edit, named",
+    [
+        (lambda f, d: f["policy"].write_text(f["policy"].read_text().replace('"name"', '"name" ', 1)), "policy"),
+        (lambda f, d: f["hand"].write_text(f["hand"].read_text() + "\n# edited\n"), "hand"),
+        (lambda f, d: f["objects"].write_text(f["objects"].read_text() + "\n# tuned\n"), "object_file"),
+        (lambda f, d: _edit_run_json(d, lambda j: j["settings"].update(ramp_tolerance_n=0.123)), "run.json settings"),
+        (lambda f, d: _edit_run_json(d, lambda j: j["objects"][0].update(tau_n=1.5)), "run.json objects.lego"),
+    ],
+)
 def test_resume_refuses_a_changed_file_or_setting_naming_it(tmp_path, files, monkeypatch, capsys, edit, named):
     run_dir = _half_run(tmp_path, files, monkeypatch)
     capsys.readouterr()
@@ -109,7 +135,7 @@ def test_resume_refuses_a_changed_file_or_setting_naming_it(tmp_path, files, mon
     assert main(["run", "--resume", str(run_dir), "--quiet"]) == 2
     line = _err(capsys)
     assert named in line and "--force" in line and len(line.strip().splitlines()) == 1
-    assert sorted(p.name for p in run_dir.rglob("*")) == before   # nothing ran, nothing written
+    assert sorted(p.name for p in run_dir.rglob("*")) == before  # nothing ran, nothing written
 
 
 def _edit_run_json(run_dir: Path, change) -> None:
@@ -130,7 +156,7 @@ def test_resume_with_force_continues_and_records_what_changed(tmp_path, files, m
     prints = [json.loads(p.read_text())["fingerprint"] for p in _records(run_dir)]
     assert prints == [old, m.fingerprint["sha256"]]
     capsys.readouterr()
-    assert main(["score", str(run_dir)]) == 0   # both belong to the run (the change was accepted)
+    assert main(["score", str(run_dir)]) == 0  # both belong to the run (the change was accepted)
     assert "not counted" not in _err(capsys)
 
 
@@ -155,12 +181,12 @@ def test_score_counts_only_planned_trials_and_names_the_others(tmp_path, files, 
     assert main(_start(run_dir, files)) == 0
     first = _records(run_dir)[0]
     rec = json.loads(first.read_text())
-    extra = dict(rec, trial=7, seed=trial_seed(0, "lego", 7))          # trial 7 of a 2-trial run
+    extra = dict(rec, trial=7, seed=trial_seed(0, "lego", 7))  # trial 7 of a 2-trial run
     (first.parent / "trial_007.json").write_text(json.dumps(extra))
-    other = first.parent.parent / "cleanser"                           # an object outside the run
+    other = first.parent.parent / "cleanser"  # an object outside the run
     other.mkdir()
     (other / "trial_000.json").write_text(json.dumps(dict(rec, object="cleanser", seed=trial_seed(0, "cleanser", 0))))
-    foreign = dict(rec, fingerprint="0" * 64)                          # another experiment's record
+    foreign = dict(rec, fingerprint="0" * 64)  # another experiment's record
     capsys.readouterr()
     assert main(["score", str(run_dir), "--json", str(tmp_path / "s.json")]) == 0
     err = _err(capsys)
@@ -184,7 +210,7 @@ def test_score_json_refuses_a_managed_file_of_the_run(tmp_path, files, monkeypat
     assert main(["score", str(run_dir), "--json", str(run_dir / target)]) == 2
     assert "manages" in _err(capsys)
     assert (run_dir / "run.json").read_text() == before
-    assert main(["run", "--resume", str(run_dir), "--quiet"]) == 0   # the run is intact
+    assert main(["run", "--resume", str(run_dir), "--quiet"]) == 0  # the run is intact
 
 
 def test_run_json_into_its_own_run_json_is_refused_before_anything_runs(tmp_path, files, monkeypatch, capsys):
@@ -221,12 +247,15 @@ def test_compare_png_through_a_symlink_leaves_the_target_alone(tmp_path, files, 
     assert not png.is_symlink() and png.read_bytes()[:4] == b"\x89PNG"
 
 
-@pytest.mark.parametrize("argv, flag", [
-    (["compare", "{run}", "--png", "{tmp}/chart.xyz"], "--png"),
-    (["compare", "{run}", "--png", "{tmp}/chart"], "--png"),
-    (["plot", "{tmp}/trial_000.json", "--out", "{tmp}/p.nonsense"], "--out"),
-    (["plot", "{tmp}/trial_000.json", "--animate", "{tmp}/p.png"], "--animate"),
-])
+@pytest.mark.parametrize(
+    "argv, flag",
+    [
+        (["compare", "{run}", "--png", "{tmp}/chart.xyz"], "--png"),
+        (["compare", "{run}", "--png", "{tmp}/chart"], "--png"),
+        (["plot", "{tmp}/trial_000.json", "--out", "{tmp}/p.nonsense"], "--out"),
+        (["plot", "{tmp}/trial_000.json", "--animate", "{tmp}/p.png"], "--animate"),
+    ],
+)
 def test_plot_and_compare_check_the_output_format_first(tmp_path, files, monkeypatch, capsys, argv, flag):
     _stub_trials(monkeypatch)
     run_dir = tmp_path / "run"
@@ -242,8 +271,8 @@ def test_plot_and_compare_check_the_output_format_first(tmp_path, files, monkeyp
 def test_save_figure_replaces_a_symlink_and_checks_the_format(tmp_path):
     pytest.importorskip("matplotlib")
     from grasp_ctrl.errors import UsageError
-    from grasp_ctrl.safe_write import save_figure
     from grasp_ctrl.plotting import pyplot
+    from grasp_ctrl.safe_write import save_figure
 
     plt = pyplot()
     fig = plt.figure()
@@ -281,7 +310,8 @@ def test_mujoco_warnings_go_to_the_run_directory_or_nowhere(tmp_path, monkeypatc
     monkeypatch.chdir(tmp_path)
     mujoco_log.install(mujoco)
     model = mujoco.MjModel.from_xml_string(
-        '<mujoco><worldbody><body><freejoint/><geom type="box" size=".1 .1 .1" mass="1"/></body></worldbody></mujoco>')
+        '<mujoco><worldbody><body><freejoint/><geom type="box" size=".1 .1 .1" mass="1"/></body></worldbody></mujoco>'
+    )
 
     def unstable_step() -> None:
         data = mujoco.MjData(model)
@@ -314,8 +344,16 @@ def test_ctrl_c_before_the_run_exists_does_not_offer_a_resume(tmp_path, files, m
     assert not (tmp_path / "never").exists()
 
 
-@pytest.mark.parametrize("lock", ['{"pid": ' + "9" * 30 + ', "host": "HOST"}', '{"pid": true, "host": "HOST"}',
-                                  '{"pid": -5, "host": "HOST"}', "[" * 100000, "x" * 200000])
+@pytest.mark.parametrize(
+    "lock",
+    [
+        '{"pid": ' + "9" * 30 + ', "host": "HOST"}',
+        '{"pid": true, "host": "HOST"}',
+        '{"pid": -5, "host": "HOST"}',
+        "[" * 100000,
+        "x" * 200000,
+    ],
+)
 def test_a_hostile_lock_file_is_taken_over_with_a_warning(tmp_path, files, monkeypatch, capsys, lock):
     import socket
 

@@ -12,10 +12,10 @@ from grasp_ctrl.emulators.tactile_bridge import TactileBridgeEmulator
 from grasp_ctrl.hardware.arm_external import ExternalArm
 from grasp_ctrl.hardware.dynamixel import DynamixelHand
 from grasp_ctrl.hardware.dynamixel.hand import MonotonicClock
-from grasp_ctrl.trials.episode.rig import HardwareRig
+from grasp_ctrl.loop.ticklog import read_tick_log
 from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 from grasp_ctrl.trials.episode.hardware import hardware_trial_fn, reach_pose_world
-from grasp_ctrl.loop.ticklog import read_tick_log
+from grasp_ctrl.trials.episode.rig import HardwareRig
 
 pytestmark = pytest.mark.skipif(not hasattr(__import__("os"), "openpty"), reason="needs POSIX pseudo-terminals")
 
@@ -46,6 +46,7 @@ def _opener(dxl, tactile, obj, answers):
         sensors = SerialSensors.from_hand(h, port=tactile.port, clock=clock)
         sensors.start()
         return HardwareRig(hand_backend, arm, sensors, clock)
+
     return open_rig
 
 
@@ -60,7 +61,7 @@ def test_trial_runs_through_real_backends_and_stops_safely(emulators, objects, t
     assert record["policy"] == "linear_mock" and record["object"] == "chips_can"
     assert record["controller"]["final_state"] in ("done", "fault")
     states = [b for _, _, b in record["transitions"]]
-    assert states[0] == "reach"                      # tared first, on real frames
+    assert states[0] == "reach"  # tared first, on real frames
     assert record["judged_by"] == "controller"
     header, cols = read_tick_log(log)
     assert len(cols["t"]) > 50 and header[:2] == ["t", "state"]
@@ -91,7 +92,7 @@ def test_ctrl_c_mid_trial_aborts_safely(emulators, objects, monkeypatch):
 
     def sleep_then_interrupt(s):
         calls["n"] += 1
-        if calls["n"] == 60:          # during the close, after taring
+        if calls["n"] == 60:  # during the close, after taring
             raise KeyboardInterrupt
         real_sleep(s)
 
@@ -99,5 +100,5 @@ def test_ctrl_c_mid_trial_aborts_safely(emulators, objects, monkeypatch):
     trial = hardware_trial_fn(hand, ["linear_mock"], FAST, 1, open_rig_fn=_opener(dxl, tactile, obj, []))
     with pytest.raises(KeyboardInterrupt):
         trial("linear_mock", obj, 0, 0, None)
-    assert calls["n"] > 60            # it kept ticking the safe action after the interrupt
+    assert calls["n"] > 60  # it kept ticking the safe action after the interrupt
     assert not any(dxl.servo(j.servo_id).torque_on for j in hand.joints)

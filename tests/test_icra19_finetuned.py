@@ -17,7 +17,7 @@ ort = pytest.importorskip("onnxruntime")
 POLICIES = REPO_ROOT / "policies"
 FINETUNED = "icra19_finetuned_mock"
 OFFICIAL = "icra19_official"
-FRESH_SEED = 11          # the fine-tuning data used seed 3; voxel_alpha_mixed_mock seed 0; the anchors seed 7
+FRESH_SEED = 11  # the fine-tuning data used seed 3; voxel_alpha_mixed_mock seed 0; the anchors seed 7
 
 
 def _need(*names: str) -> None:
@@ -52,10 +52,10 @@ def test_finetuned_policy_reads_fresh_rigid_ft_presses_better_than_the_authors_n
         q1, q3 = np.percentile(log_ratio, [25, 75])
         figures[name] = (float(np.median(angle)), float(q3 - q1), float(np.exp(np.median(log_ratio))))
     (off_angle, off_spread, _), (ft_angle, ft_spread, ft_ratio) = figures[OFFICIAL], figures[FINETUNED]
-    assert off_angle > 10.0 and off_spread > 0.8        # the problem it fixes is still there
+    assert off_angle > 10.0 and off_spread > 0.8  # the problem it fixes is still there
     assert ft_angle < 0.5 * off_angle, figures
     assert ft_spread < off_spread / 3.0, figures
-    assert 0.8 < ft_ratio < 1.25, figures               # and it reads the scale right
+    assert 0.8 < ft_ratio < 1.25, figures  # and it reads the scale right
 
 
 def test_finetuned_policy_metadata_says_what_it_is() -> None:
@@ -108,10 +108,48 @@ def test_train_init_from_icra19_official_runs(tmp_path) -> None:
     from grasp_ctrl.cli import main
 
     ckpt = tmp_path / "ft.pt"
-    assert main(["train", "--synthetic", "150", "--seed", "5", "--test-per-source", "60", "--arch", "voxel",
-                 "--epochs", "1", "--init-from", OFFICIAL, "--out", str(ckpt), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "train",
+                "--synthetic",
+                "150",
+                "--seed",
+                "5",
+                "--test-per-source",
+                "60",
+                "--arch",
+                "voxel",
+                "--epochs",
+                "1",
+                "--init-from",
+                OFFICIAL,
+                "--out",
+                str(ckpt),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     import torch
 
     assert torch.load(ckpt, weights_only=True)["init_from"] == OFFICIAL
-    assert main(["train", "--synthetic", "150", "--seed", "5", "--arch", "su", "--epochs", "1",
-                 "--init-from", OFFICIAL, "--quiet"]) == 2
+    assert (
+        main(
+            [
+                "train",
+                "--synthetic",
+                "150",
+                "--seed",
+                "5",
+                "--arch",
+                "su",
+                "--epochs",
+                "1",
+                "--init-from",
+                OFFICIAL,
+                "--quiet",
+            ]
+        )
+        == 2
+    )

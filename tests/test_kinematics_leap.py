@@ -10,7 +10,6 @@ from hypothesis import strategies as st
 from grasp_ctrl.kinematics import FingerChain, HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.ik import close_along_task_vectors, closing_vectors, point_position, solve_position_ik
-
 from tests.dxl_helpers import leap
 
 HAND = leap()

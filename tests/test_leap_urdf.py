@@ -37,10 +37,14 @@ def read_urdf(path: Path) -> dict[str, UrdfJoint]:
     for j in ET.parse(path).getroot().iter("joint"):
         origin, limit = j.find("origin"), j.find("limit")
         joints[j.get("name")] = UrdfJoint(
-            name=j.get("name"), parent=j.find("parent").get("link"), child=j.find("child").get("link"),
-            xyz=np.array(origin.get("xyz").split(), dtype=float), rpy=np.array(origin.get("rpy").split(), dtype=float),
+            name=j.get("name"),
+            parent=j.find("parent").get("link"),
+            child=j.find("child").get("link"),
+            xyz=np.array(origin.get("xyz").split(), dtype=float),
+            rpy=np.array(origin.get("rpy").split(), dtype=float),
             axis=np.array(j.find("axis").get("xyz").split(), dtype=float),
-            lower=float(limit.get("lower")), upper=float(limit.get("upper")),
+            lower=float(limit.get("lower")),
+            upper=float(limit.get("upper")),
         )
     return joints
 
@@ -126,7 +130,7 @@ def test_servo_ids_follow_the_leap_api(hand: HandConfig) -> None:
     ids = {f.name: sorted(j.servo_id for j in f.joints) for f in hand.fingers}
     assert ids == {"index": [0, 1, 2, 3], "middle": [4, 5, 6, 7], "ring": [8, 9, 10, 11], "thumb": [12, 13, 14, 15]}
     for f in hand.fingers:
-        if f.name != "thumb":   # flexion (MCP) before abduction along each finger
+        if f.name != "thumb":  # flexion (MCP) before abduction along each finger
             assert [j.servo_id % 4 for j in f.joints] == [1, 0, 2, 3], f.name
-    for j in hand.joints:   # the LEAP API's limits; the binding thumb MCP may go to 1.2 A (hand file header)
+    for j in hand.joints:  # the LEAP API's limits; the binding thumb MCP may go to 1.2 A (hand file header)
         assert 0.35 <= j.current_limit_a <= (1.2 if j.name == "thumb_mcp" else 0.55), j.name

@@ -10,7 +10,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from grasp_ctrl.learning.dataset import (
-    RAW_COLUMNS, Dataset, DatasetError, header, read_csv, read_dataset, write_csv,
+    RAW_COLUMNS,
+    Dataset,
+    DatasetError,
+    header,
+    read_csv,
+    read_dataset,
+    write_csv,
 )
 from grasp_ctrl.learning.splits import split_by_trials
 from grasp_ctrl.tactile.layout import CHANNEL_NAMES
@@ -22,11 +28,17 @@ def _dataset(n_trials: dict[str, int], rng: np.random.Generator, per_trial: tupl
         for i in range(k):
             n = int(rng.integers(*per_trial))
             proj = source == "planar-pushing"
-            parts.append(Dataset(
-                trial_id=np.full(n, f"{source}-{i}"), source=np.full(n, source), t=np.arange(n) * 0.01,
-                tared=rng.normal(0, 100, (n, 44)), f_sensor=rng.normal(0, 1, (n, 3)) + [0, 0, 3],
-                projected=np.full(n, proj), r_world_sensor=np.repeat(np.eye(3)[None], n, axis=0),
-            ))
+            parts.append(
+                Dataset(
+                    trial_id=np.full(n, f"{source}-{i}"),
+                    source=np.full(n, source),
+                    t=np.arange(n) * 0.01,
+                    tared=rng.normal(0, 100, (n, 44)),
+                    f_sensor=rng.normal(0, 1, (n, 3)) + [0, 0, 3],
+                    projected=np.full(n, proj),
+                    r_world_sensor=np.repeat(np.eye(3)[None], n, axis=0),
+                )
+            )
     return Dataset.concat(parts)
 
 
@@ -48,12 +60,12 @@ def test_bad_rows_are_reported_by_line_not_dropped(tmp_path: Path) -> None:
     write_csv(path, ds)
     lines = path.read_text().splitlines()
     cols = lines[3].split(",")
-    cols[1] = "rigid"                     # line 4: unknown source
+    cols[1] = "rigid"  # line 4: unknown source
     lines[3] = ",".join(cols)
     cols = lines[6].split(",")
-    cols[5] = "nan"                       # line 7: a signal is NaN
+    cols[5] = "nan"  # line 7: a signal is NaN
     lines[6] = ",".join(cols)
-    lines[8] = lines[8] + ",extra"        # line 9: field count
+    lines[8] = lines[8] + ",extra"  # line 9: field count
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(DatasetError) as exc:
         read_csv(path)
@@ -67,7 +79,9 @@ def test_bad_rows_are_reported_by_line_not_dropped(tmp_path: Path) -> None:
 def test_projected_rows_need_a_rotation(tmp_path: Path) -> None:
     path = tmp_path / "d.csv"
     cols = ["trial_id", "source", "t", *CHANNEL_NAMES, "fx", "fy", "fz", "projected"]
-    path.write_text(",".join(cols) + "\n" + ",".join(["a", "planar-pushing", "0"] + ["0"] * 44 + ["1", "0", "0", "1"]) + "\n")
+    path.write_text(
+        ",".join(cols) + "\n" + ",".join(["a", "planar-pushing", "0"] + ["0"] * 44 + ["1", "0", "0", "1"]) + "\n"
+    )
     with pytest.raises(DatasetError, match="line 2: projected label needs"):
         read_csv(path)
 
@@ -81,7 +95,7 @@ def _raw_trial_rows(trial: str, base: float, n_tare: int, n_press: int, label: s
     for i in range(n_tare + n_press):
         pressed = i >= n_tare
         signals = [base - 500.0 if pressed else base] * 44
-        signals[19] = base + 100.0 if pressed else base       # pdc
+        signals[19] = base + 100.0 if pressed else base  # pdc
         f = ["0", "0", label] if pressed else ["0", "0", "0"]
         rows.append([trial, "rigid-ft", f"{(i - n_tare) * 0.01:.2f}"] + [str(v) for v in signals] + f + ["0"])
     return rows
@@ -100,8 +114,8 @@ def test_raw_file_tares_on_its_leading_zero_label_rows(tmp_path: Path, on_bad: s
     assert bad == []
     for trial, n_press in (("a", 30), ("b", 25)):
         tared = ds.tared[ds.trial_id == trial]
-        assert len(tared) == n_press - 9                  # contact gate: pdc > 10 for 10 rows
-        np.testing.assert_allclose(tared[:, 0], -500.0)   # baseline = the tare rows, not the presses
+        assert len(tared) == n_press - 9  # contact gate: pdc > 10 for 10 rows
+        np.testing.assert_allclose(tared[:, 0], -500.0)  # baseline = the tare rows, not the presses
         np.testing.assert_allclose(tared[:, 19], 100.0)
     assert np.all(np.linalg.norm(ds.f_sensor, axis=1) > 0)
     np.testing.assert_allclose(ds.t[ds.trial_id == "b"][0], 0.09)
@@ -116,8 +130,8 @@ def test_raw_file_needs_ten_tare_rows_per_trial(tmp_path: Path) -> None:
 
 def test_raw_stream_rows_without_force_or_label_are_not_samples(tmp_path: Path) -> None:
     rows = _raw_trial_rows("a", 3000.0, 10, 30)
-    rows[10 + 15][-4:-1] = ["0", "0", "0"]        # released for one row: gate stays on, not a sample
-    rows[10 + 16][-4:-1] = ["", "", ""]           # no label known: not a sample
+    rows[10 + 15][-4:-1] = ["0", "0", "0"]  # released for one row: gate stays on, not a sample
+    rows[10 + 16][-4:-1] = ["", "", ""]  # no label known: not a sample
     ds, _ = read_csv(_write(tmp_path / "raw.csv", rows))
     assert len(ds) == 21 - 2
     # an unlabelled first stream row ends the tare window (it may be in contact)
@@ -129,8 +143,10 @@ def test_raw_stream_rows_without_force_or_label_are_not_samples(tmp_path: Path) 
 
 def test_tared_file_still_rejects_zero_and_missing_labels(tmp_path: Path) -> None:
     head = ["trial_id", "source", "t", *CHANNEL_NAMES, "fx", "fy", "fz", "projected"]
-    rows = [["a", "rigid-ft", "0"] + ["1"] * 44 + ["0", "0", "0", "0"],
-            ["a", "rigid-ft", "0"] + ["1"] * 44 + ["", "", "", "0"]]
+    rows = [
+        ["a", "rigid-ft", "0"] + ["1"] * 44 + ["0", "0", "0", "0"],
+        ["a", "rigid-ft", "0"] + ["1"] * 44 + ["", "", "", "0"],
+    ]
     with pytest.raises(DatasetError, match="line 2: fx, fy, fz: a non-zero force label.*line 3: fx: a number"):
         read_csv(_write(tmp_path / "t.csv", rows, head))
 
@@ -177,7 +193,7 @@ def test_split_never_leaks_a_trial(counts: dict[str, int], seed: int, test_n: in
     for source in ds.sources():
         assert np.sum(ds.source[sp.test] == source) <= test_n
         n_trials = counts[source]
-        if n_trials >= 3:                     # every split gets whole trials of each source
+        if n_trials >= 3:  # every split gets whole trials of each source
             for ix in (sp.train, sp.val, sp.test):
                 assert np.any(ds.source[ix] == source)
     # train + val contain whole trials (every sample of those trials)

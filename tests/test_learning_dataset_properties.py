@@ -11,7 +11,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from grasp_ctrl.learning.dataset import (
-    LABEL_COLUMNS, RAW_COLUMNS, ROTATION_COLUMNS, SOURCES, Dataset, DatasetError, read_csv,
+    LABEL_COLUMNS,
+    RAW_COLUMNS,
+    ROTATION_COLUMNS,
+    SOURCES,
+    Dataset,
+    DatasetError,
+    read_csv,
 )
 from grasp_ctrl.tactile.layout import CHANNEL_NAMES
 
@@ -60,8 +66,31 @@ def test_header_then_arbitrary_text(text: str, on_bad: str) -> None:
 
 
 # cells: plausible numbers most of the time, hostile text otherwise
-HOSTILE = st.sampled_from(["", " ", "nan", "NaN", "inf", "-inf", "1e400", "-1e308", "1e308", "0x10", "1_0",
-                           "\x00", '"', '""', "a,b", "\u00e9", "\ufeff1", "1e-320", "True", "None", "--1"])
+HOSTILE = st.sampled_from(
+    [
+        "",
+        " ",
+        "nan",
+        "NaN",
+        "inf",
+        "-inf",
+        "1e400",
+        "-1e308",
+        "1e308",
+        "0x10",
+        "1_0",
+        "\x00",
+        '"',
+        '""',
+        "a,b",
+        "\u00e9",
+        "\ufeff1",
+        "1e-320",
+        "True",
+        "None",
+        "--1",
+    ]
+)
 NUMBER = st.one_of(st.integers(-5000, 5000).map(str), st.floats(allow_nan=True, allow_infinity=True).map(repr))
 CELL = st.one_of(NUMBER, NUMBER, NUMBER, HOSTILE, st.text(max_size=6))
 
@@ -72,9 +101,9 @@ def _structured_rows(draw: st.DrawFn) -> tuple[list[str], list[list[str]]]:
     head = ["trial_id", "source", "t", *signals, *LABEL_COLUMNS, "projected"]
     if draw(st.booleans()):
         head += list(ROTATION_COLUMNS)
-    if draw(st.booleans()):                     # a column missing or repeated
+    if draw(st.booleans()):  # a column missing or repeated
         k = draw(st.integers(0, len(head) - 1))
-        head = head[:k] + head[k + 1:] if draw(st.booleans()) else head + [head[k]]
+        head = head[:k] + head[k + 1 :] if draw(st.booleans()) else head + [head[k]]
     n_rows = draw(st.integers(0, 30))
     trials = draw(st.lists(st.sampled_from(["a", "b", " ", "c\nd"]), min_size=1, max_size=3))
     rows = []
@@ -82,12 +111,12 @@ def _structured_rows(draw: st.DrawFn) -> tuple[list[str], list[list[str]]]:
         row = [draw(st.sampled_from(trials)), draw(st.sampled_from([*SOURCES, "rigid", ""]))]
         row += [draw(CELL) for _ in range(len(head) - 2)]
         labels = [head.index(c) for c in LABEL_COLUMNS if c in head]
-        if labels and draw(st.booleans()):      # many contact-free "0 0 0" rows
+        if labels and draw(st.booleans()):  # many contact-free "0 0 0" rows
             for j in labels:
                 row[j] = "0"
         if "projected" in head and draw(st.booleans()):
             row[head.index("projected")] = draw(st.sampled_from(["0", "1", "2"]))
-        if draw(st.integers(0, 9)) == 0:        # wrong field count
+        if draw(st.integers(0, 9)) == 0:  # wrong field count
             row = row[:-1] if draw(st.booleans()) else row + ["x"]
         rows.append(row)
     return head, rows
@@ -96,23 +125,30 @@ def _structured_rows(draw: st.DrawFn) -> tuple[list[str], list[list[str]]]:
 def _csv_text(head: list[str], rows: list[list[str]]) -> bytes:
     def cell(c: str) -> str:
         return '"' + c.replace('"', '""') + '"' if any(ch in c for ch in ',"\n\r') else c
+
     return ("\n".join(",".join(cell(c) for c in r) for r in [head] + rows) + "\n").encode("utf-8", "surrogatepass")
 
 
 @SETTINGS
 @given(table=_structured_rows(), on_bad=st.sampled_from(["raise", "skip"]), min_tare=st.integers(1, 12))
-def test_hostile_cells_in_a_plausible_table(table: tuple[list[str], list[list[str]]], on_bad: str,
-                                            min_tare: int) -> None:
+def test_hostile_cells_in_a_plausible_table(
+    table: tuple[list[str], list[list[str]]], on_bad: str, min_tare: int
+) -> None:
     _read(_csv_text(*table), on_bad, min_tare)
 
 
 @SETTINGS
 @given(
-    base=st.floats(0, 4000), noise=st.floats(0, 50), n_tare=st.integers(10, 30), n_press=st.integers(0, 40),
-    drop=st.floats(20, 800), seed=st.integers(0, 2**16),
+    base=st.floats(0, 4000),
+    noise=st.floats(0, 50),
+    n_tare=st.integers(10, 30),
+    n_press=st.integers(0, 40),
+    drop=st.floats(20, 800),
+    seed=st.integers(0, 2**16),
 )
-def test_valid_raw_trial_is_tared_on_its_tare_rows(base: float, noise: float, n_tare: int, n_press: int,
-                                                   drop: float, seed: int) -> None:
+def test_valid_raw_trial_is_tared_on_its_tare_rows(
+    base: float, noise: float, n_tare: int, n_press: int, drop: float, seed: int
+) -> None:
     rng = np.random.default_rng(seed)
     raw = base + noise * rng.standard_normal((n_tare + n_press, 44))
     raw[n_tare:, :19] -= drop
@@ -125,7 +161,7 @@ def test_valid_raw_trial_is_tared_on_its_tare_rows(base: float, noise: float, n_
     ds = _read(_csv_text(head, rows), "raise")
     tared = raw - raw[:n_tare].mean(axis=0)
     above = tared[n_tare:, 19] > 10
-    expected = [i for i in range(n_press) if i >= 9 and above[i - 9:i + 1].all()]
+    expected = [i for i in range(n_press) if i >= 9 and above[i - 9 : i + 1].all()]
     if not expected:
         assert ds is None
         return

@@ -24,7 +24,7 @@ def test_contact_point_on_surface_with_unit_normal(tared: np.ndarray) -> None:
 
 def test_single_pressed_electrode_gives_its_region() -> None:
     tared = np.zeros((1, 44))
-    tared[0, 17] = -800.0                 # e18, on the pad (-z)
+    tared[0, 17] = -800.0  # e18, on the pad (-z)
     p, n = contact_point_and_normal(tared)
     assert n[0, 2] < -0.99 and abs(p[0, 0] - ELECTRODE_POSITIONS_SENSOR[17, 0]) < 1e-9
 
@@ -42,7 +42,7 @@ def test_voxel_grids_match_a_slow_reference() -> None:
             ref[tuple(idx)] = tared[i, k]
         np.testing.assert_allclose(e_vox[i], ref, rtol=1e-6)
         cref = np.zeros(GRID_SHAPE)
-        cref[tuple(np.digitize(s_c[i, a], edges[a]) - 1 for a in range(3))] = 1.0   # -1 wraps like numpy
+        cref[tuple(np.digitize(s_c[i, a], edges[a]) - 1 for a in range(3))] = 1.0  # -1 wraps like numpy
         np.testing.assert_array_equal(c_vox[i], cref)
     assert e_vox.shape == (5, 16, 16, 8)
     # below the lowest edge: index -1 wraps to the last cell

@@ -28,7 +28,7 @@ def test_alpha_matches_the_formula(beta: float) -> None:
     np.testing.assert_allclose(got, 2.0 ** (beta * (1 - d)), rtol=1e-10)
     # a press straight into the skin gets the largest weight, a pull the smallest
     n = torch.tensor([[0.0, 0.0, -1.0]])
-    assert float(alpha_weight(n, torch.tensor([[0.0, 0.0, 2.0]]), beta)) == pytest.approx(2.0 ** beta)
+    assert float(alpha_weight(n, torch.tensor([[0.0, 0.0, 2.0]]), beta)) == pytest.approx(2.0**beta)
     assert float(alpha_weight(n, torch.tensor([[0.0, 0.0, -2.0]]), beta)) == pytest.approx(1.0)
 
 
@@ -42,7 +42,7 @@ def test_q3d_and_qproj() -> None:
     p2 = torch.tensor([[1.0, 0.0, 2.0], [3.0, 4.0, 9.0]])
     np.testing.assert_allclose(q_proj(f, p2, r).numpy(), [0.5, 0.0])
     # the plane follows the sensor orientation
-    r_tilt = torch.tensor([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]).repeat(2, 1, 1)   # sensor z -> world -y
+    r_tilt = torch.tensor([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]).repeat(2, 1, 1)  # sensor z -> world -y
     assert float(q_proj(f, p, r_tilt)[0]) == pytest.approx(0.5)
     proj = torch.tensor([True, False])
     s_n = torch.tensor([[0.0, 0.0, -1.0], [0.0, -1.0, 0.0]])
@@ -92,11 +92,13 @@ def test_sparse_training_path_equals_the_voxel_grids(arch: str) -> None:
 def test_voxel_net_layer_shapes_match_the_authors() -> None:
     m = build_model("voxel")
     shapes = {k: tuple(v.shape) for k, v in m.state_dict().items()}
-    assert shapes["trunk.conv_e.linear.weight"] == (64, 8)          # Conv 1 -> 64, kernel 2^3
-    assert shapes["trunk.conv2.linear.weight"] == (64, 128 * 8)     # 128 -> 64
+    assert shapes["trunk.conv_e.linear.weight"] == (64, 8)  # Conv 1 -> 64, kernel 2^3
+    assert shapes["trunk.conv2.linear.weight"] == (64, 128 * 8)  # 128 -> 64
     assert shapes["trunk.conv3.linear.weight"] == (64, 64 * 8)
-    assert shapes["trunk.conv4.linear.weight"] == (128, 64 * 4)     # 2D 64 -> 128
-    assert shapes["fc1.0.weight"] == (64, 128) and shapes["fc2.0.weight"] == (32, 64) and shapes["out.weight"] == (3, 32)
+    assert shapes["trunk.conv4.linear.weight"] == (128, 64 * 4)  # 2D 64 -> 128
+    assert (
+        shapes["fc1.0.weight"] == (64, 128) and shapes["fc2.0.weight"] == (32, 64) and shapes["out.weight"] == (3, 32)
+    )
 
 
 def test_dropout_model_reports_variance_and_other_models_shapes() -> None:

@@ -33,7 +33,7 @@ def test_rigid_ft_is_large_and_mostly_normal() -> None:
 def test_ball_ft_covers_other_directions() -> None:
     ds = generate_source("ball-ft", 400, linear_forward, np.random.default_rng(1))
     mag = np.linalg.norm(ds.f_sensor, axis=1)
-    assert np.percentile(np.abs(ds.f_sensor[:, 1]) / mag, 90) > 0.5      # sideways contacts
+    assert np.percentile(np.abs(ds.f_sensor[:, 1]) / mag, 90) > 0.5  # sideways contacts
 
 
 def test_planar_pushing_labels_are_small_planar_and_projected() -> None:
@@ -49,5 +49,5 @@ def test_planar_pushing_labels_are_small_planar_and_projected() -> None:
 def test_mock_world_forward_model_and_gate() -> None:
     ds = generate(150, seed=3, forward=mock_biotac_forward())
     assert set(ds.sources()) == {"rigid-ft", "ball-ft", "planar-pushing"}
-    assert np.all(ds.tared[:, 19] > 10)               # only gated (in-contact) samples
-    assert np.median(ds.tared[:, :19].min(axis=1)) < -50   # pressed electrodes drop
+    assert np.all(ds.tared[:, 19] > 10)  # only gated (in-contact) samples
+    assert np.median(ds.tared[:, :19].min(axis=1)) < -50  # pressed electrodes drop

@@ -14,10 +14,10 @@ import pytest
 from grasp_ctrl import jit
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.loop.tick_kernels import track_peaks
 from grasp_ctrl.sim.backends import MockHand, MockSensors
 from grasp_ctrl.trials.episode import mock_tick
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
-from grasp_ctrl.loop.tick_kernels import track_peaks
 
 pytestmark = pytest.mark.skipif(not jit.JIT, reason="the fused tick needs the compiled kernels (sim extra)")
 
@@ -50,8 +50,17 @@ def _trial(hand, obj, seed, path, fused: bool, monkeypatch, disturb=None):
         if disturb:
             disturb(ticks[0], world, parts["hand"], parts["sensors"], ctrl)
 
-    rec = run_sim_trial(hand, obj, estimator_factory(DEFAULT_POLICY, hand), seed, DEFAULT_POLICY, log_path=path,
-                         kin=HandKinematics(hand), on_tick=on_tick, make_backends=backends).to_json()
+    rec = run_sim_trial(
+        hand,
+        obj,
+        estimator_factory(DEFAULT_POLICY, hand),
+        seed,
+        DEFAULT_POLICY,
+        log_path=path,
+        kin=HandKinematics(hand),
+        on_tick=on_tick,
+        make_backends=backends,
+    ).to_json()
     rec.pop("wall_duration_s")
     monkeypatch.undo()
     return rec, used["fused"]
@@ -62,7 +71,7 @@ def _same_trial(hand, obj, seed, tmp_path, monkeypatch, disturb=None, log=True):
     fused, n_fused = _trial(hand, obj, seed, paths[0], True, monkeypatch, disturb)
     generic, n_generic = _trial(hand, obj, seed, paths[1], False, monkeypatch, disturb)
     assert n_generic == 0 and n_fused > 100
-    assert json.dumps(fused) == json.dumps(generic)   # (NaN included)
+    assert json.dumps(fused) == json.dumps(generic)  # (NaN included)
     if log:
         assert pq.read_table(paths[0]).equals(pq.read_table(paths[1]))
     return fused
@@ -79,8 +88,7 @@ def test_fused_trial_without_a_tick_log(hand, objects, tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize("fault", ["overload", "paused", "nan_angle", "nan_goal"])
-def test_fused_trials_take_the_generic_way_where_a_shortcut_does_not_apply(hand, objects, tmp_path, monkeypatch,
-                                                                           fault):
+def test_fused_trials_take_the_generic_way_where_a_shortcut_does_not_apply(hand, objects, tmp_path, monkeypatch, fault):
     def disturb(tick, world, hand_backend, sensors, ctrl):
         if tick == 300:
             if fault == "overload":
@@ -88,7 +96,7 @@ def test_fused_trials_take_the_generic_way_where_a_shortcut_does_not_apply(hand,
             elif fault == "paused":
                 sensors.paused.add(world.sensor_ids[1])
             elif fault == "nan_angle":
-                world._q_servo[3] = np.nan   # the angle read next tick
+                world._q_servo[3] = np.nan  # the angle read next tick
             else:
                 ctrl.motion.q_goal[2] = np.nan
 
@@ -101,9 +109,31 @@ def test_outputs_kernel_refuses_a_non_finite_command_and_writes_nothing():
     goal, target = np.full(J, 7.0), np.full(3, 7.0)
     peaks = np.zeros((3, F))
     limits = np.array([[-1.0] * J, [1.0] * J, [-2.0] * J, [2.0] * J])
-    args = (np.zeros(J), 0.1, limits, 0.0, 1.0, goal, target, np.ones((F, 3)), np.ones(F), np.ones(F), peaks,
-            np.empty((0, 0)), -1, 0.0, np.zeros(3), 1.0, np.zeros((F, 44)), np.ones(F, dtype=bool),
-            np.zeros((F, 44)), np.zeros((F, 3)), np.zeros(J), np.zeros((F, 3)), np.zeros(6))
+    args = (
+        np.zeros(J),
+        0.1,
+        limits,
+        0.0,
+        1.0,
+        goal,
+        target,
+        np.ones((F, 3)),
+        np.ones(F),
+        np.ones(F),
+        peaks,
+        np.empty((0, 0)),
+        -1,
+        0.0,
+        np.zeros(3),
+        1.0,
+        np.zeros((F, 44)),
+        np.ones(F, dtype=bool),
+        np.zeros((F, 44)),
+        np.zeros((F, 3)),
+        np.zeros(J),
+        np.zeros((F, 3)),
+        np.zeros(6),
+    )
     assert mock_tick.mock_outputs(np.array([0.0, np.nan, 0.0]), np.zeros(3), *args) == mock_tick.NOT_FINITE
     assert mock_tick.mock_outputs(np.zeros(J), np.array([0.0, np.inf, 0.0]), *args) == mock_tick.NOT_FINITE
     assert np.all(goal == 7.0) and np.all(target == 7.0) and np.all(peaks == 0.0)

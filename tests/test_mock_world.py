@@ -57,7 +57,7 @@ def test_an_early_release_drops_the_object(hand, objects):
     assert any(e["kind"] == "fell" for e in r.events)
     released = [t for t, _, b in r.transitions if b == "release"][0]
     lowered = [t for t, _, b in r.transitions if b == "lower"][0]
-    assert released - lowered < 0.5          # released right after lowering began
+    assert released - lowered < 0.5  # released right after lowering began
 
 
 def test_a_late_release_is_a_failure(hand, objects):
@@ -100,11 +100,11 @@ def test_friction_limits_put_the_contact_force_on_its_own_friction_cone(normal, 
     compressive part; on a wall both limits are mu N."""
     from grasp_ctrl.sim.grip import friction_limits
 
-    n = np.array([np.cos(tilt), 0.0, np.sin(tilt)])     # outward surface normal, tilted up or down
+    n = np.array([np.cos(tilt), 0.0, np.sin(tilt)])  # outward surface normal, tilted up or down
     up, down = friction_limits(normal, n[2], mu)
     for t in (up, -down):
         if np.sqrt(1 - n[2] ** 2) - mu * abs(n[2]) < 0.05:
-            continue                                       # a wedge: the capped factor, not the cone
+            continue  # a wedge: the capped factor, not the cone
         f_on_object = -normal * n + t * np.array([0.0, 0.0, 1.0])
         compressive = -f_on_object @ n
         tangential = np.linalg.norm(f_on_object + compressive * n)
@@ -112,7 +112,7 @@ def test_friction_limits_put_the_contact_force_on_its_own_friction_cone(normal, 
         assert tangential == pytest.approx(mu * compressive, rel=1e-9)
     if tilt == 0.0:
         assert up == pytest.approx(mu * normal) and down == pytest.approx(mu * normal)
-    if tilt > 1e-6:                                        # a cap facing up: lifting unloads it
+    if tilt > 1e-6:  # a cap facing up: lifting unloads it
         assert up < down
 
 
@@ -138,14 +138,20 @@ def test_biotac_model_magnitudes_match_real_recordings(shared_data):
     assert np.all((model.baseline[:, ELECTRODES] >= 3000) & (model.baseline[:, ELECTRODES] <= 3500))
     assert 2500 < np.median(real_baseline) < 3600
     f = np.zeros((64, 3))
-    f[:, 2] = np.linspace(0.5, 6.0, 64)           # pad presses from 0.5 to 6 N
-    raw = model.frames(np.broadcast_to(PAD_POINT_SENSOR, (64, 3)), f,
-                       np.broadcast_to(PAD_NORMAL_SENSOR, (64, 3)), np.ones(64, bool), np.zeros(64), 0.01)
+    f[:, 2] = np.linspace(0.5, 6.0, 64)  # pad presses from 0.5 to 6 N
+    raw = model.frames(
+        np.broadcast_to(PAD_POINT_SENSOR, (64, 3)),
+        f,
+        np.broadcast_to(PAD_NORMAL_SENSOR, (64, 3)),
+        np.ones(64, bool),
+        np.zeros(64),
+        0.01,
+    )
     tared = raw - model.baseline
     pdc_rise = tared[:, PDC]
     assert np.all(pdc_rise > 20) and real_pdc_rise > 100
-    assert np.all(raw[:, PDC] < 4095)           # 6 N stays inside the ADC range
-    assert np.corrcoef(f[:, 2], pdc_rise)[0, 1] > 0.95     # more force, more pdc (gain spread aside)
+    assert np.all(raw[:, PDC] < 4095)  # 6 N stays inside the ADC range
+    assert np.corrcoef(f[:, 2], pdc_rise)[0, 1] > 0.95  # more force, more pdc (gain spread aside)
     drops = -tared[:, ELECTRODES].min(axis=1)
     assert drops.max() <= 2000 and drops.min() > 50
 
@@ -157,9 +163,9 @@ def test_skin_contact_points_lie_on_the_skin(v):
 
     c, n = contact_on_skin(np.array(v))
     assert abs(np.linalg.norm(n) - 1.0) < 1e-9
-    if c[0] > 1e-12:                                   # on the cap: a sphere about the origin
+    if c[0] > 1e-12:  # on the cap: a sphere about the origin
         assert abs(np.linalg.norm(c) - SKIN_RADIUS_M) < 1e-9
-    else:                                              # on the cylinder about x
+    else:  # on the cylinder about x
         assert PAD_X_MIN_M - 1e-12 <= c[0] <= 0.0
         assert abs(np.hypot(c[1], c[2]) - SKIN_RADIUS_M) < 1e-9
 
@@ -167,7 +173,7 @@ def test_skin_contact_points_lie_on_the_skin(v):
 def test_flat_press_lands_on_the_pad_centre():
     from grasp_ctrl.kinematics.fingertip import contact_on_skin
 
-    c, n = contact_on_skin(PAD_NORMAL_SENSOR)   # pressing straight into a surface under the pad
+    c, n = contact_on_skin(PAD_NORMAL_SENSOR)  # pressing straight into a surface under the pad
     np.testing.assert_allclose(c, PAD_POINT_SENSOR, atol=1e-12)
     np.testing.assert_allclose(n, PAD_NORMAL_SENSOR, atol=1e-12)
 
@@ -176,7 +182,9 @@ def test_oracle_succeeds_with_contacts_on_the_skin(hand, objects):
     from grasp_ctrl.sim.world import WorldParams
 
     obj = objects["chips_can"]
-    r = run_sim_trial(hand, obj, estimator_factory("oracle", hand), 7, "oracle", world_params=WorldParams(skin_contact=True))
+    r = run_sim_trial(
+        hand, obj, estimator_factory("oracle", hand), 7, "oracle", world_params=WorldParams(skin_contact=True)
+    )
     assert r.success, (r.reason, r.events)
 
 
@@ -210,4 +218,6 @@ def test_the_sensor_feels_each_force_on_the_skin_patch_that_faces_it(hand, objec
 
     r = _trial(hand, obj, seed=trial_seed(0, name, 1), on_tick=on_tick)
     assert r.success, r.reason
-    assert worst[0] <= limit, f"{np.rad2deg(worst[0]):.1f} deg off the skin normal, cone + slack {np.rad2deg(limit):.1f}"
+    assert worst[0] <= limit, (
+        f"{np.rad2deg(worst[0]):.1f} deg off the skin normal, cone + slack {np.rad2deg(limit):.1f}"
+    )

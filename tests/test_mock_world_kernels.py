@@ -31,8 +31,7 @@ def _random_q(hand, fractions):
 
 
 @settings(max_examples=60, deadline=None)
-@given(fractions=st.lists(unit, min_size=16, max_size=16),
-       point=st.tuples(*[st.floats(-0.02, 0.02)] * 3))
+@given(fractions=st.lists(unit, min_size=16, max_size=16), point=st.tuples(*[st.floats(-0.02, 0.02)] * 3))
 def test_multilinear_kinematics_equal_the_joint_by_joint_chain(hand, fractions, point):
     kin = HandKinematics(hand)
     mk = MultilinearKinematics(kin)
@@ -51,8 +50,15 @@ def test_multilinear_kinematics_equal_the_joint_by_joint_chain(hand, fractions, 
 def test_chains_of_different_lengths_are_padded_with_fixed_joints(hand):
     """A 2-joint and a 4-joint finger in one table."""
     full = HandKinematics(hand).chains["index"]
-    short = FingerChain(name="short", T_hand_base=full.T_hand_base, T_origins=full.T_origins[:2],
-                        axes=full.axes[:2], T_tip=full.T_tip, lower=full.lower[:2], upper=full.upper[:2])
+    short = FingerChain(
+        name="short",
+        T_hand_base=full.T_hand_base,
+        T_origins=full.T_origins[:2],
+        axes=full.axes[:2],
+        T_tip=full.T_tip,
+        lower=full.lower[:2],
+        upper=full.upper[:2],
+    )
     kin = SimpleNamespace(chains={"short": short, "index": full}, slices={"short": slice(0, 2), "index": slice(2, 6)})
     mk = MultilinearKinematics(kin)
     q = np.array([0.3, -0.2, 0.1, 0.4, 0.5, -0.1])
@@ -61,7 +67,7 @@ def test_chains_of_different_lengths_are_padded_with_fixed_joints(hand):
     np.testing.assert_allclose(rows[0, mk.ROT].reshape(3, 3), R, atol=1e-12)
     np.testing.assert_allclose(rows[0, mk.POINT], p, atol=1e-12)
     np.testing.assert_allclose(mk.jacobian(rows[0])[:, :2], short.jacobian(q[:2], np.zeros(3)), atol=1e-12)
-    np.testing.assert_allclose(mk.jacobian(rows[0])[:, 2:], 0.0, atol=1e-15)   # padded slots do not move
+    np.testing.assert_allclose(mk.jacobian(rows[0])[:, 2:], 0.0, atol=1e-15)  # padded slots do not move
 
 
 def _grasped_world(hand, objects, name="chips_can", skin_contact=True, state="hold"):
@@ -76,8 +82,15 @@ def _grasped_world(hand, objects, name="chips_can", skin_contact=True, state="ho
             raise _Stop
 
     try:
-        run_sim_trial(hand, objects[name], estimator_factory("oracle", hand), 3, "oracle", on_tick=grab,
-                       world_params=WorldParams(skin_contact=skin_contact))
+        run_sim_trial(
+            hand,
+            objects[name],
+            estimator_factory("oracle", hand),
+            3,
+            "oracle",
+            on_tick=grab,
+            world_params=WorldParams(skin_contact=skin_contact),
+        )
     except _Stop:
         pass
     return seen["world"]
@@ -93,7 +106,7 @@ def test_deflected_sensor_frames_match_exact_kinematics(hand, objects):
     angles to well under a millirad."""
     world = _grasped_world(hand, objects)
     assert world.in_contact.sum() >= 3
-    assert np.abs(world.q - world.q_servo).max() > 1e-3          # the fingers do deflect
+    assert np.abs(world.q - world.q_servo).max() > 1e-3  # the fingers do deflect
     kin = HandKinematics(hand)
     for i, name in enumerate(world.fingers):
         R_exact, _ = kin.chains[name].fk_rp(world.q[kin.slices[name]])
@@ -131,8 +144,15 @@ print(json.dumps({"jit": jit.JIT, "rows": rows, "transitions": [b for _, _, b in
 
 def _digest(env_extra: dict[str, str], obj: str) -> dict:
     env = dict(os.environ, **env_extra)
-    out = subprocess.run([sys.executable, "-c", _DIGEST, obj], capture_output=True, text=True, env=env,
-                         cwd=REPO_ROOT, check=True, timeout=600).stdout
+    out = subprocess.run(
+        [sys.executable, "-c", _DIGEST, obj],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=REPO_ROOT,
+        check=True,
+        timeout=600,
+    ).stdout
     return json.loads(out.strip().splitlines()[-1])
 
 
@@ -147,7 +167,7 @@ def test_compiled_and_plain_python_steps_agree():
     a, b = np.array(compiled["rows"]), np.array(plain["rows"])
     assert a.shape == b.shape and len(a) == 700
     np.testing.assert_allclose(a[:, :-1], b[:, :-1], atol=1e-9)
-    assert np.abs(a[:, -1] - b[:, -1]).max() <= 2     # frame sums: at most a count of rounding
+    assert np.abs(a[:, -1] - b[:, -1]).max() <= 2  # frame sums: at most a count of rounding
 
 
 @settings(max_examples=200, deadline=None)
@@ -164,7 +184,7 @@ def test_cap_penetration_is_the_distance_to_the_dome(objects, x, y, z):
         d = np.array([x, y, z]) - centre
         assert depth == pytest.approx(R - np.linalg.norm(d), abs=1e-12)
         np.testing.assert_allclose([nx, ny, nz], d / np.linalg.norm(d), atol=1e-9)
-        assert nz > 0.0                           # the dome's surface faces up: a non-flat contact
+        assert nz > 0.0  # the dome's surface faces up: a non-flat contact
     if z > obj.height_m + cap.height_m or z < 0.0:
         assert depth < 0.0
 
@@ -180,9 +200,9 @@ def test_the_index_fingertip_presses_the_mustard_bottles_cap(hand, objects):
     obj = objects["mustard_bottle"]
     index = world.fingers.index(obj.cap.finger)
     assert world.in_contact[index]
-    assert world._contact_z[index] - world.obj_z > obj.height_m             # on the cap, above the body
+    assert world._contact_z[index] - world.obj_z > obj.height_m  # on the cap, above the body
     tilt = math.degrees(math.asin(world.n_out_world[index, 2]))
-    assert 15.0 < tilt < 40.0                                                # not a flat wall
+    assert 15.0 < tilt < 40.0  # not a flat wall
     others = [i for i in range(len(world.fingers)) if i != index and world.in_contact[i]]
     assert others and np.allclose(world.n_out_world[others, 2], 0.0)
     # The cap contact pushes the bottle down; friction carries that and the weight.

@@ -12,8 +12,26 @@ from grasp_ctrl.cli import main
 
 def test_run_backend_mujoco_scores_from_the_simulation(tmp_path, capsys):
     out = tmp_path / "run"
-    assert main(["run", "--backend", "mujoco", "--objects", "chips_can", "--policy", "oracle:scale=4",
-                 "--trials", "1", "--out", str(out), "--quiet", "--no-tick-logs"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                "--backend",
+                "mujoco",
+                "--objects",
+                "chips_can",
+                "--policy",
+                "oracle:scale=4",
+                "--trials",
+                "1",
+                "--out",
+                str(out),
+                "--quiet",
+                "--no-tick-logs",
+            ]
+        )
+        == 0
+    )
     summary = json.loads((out / "summary.json").read_text())
     assert summary["backend"] == "mujoco"
     records = list(out.rglob("*.json"))
@@ -23,8 +41,24 @@ def test_run_backend_mujoco_scores_from_the_simulation(tmp_path, capsys):
 
 
 def test_record_video_needs_the_mujoco_backend(tmp_path, capsys):
-    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(tmp_path / "r"),
-                 "--record-video", str(tmp_path / "v")]) != 0
+    assert (
+        main(
+            [
+                "run",
+                "--backend",
+                "mock",
+                "--objects",
+                "lego",
+                "--trials",
+                "1",
+                "--out",
+                str(tmp_path / "r"),
+                "--record-video",
+                str(tmp_path / "v"),
+            ]
+        )
+        != 0
+    )
     assert "--record-video: only with --backend mujoco" in capsys.readouterr().err
 
 
@@ -69,7 +103,7 @@ def test_recording_world_writes_a_video_or_says_why(tmp_path, capsys, hand, obje
     for _ in range(12):
         world.step()
     written = world.close()
-    if written is None:       # no GL backend in this process: a clear message, no crash
+    if written is None:  # no GL backend in this process: a clear message, no crash
         assert "no OpenGL backend" in capsys.readouterr().err
     else:
         assert written.suffix in (".gif", ".mp4") and written.stat().st_size > 0

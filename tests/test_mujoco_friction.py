@@ -9,31 +9,42 @@ lift-off is not a friction artefact of the simulator.
 
 from __future__ import annotations
 
-import pytest
-
 import mujoco  # a run-time dependency: no skip
+import pytest
 
 from grasp_ctrl.kinematics.fingertip import SKIN_RADIUS_M  # noqa: E402
 from grasp_ctrl.sim.mujoco_scene import (  # noqa: E402
-    HAND_COLLISION, WORLD_COLLISION, SceneParams, object_contact_attrs, option_xml,
+    HAND_COLLISION,
+    WORLD_COLLISION,
+    SceneParams,
+    object_contact_attrs,
+    option_xml,
 )
 
 GRAVITY = 9.81
-MASS_KG = 0.45            # the cleanser
+MASS_KG = 0.45  # the cleanser
 MU = 1.0
 STIFFNESS_N_PER_M = 3000.0
 HALF_WIDTH_M = 0.03
-LIFT_SPEED_M_S = 0.04     # the controller's lift speed
+LIFT_SPEED_M_S = 0.04  # the controller's lift speed
 
 
 def _squeeze_scene(n_per_tip: float, p: SceneParams, table: bool) -> tuple:
     """A box between two capsules on slide joints pushed at it with ``n_per_tip`` each; the
     capsules hang from a carriage welded to a mocap body (the arm), as the hand does."""
-    tip = (f'type="capsule" size="{SKIN_RADIUS_M}" fromto="0 -0.01 0 0 0.01 0" {HAND_COLLISION} '
-           f'friction="0.5 0.001 0.0001" condim="4"')
+    tip = (
+        f'type="capsule" size="{SKIN_RADIUS_M}" fromto="0 -0.01 0 0 0.01 0" {HAND_COLLISION} '
+        f'friction="0.5 0.001 0.0001" condim="4"'
+    )
     x = HALF_WIDTH_M + SKIN_RADIUS_M
-    floor = (f'<geom name="table" type="plane" size="1 1 0.01" {WORLD_COLLISION} priority="2" '
-             f'friction="{p.table_mu} 0.001 0.0001"/>') if table else ""
+    floor = (
+        (
+            f'<geom name="table" type="plane" size="1 1 0.01" {WORLD_COLLISION} priority="2" '
+            f'friction="{p.table_mu} 0.001 0.0001"/>'
+        )
+        if table
+        else ""
+    )
     z = 0.05 if table else 0.3
     xml = f"""<mujoco>{option_xml(p)}<worldbody>{floor}
 <body name="box" pos="0 0 {z}"><freejoint/><inertial pos="0 0 0" mass="{MASS_KG}" diaginertia="1e-3 1e-3 1e-3"/>
@@ -67,7 +78,7 @@ def _sink_speed(ratio: float, p: SceneParams, seconds: float = 1.0) -> float:
 def _carried(ratio: float, p: SceneParams, lift_m: float = 0.03) -> float:
     """Fraction of the capsules' rise that the box followed off the table."""
     m, d = _squeeze_scene(_normal_for(ratio), p, table=True)
-    for _ in range(int(round(0.2 / m.opt.timestep))):     # squeeze, box on the table
+    for _ in range(int(round(0.2 / m.opt.timestep))):  # squeeze, box on the table
         mujoco.mj_step(m, d)
     z0 = float(d.qpos[2])
     steps = int(round(lift_m / (LIFT_SPEED_M_S * m.opt.timestep)))
@@ -86,7 +97,7 @@ def test_a_grip_above_the_friction_limit_holds_with_only_a_slow_creep(ratio):
 
 @pytest.mark.parametrize("ratio", [0.7, 0.9])
 def test_a_grip_below_the_friction_limit_lets_the_box_fall(ratio):
-    assert _sink_speed(ratio, SceneParams()) > 1.0     # free fall: 9.8 m/s after 1 s, less the friction
+    assert _sink_speed(ratio, SceneParams()) > 1.0  # free fall: 9.8 m/s after 1 s, less the friction
 
 
 def test_the_noslip_post_processor_removes_the_creep():

@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
+import mujoco  # a run-time dependency: no skip
 import numpy as np
 import pytest
-
-import mujoco  # a run-time dependency: no skip
 
 from grasp_ctrl.controller.joint_stiffness import servo_kp_nm_per_rad, servo_kv_nm_s_per_rad  # noqa: E402
 from grasp_ctrl.kinematics.chain import HandKinematics  # noqa: E402
@@ -42,7 +41,7 @@ def test_joints_and_actuators_carry_the_hand_files_limits_and_gains(hand, object
     p = SceneParams()
     kp = servo_kp_nm_per_rad(hand.dynamixel.position_p_gain)
     kv = servo_kv_nm_s_per_rad(hand.dynamixel.position_d_gain)
-    assert 2.5 < kp < 4.0 and 0.005 < kv < 0.015    # LEAP sim / Menagerie: 3.0 and 0.01
+    assert 2.5 < kp < 4.0 and 0.005 < kv < 0.015  # LEAP sim / Menagerie: 3.0 and 0.01
     for j in hand.joints:
         jid, aid = m.joint(j.name).id, m.actuator(j.name).id
         assert np.allclose(m.jnt_range[jid], (j.lower_rad, j.upper_rad))
@@ -60,7 +59,7 @@ def test_object_body_has_the_profiles_mass_size_and_friction(hand, objects):
     g = m.geom("object_body").id
     assert np.allclose(2 * m.geom_size[g], (*obj.size_m, obj.height_m))
     assert m.geom_friction[g][0] == pytest.approx(0.77)
-    assert "object_cap" in scene.object_geoms          # the dome on top
+    assert "object_cap" in scene.object_geoms  # the dome on top
     cap = m.geom("object_cap").id
     top = m.geom_pos[cap][2] + m.geom_size[cap][0]
     assert top == pytest.approx(obj.height_m + obj.cap.height_m)

@@ -24,16 +24,18 @@ def test_an_oracle_grasp_lifts_the_chips_can(hand, objects):
             raise _Stop
 
     with pytest.raises(_Stop):
-        run_sim_trial(hand, obj, estimator_factory("oracle", hand), 1, "oracle", backend="mujoco",
-                       on_tick=stop_when_held)
-    assert seen["z"] >= 0.8 * obj.lift_height_m          # carried up by friction alone
+        run_sim_trial(
+            hand, obj, estimator_factory("oracle", hand), 1, "oracle", backend="mujoco", on_tick=stop_when_held
+        )
+    assert seen["z"] >= 0.8 * obj.lift_height_m  # carried up by friction alone
     assert seen["tilt"] < np.radians(10)
 
 
 def test_a_too_weak_grasp_slips(hand, objects):
     # The oracle read 4x too high: the real grip is a quarter of tau, too little to carry the can.
-    r = run_sim_trial(hand, objects["chips_can"], estimator_factory("oracle:scale=4", hand), 1,
-                       "oracle:scale=4", backend="mujoco")
+    r = run_sim_trial(
+        hand, objects["chips_can"], estimator_factory("oracle:scale=4", hand), 1, "oracle:scale=4", backend="mujoco"
+    )
     assert not r.success and r.reason == "slipped"
     assert r.max_object_z_m < 0.01
     assert r.backend == "mujoco"
@@ -41,8 +43,7 @@ def test_a_too_weak_grasp_slips(hand, objects):
 
 def test_squeezing_the_paper_cup_too_hard_crushes_it(hand, objects):
     obj = objects["paper_cup"]
-    r = run_sim_trial(hand, obj, estimator_factory("oracle:scale=0.5", hand), 1, "oracle:scale=0.5",
-                       backend="mujoco")
+    r = run_sim_trial(hand, obj, estimator_factory("oracle:scale=0.5", hand), 1, "oracle:scale=0.5", backend="mujoco")
     assert r.reason == "crushed"
     crushed = [e for e in r.events if e["kind"] == "crushed"]
     assert len(crushed) == 1 and r.peak_grip_true_n > obj.crush_force_n
@@ -65,7 +66,7 @@ def test_the_world_is_deterministic_per_seed(hand, objects):
     frames_b, q_b = _run_world(hand, obj, 5)
     assert np.array_equal(frames_a, frames_b) and np.array_equal(q_a, q_b)
     frames_c, q_c = _run_world(hand, obj, 6)
-    assert not np.array_equal(frames_a, frames_c)       # other sensor noise and object placement
+    assert not np.array_equal(frames_a, frames_c)  # other sensor noise and object placement
     assert not np.array_equal(q_a, q_c)
 
 
@@ -92,8 +93,16 @@ def test_release_relaxes_in_place_and_does_not_drag_the_mustard_bottle_up(hand, 
             tip_z.append(world.sensor_pose(thumb)[1][2])
             obj_z.append(world.data.xpos[world._obj_body][2] - world._z_rest)
 
-    r = run_sim_trial(hand, objects["mustard_bottle"], estimator_factory("oracle", hand),
-                       trial_seed(1, "mustard_bottle", 1), "oracle", 1, backend="mujoco", on_tick=on_tick)
+    r = run_sim_trial(
+        hand,
+        objects["mustard_bottle"],
+        estimator_factory("oracle", hand),
+        trial_seed(1, "mustard_bottle", 1),
+        "oracle",
+        1,
+        backend="mujoco",
+        on_tick=on_tick,
+    )
     assert r.success, r.reason
-    assert max(tip_z) - tip_z[0] < 0.005          # (before: 11 mm)
-    assert max(obj_z) < obj_z[0] + 0.0005         # the bottle never rises (before: 2.3 mm, off the table)
+    assert max(tip_z) - tip_z[0] < 0.005  # (before: 11 mm)
+    assert max(obj_z) < obj_z[0] + 0.0005  # the bottle never rises (before: 2.3 mm, off the table)

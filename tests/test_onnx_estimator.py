@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import pytest
@@ -12,10 +13,10 @@ from conftest import copy_policy
 
 from grasp_ctrl.config.hand import load_hand
 from grasp_ctrl.errors import PolicyError
+from grasp_ctrl.estimators.pipeline import TactilePipeline
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.paths import default_hand_file
 from grasp_ctrl.tactile.layout import ELECTRODES, PDC
-from grasp_ctrl.estimators.pipeline import TactilePipeline
 
 pytest.importorskip("onnxruntime")
 
@@ -35,7 +36,7 @@ def test_batched_call_equals_one_by_one(name: str) -> None:
     batch = est.estimate(tared, ["a"] * 5)
     assert batch.f_sensor.shape == (5, 3)
     for i in range(5):
-        one = est.estimate(tared[i:i + 1], ["a"])
+        one = est.estimate(tared[i : i + 1], ["a"])
         assert np.allclose(one.f_sensor, batch.f_sensor[i], atol=1e-5)
     assert (batch.variance is not None) == (name == "icra19_dropout_official") == est.has_variance
     if batch.variance is not None:
@@ -61,24 +62,32 @@ def test_threads_are_configurable() -> None:
         load_policy("icra19_official", threads=0)
 
 
-@pytest.mark.parametrize("edit,message", [
-    (lambda m: m.update(sensor_type="digit"), "sensor_type"),
-    (lambda m: m["input"].update(kind="raw_frames"), "input.kind"),
-    (lambda m: m["preprocessing"].update(tare="baseline - value"), "preprocessing.tare"),
-    (lambda m: m["preprocessing"].update(voxel_grid="fancy"), "preprocessing.voxel_grid"),
-    (lambda m: m["preprocessing"].pop("contact_point"), "preprocessing.contact_point: required key is missing"),
-    (lambda m: m["output"].update(units="kN"), "output.units"),
-    (lambda m: m["output"].update(frame="hand"), "output.frame"),
-    (lambda m: m["output"].update(to_f_sensor=2), "output.to_f_sensor"),
-    (lambda m: m.update(has_variance=True), "has_variance is true but no variance output"),
-    (lambda m: m["output"].update(tensors={"forces": {}}), "'forces' is not an output of the ONNX model"),
-    (lambda m: m["input"].update(tensors={"electrode_voxels": {"shape": ["batch", 16, 16, 8]},
-                                          "cpt": {"shape": ["batch", 16, 16, 8]}}), "'cpt' is not an input"),
-    (lambda m: m["input"]["tensors"]["contact_voxels"].update(shape=["batch", 12, 12, 8]), "shape"),
-    (lambda m: m.update(model_file="missing.onnx"), "model_file"),
-])
-def test_metadata_mismatch_is_a_clear_policy_error(tmp_path: Path, edit: Callable[[dict[str, Any]], None],
-                                                   message: str) -> None:
+@pytest.mark.parametrize(
+    "edit,message",
+    [
+        (lambda m: m.update(sensor_type="digit"), "sensor_type"),
+        (lambda m: m["input"].update(kind="raw_frames"), "input.kind"),
+        (lambda m: m["preprocessing"].update(tare="baseline - value"), "preprocessing.tare"),
+        (lambda m: m["preprocessing"].update(voxel_grid="fancy"), "preprocessing.voxel_grid"),
+        (lambda m: m["preprocessing"].pop("contact_point"), "preprocessing.contact_point: required key is missing"),
+        (lambda m: m["output"].update(units="kN"), "output.units"),
+        (lambda m: m["output"].update(frame="hand"), "output.frame"),
+        (lambda m: m["output"].update(to_f_sensor=2), "output.to_f_sensor"),
+        (lambda m: m.update(has_variance=True), "has_variance is true but no variance output"),
+        (lambda m: m["output"].update(tensors={"forces": {}}), "'forces' is not an output of the ONNX model"),
+        (
+            lambda m: m["input"].update(
+                tensors={"electrode_voxels": {"shape": ["batch", 16, 16, 8]}, "cpt": {"shape": ["batch", 16, 16, 8]}}
+            ),
+            "'cpt' is not an input",
+        ),
+        (lambda m: m["input"]["tensors"]["contact_voxels"].update(shape=["batch", 12, 12, 8]), "shape"),
+        (lambda m: m.update(model_file="missing.onnx"), "model_file"),
+    ],
+)
+def test_metadata_mismatch_is_a_clear_policy_error(
+    tmp_path: Path, edit: Callable[[dict[str, Any]], None], message: str
+) -> None:
     path = copy_policy(tmp_path, edit)
     with pytest.raises(PolicyError, match=message) as info:
         load_policy(str(path), load_hand(default_hand_file()), threads=1)

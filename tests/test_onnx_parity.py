@@ -54,7 +54,9 @@ def _slow_conv(x: np.ndarray, w: np.ndarray, b: np.ndarray) -> np.ndarray:
     for idx in np.ndindex(*out_sp):
         sl = tuple(slice(2 * i, 2 * i + 2) for i in idx)
         patch = x[(slice(None),) + sl]  # (n, 2, 2, 2, c)
-        y[(slice(None),) + idx] = np.tensordot(patch, w, axes=(list(range(1, len(sp) + 2)), list(range(len(sp) + 1)))) + b
+        y[(slice(None),) + idx] = (
+            np.tensordot(patch, w, axes=(list(range(1, len(sp) + 2)), list(range(len(sp) + 1)))) + b
+        )
     return y
 
 

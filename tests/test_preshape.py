@@ -9,12 +9,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from grasp_ctrl.sim.world import WorldParams
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.pad_ik import Facing, PadIK
 from grasp_ctrl.kinematics.preshape import side_gap, solve_preshape, surface_hit
+from grasp_ctrl.sim.world import WorldParams
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 
 STANDOFF_M = 0.01
@@ -34,13 +34,13 @@ def test_a_closing_ray_meets_a_cylinder_on_its_surface_facing_back(objects, y, x
     point, normal = hit
     assert math.hypot(point[0], point[1]) == pytest.approx(0.5 * cup.size_m[0], abs=1e-9)
     assert point[1] == pytest.approx(y) and point[0] > 0.0
-    assert normal @ np.array([-1.0, 0.0, 0.0]) < 0.0          # the ray meets the outside
+    assert normal @ np.array([-1.0, 0.0, 0.0]) < 0.0  # the ray meets the outside
     gap, n_side = side_gap(cup, point)
     assert gap == pytest.approx(0.0, abs=1e-9) and np.allclose(n_side, normal)
 
 
 def test_a_ray_past_a_box_or_from_inside_it_meets_nothing(objects):
-    lego = objects["lego"]                                     # 32 x 64 mm footprint
+    lego = objects["lego"]  # 32 x 64 mm footprint
     assert surface_hit(lego, np.array([0.05, 0.04, -0.1]), np.array([-1.0, 0.0, 0.0])) is None
     assert surface_hit(lego, np.array([0.0, 0.0, -0.1]), np.array([-1.0, 0.0, 0.0])) is None
     point, normal = surface_hit(lego, np.array([0.05, 0.01, -0.1]), np.array([-1.0, 0.0, 0.0]))
@@ -108,9 +108,16 @@ def _shear_over_normal_at_ramp_end(hand, obj, preshape: bool) -> float:
 
     # At the pad centre the pad's pitch shows as shear (the skin contact would move the
     # contact point along the skin instead).
-    r = run_sim_trial(hand, obj, estimator_factory("oracle", hand), 3, "oracle",
-                       settings=ControllerSettings(preshape=preshape), on_tick=on_tick,
-                       world_params=WorldParams(skin_contact=False))
+    r = run_sim_trial(
+        hand,
+        obj,
+        estimator_factory("oracle", hand),
+        3,
+        "oracle",
+        settings=ControllerSettings(preshape=preshape),
+        on_tick=on_tick,
+        world_params=WorldParams(skin_contact=False),
+    )
     assert r.success, (r.reason, r.events)
     return seen["ratio"]
 

@@ -24,7 +24,7 @@ def test_series_progress_is_one_rewritten_line_on_a_terminal():
         prog.trial_done(_rec(k, ok))
     prog.close()
     text = term.getvalue()
-    assert "\n" not in text and "\r" in text      # one line, rewritten
+    assert "\n" not in text and "\r" in text  # one line, rewritten
     assert "3/3" in text and "p 2/3 ok" in text and "last: lego #2 ok" in text
 
 

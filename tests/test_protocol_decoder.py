@@ -17,7 +17,7 @@ frame_st = st.tuples(st.integers(0, 255), st.integers(0, SEQ_MODULO - 1), values
 
 @dataclass
 class Seg:
-    kind: str          # intact | flip | trunc | garbage | range
+    kind: str  # intact | flip | trunc | garbage | range
     data: bytes
     frame: tuple | None = None
     flip_byte: int = -1
@@ -102,7 +102,9 @@ def test_binary_counters_are_exact(segs: list[Seg], last: tuple, cuts: list[int]
             in_bad = False
     st_ = dec.stats
     assert st_.frames == len(intact)
-    assert st_.crc_errors == sum(1 for s in segs if s.kind == "trunc" or (s.kind == "flip" and s.flip_byte not in (0, 1, 5)))
+    assert st_.crc_errors == sum(
+        1 for s in segs if s.kind == "trunc" or (s.kind == "flip" and s.flip_byte not in (0, 1, 5))
+    )
     assert st_.length_errors == sum(1 for s in segs if s.kind == "flip" and s.flip_byte == 5)
     assert st_.range_errors == sum(1 for s in segs if s.kind == "range")
     assert st_.resyncs == runs
@@ -160,7 +162,8 @@ def test_seq_gap_counts_lost_frames_and_wraps() -> None:
 # ---------------------------------------------------------------- text mode
 
 garbage_line_st = st.binary(min_size=1, max_size=100).filter(
-    lambda b: b"F" not in b and b"\n" not in b and b"\r" not in b and not b.startswith(b"#"))   # "#": a comment line
+    lambda b: b"F" not in b and b"\n" not in b and b"\r" not in b and not b.startswith(b"#")
+)  # "#": a comment line
 
 
 @st.composite
@@ -213,7 +216,10 @@ def test_text_counters_are_exact(groups: list, cuts: list[int]) -> None:
 
 
 @settings(max_examples=200, deadline=None)
-@given(parts=st.lists(st.one_of(st.binary(max_size=120), frame_st), max_size=15), cuts=st.lists(st.integers(0, 6000), max_size=8))
+@given(
+    parts=st.lists(st.one_of(st.binary(max_size=120), frame_st), max_size=15),
+    cuts=st.lists(st.integers(0, 6000), max_size=8),
+)
 def test_text_arbitrary_bytes_never_crash(parts: list, cuts: list[int]) -> None:
     stream = b""
     embedded = []

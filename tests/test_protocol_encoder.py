@@ -41,7 +41,7 @@ def test_frame_layout_matches_the_spec() -> None:
     assert len(f) == FRAME_BYTES == 96
     assert f[:6] == bytes([0xAA, 0x55, 0x02, 0x03, 0x01, 44])
     assert f[6:8] == (3000).to_bytes(2, "little")
-    assert f[6 + 2 * 19 : 8 + 2 * 19] == (2450).to_bytes(2, "little")   # pdc after e19
+    assert f[6 + 2 * 19 : 8 + 2 * 19] == (2450).to_bytes(2, "little")  # pdc after e19
     assert int.from_bytes(f[94:96], "little") == crc16_ccitt_false_bitwise(f[2:94])
 
 
@@ -63,10 +63,18 @@ def test_text_line_format() -> None:
     assert line.count(b",") == 45
 
 
-@pytest.mark.parametrize("finger, seq, values", [
-    (256, 0, [0] * 44), (-1, 0, [0] * 44), (0, 65536, [0] * 44), (0, 0, [0] * 43),
-    (0, 0, [4096] + [0] * 43), (0, 0, [-1] + [0] * 43), (0, 0, [0.5] + [0] * 43),
-])
+@pytest.mark.parametrize(
+    "finger, seq, values",
+    [
+        (256, 0, [0] * 44),
+        (-1, 0, [0] * 44),
+        (0, 65536, [0] * 44),
+        (0, 0, [0] * 43),
+        (0, 0, [4096] + [0] * 43),
+        (0, 0, [-1] + [0] * 43),
+        (0, 0, [0.5] + [0] * 43),
+    ],
+)
 def test_encoder_refuses_what_the_protocol_cannot_carry(finger, seq, values) -> None:
     with pytest.raises(ValueError):
         encode_binary(finger, seq, values)

@@ -30,8 +30,10 @@ def push_files(tmp_path: Path) -> tuple[Path, Path, object]:
 def test_writes_forces_csv(push_files, tmp_path: Path, method: str, capsys) -> None:
     traj, obj, push = push_files
     out = tmp_path / "forces.csv"
-    assert main(["pushing-gt", "--trajectory", str(traj), "--object", str(obj), "--out", str(out),
-                 "--method", method]) == 0
+    assert (
+        main(["pushing-gt", "--trajectory", str(traj), "--object", str(obj), "--out", str(out), "--method", method])
+        == 0
+    )
     rows = list(csv.DictReader(out.open()))
     assert tuple(rows[0].keys()) == FORCE_COLUMNS
     assert len(rows) == len(push.t)
@@ -47,7 +49,7 @@ def test_writes_forces_csv(push_files, tmp_path: Path, method: str, capsys) -> N
     fxo = np.array([float(r["fx_object"]) for r in rows])
     fyo = np.array([float(r["fy_object"]) for r in rows])
     np.testing.assert_allclose(np.hypot(fxo[ok], fyo[ok]), np.hypot(fx[ok], fy[ok]), rtol=1e-6)
-    assert math.isnan(fxo[0])      # the push starts at rest
+    assert math.isnan(fxo[0])  # the push starts at rest
 
 
 def test_bad_row_is_reported_by_line(push_files, tmp_path: Path, capsys) -> None:

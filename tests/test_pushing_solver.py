@@ -12,7 +12,11 @@ from grasp_ctrl.pushing.kinematics import planar_motion
 from grasp_ctrl.pushing.particles import footprint_particles, friction_force_moment
 from grasp_ctrl.pushing.simulate import PAPER_BOX, simulate_push
 from grasp_ctrl.pushing.solver import (
-    build_problem, plane_force_to_sensor, pusher_forces, solve_closed_form, solve_slsqp,
+    build_problem,
+    plane_force_to_sensor,
+    pusher_forces,
+    solve_closed_form,
+    solve_slsqp,
 )
 
 
@@ -81,7 +85,7 @@ def test_static_samples_are_flagged_and_nan() -> None:
     push = simulate_push(rng)
     motion = planar_motion(push.t, push.x, push.y, push.theta)
     f = pusher_forces(motion, push.contact_object, np.ones(len(push.t), bool), PAPER_BOX)
-    assert not f.moving[0] and not f.moving[-1]             # the push starts and ends at rest
+    assert not f.moving[0] and not f.moving[-1]  # the push starts and ends at rest
     assert np.all(np.isnan(f.f_world[~f.moving]))
     assert np.all(np.isfinite(f.f_world[f.moving]))
 

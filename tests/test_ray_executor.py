@@ -10,8 +10,8 @@ import pytest
 ray = pytest.importorskip("ray")
 
 from grasp_ctrl.cli import main  # noqa: E402
-from grasp_ctrl.trials.episode.runner import run_series  # noqa: E402
 from grasp_ctrl.storage import record_path, ticks_path  # noqa: E402
+from grasp_ctrl.trials.episode.runner import run_series  # noqa: E402
 
 OBJECTS = ["lego", "chips_can"]
 
@@ -41,8 +41,10 @@ def test_run_and_resume_on_ray_match_the_local_run(local_ray, tmp_path, hand, ob
     on_ray = run_series(hand, profiles, policies, 1, 5, tmp_path / "ray", progress=False, executor="ray", jobs=2)
     assert {k: v for k, v in on_ray.items() if k != "run_dir"} == {k: v for k, v in local.items() if k != "run_dir"}
     assert _records(tmp_path / "ray", policies) == _records(tmp_path / "local", policies)
-    assert ticks_path(tmp_path / "ray", "oracle", "lego", 0).read_bytes() == \
-        ticks_path(tmp_path / "local", "oracle", "lego", 0).read_bytes()
+    assert (
+        ticks_path(tmp_path / "ray", "oracle", "lego", 0).read_bytes()
+        == ticks_path(tmp_path / "local", "oracle", "lego", 0).read_bytes()
+    )
     # An interrupted local run resumed on Ray (and the CLI's flags for it).
     record_path(tmp_path / "local", "oracle", "chips_can", 0).unlink()
     assert main(["run", "--resume", str(tmp_path / "local"), "--executor", "ray", "--quiet"]) == 0
@@ -54,8 +56,9 @@ def test_mujoco_trials_on_ray_match_the_local_run(local_ray, tmp_path, hand, obj
     pytest.importorskip("mujoco")
     profiles = [objects["lego"]]
     local = run_series(hand, profiles, ["oracle"], 1, 3, tmp_path / "local", progress=False, backend="mujoco")
-    on_ray = run_series(hand, profiles, ["oracle"], 1, 3, tmp_path / "ray", progress=False, backend="mujoco",
-                        executor="ray", jobs=1)
+    on_ray = run_series(
+        hand, profiles, ["oracle"], 1, 3, tmp_path / "ray", progress=False, backend="mujoco", executor="ray", jobs=1
+    )
     assert {k: v for k, v in on_ray.items() if k != "run_dir"} == {k: v for k, v in local.items() if k != "run_dir"}
     ray_rec = json.loads(record_path(tmp_path / "ray", "oracle", "lego", 0).read_text())
     local_rec = json.loads(record_path(tmp_path / "local", "oracle", "lego", 0).read_text())
@@ -82,17 +85,49 @@ def test_fig3_style_experiment_on_ray_trains_the_same_models(local_ray, tmp_path
     models = {"analytic": ("analytic", None), "su": ("su", None)}
     docs = {}
     for executor in ("local", "ray"):
-        docs[executor] = run_experiment(ds, split, models, tmp_path / executor, 1, 3, info, progress=lambda s: None,
-                                        executor=executor)
+        docs[executor] = run_experiment(
+            ds, split, models, tmp_path / executor, 1, 3, info, progress=lambda s: None, executor=executor
+        )
         assert (tmp_path / executor / "mixed__su.pt").is_file()
     strip = lambda d: {c: {m: v["metrics"] for m, v in r.items()} for c, r in d["results"].items()}  # noqa: E731
     assert strip(docs["ray"]) == strip(docs["local"])
 
 
 def test_executor_errors_are_one_line(tmp_path, capsys):
-    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--address", "10.0.0.1:6379",
-                 "--out", str(tmp_path / "x")]) == 2
+    assert (
+        main(
+            [
+                "run",
+                "--backend",
+                "mock",
+                "--objects",
+                "lego",
+                "--trials",
+                "1",
+                "--address",
+                "10.0.0.1:6379",
+                "--out",
+                str(tmp_path / "x"),
+            ]
+        )
+        == 2
+    )
     assert "--address: only with --executor ray" in capsys.readouterr().err
-    assert main(["run", "--backend", "dynamixel", "--emulate", "--executor", "ray", "--objects", "lego",
-                 "--out", str(tmp_path / "y")]) == 2
+    assert (
+        main(
+            [
+                "run",
+                "--backend",
+                "dynamixel",
+                "--emulate",
+                "--executor",
+                "ray",
+                "--objects",
+                "lego",
+                "--out",
+                str(tmp_path / "y"),
+            ]
+        )
+        == 2
+    )
     assert "only simulated trials" in capsys.readouterr().err

@@ -23,13 +23,17 @@ def _rerun_cli() -> str:
 
 
 def _verify(path: Path) -> None:
-    done = subprocess.run([_rerun_cli(), "rrd", "verify", str(path)], capture_output=True, text=True, timeout=120, check=False)
+    done = subprocess.run(
+        [_rerun_cli(), "rrd", "verify", str(path)], capture_output=True, text=True, timeout=120, check=False
+    )
     assert done.returncode == 0, done.stderr
 
 
 def _entities(path: Path) -> dict[str, set[str]]:
     """Entity path -> the archetypes logged to it, from `rerun rrd print`."""
-    done = subprocess.run([_rerun_cli(), "rrd", "print", str(path)], capture_output=True, text=True, timeout=120, check=False)
+    done = subprocess.run(
+        [_rerun_cli(), "rrd", "print", str(path)], capture_output=True, text=True, timeout=120, check=False
+    )
     assert done.returncode == 0, done.stderr
     out: dict[str, set[str]] = {}
     for m in re.finditer(r" - (/\S+) - data columns: \[([^\]]*)\]", done.stdout):
@@ -41,8 +45,25 @@ def _entities(path: Path) -> dict[str, set[str]]:
 def mujoco_trial(tmp_path_factory) -> Path:
     pytest.importorskip("mujoco")
     run_dir = tmp_path_factory.mktemp("rrd") / "run"
-    assert main(["run", "--backend", "mujoco", "--objects", "paper_cup", "--policy", "oracle", "--trials", "1",
-                 "--out", str(run_dir), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                "--backend",
+                "mujoco",
+                "--objects",
+                "paper_cup",
+                "--policy",
+                "oracle",
+                "--trials",
+                "1",
+                "--out",
+                str(run_dir),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     return run_dir / "trials" / "oracle" / "paper_cup" / "trial_000.json"
 
 
@@ -65,12 +86,36 @@ def test_plot_rrd_holds_hand_object_forces_states_and_series(mujoco_trial, tmp_p
 
 def test_run_rrd_writes_one_recording_per_trial(tmp_path, capsys):
     rrd_dir = tmp_path / "rrd"
-    assert main(["run", "--backend", "mock", "--objects", "lego", "--policy", "oracle", "--trials", "2",
-                 "--out", str(tmp_path / "run"), "--rrd", str(rrd_dir), "--quiet", "--jobs", "1"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                "--backend",
+                "mock",
+                "--objects",
+                "lego",
+                "--policy",
+                "oracle",
+                "--trials",
+                "2",
+                "--out",
+                str(tmp_path / "run"),
+                "--rrd",
+                str(rrd_dir),
+                "--quiet",
+                "--jobs",
+                "1",
+            ]
+        )
+        == 0
+    )
     files = sorted(rrd_dir.rglob("*.rrd"))
-    assert [f.relative_to(rrd_dir).as_posix() for f in files] == ["oracle/lego/trial_000.rrd", "oracle/lego/trial_001.rrd"]
+    assert [f.relative_to(rrd_dir).as_posix() for f in files] == [
+        "oracle/lego/trial_000.rrd",
+        "oracle/lego/trial_001.rrd",
+    ]
     _verify(files[0])
-    assert "Boxes3D" in _entities(files[0])["/world/object"]   # lego is a box
+    assert "Boxes3D" in _entities(files[0])["/world/object"]  # lego is a box
     record = tmp_path / "run" / "trials" / "oracle" / "lego" / "trial_000.json"
     capsys.readouterr()
     assert main(["plot", str(record), "--rrd", str(tmp_path / "trial.png")]) == 2
@@ -79,6 +124,24 @@ def test_run_rrd_writes_one_recording_per_trial(tmp_path, capsys):
 
 
 def test_recording_errors_are_one_line(tmp_path, capsys):
-    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(tmp_path / "r"),
-                 "--rrd", str(tmp_path / "x"), "--no-tick-logs", "--quiet"]) == 2
+    assert (
+        main(
+            [
+                "run",
+                "--backend",
+                "mock",
+                "--objects",
+                "lego",
+                "--trials",
+                "1",
+                "--out",
+                str(tmp_path / "r"),
+                "--rrd",
+                str(tmp_path / "x"),
+                "--no-tick-logs",
+                "--quiet",
+            ]
+        )
+        == 2
+    )
     assert "--no-tick-logs" in capsys.readouterr().err and not (tmp_path / "r").exists()

@@ -9,23 +9,44 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.cli import main
 from grasp_ctrl.emulators.dxl_chain import DynamixelChainEmulator
 from grasp_ctrl.emulators.tactile_bridge import SyntheticSource, TactileBridgeEmulator
 from grasp_ctrl.errors import HardwareError
+from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.tactile.layout import PDC
-from grasp_ctrl.trials.runs.manifest import read_manifest
 from grasp_ctrl.trials.episode.preflight import preflight_hardware
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial, trial_seed
+from grasp_ctrl.trials.runs.manifest import read_manifest
 
 pytestmark = pytest.mark.skipif(not hasattr(__import__("os"), "openpty"), reason="needs POSIX pseudo-terminals")
 
 
 def test_one_emulated_trial_runs_like_mujoco(tmp_path, hand, objects, capsys):
     run_dir, summary_file = tmp_path / "emu", tmp_path / "summary.json"
-    assert main(["run", "--backend", "dynamixel", "--emulate", "--objects", "chips_can", "--trials", "1",
-                 "--seed", "4", "--yes", "--out", str(run_dir), "--json", str(summary_file), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                "--backend",
+                "dynamixel",
+                "--emulate",
+                "--objects",
+                "chips_can",
+                "--trials",
+                "1",
+                "--seed",
+                "4",
+                "--yes",
+                "--out",
+                str(run_dir),
+                "--json",
+                str(summary_file),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err
     assert "pre-flight: 16 servos answered" in err and "4 fingertips streaming and tareable" in err
     summary = json.loads(summary_file.read_text())
@@ -40,8 +61,14 @@ def test_one_emulated_trial_runs_like_mujoco(tmp_path, hand, objects, capsys):
     # The same trial on MuJoCo's own backends (the physics behind --emulate): the emulated links
     # quantise goals, joint counts and frames, nothing more. On MuJoCo's free object that moves
     # when the ramp settles (the steady rule, controller/ramp_settle.py): 2.5 s vs 5.3 s here.
-    mock = run_sim_trial(hand, objects["chips_can"], estimator_factory(DEFAULT_POLICY, hand),
-                          trial_seed(4, "chips_can", 0), DEFAULT_POLICY, backend="mujoco")
+    mock = run_sim_trial(
+        hand,
+        objects["chips_can"],
+        estimator_factory(DEFAULT_POLICY, hand),
+        trial_seed(4, "chips_can", 0),
+        DEFAULT_POLICY,
+        backend="mujoco",
+    )
     assert rec["success"] == mock.success and rec["reason"] == mock.reason
     assert rec["sim_duration_s"] == pytest.approx(mock.sim_duration_s, abs=4.0)
     assert [b for _, _, b in rec["transitions"]] == [b for _, _, b in mock.transitions]
@@ -50,8 +77,12 @@ def test_one_emulated_trial_runs_like_mujoco(tmp_path, hand, objects, capsys):
 def test_the_start_must_be_confirmed(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr("builtins.input", lambda prompt: "n")
     run_dir = tmp_path / "emu"
-    assert main(["run", "--backend", "dynamixel", "--emulate", "--objects", "lego", "--trials", "1",
-                 "--out", str(run_dir)]) == 1
+    assert (
+        main(
+            ["run", "--backend", "dynamixel", "--emulate", "--objects", "lego", "--trials", "1", "--out", str(run_dir)]
+        )
+        == 1
+    )
     err = capsys.readouterr().err
     assert "pre-flight:" in err and "not confirmed" in err and not run_dir.exists()
     assert main(["run", "--emulate", "--objects", "lego", "--out", str(run_dir)]) == 2
@@ -102,7 +133,7 @@ def test_preflight_names_a_silent_and_a_pressed_fingertip(rig):
     def pressed(sensor_id: int, k: int) -> np.ndarray:
         frame = quiet(sensor_id, k)
         if sensor_id == ring.sensor_id:
-            frame[PDC] += 8.0 * (k % 20)          # pdc pumping: somebody presses it
+            frame[PDC] += 8.0 * (k % 20)  # pdc pumping: somebody presses it
         return frame
 
     bridge = _bridge(hand, pressed)
@@ -130,11 +161,19 @@ def test_an_overheating_servo_ends_the_trial_in_a_safe_stop_and_a_record(hand, o
     def on_tick(world, ctrl):
         if ctrl.state == "lift" and not getattr(world, "_hot", False):
             world._hot = True
-            rigs[0].emu.inject_hardware_error(14, 0x04)   # thumb_mcp, the joint raised to 1.2 A: overheating
+            rigs[0].emu.inject_hardware_error(14, 0x04)  # thumb_mcp, the joint raised to 1.2 A: overheating
 
-    r = run_sim_trial(hand, objects["chips_can"], estimator_factory("oracle", hand), trial_seed(0, "chips_can", 0),
-                       "oracle", make_world=make_world, make_backends=backends, backend="dynamixel-emulated",
-                       on_tick=on_tick)
+    r = run_sim_trial(
+        hand,
+        objects["chips_can"],
+        estimator_factory("oracle", hand),
+        trial_seed(0, "chips_can", 0),
+        "oracle",
+        make_world=make_world,
+        make_backends=backends,
+        backend="dynamixel-emulated",
+        on_tick=on_tick,
+    )
     assert not r.success and r.reason == "hardware_error" and r.final_state == "fault"
     assert "thumb_mcp (id 14): overheating" in r.fault_detail
     assert [b for _, _, b in r.transitions][-1] == "fault"

@@ -29,8 +29,8 @@ def _session(sid: int) -> dict[int, int]:
             stat = (entry / "stat").read_text()
         except OSError:
             continue
-        fields = stat[stat.rindex(")") + 2:].split()
-        if fields[0] != "Z" and int(fields[3]) == sid:   # state, ppid, pgrp, session
+        fields = stat[stat.rindex(")") + 2 :].split()
+        if fields[0] != "Z" and int(fields[3]) == sid:  # state, ppid, pgrp, session
             found[int(entry.name)] = int(fields[1])
     return found
 
@@ -38,10 +38,30 @@ def _session(sid: int) -> dict[int, int]:
 def _start(out: Path, trials: int = 4) -> subprocess.Popen:
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     return subprocess.Popen(
-        [sys.executable, str(ROOT / "launch.py"), "run", "--backend", "mock", "--objects", "chips_can,lego,cleanser", "--trials", str(trials),
-         "--jobs", "2", "--out", str(out), "--quiet"],
-        cwd=ROOT, env=env, start_new_session=True, preexec_fn=sigint_as_at_a_terminal,
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        [
+            sys.executable,
+            str(ROOT / "launch.py"),
+            "run",
+            "--backend",
+            "mock",
+            "--objects",
+            "chips_can,lego,cleanser",
+            "--trials",
+            str(trials),
+            "--jobs",
+            "2",
+            "--out",
+            str(out),
+            "--quiet",
+        ],
+        cwd=ROOT,
+        env=env,
+        start_new_session=True,
+        preexec_fn=sigint_as_at_a_terminal,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def _wait_for_records(proc: subprocess.Popen, out: Path, timeout: float = 120.0) -> None:
@@ -61,9 +81,9 @@ def _assert_session_empty(sid: int) -> None:
 
 def test_ctrl_c_stops_every_worker(tmp_path):
     out = tmp_path / "run"
-    proc = _start(out, trials=30)     # long enough that it cannot finish before the Ctrl-C on a busy host
+    proc = _start(out, trials=30)  # long enough that it cannot finish before the Ctrl-C on a busy host
     _wait_for_records(proc, out)
-    assert len(_session(proc.pid)) >= 3           # the command, its fork server and workers
+    assert len(_session(proc.pid)) >= 3  # the command, its fork server and workers
     os.killpg(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
@@ -73,7 +93,7 @@ def test_ctrl_c_stops_every_worker(tmp_path):
 
 def test_a_dead_worker_is_a_one_line_error_and_the_rest_stop(tmp_path):
     out = tmp_path / "run"
-    proc = _start(out, trials=30)     # 12 trials can all end between the first record and the kill on a busy host
+    proc = _start(out, trials=30)  # 12 trials can all end between the first record and the kill on a busy host
     _wait_for_records(proc, out)
     procs = _session(proc.pid)
     # Workers are forked from the fork server: their parent is not the command itself.
@@ -90,7 +110,7 @@ def test_a_dead_worker_is_a_one_line_error_and_the_rest_stop(tmp_path):
 def _interrupt_after(delay_s: float, sig: int, tmp_path: Path, when_run_dir: bool = False) -> tuple[int, str, int]:
     out = tmp_path / "run"
     proc = _start(out, trials=30)
-    if when_run_dir:   # the moment the run directory appears: the worker pool is starting
+    if when_run_dir:  # the moment the run directory appears: the worker pool is starting
         t0 = time.monotonic()
         while not (out / "run.json").exists() and proc.poll() is None and time.monotonic() - t0 < 120.0:
             time.sleep(0.01)

@@ -21,9 +21,9 @@ from grasp_ctrl.errors import HardwareError
 from grasp_ctrl.estimators.analytic import AnalyticEstimator
 from grasp_ctrl.hardware.base import JointState
 from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.paths import default_hand_file, default_objects_file
 from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
-from grasp_ctrl.loop.sensing import SensingPipeline
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="the emulator needs POSIX pseudo-terminals")
 
@@ -65,9 +65,9 @@ def test_serial_fault_stops_the_controller_safely(event: str, reason: str) -> No
             cmd = ctrl.tick(snap)
             if ctrl.state == "fault" and not was_faulted:
                 t_fault, palm_at_fault = now, palm.copy()
-            palm = cmd.p_palm_world.copy()          # an ideal arm
+            palm = cmd.p_palm_world.copy()  # an ideal arm
             q = q + np.clip(cmd.q_goal - q, -0.05, 0.05)  # servos track the goals
-            if tick == 70:                          # after taring (50 frames), while reaching
+            if tick == 70:  # after taring (50 frames), while reaching
                 t_event = now
                 emu.pause(0.2, [2]) if event == "pause" else emu.disconnect()
             if t_fault is not None and now - t_fault > 0.3:
@@ -79,9 +79,9 @@ def test_serial_fault_stops_the_controller_safely(event: str, reason: str) -> No
         emu.close()
 
     assert t_event is not None and t_fault is not None, f"no fault (state {ctrl.state})"
-    assert t_fault >= t_event                       # no false alarm before the event
-    assert t_fault - t_event < 0.05 + 0.1           # within the stale limit plus a few ticks
+    assert t_fault >= t_event  # no false alarm before the event
+    assert t_fault - t_event < 0.05 + 0.1  # within the stale limit plus a few ticks
     assert ctrl.state == "fault" and ctrl.failure_reason == reason
     np.testing.assert_allclose(palm, palm_at_fault)  # the arm stopped where it was
     q_open = np.array([j.open_rad for j in hand.joints])
-    assert np.max(np.abs(q - q_open)) < 1e-6          # the hand opened (on_fault = open)
+    assert np.max(np.abs(q - q_open)) < 1e-6  # the hand opened (on_fault = open)

@@ -35,7 +35,7 @@ def test_monitor_records_every_frame_and_shows_contact(tmp_path, capsys, monkeyp
     assert "fz N" not in out
     for name in ("index", "middle", "ring", "thumb"):
         assert f"  {name} " in out
-    assert " yes " in out                     # the synthetic presses start after the tare window
+    assert " yes " in out  # the synthetic presses start after the tare window
     rows = read_rows(rec)
     assert tuple(rows[0]) == HEADER and len(HEADER) == 47
     body = rows[1:]
@@ -52,16 +52,27 @@ def test_monitor_records_every_frame_and_shows_contact(tmp_path, capsys, monkeyp
 def test_monitor_shows_force_when_the_policy_loads(tmp_path, capsys, monkeypatch) -> None:
     pol = tmp_path / "policies"
     pol.mkdir()
-    (pol / "analytic_test.json").write_text(json.dumps(
-        {"kind": "analytic", "name": "analytic_test", "sensor_type": "biotac", "gains_n_per_count": [0.01, 0.01, 0.01]}
-    ))
+    (pol / "analytic_test.json").write_text(
+        json.dumps(
+            {
+                "kind": "analytic",
+                "name": "analytic_test",
+                "sensor_type": "biotac",
+                "gains_n_per_count": [0.01, 0.01, 0.01],
+            }
+        )
+    )
     monkeypatch.setenv("GRASP_CTRL_POLICIES", str(pol))
     assert main(["sensors", "--emulate", "--seconds", "2.0", "--policy", "analytic_test", "--refresh", "0.5"]) == 0
     out = capsys.readouterr().out
     assert "fz N" in out
-    rows = [ln.split() for ln in out.splitlines() if ln.startswith("  ") and ln.split()[:1] and ln.split()[0] in ("index", "middle", "ring", "thumb")]
+    rows = [
+        ln.split()
+        for ln in out.splitlines()
+        if ln.startswith("  ") and ln.split()[:1] and ln.split()[0] in ("index", "middle", "ring", "thumb")
+    ]
     in_contact = [r for r in rows if r[2] == "yes"]
-    assert in_contact and all(float(r[9]) > 0 for r in in_contact)   # |f| of a pad press
+    assert in_contact and all(float(r[9]) > 0 for r in in_contact)  # |f| of a pad press
     assert all(r[6:] == ["-"] * 4 for r in rows if r[2] == "no")
 
 
@@ -78,12 +89,15 @@ def test_missing_port_is_a_one_line_error(capsys, tmp_path) -> None:
     assert err.strip().endswith(")") and "ttyACM9: cannot open" in err and "Traceback" not in err
 
 
-@pytest.mark.parametrize("argv, needle", [
-    (["--seconds", "-1"], "--seconds"),
-    (["--emulate", "--port", "/dev/x"], "--port and --emulate"),
-    (["--emulate-corrupt", "0.1"], "need --emulate"),
-    (["--hand", "/nonexistent/hand.toml"], "hand.toml"),
-])
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["--seconds", "-1"], "--seconds"),
+        (["--emulate", "--port", "/dev/x"], "--port and --emulate"),
+        (["--emulate-corrupt", "0.1"], "need --emulate"),
+        (["--hand", "/nonexistent/hand.toml"], "hand.toml"),
+    ],
+)
 def test_bad_arguments(argv, needle, capsys) -> None:
     assert main(["sensors", *argv]) == 2
     assert needle in capsys.readouterr().err
@@ -94,7 +108,11 @@ def test_ctrl_c_closes_the_recording_cleanly(tmp_path) -> None:
     env = dict(os.environ, PYTHONPATH=str(REPO), GRASP_CTRL_POLICIES=str(tmp_path))
     proc = subprocess.Popen(
         [sys.executable, str(REPO / "launch.py"), "sensors", "--emulate", "--record", str(rec)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, preexec_fn=sigint_as_at_a_terminal,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        preexec_fn=sigint_as_at_a_terminal,
     )
     try:
         deadline = time.monotonic() + 20

@@ -64,10 +64,10 @@ def test_no_intact_frame_lost_at_100hz_4_tips_with_1pct_corruption(emulator) -> 
     got = {(f.sensor_id, f.seq) for f in frames}
     intact, corrupted = emu.intact_sent(), emu.corrupted_sent()
     assert emu.bytes_dropped == 0
-    assert len(emu.sent) >= 4 * 250          # ~100 Hz per fingertip for 3 s
-    assert len(corrupted) >= 3               # the faults really happened
-    assert intact - got == set()             # every uncorrupted frame arrived ...
-    assert got & corrupted == set()          # ... and no damaged one got through
+    assert len(emu.sent) >= 4 * 250  # ~100 Hz per fingertip for 3 s
+    assert len(corrupted) >= 3  # the faults really happened
+    assert intact - got == set()  # every uncorrupted frame arrived ...
+    assert got & corrupted == set()  # ... and no damaged one got through
     assert len(frames) == len(got) == len(intact) == stats["frames"]
     assert stats["crc_errors"] >= 1 and stats["resyncs"] >= 1
     # Every loss shows up in the sequence counters: lost = damaged frames followed by a good one.
@@ -107,7 +107,7 @@ def test_pause_makes_the_tip_stale_and_it_recovers(emulator) -> None:
         emu.pause(0.2, sensor_ids=[2])
         caught: SensorStaleError | None = None
         t_caught = None
-        while time.monotonic() - t_pause < 0.19:   # a 100 Hz control loop calling check_stale every tick
+        while time.monotonic() - t_pause < 0.19:  # a 100 Hz control loop calling check_stale every tick
             try:
                 sens.check_stale()
             except SensorStaleError as exc:
@@ -206,7 +206,10 @@ def test_unexpected_sensor_id_is_counted_not_delivered(emulator) -> None:
 
 def test_one_port_per_fingertip_from_the_hand_file(emulator, tmp_path) -> None:
     hand = load_hand(default_hand_file())
-    emus = {f.name: emulator((f.sensor_id,), link_dir=tmp_path, link_name=f"tty_{f.name}", seed=f.sensor_id) for f in hand.fingers}
+    emus = {
+        f.name: emulator((f.sensor_id,), link_dir=tmp_path, link_name=f"tty_{f.name}", seed=f.sensor_id)
+        for f in hand.fingers
+    }
     tactile = dataclasses.replace(hand.tactile, ports=tuple((n, e.port) for n, e in emus.items()))
     sens = SerialSensors.from_hand(dataclasses.replace(hand, tactile=tactile))
     with sens:
@@ -236,12 +239,12 @@ def test_hand_file_tactile_ports_are_parsed_and_checked(tmp_path) -> None:
 def test_synthetic_source_presses_like_a_biotac() -> None:
     src = SyntheticSource(seed=0)
     frames = np.array([src(0, k) for k in range(500)])
-    assert np.ptp(frames[:100, 19]) < 20          # free of contact at first (time to tare)
+    assert np.ptp(frames[:100, 19]) < 20  # free of contact at first (time to tare)
     assert frames.min() >= 0 and frames.max() <= 4095
     pdc = frames[:, 19].astype(float)
     pad = frames[:, 16:19].mean(axis=1)
     assert pdc.max() - pdc.min() > 200
-    assert np.corrcoef(pdc, pad)[0, 1] < -0.9    # electrodes drop as pdc rises
+    assert np.corrcoef(pdc, pad)[0, 1] < -0.9  # electrodes drop as pdc rises
 
 
 def test_recording_source_replays_the_real_recording() -> None:

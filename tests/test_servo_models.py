@@ -31,7 +31,8 @@ def test_the_stiffness_follows_the_hand_files_model(hand):
     assert ks.kp_nm_per_rad is not None
     assert ks.kp_nm_per_rad.max() == pytest.approx(
         servo_model(hand.dynamixel.model).kp_nm_per_rad(hand.dynamixel.position_p_gain)
-        * max(j.gain_scale for j in hand.joints))
+        * max(j.gain_scale for j in hand.joints)
+    )
 
 
 def test_a_model_without_facts_has_no_stiffness_and_says_why(hand):

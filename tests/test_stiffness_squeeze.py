@@ -24,7 +24,9 @@ def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
     return math.degrees(math.acos(min(1.0, float(a @ b) / (np.linalg.norm(a) * np.linalg.norm(b)))))
 
 
-def _spring_force(kin: HandKinematics, compliance: np.ndarray, name: str, q: np.ndarray, dx_goal: np.ndarray) -> np.ndarray:
+def _spring_force(
+    kin: HandKinematics, compliance: np.ndarray, name: str, q: np.ndarray, dx_goal: np.ndarray
+) -> np.ndarray:
     """The force of the finger's joint springs on a pad held in place when its goal's pad
     point moves by ``dx_goal`` (hand frame): F = (J C J^T)^-1 dx, C = 1/kp per joint."""
     sl = kin.slices[name]
@@ -43,7 +45,7 @@ def test_leap_joint_stiffness_from_the_hand_file(hand):
     assert kp == pytest.approx(3.2, abs=0.05)
     expected = np.array([kp * j.gain_scale for j in hand.joints])
     np.testing.assert_allclose(stiffness.kp_nm_per_rad, expected)
-    assert {round(k / kp, 6) for k in stiffness.kp_nm_per_rad} == {1.0, 0.75}   # abduction joints x 0.75
+    assert {round(k / kp, 6) for k in stiffness.kp_nm_per_rad} == {1.0, 0.75}  # abduction joints x 0.75
     assert squeeze_mode(hand, True).startswith("stiffness-aware")
 
 
@@ -98,7 +100,7 @@ def test_a_joint_at_its_limit_is_left_out(hand, kin, compiled):
     q = np.array([j.pregrasp_rad for j in hand.joints])
     f = ik.names.index("index")
     sl = kin.slices["index"]
-    blocked = []   # (joint, posture): the joint at a limit that closing pushes it past
+    blocked = []  # (joint, posture): the joint at a limit that closing pushes it past
     for i in range(sl.stop - sl.start):
         for limit, sign in ((ik.lower, -1.0), (ik.upper, 1.0)):
             q_try = q.copy()
@@ -157,10 +159,10 @@ def test_what_the_pad_followed_moves_the_goal_along_v(hand, kin, compiled):
         assert ik.squeeze_targets(q, q, targets, v, d, compliance, pad_along, 1.0)
         np.testing.assert_allclose(targets, expected, atol=1e-15)
         np.testing.assert_allclose(pad_along, along)
-    targets, pad_along = np.zeros((4, 3)), along - np.array([-0.01, 0.0, 0.0, 0.0])   # a 1 cm jump
+    targets, pad_along = np.zeros((4, 3)), along - np.array([-0.01, 0.0, 0.0, 0.0])  # a 1 cm jump
     ik.squeeze_targets(q, q, targets, v, d, compliance, pad_along, 2e-4)
     np.testing.assert_allclose(targets[0], v[0] * d[0] + (u[0] - v[0]) * 2e-4, atol=1e-15)
-    targets, pad_along = np.zeros((4, 3)), np.full(4, np.nan)     # the first squeeze tick: nothing followed
+    targets, pad_along = np.zeros((4, 3)), np.full(4, np.nan)  # the first squeeze tick: nothing followed
     ik.squeeze_targets(q, q, targets, v, d, compliance, pad_along, 1.0)
     np.testing.assert_allclose(targets, u * d[:, None], atol=1e-15)
     assert np.all(np.linalg.norm(u, axis=1) <= MAX_SQUEEZE_STRETCH)
@@ -176,8 +178,9 @@ def test_compiled_squeeze_matches_the_numpy_form(hand, kin, seed):
     at_upper = rng.random(q.size) < 0.2
     q[at_upper] = fast.upper[at_upper]
     d = rng.normal(0.0, 1e-4, 4)
-    np.testing.assert_allclose(fast.squeeze_directions(q, v, d, compliance), slow.squeeze_directions(q, v, d, compliance),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        fast.squeeze_directions(q, v, d, compliance), slow.squeeze_directions(q, v, d, compliance), atol=1e-12
+    )
     q_measured = q + rng.normal(0.0, 0.01, q.size)
     start = fast.pad_points(q)
     along0 = np.einsum("fr,fr->f", start, v) + rng.normal(0.0, 1e-4, 4)

@@ -43,7 +43,7 @@ def test_raw_trials_start_with_tare_rows_then_the_whole_stream(files: dict[str, 
     for r in rows:
         by_trial.setdefault(r["trial_id"], []).append(r)
     n_samples = len(generate(N, seed=SEED))
-    assert len(rows) > n_samples + 10 * len(by_trial)          # ungated frames are in the file too
+    assert len(rows) > n_samples + 10 * len(by_trial)  # ungated frames are in the file too
     for trial_rows in by_trial.values():
         labels = [(r["fx"], r["fy"], r["fz"]) for r in trial_rows]
         n_zero = next(i for i, lab in enumerate(labels) if lab != ("0.0", "0.0", "0.0"))
@@ -52,7 +52,7 @@ def test_raw_trials_start_with_tare_rows_then_the_whole_stream(files: dict[str, 
 
 
 def test_synth_refuses_bad_arguments(files: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
-    assert main(["synth", "--n", "10", "--out", str(files["raw"])]) == 2            # exists
+    assert main(["synth", "--n", "10", "--out", str(files["raw"])]) == 2  # exists
     assert main(["synth", "--n", "0", "--out", str(tmp_path / "x.csv")]) == 2
     assert main(["synth", "--n", "10", "--sources", "ball", "--out", str(tmp_path / "x.csv")]) == 2
     assert main(["synth", "--n", "10", "--out", str(tmp_path / "nope" / "x.csv")]) == 2
@@ -64,11 +64,14 @@ def _train(args: list[str], capsys: pytest.CaptureFixture) -> str:
     assert main(["train", *args, "--seed", str(SEED), "--quiet"]) == 0
     out = capsys.readouterr().out
     # drop lines with timings and data-source notes, keep the split and the metrics
-    return "\n".join(ln for ln in out.splitlines() if ln.startswith(("split", "test set", "rigid", "ball", "planar", "mixed")))
+    return "\n".join(
+        ln for ln in out.splitlines() if ln.startswith(("split", "test set", "rigid", "ball", "planar", "mixed"))
+    )
 
 
-def test_train_on_the_raw_file_equals_train_synthetic(files: dict[str, Path], tmp_path: Path,
-                                                       capsys: pytest.CaptureFixture) -> None:
+def test_train_on_the_raw_file_equals_train_synthetic(
+    files: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
     pytest.importorskip("torch")
     a, b = tmp_path / "a.json", tmp_path / "b.json"
     from_file = _train(["--data", str(files["raw"]), "--arch", "analytic", "--out", str(a)], capsys)
@@ -77,8 +80,9 @@ def test_train_on_the_raw_file_equals_train_synthetic(files: dict[str, Path], tm
     ga, gb = (json.loads(p.read_text()) for p in (a, b))
     assert ga["gains_n_per_count"] == gb["gains_n_per_count"] and ga["metrics"] == gb["metrics"]
     su = ["--arch", "su", "--epochs", "3", "--batch-size", "64"]
-    assert (_train(["--data", str(files["raw"]), *su, "--out", str(tmp_path / "a.pt")], capsys)
-            == _train(["--synthetic", str(N), *su, "--out", str(tmp_path / "b.pt")], capsys))
+    assert _train(["--data", str(files["raw"]), *su, "--out", str(tmp_path / "a.pt")], capsys) == _train(
+        ["--synthetic", str(N), *su, "--out", str(tmp_path / "b.pt")], capsys
+    )
 
 
 def test_train_on_a_hostile_file_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:

@@ -12,13 +12,14 @@ from grasp_ctrl.tactile.features import DEGENERATE_RADIUS_M, contact_points, sur
 from grasp_ctrl.tactile.geometry import ELECTRODE_NORMALS_SENSOR, ELECTRODE_POSITIONS_SENSOR, SURFACE_RADIUS_M
 
 R = SURFACE_RADIUS_M
-electrodes = arrays(np.float64, st.tuples(st.integers(1, 8), st.just(19)),
-                    elements=st.floats(-1500, 1500, allow_nan=False))
+electrodes = arrays(
+    np.float64, st.tuples(st.integers(1, 8), st.just(19)), elements=st.floats(-1500, 1500, allow_nan=False)
+)
 
 
 def _reference_point(e: np.ndarray) -> np.ndarray:
     """One row, written out step by step as the paper describes it."""
-    w = e ** 2
+    w = e**2
     c = sum(w[i] * ELECTRODE_POSITIONS_SENSOR[i] for i in range(19)) / (w.sum() + 1e-8)
     if c[0] > 0:
         if np.linalg.norm(c) < DEGENERATE_RADIUS_M:

@@ -35,8 +35,13 @@ def test_wrong_length_is_rejected(n: int) -> None:
 @given(
     row=st.integers(0, 3),
     col=st.integers(0, FRAME_LEN - 1),
-    bad=st.one_of(st.just(float("nan")), st.just(float("inf")), st.just(-float("inf")),
-                  st.floats(min_value=-1e9, max_value=-0.5), st.floats(min_value=4095.5, max_value=1e9)),
+    bad=st.one_of(
+        st.just(float("nan")),
+        st.just(float("inf")),
+        st.just(-float("inf")),
+        st.floats(min_value=-1e9, max_value=-0.5),
+        st.floats(min_value=4095.5, max_value=1e9),
+    ),
 )
 def test_any_bad_value_is_rejected_naming_fingertip_and_channel(row: int, col: int, bad: float) -> None:
     frames = np.full((4, FRAME_LEN), 2048.0)

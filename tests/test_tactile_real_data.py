@@ -43,10 +43,10 @@ def test_gate_fires_at_the_recorded_onset(long_trials: list[Trial]) -> None:
         onset = _first_onset(tared[:, PDC], 10.0, 10)
         assert s.onset == onset > 50
         # Before the onset: free space, the taring keeps pdc and electrodes near zero.
-        assert np.abs(tared[:onset - 10, PDC]).max() <= 10.0
-        assert np.abs(tared[:onset - 10, ELECTRODES]).max() < 30.0
+        assert np.abs(tared[: onset - 10, PDC]).max() <= 10.0
+        assert np.abs(tared[: onset - 10, ELECTRODES]).max() < 30.0
         # Shortly after: pressed, pdc up and the pressed electrodes DOWN (negative when tared).
-        after = tared[onset:onset + 100]
+        after = tared[onset : onset + 100]
         assert after[:, PDC].max() > 30.0
         assert after[:, ELECTRODES].min() < -20.0
 
@@ -71,8 +71,8 @@ def test_official_network_expects_value_minus_baseline(long_trials: list[Trial])
 
 
 def test_pipeline_on_real_frames_zero_before_contact(long_trials: list[Trial]) -> None:
-    from grasp_ctrl.estimators.registry import load_policy
     from grasp_ctrl.estimators.pipeline import TactilePipeline
+    from grasp_ctrl.estimators.registry import load_policy
 
     trial = long_trials[0]
     pipe = TactilePipeline(load_policy("icra19_official", threads=1), ["index"])

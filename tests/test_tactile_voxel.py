@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from grasp_ctrl.tactile.geometry import ELECTRODE_POSITIONS_SENSOR, SURFACE_RADIUS_M
 from grasp_ctrl.tactile.features import contact_points
+from grasp_ctrl.tactile.geometry import ELECTRODE_POSITIONS_SENSOR, SURFACE_RADIUS_M
 from grasp_ctrl.tactile.voxel import GRID_SHAPE, VoxelGrid
 
 
@@ -21,7 +21,7 @@ def _slow_edges() -> list[np.ndarray]:
 def _slow_index(value: float, edges: np.ndarray, size: int, variant: str) -> int:
     i = int(np.digitize(value, edges)) - 1
     if variant == "icra19":
-        return i if i >= 0 else size + i       # what numpy's negative indexing did
+        return i if i >= 0 else size + i  # what numpy's negative indexing did
     return min(max(i, 0), size - 1)
 
 
@@ -42,10 +42,10 @@ def slow_contact_grid(p: np.ndarray, variant: str) -> np.ndarray:
     return grid
 
 
-electrode_batches = arrays(np.float64, st.tuples(st.integers(1, 6), st.just(19)),
-                           elements=st.floats(-2000, 2000, allow_nan=False))
-points = arrays(np.float64, st.tuples(st.integers(1, 6), st.just(3)),
-                elements=st.floats(-0.03, 0.03, allow_nan=False))
+electrode_batches = arrays(
+    np.float64, st.tuples(st.integers(1, 6), st.just(19)), elements=st.floats(-2000, 2000, allow_nan=False)
+)
+points = arrays(np.float64, st.tuples(st.integers(1, 6), st.just(3)), elements=st.floats(-0.03, 0.03, allow_nan=False))
 
 
 @pytest.mark.parametrize("variant", ["icra19", "clamped"])

@@ -18,12 +18,12 @@ from hypothesis.extra import numpy as hnp
 
 import grasp_ctrl
 from grasp_ctrl import jit
+from grasp_ctrl.estimators.pipeline import TactilePipeline
 from grasp_ctrl.finite import all_finite
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.pad_ik import PadIK
 from grasp_ctrl.limits import limit_goal, step_toward
 from grasp_ctrl.tactile.layout import FRAME_LEN, PDC
-from grasp_ctrl.estimators.pipeline import TactilePipeline
 from grasp_ctrl.tactile.tare import ContactGate, Tare, tare_and_gate
 
 
@@ -58,7 +58,7 @@ def test_all_finite_answers_like_isfinite(a):
 
 
 def test_all_finite_on_other_shapes_and_types():
-    assert all_finite(np.array([1e308, -1e308, 3.0]))   # no overflow: each value is checked
+    assert all_finite(np.array([1e308, -1e308, 3.0]))  # no overflow: each value is checked
     assert not all_finite(np.array([[1.0, 2.0], [np.inf, 0.0]]))
     assert all_finite(np.zeros((4, 3))) and all_finite(np.zeros(0))
     assert all_finite(np.arange(5)) and not all_finite(np.array([1.0, np.nan], dtype=np.float32))
@@ -154,7 +154,7 @@ def test_tactile_step_fast_paths_match_the_numpy_path(touching):
         raw = np.rint(baseline[0] + rng.normal(0, 5, (4, FRAME_LEN)))
         raw[:touching, PDC] += 50.0
         a = fast.step(raw)
-        b = slow.step(raw.tolist())   # not an ndarray: the numpy path
+        b = slow.step(raw.tolist())  # not an ndarray: the numpy path
         assert same_bits(a.tared, b.tared) and np.array_equal(a.in_contact, b.in_contact)
         # what the pipeline did before its shortcuts: the policy on the rows in contact, scattered
         f_sensor, variance = np.zeros((4, 3)), np.zeros((4, 3))
@@ -175,7 +175,7 @@ def test_force_rotation_kernel_is_bit_identical_to_the_numpy_path(hand, seed):
     q = rng.uniform(fast.lower, fast.upper)
     f_sensor = rng.normal(0, 2, (len(fast.names), 3)) * rng.choice([0.0, -0.0, 1.0], (len(fast.names), 3))
     f_fast, g_fast = fast.sensor_forces(q, f_sensor)
-    f_hand = np.einsum("nij,nj->ni", fast.sensor_rotations(q), f_sensor)   # the rotations agree to 1e-12 (test_pad_ik)
+    f_hand = np.einsum("nij,nj->ni", fast.sensor_rotations(q), f_sensor)  # the rotations agree to 1e-12 (test_pad_ik)
     assert same_bits(f_fast, f_hand)
     assert same_bits(g_fast, np.sqrt(f_hand[:, 0] ** 2 + f_hand[:, 1] ** 2))
     f_slow, g_slow = slow.sensor_forces(q, f_sensor)

@@ -17,13 +17,13 @@ from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
 from grasp_ctrl.hardware.base import JointState
 from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.loop.sensing import SensingPipeline
+from grasp_ctrl.loop.tick_kernels import log_row, place_forces, sense_forces, sense_inputs, track_peaks
+from grasp_ctrl.loop.ticklog import TickLog
 from grasp_ctrl.sim.backends import MockSensors, checked_limit_goal, clamped_arm_target, joint_state_kernel
 from grasp_ctrl.sim.world import MockWorld, _clamped_target, _clip_into, _finite_copy, _limited_goal
 from grasp_ctrl.tactile.layout import FRAME_LEN, PDC
 from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate_bits
-from grasp_ctrl.loop.sensing import SensingPipeline
-from grasp_ctrl.loop.tick_kernels import log_row, place_forces, sense_forces, sense_inputs, track_peaks
-from grasp_ctrl.loop.ticklog import TickLog
 
 
 def same_bits(a, b) -> bool:
@@ -45,7 +45,7 @@ def test_force_peaks_equal_the_numpy_maxima(f, peaks):
     np.maximum(expected[1], grip, out=expected[1])
     np.maximum(expected[2], true_n, out=expected[2])
     got = peaks.copy()
-    with np.errstate(over="ignore", invalid="ignore"):   # (the plain-Python kernel warns as numpy does)
+    with np.errstate(over="ignore", invalid="ignore"):  # (the plain-Python kernel warns as numpy does)
         track_peaks(f, grip, true_n, got[0], got[1], got[2])
     assert same_bits(got, expected)
 
@@ -58,7 +58,7 @@ def test_arm_target_clamps_like_python_min_max(p, z_min, z_max):
     got = np.empty(3)
     clamped_arm_target(p, z_min, z_max, got)
     assert same_bits(got, expected)
-    got = np.full(3, 7.0)   # the mock world's one-pass command: also refuses a non-finite target
+    got = np.full(3, 7.0)  # the mock world's one-pass command: also refuses a non-finite target
     finite = bool(np.isfinite(expected).all())
     assert _clamped_target(p, z_min, z_max, got) == finite
     assert same_bits(got, expected if finite else np.full(3, 7.0))
@@ -77,7 +77,7 @@ def test_goal_clip_copy_and_limit_equal_numpy(goal, prev):
     assert same_bits(out, goal if finite else np.full(6, 7.0))
     out = np.full(6, 7.0)
     assert checked_limit_goal(goal, prev, 0.05, lower, upper, out) == finite
-    if finite:   # MockHand.write_goals's numpy arithmetic
+    if finite:  # MockHand.write_goals's numpy arithmetic
         q = np.minimum(np.maximum(goal, prev - 0.05), prev + 0.05)
         assert same_bits(out, np.minimum(np.maximum(q, lower), upper))
     else:
@@ -117,9 +117,10 @@ def test_gate_bits_gather_and_scatter(seed):
     bits = sense_inputs(q, palm, raw, baseline, count.copy(), 10.0, 10, tared, contact, touching)
     idx = np.flatnonzero(contact)
     assert bits == sum(1 << int(i) for i in idx)
-    assert bits == tare_and_gate_bits(raw, baseline, count.copy(), 10.0, 10, np.empty((n, FRAME_LEN)),
-                                      np.empty(n, dtype=bool))
-    assert same_bits(touching[:len(idx)], tared[idx]) and np.all(touching[len(idx):] == 9.0)
+    assert bits == tare_and_gate_bits(
+        raw, baseline, count.copy(), 10.0, 10, np.empty((n, FRAME_LEN)), np.empty(n, dtype=bool)
+    )
+    assert same_bits(touching[: len(idx)], tared[idx]) and np.all(touching[len(idx) :] == 9.0)
     rows = rng.normal(0, 1, (len(idx), 3))
     expected, got = np.zeros((n, 3)), np.zeros((n, 3))
     expected[idx] = rows
@@ -132,8 +133,21 @@ def test_sense_inputs_refuses_non_finite_angles_and_changes_nothing():
     count = np.array([3, 9, 0])
     tared = np.full((n, FRAME_LEN), 7.0)
     for q, palm in ((np.array([0.0, np.nan]), np.zeros(3)), (np.zeros(2), np.array([0.0, np.inf, 0.0]))):
-        assert sense_inputs(q, palm, np.full((n, FRAME_LEN), 2000.0), np.zeros((n, FRAME_LEN)), count, 10.0, 10,
-                            tared, np.zeros(n, dtype=bool), np.empty((n, FRAME_LEN))) == -2
+        assert (
+            sense_inputs(
+                q,
+                palm,
+                np.full((n, FRAME_LEN), 2000.0),
+                np.zeros((n, FRAME_LEN)),
+                count,
+                10.0,
+                10,
+                tared,
+                np.zeros(n, dtype=bool),
+                np.empty((n, FRAME_LEN)),
+            )
+            == -2
+        )
     assert np.array_equal(count, [3, 9, 0]) and np.all(tared == 7.0)
 
 
@@ -194,12 +208,12 @@ def test_mock_sensors_matrix_equals_the_frames_and_a_pause_keeps_the_last_one(ha
         world.step()
         delivered = sensors.latest_matrix(ids)[0]
     sensors.paused.add(ids[1])
-    assert sensors.latest_matrix(ids) is None   # paused: the long way
+    assert sensors.latest_matrix(ids) is None  # paused: the long way
     world.step()
     latest = sensors.read_latest()
     assert same_bits(latest[ids[1]].values, delivered[1]) and latest[ids[1]].t_recv == pytest.approx(world.t - world.dt)
     assert same_bits(latest[ids[0]].values, world.raw[0])
-    assert sensors.latest_matrix(list(reversed(ids))) is None   # not the world's order
+    assert sensors.latest_matrix(list(reversed(ids))) is None  # not the world's order
 
 
 def _log_rows(compiled: bool, rng: np.random.Generator) -> np.ndarray:
@@ -207,14 +221,31 @@ def _log_rows(compiled: bool, rng: np.random.Generator) -> np.ndarray:
     log._compiled = compiled
     for k in range(5):
         f = rng.normal(0, 2, (2, 3)) * rng.choice([1.0, -0.0], (2, 3))
-        snap = Snapshot(t=0.01 * k, q=rng.normal(0, 1, 3), p_palm_world=rng.normal(0, 1, 3), tare_ready=True,
-                        in_contact=np.array([k % 2 == 0, True]), f_sensor=f, f_hand=f, f_world=-f,
-                        grip_n=np.hypot(f[:, 0], f[:, 1]))
+        snap = Snapshot(
+            t=0.01 * k,
+            q=rng.normal(0, 1, 3),
+            p_palm_world=rng.normal(0, 1, 3),
+            tare_ready=True,
+            in_contact=np.array([k % 2 == 0, True]),
+            f_sensor=f,
+            f_hand=f,
+            f_world=-f,
+            grip_n=np.hypot(f[:, 0], f[:, 1]),
+        )
         raw = rng.integers(0, 4096, (2, FRAME_LEN)).astype(float)
         cmd = Command(q_goal=snap.q + 0.1, p_palm_world=rng.normal(0, 1, 3))
-        log.append("lift", snap, cmd, raw - 1000.0, true_f_sensor=f * 1.1, object_z=math.pi * k,
-                   table_force=np.nan, raw=raw, grip_target_n=2.0)
-    return log._block[:log._n].copy()
+        log.append(
+            "lift",
+            snap,
+            cmd,
+            raw - 1000.0,
+            true_f_sensor=f * 1.1,
+            object_z=math.pi * k,
+            table_force=np.nan,
+            raw=raw,
+            grip_target_n=2.0,
+        )
+    return log._block[: log._n].copy()
 
 
 def test_tick_log_row_kernel_stores_what_the_numpy_path_stores():
@@ -223,11 +254,22 @@ def test_tick_log_row_kernel_stores_what_the_numpy_path_stores():
 
 def test_tick_log_row_kernel_refuses_a_shape_that_does_not_fit():
     block = np.full((2, 6 + 2 * (FRAME_LEN + 12) + 2 * 3 + 2), 5.0)
-    args = (np.zeros(3), np.zeros(3), 0.0, np.zeros((2, FRAME_LEN)), np.zeros(2, dtype=bool),
-            np.zeros((2, FRAME_LEN)), np.zeros(2), np.zeros((2, 3)), np.zeros((2, 3)), np.zeros(3), np.zeros(3))
+    args = (
+        np.zeros(3),
+        np.zeros(3),
+        0.0,
+        np.zeros((2, FRAME_LEN)),
+        np.zeros(2, dtype=bool),
+        np.zeros((2, FRAME_LEN)),
+        np.zeros(2),
+        np.zeros((2, 3)),
+        np.zeros((2, 3)),
+        np.zeros(3),
+        np.zeros(3),
+    )
     assert log_row(block, 0, 0.0, *args, np.zeros((2, 3)), 0.0, 0.0)
-    assert not log_row(block, 1, 0.0, *args, np.zeros((3, 3)), 0.0, 0.0)   # truth for 3 fingertips
-    assert not log_row(block, 2, 0.0, *args, np.zeros((2, 3)), 0.0, 0.0)   # past the block
+    assert not log_row(block, 1, 0.0, *args, np.zeros((3, 3)), 0.0, 0.0)  # truth for 3 fingertips
+    assert not log_row(block, 2, 0.0, *args, np.zeros((2, 3)), 0.0, 0.0)  # past the block
     assert np.all(block[1] == 5.0)
 
 
@@ -314,8 +356,9 @@ class _OddPolicy:
         rows = np.asarray(tared, dtype=float)[:, :3] / 100.0
         if self.mode == "nan":
             rows[0, 1] = np.nan
-        return Estimate(rows.astype(np.float32) if self.mode == "float32" else rows.tolist() if self.mode == "list"
-                        else rows)
+        return Estimate(
+            rows.astype(np.float32) if self.mode == "float32" else rows.tolist() if self.mode == "list" else rows
+        )
 
 
 @pytest.mark.parametrize("mode", ["plain", "nan", "float32", "list"])
@@ -325,7 +368,7 @@ def test_snapshot_after_fused_inputs_equals_the_snapshot(hand, mode):
     kin = HandKinematics(hand)
     policies = [_OddPolicy(mode), _OddPolicy(mode)]
     fused, plain = SensingPipeline(hand, kin, policies[0]), SensingPipeline(hand, kin, policies[1])
-    fused._compiled = plain._compiled = True   # (without numba: the kernels as plain Python in both)
+    fused._compiled = plain._compiled = True  # (without numba: the kernels as plain Python in both)
     n, J = len(hand.fingers), len(hand.joints)
     rng = np.random.default_rng(7)
     baseline = rng.uniform(1500, 3000, (n, FRAME_LEN)).round()
@@ -333,12 +376,22 @@ def test_snapshot_after_fused_inputs_equals_the_snapshot(hand, mode):
         p.tactile.set_baseline(baseline[None])
     for k in range(30):
         raw = np.rint(baseline + rng.normal(0, 5, (n, FRAME_LEN)))
-        raw[:, PDC] += np.where((np.arange(n) != 2) | (rng.random(n) < 0.5), 80.0, 0.0)   # pressed, one flickering
+        raw[:, PDC] += np.where((np.arange(n) != 2) | (rng.random(n) < 0.5), 80.0, 0.0)  # pressed, one flickering
         q, palm = rng.uniform(-0.3, 1.0, J), rng.normal(0, 0.1, 3)
         tac = fused.tactile
         tared, contact, touching = np.empty((n, FRAME_LEN)), np.empty(n, dtype=bool), np.empty((n, FRAME_LEN))
-        bits = sense_inputs(q, palm, raw, tac.tare.baseline, tac.gate.count, tac.gate.threshold, tac.gate.frames,
-                            tared, contact, touching)
+        bits = sense_inputs(
+            q,
+            palm,
+            raw,
+            tac.tare.baseline,
+            tac.gate.count,
+            tac.gate.threshold,
+            tac.gate.frames,
+            tared,
+            contact,
+            touching,
+        )
         assert bits >= 0
         a = fused.snapshot_gated(raw, q, palm, 0.01 * k, tared, contact, bits, touching)
         b = plain.snapshot(raw.copy(), JointState(q.copy(), 0 * q, 0 * q, 0.01 * k), palm.copy(), False)

@@ -5,10 +5,17 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from grasp_ctrl.evaluation.tilt_profile import (
-    MIN_BIN_SAMPLES, TILT_BINS_DEG, format_tilt_profiles, profile, simulated_tilt_profile, tilt_deg)
+    MIN_BIN_SAMPLES,
+    TILT_BINS_DEG,
+    format_tilt_profiles,
+    profile,
+    simulated_tilt_profile,
+    tilt_deg,
+)
 
 
 def test_tilt_of_axis_directions():
@@ -30,7 +37,7 @@ def test_profile_takes_the_median_per_bin_and_leaves_thin_bins_empty():
 def test_simulated_profile_is_zero_for_exact_estimates():
     rng = np.random.default_rng(0)
     f = rng.standard_normal((500, 3))
-    prof = simulated_tilt_profile(2.0 * f, f)     # same direction, other magnitude
+    prof = simulated_tilt_profile(2.0 * f, f)  # same direction, other magnitude
     for n, err in zip(prof.samples, prof.median_error_deg):
         assert n < MIN_BIN_SAMPLES or err < 1e-4
 

@@ -4,15 +4,18 @@ from __future__ import annotations
 
 import pytest
 
-from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.cli import main
+from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 
 
 @pytest.fixture(scope="module")
 def main_job_trial(tmp_path_factory):
     """One trial of the main job (`run` with its defaults, one object, one trial)."""
     run_dir = tmp_path_factory.mktemp("main") / "run"
-    assert main(["run", "--backend", "mock", "--objects", "chips_can", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
+    assert (
+        main(["run", "--backend", "mock", "--objects", "chips_can", "--trials", "1", "--out", str(run_dir), "--quiet"])
+        == 0
+    )
     return run_dir / "trials" / DEFAULT_POLICY / "chips_can" / "trial_000.json"
 
 
@@ -25,7 +28,7 @@ def test_plot_of_a_trial_is_a_nontrivial_png(main_job_trial, tmp_path, capsys):
     with Image.open(png) as im:
         assert im.format == "PNG" and im.size[0] >= 800 and im.size[1] >= 800
         colours = im.convert("RGB").getcolors(maxcolors=1 << 16)
-        assert colours is None or len(colours) > 50      # traces, bands, text: not a blank canvas
+        assert colours is None or len(colours) > 50  # traces, bands, text: not a blank canvas
     assert png.stat().st_size > 30_000
 
 
@@ -40,7 +43,7 @@ def test_replay_is_an_animated_gif(main_job_trial, tmp_path, capsys):
         assert im.format == "GIF" and im.n_frames == 6 and im.size[0] >= 600
         first = im.convert("RGB").tobytes()
         im.seek(5)
-        assert im.convert("RGB").tobytes() != first          # the hand moves
+        assert im.convert("RGB").tobytes() != first  # the hand moves
     assert gif.stat().st_size > 20_000
 
 
@@ -49,7 +52,9 @@ def test_replay_refuses_other_formats_and_a_hand_that_does_not_match(main_job_tr
     from grasp_ctrl.loop.ticklog import read_tick_log
     from grasp_ctrl.trials.analysis.trial_view import TrialView, hand_for_replay
 
-    assert main(["plot", str(main_job_trial), "--out", str(tmp_path / "p.png"), "--animate", str(tmp_path / "r.mp4")]) == 2
+    assert (
+        main(["plot", str(main_job_trial), "--out", str(tmp_path / "p.png"), "--animate", str(tmp_path / "r.mp4")]) == 2
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and ".gif" in err[0]
     header, cols = read_tick_log(main_job_trial.with_name("trial_000_ticks.parquet"))

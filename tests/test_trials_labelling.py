@@ -8,14 +8,16 @@ import json
 import pytest
 
 from grasp_ctrl.trials.episode.labelling import FAILURE_REASONS, Label, OperatorLabeller, OperatorQuit, labelled
-from grasp_ctrl.trials.runs.records import check_record, load_records
 from grasp_ctrl.trials.episode.runner import run_series
+from grasp_ctrl.trials.runs.records import check_record, load_records
 from grasp_ctrl.trials.runs.scoring import score_run
 
 
 def _observed(success: bool, reason: str | None = None) -> dict:
-    return {"controller": {"final_state": "done" if success else "fault", "success": success, "reason": reason},
-            "peak_grip_est_n": 2.04}
+    return {
+        "controller": {"final_state": "done" if success else "fault", "success": success, "reason": reason},
+        "peak_grip_est_n": 2.04,
+    }
 
 
 def _labeller(script: str) -> tuple[OperatorLabeller, io.StringIO]:
@@ -60,9 +62,19 @@ def test_quit_or_end_of_input_stops_the_run(script):
 
 def _fake_hardware_trial(policy, obj, trial, seed, log_path):
     """Stands in for the real-hand trial: the controller thinks every trial went well."""
-    return {"object": obj.name, "policy": policy, "trial": trial, "seed": seed, "success": True, "reason": None,
-            "final_state": "done", "backend": "dynamixel", "judged_by": "controller",
-            "controller": {"final_state": "done", "success": True, "reason": None}, "peak_grip_est_n": 1.9}
+    return {
+        "object": obj.name,
+        "policy": policy,
+        "trial": trial,
+        "seed": seed,
+        "success": True,
+        "reason": None,
+        "final_state": "done",
+        "backend": "dynamixel",
+        "judged_by": "controller",
+        "controller": {"final_state": "done", "success": True, "reason": None},
+        "peak_grip_est_n": 1.9,
+    }
 
 
 def test_labelled_series_keeps_label_and_controller_view_and_resumes(tmp_path, hand, objects):
@@ -71,15 +83,41 @@ def test_labelled_series_keeps_label_and_controller_view_and_resumes(tmp_path, h
     # First trial: the operator saw a slip the controller missed; then quits.
     lab, _ = _labeller("f\nslipped\nfell at the top\nq\n")
     with pytest.raises(OperatorQuit):
-        run_series(hand, profiles, ["linear_mock"], 1, 3, run_dir, progress=False, tick_logs=False,
-                   trial_fn=labelled(_fake_hardware_trial, lab), backend="dynamixel")
+        run_series(
+            hand,
+            profiles,
+            ["linear_mock"],
+            1,
+            3,
+            run_dir,
+            progress=False,
+            tick_logs=False,
+            trial_fn=labelled(_fake_hardware_trial, lab),
+            backend="dynamixel",
+        )
     (rec,) = load_records(run_dir).records
-    assert (rec["success"], rec["reason"], rec["note"], rec["judged_by"]) == (False, "slipped", "fell at the top", "operator")
+    assert (rec["success"], rec["reason"], rec["note"], rec["judged_by"]) == (
+        False,
+        "slipped",
+        "fell at the top",
+        "operator",
+    )
     assert rec["controller"] == {"final_state": "done", "success": True, "reason": None}
     assert check_record(rec) is None
     lab, _ = _labeller("s\n\n")
-    summary = run_series(hand, profiles, ["linear_mock"], 1, 3, run_dir, progress=False, tick_logs=False,
-                         trial_fn=labelled(_fake_hardware_trial, lab), backend="dynamixel", resume=True)
+    summary = run_series(
+        hand,
+        profiles,
+        ["linear_mock"],
+        1,
+        3,
+        run_dir,
+        progress=False,
+        tick_logs=False,
+        trial_fn=labelled(_fake_hardware_trial, lab),
+        backend="dynamixel",
+        resume=True,
+    )
     assert summary["backend"] == "dynamixel"
     objs = summary["policies"]["linear_mock"]["objects"]
     assert objs["lego"]["failures"] == {"slipped": 1} and objs["cleanser"]["successes"] == 1

@@ -7,17 +7,18 @@ import shutil
 from pathlib import Path
 
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.cli import main
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.estimators.registry import DEFAULT_POLICY
+from grasp_ctrl.loop.ticklog import read_tick_log
+from grasp_ctrl.storage import record_path, ticks_path
+from grasp_ctrl.trials.episode.runner import run_series, trial_seed
 from grasp_ctrl.trials.runs.manifest import read_manifest
 from grasp_ctrl.trials.runs.records import load_records
-from grasp_ctrl.trials.episode.runner import run_series, trial_seed
 from grasp_ctrl.trials.runs.scoring import score_run
-from grasp_ctrl.storage import record_path, ticks_path
-from grasp_ctrl.loop.ticklog import read_tick_log
 
 # Two quick objects x an honest and an under-reading oracle: a mix of successes
 # and failure reasons (which ones is the mock world's business, not asserted here).
@@ -58,8 +59,9 @@ def test_live_run_covers_every_trial_with_records_and_tick_logs(full_run, hand):
     assert entry["failures"] == ({} if rec["success"] else {rec["reason"]: 1})
     assert rec["seed"] == trial_seed(SEED, "paper_cup", 0)
     assert set(rec["peak_forces"]) == {f.name for f in hand.fingers}
-    assert rec["peak_grip_est_n"] == pytest.approx(max(v["grip_est_n"] for k, v in rec["peak_forces"].items()
-                                                       if k in {f.name for f in hand.fingers if f.grasp}))
+    assert rec["peak_grip_est_n"] == pytest.approx(
+        max(v["grip_est_n"] for k, v in rec["peak_forces"].items() if k in {f.name for f in hand.fingers if f.grasp})
+    )
     assert rec["settings"]["tau_n"] == 2.0 and "controller" in rec["settings"]
     assert rec["controller"]["final_state"] == rec["final_state"]
     assert rec["judged_by"] == "world"
@@ -69,8 +71,17 @@ def test_live_run_covers_every_trial_with_records_and_tick_logs(full_run, hand):
     assert len(cols["t"]) > 100 and ticks.stat().st_size < 200_000
     pq = pytest.importorskip("pyarrow.parquet")
     assert pq.read_table(ticks).column_names == header
-    for col in ("state", "grip_target_n", "index_raw_pdc", "index_pdc_tared", "index_contact",
-                "index_fx_sensor", "index_fz_world", "q0", "q_goal0"):
+    for col in (
+        "state",
+        "grip_target_n",
+        "index_raw_pdc",
+        "index_pdc_tared",
+        "index_contact",
+        "index_fx_sensor",
+        "index_fz_world",
+        "q0",
+        "q_goal0",
+    ):
         assert col in header
     assert _json(run_dir / "summary.json") == summary
     assert read_manifest(run_dir).policies == POLICIES
@@ -134,8 +145,10 @@ def test_corrupt_and_truncated_records_are_named_and_skipped(full_run, tmp_path,
     assert "1 of 4 trials" in err and "differs" in err
     scored = score_run(work)
     assert [r["policy"] for r in scored.records] == ["oracle:scale=0.5"]
-    assert scored.summary["policies"]["oracle:scale=0.5"]["objects"]["paper_cup"] == \
-        summary["policies"]["oracle:scale=0.5"]["objects"]["paper_cup"]
+    assert (
+        scored.summary["policies"]["oracle:scale=0.5"]["objects"]["paper_cup"]
+        == summary["policies"]["oracle:scale=0.5"]["objects"]["paper_cup"]
+    )
 
 
 def test_resume_reruns_a_corrupt_record_and_says_so(full_run, tmp_path, capsys):
@@ -147,8 +160,9 @@ def test_resume_reruns_a_corrupt_record_and_says_so(full_run, tmp_path, capsys):
     captured = capsys.readouterr()
     assert str(broken) in captured.err and "run again" in captured.err
     # (run, the CLI, adds the mock's test_double flag to what run_series wrote)
-    assert {k: v for k, v in _json(work / "summary.json").items() if k not in ("run_dir", "test_double")} == \
-        {k: v for k, v in summary.items() if k != "run_dir"}
+    assert {k: v for k, v in _json(work / "summary.json").items() if k not in ("run_dir", "test_double")} == {
+        k: v for k, v in summary.items() if k != "run_dir"
+    }
 
 
 def test_resume_refuses_flags_that_would_change_the_run(full_run, capsys):
@@ -199,9 +213,13 @@ def test_preset_paper_is_six_objects_five_trials_two_policies():
     assert (len(m.objects), m.trials, m.policies, m.preset) == (6, 5, list(PAPER_POLICIES), "paper")
     # in the reference world, with the authors' network fine-tuned on the simulated sensor
     assert m.backend == "mujoco" and PAPER_POLICIES[-1] == "icra19_finetuned_mock"
-    _, m = _plan(build_parser().parse_args(["run"]))   # the main job
+    _, m = _plan(build_parser().parse_args(["run"]))  # the main job
     assert m.backend == "mujoco"
-    _, m = _plan(build_parser().parse_args(["run", "--backend", "mock", "--preset", "paper", "--trials", "2", "--objects", "lego"]))
+    _, m = _plan(
+        build_parser().parse_args(
+            ["run", "--backend", "mock", "--preset", "paper", "--trials", "2", "--objects", "lego"]
+        )
+    )
     assert (m.object_names, m.trials) == (["lego"], 2)
 
 
@@ -216,13 +234,23 @@ def test_ctrl_c_keeps_finished_trials_and_resume_completes(tmp_path, monkeypatch
             calls.append((obj.name, trial))
             if len(calls) == 2:
                 raise KeyboardInterrupt
-            return {"object": obj.name, "policy": policy, "trial": trial, "seed": seed,
-                    "success": trial % 2 == 0, "reason": None if trial % 2 == 0 else "slipped"}
+            return {
+                "object": obj.name,
+                "policy": policy,
+                "trial": trial,
+                "seed": seed,
+                "success": trial % 2 == 0,
+                "reason": None if trial % 2 == 0 else "slipped",
+            }
+
         return run
 
     monkeypatch.setattr(runner, "sim_trial_fn", fake_trial_fn)
     run_dir = tmp_path / "run"
-    assert main(["run", "--backend", "mock", "--objects", "lego", "--trials", "3", "--out", str(run_dir), "--quiet"]) == 130
+    assert (
+        main(["run", "--backend", "mock", "--objects", "lego", "--trials", "3", "--out", str(run_dir), "--quiet"])
+        == 130
+    )
     assert "1 of 3 trials are recorded" in capsys.readouterr().err
     assert main(["run", "--resume", str(run_dir)]) == 0
     captured = capsys.readouterr()
@@ -234,14 +262,17 @@ def test_ctrl_c_keeps_finished_trials_and_resume_completes(tmp_path, monkeypatch
 
 
 @settings(max_examples=60, deadline=None)
-@given(content=st.one_of(
-    st.binary(max_size=300),
-    st.text(max_size=300).map(str.encode),
-    st.just(b"[" * 5000),
-    st.dictionaries(st.sampled_from(["policy", "object", "trial", "seed", "success", "reason"]),
-                    st.one_of(st.none(), st.booleans(), st.integers(), st.text(max_size=8)))
-      .map(lambda d: json.dumps(d).encode()),
-))
+@given(
+    content=st.one_of(
+        st.binary(max_size=300),
+        st.text(max_size=300).map(str.encode),
+        st.just(b"[" * 5000),
+        st.dictionaries(
+            st.sampled_from(["policy", "object", "trial", "seed", "success", "reason"]),
+            st.one_of(st.none(), st.booleans(), st.integers(), st.text(max_size=8)),
+        ).map(lambda d: json.dumps(d).encode()),
+    )
+)
 def test_any_record_file_content_is_loaded_or_named_never_fatal(tmp_path_factory, content):
     run_dir = tmp_path_factory.mktemp("fuzz")
     path = record_path(run_dir, "p", "o", 0)
@@ -262,7 +293,9 @@ def test_without_matplotlib_compare_prints_the_table_and_plot_says_what_to_insta
 
     run_dir, _ = full_run
     real_find_spec = importlib.util.find_spec
-    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "matplotlib" else real_find_spec(name, *a))
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "matplotlib" else real_find_spec(name, *a)
+    )
     monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib -> ImportError
     assert main(["compare", str(run_dir)]) == 0
     captured = capsys.readouterr()

@@ -6,14 +6,23 @@ import json
 import shutil
 
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from grasp_ctrl.cli import main
 from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.paths import REPO_ROOT
 from grasp_ctrl.trials.tuning.toml_edit import set_object_value, update_object_file
-from grasp_ctrl.trials.tuning.tune import SweepRow, apply_setting, format_sweep, parse_param, rank, run_sweep, settings_grid
+from grasp_ctrl.trials.tuning.tune import (
+    SweepRow,
+    apply_setting,
+    format_sweep,
+    parse_param,
+    rank,
+    run_sweep,
+    settings_grid,
+)
 
 OBJECTS_TOML = REPO_ROOT / "hand_configs" / "objects.toml"
 
@@ -26,8 +35,20 @@ def test_parse_ranges_lists_and_aliases():
     assert len(settings_grid([parse_param("tau=1:2:0.5"), parse_param("release_debounce=3,5")])) == 6
 
 
-@pytest.mark.parametrize("spec", ["tau_n", "mass_kg=1", "tau_n=3:1:0.5", "tau_n=1:2:0", "tau_n=a:b:c",
-                                  "release_debounce=1.5", "tau_n=1:2", "tau_n=nan", "tau_n=0:1000:0.001"])
+@pytest.mark.parametrize(
+    "spec",
+    [
+        "tau_n",
+        "mass_kg=1",
+        "tau_n=3:1:0.5",
+        "tau_n=1:2:0",
+        "tau_n=a:b:c",
+        "release_debounce=1.5",
+        "tau_n=1:2",
+        "tau_n=nan",
+        "tau_n=0:1000:0.001",
+    ],
+)
 def test_bad_params_are_usage_errors(spec):
     with pytest.raises(UsageError):
         parse_param(spec)
@@ -42,7 +63,14 @@ def test_settings_outside_the_files_limits_are_refused(objects):
 def _row(setting, ok, n, peak):
     r = SweepRow(setting)
     for i in range(n):
-        r.add({"success": i < ok, "reason": None if i < ok else "slipped", "peak_grip_true_n": peak, "peak_grip_est_n": peak})
+        r.add(
+            {
+                "success": i < ok,
+                "reason": None if i < ok else "slipped",
+                "peak_grip_true_n": peak,
+                "peak_grip_est_n": peak,
+            }
+        )
     return r
 
 
@@ -57,14 +85,23 @@ def test_rank_by_success_then_gentler_grip():
 def test_sweep_rows_do_not_depend_on_the_order_results_arrive(objects):
     def fake(profile, k):
         ok = profile.tau_n * 10 + k
-        return {"success": ok % 3 != 0, "reason": None if ok % 3 else "slipped",
-                "peak_grip_true_n": profile.tau_n + 0.1 * k, "peak_grip_est_n": profile.tau_n}
+        return {
+            "success": ok % 3 != 0,
+            "reason": None if ok % 3 else "slipped",
+            "peak_grip_true_n": profile.tau_n + 0.1 * k,
+            "peak_grip_est_n": profile.tau_n,
+        }
 
     grid = settings_grid([parse_param("tau=1:2:0.5"), parse_param("release_debounce=2,3")])
     seen = []
     in_order = run_sweep(objects["lego"], grid, 3, fake, on_trial=lambda i, s, r: seen.append(i))
-    reverse = run_sweep(objects["lego"], grid, 3, fake,
-                        run_many=lambda tasks: reversed([(n, fake(p, k)) for n, (_, p, k) in enumerate(tasks)]))
+    reverse = run_sweep(
+        objects["lego"],
+        grid,
+        3,
+        fake,
+        run_many=lambda tasks: reversed([(n, fake(p, k)) for n, (_, p, k) in enumerate(tasks)]),
+    )
     assert [r.to_json() for r in in_order] == [r.to_json() for r in reverse]
     assert seen == sorted(seen) and len(seen) == 18
     assert [r.trials for r in in_order] == [3] * 6
@@ -72,8 +109,8 @@ def test_sweep_rows_do_not_depend_on_the_order_results_arrive(objects):
 
 def test_edit_keeps_comments_and_other_objects():
     text = OBJECTS_TOML.read_text()
-    new = set_object_value(text, "lego", "tau_n", 1.75)            # absent key: inserted
-    new = set_object_value(new, "lego", "mu", 0.85)                # present key: replaced
+    new = set_object_value(text, "lego", "tau_n", 1.75)  # absent key: inserted
+    new = set_object_value(new, "lego", "mu", 0.85)  # present key: replaced
     old_lines, new_lines = text.splitlines(), new.splitlines()
     assert len(new_lines) == len(old_lines) + 1
     assert [l for l in old_lines if l.lstrip().startswith("#")] == [l for l in new_lines if l.lstrip().startswith("#")]
@@ -90,8 +127,12 @@ def test_edit_keeps_an_inline_comment(tmp_path):
 
 
 @settings(max_examples=25, deadline=None)
-@given(name=st.sampled_from(["chips_can", "lego", "paper_cup", "mustard_bottle"]),
-       tau=st.floats(0.1, 20.0), threshold=st.floats(0.0, 10.0, exclude_min=True), debounce=st.integers(1, 1000))
+@given(
+    name=st.sampled_from(["chips_can", "lego", "paper_cup", "mustard_bottle"]),
+    tau=st.floats(0.1, 20.0),
+    threshold=st.floats(0.0, 10.0, exclude_min=True),
+    debounce=st.integers(1, 1000),
+)
 def test_written_values_read_back_exactly(tmp_path_factory, name, tau, threshold, debounce):
     path = tmp_path_factory.mktemp("tune") / "objects.toml"
     shutil.copy(OBJECTS_TOML, path)
@@ -110,9 +151,29 @@ def test_tune_command_ranks_and_writes_the_best_setting(tmp_path, capsys):
     shutil.copy(OBJECTS_TOML, objects_file)
     out = tmp_path / "sweep.json"
     pytest.importorskip("optuna")
-    status = main(["tune", "--backend", "mock", "--object", "lego", "--param", "tau=1.5,2.5", "--trials", "1",
-                   "--policy", "oracle",
-                   "--object-file", str(objects_file), "--write", "--json", str(out), "--quiet", "--jobs", "2"])
+    status = main(
+        [
+            "tune",
+            "--backend",
+            "mock",
+            "--object",
+            "lego",
+            "--param",
+            "tau=1.5,2.5",
+            "--trials",
+            "1",
+            "--policy",
+            "oracle",
+            "--object-file",
+            str(objects_file),
+            "--write",
+            "--json",
+            str(out),
+            "--quiet",
+            "--jobs",
+            "2",
+        ]
+    )
     doc = json.loads(out.read_text())
     ranked = doc["ranked"]
     assert [r["trials"] for r in ranked] == [1, 1] and {r["setting"]["tau_n"] for r in ranked} == {1.5, 2.5}
@@ -142,9 +203,20 @@ def test_tune_on_the_real_hand_ranks_by_the_operators_labels(tmp_path, capsys, m
 
         def trial(policy, obj, k, seed, log_path):
             seen.append(obj.tau_n)
-            return {"object": obj.name, "policy": policy, "trial": k, "seed": seed, "success": True, "reason": None,
-                    "final_state": "done", "backend": "dynamixel", "judged_by": "controller",
-                    "controller": {"final_state": "done", "success": True, "reason": None}, "peak_grip_est_n": obj.tau_n}
+            return {
+                "object": obj.name,
+                "policy": policy,
+                "trial": k,
+                "seed": seed,
+                "success": True,
+                "reason": None,
+                "final_state": "done",
+                "backend": "dynamixel",
+                "judged_by": "controller",
+                "controller": {"final_state": "done", "success": True, "reason": None},
+                "peak_grip_est_n": obj.tau_n,
+            }
+
         return trial
 
     monkeypatch.setattr(hardware, "hardware_trial_fn", fake_hardware_trial_fn)
@@ -153,12 +225,37 @@ def test_tune_on_the_real_hand_ranks_by_the_operators_labels(tmp_path, capsys, m
     objects_file = tmp_path / "objects.toml"
     shutil.copy(OBJECTS_TOML, objects_file)
     out = tmp_path / "sweep.json"
-    status = main(["tune", "--object", "lego", "--param", "tau=1.5,2.5", "--trials", "1", "--policy", "linear_mock",
-                   "--backend", "dynamixel", "--port", "/dev/ttyUSB7", "--sensor-port", "/dev/ttyACM7",
-                   "--object-file", str(objects_file), "--write", "--json", str(out), "--quiet"])
+    status = main(
+        [
+            "tune",
+            "--object",
+            "lego",
+            "--param",
+            "tau=1.5,2.5",
+            "--trials",
+            "1",
+            "--policy",
+            "linear_mock",
+            "--backend",
+            "dynamixel",
+            "--port",
+            "/dev/ttyUSB7",
+            "--sensor-port",
+            "/dev/ttyACM7",
+            "--object-file",
+            str(objects_file),
+            "--write",
+            "--json",
+            str(out),
+            "--quiet",
+        ]
+    )
     assert status == 0 and seen == [1.5, 2.5]
     ranked = json.loads(out.read_text())["ranked"]
-    assert [(r["setting"]["tau_n"], r["successes"], r["failures"]) for r in ranked] == [(2.5, 1, {}), (1.5, 0, {"slipped": 1})]
+    assert [(r["setting"]["tau_n"], r["successes"], r["failures"]) for r in ranked] == [
+        (2.5, 1, {}),
+        (1.5, 0, {"slipped": 1}),
+    ]
     assert load_objects(objects_file)["lego"].tau_n == 2.5
     assert "+tau_n = 2.5" in capsys.readouterr().out
     assert main(["tune", "--object", "lego", "--param", "tau=2", "--backend", "dynamixel", "--jobs", "2"]) == 2

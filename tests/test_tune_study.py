@@ -31,17 +31,32 @@ def test_ranges_logs_and_grids():
     d = parse_space("release_debounce=2:9")
     assert d.integer and d.ends() == (2, 9)
     assert corner_settings(parse_params(["tau=1:3", "release_debounce=2,4"])) == [
-        {"tau_n": 1.0, "release_debounce": 2}, {"tau_n": 1.0, "release_debounce": 2},
-        {"tau_n": 3.0, "release_debounce": 2}, {"tau_n": 1.0, "release_debounce": 2},
-        {"tau_n": 1.0, "release_debounce": 4}]
+        {"tau_n": 1.0, "release_debounce": 2},
+        {"tau_n": 1.0, "release_debounce": 2},
+        {"tau_n": 3.0, "release_debounce": 2},
+        {"tau_n": 1.0, "release_debounce": 2},
+        {"tau_n": 1.0, "release_debounce": 4},
+    ]
 
 
-@pytest.mark.parametrize("spec, why", [
-    ("tau=1:inf:1", "finite"), ("tau=1:inf", "finite"), ("tau=nan:2", "finite"), ("tau=-inf:2", "finite"),
-    ("tau=3:1", "LOW < HIGH"), ("tau=2:2", "LOW < HIGH"), ("tau=0:1:log", "LOW > 0"), ("tau=1,inf", "finite"),
-    ("release_debounce=1.5:4", "whole"), ("tau=a:b", "not a number"), ("mass_kg=1:2", "not tunable"),
-    ("tau=", "expected"), ("tau=1:2:3:4", "values must be numbers"),
-])
+@pytest.mark.parametrize(
+    "spec, why",
+    [
+        ("tau=1:inf:1", "finite"),
+        ("tau=1:inf", "finite"),
+        ("tau=nan:2", "finite"),
+        ("tau=-inf:2", "finite"),
+        ("tau=3:1", "LOW < HIGH"),
+        ("tau=2:2", "LOW < HIGH"),
+        ("tau=0:1:log", "LOW > 0"),
+        ("tau=1,inf", "finite"),
+        ("release_debounce=1.5:4", "whole"),
+        ("tau=a:b", "not a number"),
+        ("mass_kg=1:2", "not tunable"),
+        ("tau=", "expected"),
+        ("tau=1:2:3:4", "values must be numbers"),
+    ],
+)
 def test_bad_ranges_are_one_line_errors(spec, why):
     with pytest.raises(UsageError, match=why):
         parse_space(spec)
@@ -74,7 +89,7 @@ def test_write_follows_a_symlink_and_keeps_the_mode(tmp_path):
     assert stat.S_IMODE(target.stat().st_mode) == 0o640
     profiles = load_objects(target)
     assert profiles["lego"].tau_n == 1.75 and profiles["paper_cup"].release_threshold_n == 0.2
-    assert not [p for p in target.parent.iterdir() if p.name != "objects.toml"]   # no temporary file left
+    assert not [p for p in target.parent.iterdir() if p.name != "objects.toml"]  # no temporary file left
 
 
 # --- the study (the tune extra) --------------------------------------------------------------
@@ -111,8 +126,12 @@ class FakeTrials:
             raise KeyboardInterrupt
         self.calls.append((profile.tau_n, profile.release_threshold_n, k, seed))
         ok = profile.tau_n >= 2.0
-        return {"success": ok, "reason": None if ok else "slipped", "peak_grip_true_n": profile.tau_n,
-                "peak_grip_est_n": profile.tau_n}
+        return {
+            "success": ok,
+            "reason": None if ok else "slipped",
+            "peak_grip_true_n": profile.tau_n,
+            "peak_grip_est_n": profile.tau_n,
+        }
 
 
 def _plan(objects, specs, budget, storage, trials=2, prune=True):
@@ -122,7 +141,7 @@ def _plan(objects, specs, budget, storage, trials=2, prune=True):
 def test_an_interrupted_study_continues_without_repeating_finished_settings(objects, tmp_path):
     storage = f"sqlite:///{tmp_path / 'study.db'}"
     plan = _plan(objects, ["tau=1.0:3.5", "release_threshold_n=0.05:0.6"], 6, storage, trials=3, prune=False)
-    first = FakeTrials(stop_after=7)          # two settings finished, the third stopped after its first trial
+    first = FakeTrials(stop_after=7)  # two settings finished, the third stopped after its first trial
     with pytest.raises(KeyboardInterrupt):
         run_study(open_study(plan), plan, SerialExecutor(first), jobs=1)
     study = optuna.load_study(study_name=plan.study_name(), storage=storage)
@@ -139,9 +158,10 @@ def test_an_interrupted_study_continues_without_repeating_finished_settings(obje
     assert len(keys) == len(set(keys)) == 6
     first_settings = {(tau, thr) for tau, thr, _, _ in first.calls}
     second_settings = {(tau, thr) for tau, thr, _, _ in second.calls}
-    assert setting_key(dropped[0].params) in {setting_key({"tau_n": a, "release_threshold_n": b})
-                                              for a, b in second_settings}
-    assert len(first_settings & second_settings) == 1          # only the dropped one ran again
+    assert setting_key(dropped[0].params) in {
+        setting_key({"tau_n": a, "release_threshold_n": b}) for a, b in second_settings
+    }
+    assert len(first_settings & second_settings) == 1  # only the dropped one ran again
     # Every setting ran the same seeds, in order.
     for tau, thr in second_settings:
         assert [(k, s) for a, b, k, s in second.calls if (a, b) == (tau, thr)] == list(enumerate(plan.seeds))
@@ -167,15 +187,15 @@ def test_settings_that_can_no_longer_win_are_pruned(objects):
     fake = FakeTrials()
     study = open_study(plan)
     run_study(study, plan, SerialExecutor(fake), jobs=1)
-    order = [tau for tau, _, k, _ in fake.calls if k == 0]      # settings in the order they started
+    order = [tau for tau, _, k, _ in fake.calls if k == 0]  # settings in the order they started
     assert sorted(order) == [1.0, 1.5, 2.5, 3.0]
     by_tau = {t.params["tau_n"]: t for t in study.trials}
     first_good = min(order.index(2.5), order.index(3.0))
     for i, tau in enumerate(order):
         t = by_tau[tau]
-        if tau >= 2.0 or i < first_good:      # nothing better had finished yet: all three trials
+        if tau >= 2.0 or i < first_good:  # nothing better had finished yet: all three trials
             assert t.state == optuna.trial.TrialState.COMPLETE and len(t.user_attrs["records"]) == 3
-        else:                                 # 0/1 after a 3/3 setting: cannot win, stopped
+        else:  # 0/1 after a 3/3 setting: cannot win, stopped
             assert t.state == optuna.trial.TrialState.PRUNED and len(t.user_attrs["records"]) == 1
 
 
@@ -184,9 +204,28 @@ def test_tune_command_on_the_mock_keeps_and_continues_its_study(tmp_path, capsys
     out = tmp_path / "tune.json"
     objects_file = tmp_path / "objects.toml"
     shutil.copy(OBJECTS_TOML, objects_file)
-    common = ["tune", "--backend", "mock", "--object", "lego", "--param", "tau=1.5:3.0",
-              "--param", "release_threshold_n=0.1:0.5:log", "--trials", "1", "--policy", "oracle",
-              "--storage", storage, "--json", str(out), "--quiet", "--object-file", str(objects_file)]
+    common = [
+        "tune",
+        "--backend",
+        "mock",
+        "--object",
+        "lego",
+        "--param",
+        "tau=1.5:3.0",
+        "--param",
+        "release_threshold_n=0.1:0.5:log",
+        "--trials",
+        "1",
+        "--policy",
+        "oracle",
+        "--storage",
+        storage,
+        "--json",
+        str(out),
+        "--quiet",
+        "--object-file",
+        str(objects_file),
+    ]
     assert main([*common, "--budget", "2"]) == 0
     doc = json.loads(out.read_text())
     assert len(doc["ranked"]) == 2 and doc["sampler"] == "TPE" and doc["trials"] == 1
@@ -207,9 +246,29 @@ def test_tune_objects_writes_one_file_and_draws_the_study(tmp_path, capsys):
     objects_file = tmp_path / "objects.toml"
     shutil.copy(OBJECTS_TOML, objects_file)
     out = tmp_path / "all.json"
-    status = main(["tune", "--backend", "mock", "--objects", "lego,chips_can", "--param", "tau=2.0,2.5",
-                   "--trials", "1", "--policy", "oracle", "--json", str(out), "--quiet", "--write",
-                   "--object-file", str(objects_file), "--plots", str(tmp_path / "plots")])
+    status = main(
+        [
+            "tune",
+            "--backend",
+            "mock",
+            "--objects",
+            "lego,chips_can",
+            "--param",
+            "tau=2.0,2.5",
+            "--trials",
+            "1",
+            "--policy",
+            "oracle",
+            "--json",
+            str(out),
+            "--quiet",
+            "--write",
+            "--object-file",
+            str(objects_file),
+            "--plots",
+            str(tmp_path / "plots"),
+        ]
+    )
     docs = json.loads(out.read_text())["objects"]
     assert [d["object"] for d in docs] == ["lego", "chips_can"] and all(d["sampler"] == "grid" for d in docs)
     assert all(len(d["ranked"]) == 2 for d in docs)
@@ -222,10 +281,24 @@ def test_tune_objects_writes_one_file_and_draws_the_study(tmp_path, capsys):
 
 
 def test_parallel_settings_rank_like_serial(tmp_path):
-    common = ["tune", "--backend", "mock", "--object", "lego", "--param", "tau=1.5,2.5", "--trials", "1",
-              "--policy", "oracle", "--quiet", "--no-prune"]
+    common = [
+        "tune",
+        "--backend",
+        "mock",
+        "--object",
+        "lego",
+        "--param",
+        "tau=1.5,2.5",
+        "--trials",
+        "1",
+        "--policy",
+        "oracle",
+        "--quiet",
+        "--no-prune",
+    ]
     assert main([*common, "--json", str(tmp_path / "serial.json")]) == 0
     assert main([*common, "--jobs", "2", "--json", str(tmp_path / "jobs.json")]) == 0
     strip = lambda d: [{k: v for k, v in r.items() if k != "study_trial"} for r in d["ranked"]]
-    assert strip(json.loads((tmp_path / "jobs.json").read_text())) == \
-        strip(json.loads((tmp_path / "serial.json").read_text()))
+    assert strip(json.loads((tmp_path / "jobs.json").read_text())) == strip(
+        json.loads((tmp_path / "serial.json").read_text())
+    )

@@ -29,7 +29,9 @@ from grasp_ctrl.paths import REPO_ROOT, default_hand_file
 def emulator_process(hand_file: str) -> Iterator[str]:
     proc = subprocess.Popen(
         [sys.executable, "-m", "grasp_ctrl.emulators.dxl_chain", "--hand", hand_file],
-        stdout=subprocess.PIPE, text=True, cwd=REPO_ROOT,
+        stdout=subprocess.PIPE,
+        text=True,
+        cwd=REPO_ROOT,
     )
     try:
         assert proc.stdout is not None

@@ -3,20 +3,19 @@
 from __future__ import annotations
 
 import time
-from typing import Callable
-
+from collections.abc import Callable
 
 from grasp_ctrl.bench.figure import Figure, time_ms
 from grasp_ctrl.config import load_hand, load_objects
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.loop.sensing import SensingPipeline
+from grasp_ctrl.loop.tick import control_tick
 from grasp_ctrl.paths import default_hand_file, default_objects_file
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
 from grasp_ctrl.sim.oracle import OracleEstimator
 from grasp_ctrl.sim.world import MockWorld
-from grasp_ctrl.loop.sensing import SensingPipeline
-from grasp_ctrl.loop.tick import control_tick
 
 BENCH_OBJECT = "chips_can"
 
@@ -106,6 +105,9 @@ def mock_realtime_factor(quick: bool) -> Figure:
     return Figure.rate(factors, "x")
 
 
-FIGURES = {"control_tick_ms": measure_control_tick, "control_tick_cpu_ms": measure_control_tick_cpu,
-           "control_tick_icra19_ms": measure_control_tick_network,
-           "mock_realtime_factor": mock_realtime_factor}
+FIGURES = {
+    "control_tick_ms": measure_control_tick,
+    "control_tick_cpu_ms": measure_control_tick_cpu,
+    "control_tick_icra19_ms": measure_control_tick_network,
+    "mock_realtime_factor": mock_realtime_factor,
+}

@@ -12,10 +12,10 @@ from grasp_ctrl.bench.figure import Figure
 from grasp_ctrl.config import load_hand, load_objects
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.paths import default_hand_file, default_objects_file
-from grasp_ctrl.sim.oracle import OracleEstimator
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.tick import control_tick
+from grasp_ctrl.paths import default_hand_file, default_objects_file
+from grasp_ctrl.sim.oracle import OracleEstimator
 
 BENCH_OBJECT = "chips_can"
 
@@ -125,5 +125,8 @@ def _has_mujoco() -> bool:
 
 
 # Without mujoco (a broken install) the figures are not listed, so 'bench' runs the others.
-FIGURES = ({"mujoco_realtime_factor": mujoco_realtime_factor,
-            "mujoco_bare_realtime_factor": mujoco_bare_realtime_factor} if _has_mujoco() else {})
+FIGURES = (
+    {"mujoco_realtime_factor": mujoco_realtime_factor, "mujoco_bare_realtime_factor": mujoco_bare_realtime_factor}
+    if _has_mujoco()
+    else {}
+)

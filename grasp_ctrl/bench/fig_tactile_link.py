@@ -16,9 +16,7 @@ from grasp_ctrl.tactile_link.protocol import encode_binary
 
 def decode_4tips(quick: bool) -> Figure:
     rng = np.random.default_rng(0)
-    chunks = [
-        b"".join(encode_binary(tip, k % 65536, rng.integers(0, 4096, 44)) for tip in range(4)) for k in range(64)
-    ]
+    chunks = [b"".join(encode_binary(tip, k % 65536, rng.integers(0, 4096, 44)) for tip in range(4)) for k in range(64)]
     dec = BinaryDecoder()
     state = {"k": 0}
 

@@ -34,13 +34,14 @@ def trial_realtime_factor(quick: bool) -> Figure:
     factors = []
     with tempfile.TemporaryDirectory(prefix="grasp-bench-") as tmp:
         log = Path(tmp) / "trial_ticks.parquet"
-        for obj in objects:   # warm-up: kernels, pyarrow, and each object's one-off set-up (a cap's posture fit)
+        for obj in objects:  # warm-up: kernels, pyarrow, and each object's one-off set-up (a cap's posture fit)
             run_sim_trial(hand, obj, make_estimator, 0, DEFAULT_POLICY, log_path=log, kin=kin)
         for k in range(rounds):
             for obj in objects:
                 t0 = time.perf_counter()
-                res = run_sim_trial(hand, obj, make_estimator, trial_seed(0, obj.name, k), DEFAULT_POLICY, k,
-                                     log_path=log, kin=kin)
+                res = run_sim_trial(
+                    hand, obj, make_estimator, trial_seed(0, obj.name, k), DEFAULT_POLICY, k, log_path=log, kin=kin
+                )
                 factors.append(res.sim_duration_s / (time.perf_counter() - t0))
     return Figure.rate(factors, "x")
 

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 import numpy as np
 
@@ -16,11 +16,11 @@ class Figure:
     unit: str
 
     @classmethod
-    def single(cls, value: float, unit: str) -> "Figure":
+    def single(cls, value: float, unit: str) -> Figure:
         return cls(value, value, unit)
 
     @classmethod
-    def rate(cls, samples: "Sequence[float] | np.ndarray", unit: str) -> "Figure":
+    def rate(cls, samples: Sequence[float] | np.ndarray, unit: str) -> Figure:
         """A throughput (higher is better): the median, and as ``p99`` its slow tail,
         the rate that 99 % of the measurements beat (the 1st percentile), so a rate's
         p99 is never above its median, as a time's is never below."""

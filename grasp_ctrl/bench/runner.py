@@ -5,7 +5,7 @@ from __future__ import annotations
 import importlib
 import pkgutil
 import platform
-from typing import Callable
+from collections.abc import Callable
 
 import grasp_ctrl.bench as bench_pkg
 from grasp_ctrl.bench.figure import Figure
@@ -26,8 +26,10 @@ def machine_description() -> str:
 
     from grasp_ctrl import jit
 
-    return (f"{platform.node()} {platform.machine()} {os.cpu_count()} cpu {platform.python_implementation()} "
-            f"{platform.python_version()}, mock-world kernels: {jit.backend()}")
+    return (
+        f"{platform.node()} {platform.machine()} {os.cpu_count()} cpu {platform.python_implementation()} "
+        f"{platform.python_version()}, mock-world kernels: {jit.backend()}"
+    )
 
 
 def run_figures(only: list[str] | None, quick: bool, progress: bool = False) -> dict[str, Figure]:

@@ -14,8 +14,8 @@ import pkgutil
 import signal
 import sys
 import threading
+from collections.abc import Sequence
 from types import ModuleType
-from typing import Sequence
 
 from grasp_ctrl.cli._ranges import apply_ranges
 from grasp_ctrl.errors import GraspCtrlError, Terminated
@@ -47,12 +47,12 @@ def build_parser() -> argparse.ArgumentParser:
     for mod in _command_modules():
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=getattr(mod, "DESCRIPTION", mod.HELP))
         mod.add_arguments(p)
-        apply_ranges(mod.NAME, p)   # every number flag checked for type and range (cli/_ranges.py)
+        apply_ranges(mod.NAME, p)  # every number flag checked for type and range (cli/_ranges.py)
         p.set_defaults(_run=mod.run)
     return parser
 
 
-_signalled: list[int] = []   # SIGINT / SIGTERM received during this command
+_signalled: list[int] = []  # SIGINT / SIGTERM received during this command
 
 
 def _raise_terminated(signum: int, frame: object) -> None:
@@ -71,15 +71,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     # error (numpy's ImportError, say): after a signal any exception is the interrupt's.
     handlers = None
     if threading.current_thread() is threading.main_thread():
-        handlers = (signal.signal(signal.SIGTERM, _raise_terminated),
-                    signal.signal(signal.SIGINT, _raise_interrupted))
+        handlers = (signal.signal(signal.SIGTERM, _raise_terminated), signal.signal(signal.SIGINT, _raise_interrupted))
     _signalled.clear()
     try:
         return _main(argv)
     except BaseException as exc:
         if not (isinstance(exc, KeyboardInterrupt) or _signalled) or isinstance(exc, SystemExit):
             raise
-        print(f"{PROG}: interrupted", file=sys.stderr)   # before a command started (loading the commands, say)
+        print(f"{PROG}: interrupted", file=sys.stderr)  # before a command started (loading the commands, say)
         terminated = isinstance(exc, Terminated) or (_signalled and _signalled[-1] == signal.SIGTERM)
         return 143 if terminated else 130
     finally:
@@ -94,12 +93,12 @@ def _main(argv: Sequence[str] | None = None) -> int:
     if not argv:
         argv = ["run"]
     bad = next((a for a in argv if "\x00" in a), None)
-    if bad is not None:   # no file or name can hold one; open() would raise deep inside
+    if bad is not None:  # no file or name can hold one; open() would raise deep inside
         print(f"{PROG}: error: argument {bad!r}: contains a NUL character", file=sys.stderr)
         return 2
     try:
         args = parser.parse_args(argv)
-    except SystemExit as exc:   # argparse printed its usage and one error line (or the help)
+    except SystemExit as exc:  # argparse printed its usage and one error line (or the help)
         return exc.code if isinstance(exc.code, int) else 2
     if not getattr(args, "_run", None):
         parser.print_help()

@@ -9,15 +9,27 @@ from grasp_ctrl.errors import UsageError
 
 def add_data_arguments(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("data (one of)")
-    g.add_argument("--data", nargs="+", metavar="FILE", default=[],
-                   help="dataset CSV/Parquet file(s) (docs/learning.md: columns)")
-    g.add_argument("--synthetic", type=int, metavar="N", default=0,
-                   help="generate N force samples per source with the mock world's BioTac model")
+    g.add_argument(
+        "--data", nargs="+", metavar="FILE", default=[], help="dataset CSV/Parquet file(s) (docs/learning.md: columns)"
+    )
+    g.add_argument(
+        "--synthetic",
+        type=int,
+        metavar="N",
+        default=0,
+        help="generate N force samples per source with the mock world's BioTac model",
+    )
     p.add_argument("--seed", type=int, default=0, help="data generation, split and initialisation seed")
-    p.add_argument("--tare-frames", type=int, default=10,
-                   help="raw signals: each trial starts with at least this many contact-free rows labelled 0 0 0, "
-                        "whose mean is its tare baseline")
-    p.add_argument("--skip-bad-rows", action="store_true", help="leave bad rows out (each is reported) instead of failing")
+    p.add_argument(
+        "--tare-frames",
+        type=int,
+        default=10,
+        help="raw signals: each trial starts with at least this many contact-free rows labelled 0 0 0, "
+        "whose mean is its tare baseline",
+    )
+    p.add_argument(
+        "--skip-bad-rows", action="store_true", help="leave bad rows out (each is reported) instead of failing"
+    )
     p.add_argument("--test-per-source", type=int, default=1500, help="test samples per source (paper: 1500)")
 
 
@@ -28,8 +40,13 @@ def data_spec(args: argparse.Namespace):
         raise UsageError("give either --data FILE ... or --synthetic N")
     if args.synthetic < 0:
         raise UsageError(f"--synthetic: a positive number of samples (got {args.synthetic})")
-    return DataSpec(files=args.data, synthetic_per_source=args.synthetic, seed=args.seed,
-                    tare_frames=args.tare_frames, skip_bad=args.skip_bad_rows)
+    return DataSpec(
+        files=args.data,
+        synthetic_per_source=args.synthetic,
+        seed=args.seed,
+        tare_frames=args.tare_frames,
+        skip_bad=args.skip_bad_rows,
+    )
 
 
 def require_torch() -> None:

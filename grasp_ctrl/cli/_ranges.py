@@ -16,37 +16,63 @@ from grasp_ctrl.numbers import float_type, int_type
 SEED = (0, 2**63 - 1)
 THREADS = (1, 1024)
 FRAMES = (1, 1_000_000)
-COUNTS = 4095.0   # a BioTac channel's largest count
+COUNTS = 4095.0  # a BioTac channel's largest count
 
 # command -> flag -> (lo, hi) or (lo, hi, lo_open) for floats
 RANGES: dict[str, dict[str, tuple]] = {
     "plot": {"--fps": (0.0, 100.0, True), "--frames": (1, 10_000)},
     "calibrate": {"--ridge": (0.0, 1e6), "--tare-frames": FRAMES, "--min-pdc": (0.0, COUNTS), "--threads": THREADS},
-    "evaluate-direction": {"--tare-frames": FRAMES, "--threshold": (0.0, COUNTS), "--frames": FRAMES,
-                           "--min-pdc": (0.0, COUNTS), "--threads": THREADS},
-    "pushing-gt": {"--particles": (1, 100_000), "--k": (0.0, 1e6, True), "--window-s": (0.0, 3600.0, True),
-                   "--speed-threshold": (0.0, 100.0)},
-    "sensors": {"--baud": (9600, 12_000_000), "--seconds": (0.0, 1e6, True), "--refresh": (0.0, 3600.0, True),
-                "--emulate-corrupt": (0.0, 1.0)},
-    "train": {"--beta": (0.0, 1e6), "--epochs": (1, 1_000_000), "--batch-size": (1, 10_000_000),
-              "--lr": (0.0, 10.0, True), "--patience": (1, 1_000_000), "--threads": THREADS, "--jobs": (1, 1024),
-              "--synthetic": (0, 100_000_000), "--seed": SEED, "--tare-frames": FRAMES,
-              "--test-per-source": (0, 100_000_000)},
-    "synth": {"--seed": SEED},   # --n: synth says it itself
+    "evaluate-direction": {
+        "--tare-frames": FRAMES,
+        "--threshold": (0.0, COUNTS),
+        "--frames": FRAMES,
+        "--min-pdc": (0.0, COUNTS),
+        "--threads": THREADS,
+    },
+    "pushing-gt": {
+        "--particles": (1, 100_000),
+        "--k": (0.0, 1e6, True),
+        "--window-s": (0.0, 3600.0, True),
+        "--speed-threshold": (0.0, 100.0),
+    },
+    "sensors": {
+        "--baud": (9600, 12_000_000),
+        "--seconds": (0.0, 1e6, True),
+        "--refresh": (0.0, 3600.0, True),
+        "--emulate-corrupt": (0.0, 1.0),
+    },
+    "train": {
+        "--beta": (0.0, 1e6),
+        "--epochs": (1, 1_000_000),
+        "--batch-size": (1, 10_000_000),
+        "--lr": (0.0, 10.0, True),
+        "--patience": (1, 1_000_000),
+        "--threads": THREADS,
+        "--jobs": (1, 1024),
+        "--synthetic": (0, 100_000_000),
+        "--seed": SEED,
+        "--tare-frames": FRAMES,
+        "--test-per-source": (0, 100_000_000),
+    },
+    "synth": {"--seed": SEED},  # --n: synth says it itself
     "hand-check": {"--baud": (9600, 4_500_000), "--step": (0.0, 3.2, True)},
     "lift-capacity": {"--min-margin": (0.0, 1000.0, True)},
     "biotac-anchors": {"--n": (1, 10_000_000), "--seed": SEED},
     "fit-mock-policies": {"--samples": (1, 100_000_000), "--seed": SEED},
     "convert-icra19": {"--tol": (0.0, 1.0, True), "--seed": SEED},
     "view": {"--seed": SEED},
-    "evaluate": {"--synthetic": (0, 100_000_000), "--seed": SEED, "--tare-frames": FRAMES,
-                 "--test-per-source": (0, 100_000_000)},
+    "evaluate": {
+        "--synthetic": (0, 100_000_000),
+        "--seed": SEED,
+        "--tare-frames": FRAMES,
+        "--test-per-source": (0, 100_000_000),
+    },
 }
 
 
 def apply_ranges(command: str, parser: argparse.ArgumentParser) -> None:
     limits = RANGES.get(command, {})
-    for action in parser._actions:   # argparse has no public way to walk a parser's flags
+    for action in parser._actions:  # argparse has no public way to walk a parser's flags
         flag = next((s for s in action.option_strings if s.startswith("--")), None)
         if flag in limits:
             lo, hi, *rest = limits[flag]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+
 from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "bench"

@@ -17,7 +17,9 @@ ORDER = 3
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("run_dir", metavar="RUN_DIR", help="a directory written by 'run'")
-    p.add_argument("--png", default=None, metavar="FILE", help="where to save the bar chart (default RUN_DIR/compare.png)")
+    p.add_argument(
+        "--png", default=None, metavar="FILE", help="where to save the bar chart (default RUN_DIR/compare.png)"
+    )
     p.add_argument("--no-plot", action="store_true", help="print the table only")
     p.add_argument("--title", default=None, help="chart title")
 
@@ -26,13 +28,12 @@ def run(args: argparse.Namespace) -> int:
     import importlib.util
     import sys
 
+    from grasp_ctrl.safe_write import IMAGE_FORMATS, check_output
     from grasp_ctrl.trials.analysis.compare import fig6_table, format_paired, ordered_names, paired_counts
     from grasp_ctrl.trials.runs.scoring import report_problems, score_run
 
-    from grasp_ctrl.safe_write import IMAGE_FORMATS, check_output
-
     run_dir = Path(args.run_dir)
-    if not args.no_plot:   # before any work: a bad --png is one line, and never a run's own file
+    if not args.no_plot:  # before any work: a bad --png is one line, and never a run's own file
         check_output(args.png or run_dir / "compare.png", "--png", run_dirs=[run_dir], formats=IMAGE_FORMATS)
     scored = score_run(run_dir)
     report_problems(scored)

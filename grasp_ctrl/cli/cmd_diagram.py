@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+
 from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "diagram"
@@ -29,7 +30,6 @@ def run(args: argparse.Namespace) -> int:
         return 0
     text = mermaid()
     if args.out:
-
         write_output(check_output(args.out, "--out"), text + "\n")
     else:
         print(text)

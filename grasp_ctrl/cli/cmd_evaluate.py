@@ -19,11 +19,19 @@ ORDER = 71
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("model", nargs="+", metavar="MODEL",
-                   help="a .pt checkpoint, a policy name, or a policy .onnx/.json file (several: compared)")
+    p.add_argument(
+        "model",
+        nargs="+",
+        metavar="MODEL",
+        help="a .pt checkpoint, a policy name, or a policy .onnx/.json file (several: compared)",
+    )
     add_data_arguments(p)
-    p.add_argument("--split", choices=("test", "all"), default="test",
-                   help="test: the trial-wise test split (same seed as training); all: every sample")
+    p.add_argument(
+        "--split",
+        choices=("test", "all"),
+        default="test",
+        help="test: the trial-wise test split (same seed as training); all: every sample",
+    )
     p.add_argument("--json", metavar="FILE", help="write the metrics as JSON")
     p.add_argument("--plot", metavar="FILE.png", help="box plots of angle and magnitude error (plot extra)")
     p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
@@ -44,24 +52,31 @@ def _predict(spec: str, tared: np.ndarray, bar: Any = None) -> np.ndarray:
         except (OSError, ValueError) as exc:
             raise UsageError(f"{path}: {exc}") from None
         n = len(tared)
-        ds = Dataset(np.zeros(n, str), np.zeros(n, str), np.zeros(n), tared, np.ones((n, 3)), np.zeros(n, bool),
-                     np.repeat(np.eye(3)[None], n, axis=0))
+        ds = Dataset(
+            np.zeros(n, str),
+            np.zeros(n, str),
+            np.zeros(n),
+            tared,
+            np.ones((n, 3)),
+            np.zeros(n, bool),
+            np.repeat(np.eye(3)[None], n, axis=0),
+        )
         out = predict_data(model, TensorData(ds))[0]
         if bar is not None:
             bar.update(n)
         return out
-    from grasp_ctrl.estimators.registry import load_policy, read_metadata, resolve_policy_path
     from grasp_ctrl.estimators.feature_onnx_estimator import FEATURE_KINDS, load_feature_onnx_policy
+    from grasp_ctrl.estimators.registry import load_policy, read_metadata, resolve_policy_path
 
     json_path = resolve_policy_path(spec)
     meta = read_metadata(json_path)
     if meta["kind"] == "onnx" and (meta.get("input") or {}).get("kind") in FEATURE_KINDS:
         est = load_feature_onnx_policy(meta, json_path, None, 1)
     else:
-        est = load_policy(str(json_path))      # the controller's own estimator for this policy
+        est = load_policy(str(json_path))  # the controller's own estimator for this policy
     out = []
     for i in range(0, len(tared), 4096):
-        chunk = tared[i:i + 4096]
+        chunk = tared[i : i + 4096]
         out.append(est.estimate(chunk, [""] * len(chunk)).f_sensor)
         if bar is not None:
             bar.update(len(chunk))
@@ -94,7 +109,6 @@ def run(args: argparse.Namespace) -> int:
             cells = " ".join(f"{s[m]['median']:8.3f} [{s[m]['q1']:6.2f},{s[m]['q3']:6.2f}]" for m in METRICS)
             print(f"  {src:16s} {cells}")
     if args.json:
-
         write_output(check_output(args.json, "--json"), json.dumps(doc, indent=2) + "\n")
     if args.plot:
         from grasp_ctrl.learning.plots import box_plots

@@ -25,18 +25,29 @@ DEFAULT_ESTIMATORS = "policy:icra19_official,analytic,surface-normal"
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data", required=True, help="robotic_finger_tidy.csv (../shared/data/robotic_finger/)")
-    p.add_argument("--skip-bad-rows", action="store_true",
-                   help="plate-normal recordings: leave out rows that are short, not numbers, out of range or "
-                        "with a non-unit normal (counted on stderr) instead of stopping at the first")
-    p.add_argument("--estimators", default=DEFAULT_ESTIMATORS,
-                   help=f"comma-separated list (default: {DEFAULT_ESTIMATORS})")
-    p.add_argument("--trials", default="paper",
-                   help="'paper' (the two long trials, default) or comma-separated trial ids (at least two)")
+    p.add_argument(
+        "--skip-bad-rows",
+        action="store_true",
+        help="plate-normal recordings: leave out rows that are short, not numbers, out of range or "
+        "with a non-unit normal (counted on stderr) instead of stopping at the first",
+    )
+    p.add_argument(
+        "--estimators", default=DEFAULT_ESTIMATORS, help=f"comma-separated list (default: {DEFAULT_ESTIMATORS})"
+    )
+    p.add_argument(
+        "--trials",
+        default="paper",
+        help="'paper' (the two long trials, default) or comma-separated trial ids (at least two)",
+    )
     p.add_argument("--tare-frames", type=int, default=50, help="frames at the start of a trial used as baseline")
     p.add_argument("--threshold", type=float, default=10.0, help="contact gate: tared pdc above this (counts)")
     p.add_argument("--frames", type=int, default=10, help="contact gate: for this many consecutive frames")
-    p.add_argument("--min-pdc", type=float, default=0.0,
-                   help="also require tared pdc >= this (drops post-release drift frames; default 0)")
+    p.add_argument(
+        "--min-pdc",
+        type=float,
+        default=0.0,
+        help="also require tared pdc >= this (drops post-release drift frames; default 0)",
+    )
     p.add_argument("--threads", type=int, default=1, help="onnxruntime threads")
     p.add_argument("--json", metavar="FILE", help="also write the results as JSON")
 
@@ -94,8 +105,10 @@ def run(args: argparse.Namespace) -> int:
             all_results.append(r)
             pc = r.percentiles
             extra = f"  gains {['%.3g' % g for g in r.gains]}" if r.gains else ""
-            print(f"{name:{w}s} {r.train + ' -> ' + r.test:44s} {r.n_test:7d} {pc[50]:7.1f} {pc[75]:7.1f} {pc[90]:7.1f}"
-                  f"  label sign {r.label_sign:+.0f}{extra}")
+            print(
+                f"{name:{w}s} {r.train + ' -> ' + r.test:44s} {r.n_test:7d} {pc[50]:7.1f} {pc[75]:7.1f} {pc[90]:7.1f}"
+                f"  label sign {r.label_sign:+.0f}{extra}"
+            )
         n, pc = pooled_percentiles(results)
         pooled[name] = {"n_test": n, "median_deg": pc[50], "p75_deg": pc[75], "p90_deg": pc[90]}
         label = f"pooled, {len(results)} folds" if len(results) != 2 else "pooled, both folds"
@@ -103,12 +116,27 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         doc = {
             "data": str(args.data),
-            "gate": {"tare_frames": args.tare_frames, "threshold": args.threshold, "frames": args.frames,
-                     "min_pdc": args.min_pdc},
-            "results": [{"estimator": r.estimator, "train": r.train, "test": r.test, "n_train": r.n_train,
-                         "n_test": r.n_test, "median_deg": r.percentiles[50], "p75_deg": r.percentiles[75],
-                         "p90_deg": r.percentiles[90], "label_sign": r.label_sign, "gains": r.gains}
-                        for r in all_results],
+            "gate": {
+                "tare_frames": args.tare_frames,
+                "threshold": args.threshold,
+                "frames": args.frames,
+                "min_pdc": args.min_pdc,
+            },
+            "results": [
+                {
+                    "estimator": r.estimator,
+                    "train": r.train,
+                    "test": r.test,
+                    "n_train": r.n_train,
+                    "n_test": r.n_test,
+                    "median_deg": r.percentiles[50],
+                    "p75_deg": r.percentiles[75],
+                    "p90_deg": r.percentiles[90],
+                    "label_sign": r.label_sign,
+                    "gains": r.gains,
+                }
+                for r in all_results
+            ],
             "pooled": pooled,
         }
 

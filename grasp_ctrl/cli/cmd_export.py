@@ -20,8 +20,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--name", required=True, help="policy name: writes NAME.onnx and NAME.json")
     p.add_argument("--out-dir", metavar="DIR", help="default: the policies/ folder")
     p.add_argument("--force", action="store_true", help="overwrite an existing policy of that name")
-    p.add_argument("--description", metavar="TEXT",
-                   help="the metadata's description (default: the architecture, and the start point if fine-tuned)")
+    p.add_argument(
+        "--description",
+        metavar="TEXT",
+        help="the metadata's description (default: the architecture, and the start point if fine-tuned)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -56,5 +59,3 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"{src}: {exc}") from None
     print(f"wrote {onnx_path} and {json_path} (ONNX vs torch: max difference {parity:.2e} relative to max(1 N, |f|))")
     return 0
-
-

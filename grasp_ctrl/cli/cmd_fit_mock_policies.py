@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "fit-mock-policies"
@@ -29,10 +30,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
     p.add_argument("--samples", type=int, default=20000, help="simulated presses (default 20000)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--linear-presses", choices=("pad", "mixed"), default="pad",
-                   help="linear policy's training presses: pad (pad centre, the shipped fit) or mixed "
-                        "(as many again anywhere on the skin where grasp contacts land; docs/mujoco.md)")
-    p.add_argument("--out-dir", default=str(policies_dir()), help="directory for analytic_mock.json, linear_mock.json and mlp_mock.json")
+    p.add_argument(
+        "--linear-presses",
+        choices=("pad", "mixed"),
+        default="pad",
+        help="linear policy's training presses: pad (pad centre, the shipped fit) or mixed "
+        "(as many again anywhere on the skin where grasp contacts land; docs/mujoco.md)",
+    )
+    p.add_argument(
+        "--out-dir",
+        default=str(policies_dir()),
+        help="directory for analytic_mock.json, linear_mock.json and mlp_mock.json",
+    )
 
 
 def _metrics(pred: np.ndarray, f: np.ndarray) -> dict[str, float]:
@@ -54,8 +63,12 @@ def _common(name: str, kind: str, description: str, n_train: int, seed: int) -> 
         "description": description,
         "input": {"kind": "tared_frame", "channels": 44, "tare": "raw - baseline (pressed electrodes negative)"},
         "preprocessing": {"contact_gate": "tared pdc > threshold for N frames (hand config)"},
-        "output": {"quantity": "f_sensor", "units": "N", "frame": "sensor",
-                   "meaning": "force the environment exerts on the sensor skin"},
+        "output": {
+            "quantity": "f_sensor",
+            "units": "N",
+            "frame": "sensor",
+            "meaning": "force the environment exerts on the sensor skin",
+        },
         "has_variance": False,
         "training_data": f"{n_train} simulated pad presses from the mock BioTac model (seed {seed})",
         "provenance": "fitted by `python launch.py fit-mock-policies`",
@@ -80,19 +93,31 @@ def run(args: argparse.Namespace) -> int:
     n_train = args.samples - n_test
 
     gains = fit_gains(tared[train], f[train])
-    analytic = _common("analytic_mock", "analytic",
-                       "Lin et al. (2013) analytic linear model, f = S * sum_i e_i n_i (paper eq. 15)", n_train, args.seed)
+    analytic = _common(
+        "analytic_mock",
+        "analytic",
+        "Lin et al. (2013) analytic linear model, f = S * sum_i e_i n_i (paper eq. 15)",
+        n_train,
+        args.seed,
+    )
     analytic["gains_n_per_count"] = [float(g) for g in gains]
     analytic["metrics"] = _metrics(AnalyticEstimator(gains).estimate(tared[test], []).f_sensor, f[test])
 
-    linear = _common("linear_mock", "linear",
-                     "linear regression on the 19 tared electrodes, f = W e + b (ridge least squares)", n_train, args.seed)
+    linear = _common(
+        "linear_mock",
+        "linear",
+        "linear regression on the 19 tared electrodes, f = W e + b (ridge least squares)",
+        n_train,
+        args.seed,
+    )
     if args.linear_presses == "mixed":
         skin_tared, skin_f = skin_presses(args.samples, args.seed + 1)
         W, b = fit_linear(np.vstack([tared[train], skin_tared[train]]), np.vstack([f[train], skin_f[train]]))
-        linear["training_data"] = (f"{n_train} simulated pad-centre presses and {n_train} presses anywhere a grasp's "
-                                   f"contact lands (pad, sides, tip cap; shear up to the normal force) from the mock "
-                                   f"BioTac model (seeds {args.seed}, {args.seed + 1})")
+        linear["training_data"] = (
+            f"{n_train} simulated pad-centre presses and {n_train} presses anywhere a grasp's "
+            f"contact lands (pad, sides, tip cap; shear up to the normal force) from the mock "
+            f"BioTac model (seeds {args.seed}, {args.seed + 1})"
+        )
         linear["provenance"] = "fitted by `python launch.py fit-mock-policies --linear-presses mixed`"
     else:
         W, b = fit_linear(tared[train], f[train])
@@ -100,8 +125,9 @@ def run(args: argparse.Namespace) -> int:
     linear["bias_n"] = b.tolist()
     linear["metrics"] = _metrics(LinearEstimator(W, b).estimate(tared[test], []).f_sensor, f[test])
     if args.linear_presses == "mixed":
-        linear["metrics_skin_presses"] = _metrics(LinearEstimator(W, b).estimate(skin_tared[test], []).f_sensor,
-                                                  skin_f[test])
+        linear["metrics_skin_presses"] = _metrics(
+            LinearEstimator(W, b).estimate(skin_tared[test], []).f_sensor, skin_f[test]
+        )
 
     metas = [analytic, linear]
     mlp = _fit_mlp(tared[train], f[train], args.samples, args.seed, n_train, n_test)
@@ -111,16 +137,19 @@ def run(args: argparse.Namespace) -> int:
         path = out_dir / f"{meta['name']}.json"
         write_output(path, json.dumps(meta, indent=2) + "\n")
         m = meta["metrics"]
-        print(f"{meta['name']}: median angle {m['median_angle_deg']} deg, "
-              f"median magnitude error {m['median_magnitude_error_n']} N -> {path}")
+        print(
+            f"{meta['name']}: median angle {m['median_angle_deg']} deg, "
+            f"median magnitude error {m['median_magnitude_error_n']} N -> {path}"
+        )
     return 0
 
 
-MLP_CHANNELS = list(range(20))   # the 19 tared electrodes and the tared pdc (tactile/layout.py)
+MLP_CHANNELS = list(range(20))  # the 19 tared electrodes and the tared pdc (tactile/layout.py)
 
 
-def _fit_mlp(pad_tared: np.ndarray, pad_f: np.ndarray, samples: int, seed: int, n_train: int,
-             n_test: int) -> dict[str, Any] | None:
+def _fit_mlp(
+    pad_tared: np.ndarray, pad_f: np.ndarray, samples: int, seed: int, n_train: int, n_test: int
+) -> dict[str, Any] | None:
     """``mlp_mock``, or None (with a note) where torch is not installed. The first ``n_test``
     skin presses are held out, as many as the pad presses' test split."""
     import sys
@@ -136,11 +165,14 @@ def _fit_mlp(pad_tared: np.ndarray, pad_f: np.ndarray, samples: int, seed: int, 
     skin_tared, skin_f = skin_presses(2 * samples, seed + 2)
     x = np.vstack([pad_tared, skin_tared[n_test:]])[:, MLP_CHANNELS]
     labels = np.vstack([pad_f, skin_f[n_test:]])
-    meta = _common("mlp_mock", "mlp", "a small MLP (20-64-64-3, tanh) on the 19 tared electrodes and the tared pdc",
-                   n_train, seed)
-    meta["training_data"] = (f"{n_train} simulated pad-centre presses and {len(skin_f) - n_test} presses anywhere a "
-                             f"grasp's contact lands (pad, sides, tip cap; shear up to the normal force) from the mock "
-                             f"BioTac model (seeds {seed}, {seed + 2})")
+    meta = _common(
+        "mlp_mock", "mlp", "a small MLP (20-64-64-3, tanh) on the 19 tared electrodes and the tared pdc", n_train, seed
+    )
+    meta["training_data"] = (
+        f"{n_train} simulated pad-centre presses and {len(skin_f) - n_test} presses anywhere a "
+        f"grasp's contact lands (pad, sides, tip cap; shear up to the normal force) from the mock "
+        f"BioTac model (seeds {seed}, {seed + 2})"
+    )
     meta["input_channels"] = MLP_CHANNELS
     meta.update(fit_mlp(x, labels, seed=seed))
     est = MlpEstimator(MLP_CHANNELS, meta["input_mean"], meta["input_scale"], meta["layers"])

@@ -6,7 +6,7 @@ import argparse
 import time
 
 NAME = "hand-check"
-HOT_MARGIN_C = 5   # flag a servo this close to its Temperature Limit (it shuts down there)
+HOT_MARGIN_C = 5  # flag a servo this close to its Temperature Limit (it shuts down there)
 HELP = "ping every servo of a Dynamixel hand, print its state, optionally move each joint a little"
 DESCRIPTION = (
     "Pings every configured servo (reports missing ids and model mismatches by joint name), reads "
@@ -24,7 +24,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from grasp_ctrl.paths import default_hand_file
 
     p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE", help="hand config TOML")
-    p.add_argument("--port", default=None, metavar="PORT", help="serial port (default: [dynamixel] port of the hand file)")
+    p.add_argument(
+        "--port", default=None, metavar="PORT", help="serial port (default: [dynamixel] port of the hand file)"
+    )
     p.add_argument("--baud", type=int, default=None, help="baud rate (default: the hand file's)")
     p.add_argument("--move", action="store_true", help="move each joint by --step and back (torque on!)")
     p.add_argument("--step", type=float, default=0.1, metavar="RAD", help="test motion per joint (default 0.1 rad)")
@@ -55,20 +57,24 @@ def run(args: argparse.Namespace) -> int:
 
         print(f"hand-check: {hand.name} ({len(dxl.ids)} servos) on {bus.port_name} at {hand.dynamixel.baud} baud")
         print(f"  {set_low_latency(bus.port_name, hand.dynamixel.latency_timer_ms)}")
-        print(f"  {'joint':14s} {'id':>3s}  {'model':14s} {'hw_error':18s} {'temp_C':>6s} {'input_V':>7s} "
-              f"{'q_rad':>8s} {'counts':>7s} {'dq_rad_s':>8s} {'current_A':>9s}  status")
+        print(
+            f"  {'joint':14s} {'id':>3s}  {'model':14s} {'hw_error':18s} {'temp_C':>6s} {'input_V':>7s} "
+            f"{'q_rad':>8s} {'counts':>7s} {'dq_rad_s':>8s} {'current_A':>9s}  status"
+        )
         answered = 0
         for k, j in enumerate(dxl.joints):
             model, why = bus.ping(j.servo_id)
             if model is None:
                 problems.append(f"{j.name} (id {j.servo_id}): no reply")
-                print(f"  {j.name:14s} {j.servo_id:3d}  {'-':14s} {'-':18s} {'':>6s} {'':>7s} {'':>8s} {'':>7s} {'':>8s} {'':>9s}  MISSING ({why})")
+                print(
+                    f"  {j.name:14s} {j.servo_id:3d}  {'-':14s} {'-':18s} {'':>6s} {'':>7s} {'':>8s} {'':>7s} {'':>8s} {'':>9s}  MISSING ({why})"
+                )
                 continue
             answered += 1
             found = ct.model_by_number(model)
             model_name = found.name if found else f"model {model}"
-            status: list[str] = []   # shown in the table
-            bad: list[str] = []      # also counted as problems
+            status: list[str] = []  # shown in the table
+            bad: list[str] = []  # also counted as problems
             if dxl.model is not None and model != dxl.model.model_number:
                 bad.append(f"MODEL MISMATCH (expected {dxl.model.name})")
             hw = bus.read(j.servo_id, ct.ADDR_HARDWARE_ERROR_STATUS, 1)
@@ -79,7 +85,9 @@ def run(args: argparse.Namespace) -> int:
                 hw = bus.read(j.servo_id, ct.ADDR_HARDWARE_ERROR_STATUS, 1)
             hw_text = f"{','.join(ct.hardware_error_names(hw))} (0x{hw:02x})" if hw else "-"
             if hw:
-                bad.append(f"HARDWARE ERROR {','.join(ct.hardware_error_names(hw))} (status 0x{hw:02x}; run with --recover)")
+                bad.append(
+                    f"HARDWARE ERROR {','.join(ct.hardware_error_names(hw))} (status 0x{hw:02x}; run with --recover)"
+                )
             temp_c, volts, supply_problems = _thermal_and_supply(bus, j.servo_id)
             bad += supply_problems
             counts = bus.read(j.servo_id, ct.ADDR_PRESENT_POSITION, 4, signed=True)
@@ -87,8 +95,11 @@ def run(args: argparse.Namespace) -> int:
             cur = bus.read(j.servo_id, ct.ADDR_PRESENT_CURRENT, 2, signed=True)
             sel = slice(k, k + 1)
             cal = dataclasses.replace(
-                dxl.cal, offset_rad=dxl.cal.offset_rad[sel], sign=dxl.cal.sign[sel],
-                lower_rad=dxl.cal.lower_rad[sel], upper_rad=dxl.cal.upper_rad[sel],
+                dxl.cal,
+                offset_rad=dxl.cal.offset_rad[sel],
+                sign=dxl.cal.sign[sel],
+                lower_rad=dxl.cal.lower_rad[sel],
+                upper_rad=dxl.cal.upper_rad[sel],
             )
             q = float(cal.to_rad(np.array([counts]))[0])
             dq = float(cal.velocity_to_rad_s(np.array([vel]))[0])
@@ -97,9 +108,13 @@ def run(args: argparse.Namespace) -> int:
                 bad.append(f"OUTSIDE LIMITS [{j.lower_rad}, {j.upper_rad}] (check offset/sign)")
             problems.extend(f"{j.name} (id {j.servo_id}): {s}" for s in bad)
             status = bad + status
-            print(f"  {j.name:14s} {j.servo_id:3d}  {model_name:14s} {hw_text:18s} {temp_c:6d} {volts:7.1f} "
-                  f"{q:8.3f} {counts:7d} {dq:8.3f} {amps:9.3f}  {'; '.join(status) or 'ok'}")
-        print(f"  {answered}/{len(dxl.ids)} servos answered; bus: {bus.stats.comm_errors} communication errors, {bus.stats.retries} retries")
+            print(
+                f"  {j.name:14s} {j.servo_id:3d}  {model_name:14s} {hw_text:18s} {temp_c:6d} {volts:7.1f} "
+                f"{q:8.3f} {counts:7d} {dq:8.3f} {amps:9.3f}  {'; '.join(status) or 'ok'}"
+            )
+        print(
+            f"  {answered}/{len(dxl.ids)} servos answered; bus: {bus.stats.comm_errors} communication errors, {bus.stats.retries} retries"
+        )
     finally:
         bus.close()
 

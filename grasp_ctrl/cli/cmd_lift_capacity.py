@@ -26,15 +26,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE", help="hand config TOML")
     p.add_argument("--objects-file", default=str(default_objects_file()), metavar="FILE", help="object profiles TOML")
     p.add_argument("--objects", nargs="+", metavar="NAME", help="objects to check (default: the file's default_set)")
-    p.add_argument("--min-margin", type=float, default=1.0, metavar="X",
-                   help="exit 1 when a liftable weight is below X times the object's weight (default 1.0)")
+    p.add_argument(
+        "--min-margin",
+        type=float,
+        default=1.0,
+        metavar="X",
+        help="exit 1 when a liftable weight is below X times the object's weight (default 1.0)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.config.objects import default_set, load_objects
-    from grasp_ctrl.errors import UsageError
     from grasp_ctrl.controller.grasp_capacity import GRAVITY_M_S2, object_capacity
+    from grasp_ctrl.errors import UsageError
 
     if not args.min_margin > 0.0:
         raise UsageError(f"--min-margin: expected a positive number, got {args.min_margin}")
@@ -45,21 +50,26 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         raise UsageError(f"--objects: unknown object(s) {', '.join(unknown)} (known: {', '.join(profiles)})")
     print(f"lift-capacity: {hand.name}, servos at their current limits x 0.5 N m/A")
-    print(f"  {'object':16s} {'weight_N':>8s} {'liftable_N':>10s} {'ratio':>6s}  per pad: normal N / up N / most loaded joint (share of its limit), pad facing off the surface")
+    print(
+        f"  {'object':16s} {'weight_N':>8s} {'liftable_N':>10s} {'ratio':>6s}  per pad: normal N / up N / most loaded joint (share of its limit), pad facing off the surface"
+    )
     short = []
     for name in names:
         obj = profiles[name]
         weight = obj.mass_kg * GRAVITY_M_S2
         try:
             cap, contacts, _ = object_capacity(hand, obj)
-        except ValueError as exc:   # a posture the hand cannot take (e.g. a cap out of reach)
+        except ValueError as exc:  # a posture the hand cannot take (e.g. a cap out of reach)
             print(f"  {name:16s} {weight:8.2f} {'-':>10s} {'-':>6s}  no grasp: {exc}")
             short.append(name)
             continue
         ratio = cap.weight_n / weight
         facing = {c.finger: c.facing_deg for c in contacts}
-        pads = "  ".join(f"{ld.finger} {ld.normal_n:.2f}/{ld.lift_n:.2f}/{ld.joint} ({ld.torque_share:.2f}), "
-                         f"{facing[ld.finger]:.0f} deg" for ld in cap.loads)
+        pads = "  ".join(
+            f"{ld.finger} {ld.normal_n:.2f}/{ld.lift_n:.2f}/{ld.joint} ({ld.torque_share:.2f}), "
+            f"{facing[ld.finger]:.0f} deg"
+            for ld in cap.loads
+        )
         print(f"  {name:16s} {weight:8.2f} {cap.weight_n:10.2f} {ratio:6.2f}  {pads}")
         if ratio < args.min_margin:
             short.append(name)

@@ -23,30 +23,54 @@ ORDER = 4
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("trial", metavar="TRIAL", help="trial_NNN.json or trial_NNN_ticks.parquet")
-    p.add_argument("--out", default=None, metavar="FILE",
-                   help="PNG path (default: trial_NNN.png, or trial_NNN_forces.png with --xyz, beside it)")
+    p.add_argument(
+        "--out",
+        default=None,
+        metavar="FILE",
+        help="PNG path (default: trial_NNN.png, or trial_NNN_forces.png with --xyz, beside it)",
+    )
     p.add_argument("--xyz", action="store_true", help="the estimated force components fx, fy, fz per fingertip instead")
-    p.add_argument("--frame", choices=("sensor", "world"), default="sensor",
-                   help="with --xyz: the force components' frame (default sensor)")
-    p.add_argument("--animate", default=None, metavar="OUT.gif",
-                   help="also write an animated replay: hand pose, object, force arrows per fingertip")
+    p.add_argument(
+        "--frame",
+        choices=("sensor", "world"),
+        default="sensor",
+        help="with --xyz: the force components' frame (default sensor)",
+    )
+    p.add_argument(
+        "--animate",
+        default=None,
+        metavar="OUT.gif",
+        help="also write an animated replay: hand pose, object, force arrows per fingertip",
+    )
     p.add_argument("--fps", type=float, default=12.0, metavar="N", help="replay frames per second (default 12)")
-    p.add_argument("--frames", type=int, default=None, metavar="N",
-                   help="replay: at most N frames, evenly spaced over the trial (default 100)")
-    p.add_argument("--rrd", default=None, metavar="OUT.rrd",
-                   help="write a Rerun recording of the trial (the viz extra): hand links, object pose, "
-                        "estimated and true force arrows, controller states, grips/tau/release series; "
-                        "the PNG is then written only with --out")
-    p.add_argument("--hand", default=None, metavar="FILE",
-                   help="replay: the trial's hand file (default: the one in the run's run.json)")
+    p.add_argument(
+        "--frames",
+        type=int,
+        default=None,
+        metavar="N",
+        help="replay: at most N frames, evenly spaced over the trial (default 100)",
+    )
+    p.add_argument(
+        "--rrd",
+        default=None,
+        metavar="OUT.rrd",
+        help="write a Rerun recording of the trial (the viz extra): hand links, object pose, "
+        "estimated and true force arrows, controller states, grips/tau/release series; "
+        "the PNG is then written only with --out",
+    )
+    p.add_argument(
+        "--hand",
+        default=None,
+        metavar="FILE",
+        help="replay: the trial's hand file (default: the one in the run's run.json)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
+    from grasp_ctrl.safe_write import IMAGE_FORMATS, check_output
     from grasp_ctrl.trials.analysis.plots import force_traces
     from grasp_ctrl.trials.analysis.trial_plot import trial_figure
     from grasp_ctrl.trials.analysis.trial_view import hand_for_replay, load_trial
-
-    from grasp_ctrl.safe_write import IMAGE_FORMATS, check_output
 
     check_output(args.out, "--out", formats=IMAGE_FORMATS)
     check_output(args.animate, "--animate", formats=("gif",))

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 from typing import Any
+
 from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "policies"
@@ -14,8 +15,11 @@ ORDER = 60
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", metavar="FILE", help="also write the metadata of all policies as JSON")
-    p.add_argument("--check", action="store_true",
-                   help="load each policy against the default hand (catches metadata/model mismatches)")
+    p.add_argument(
+        "--check",
+        action="store_true",
+        help="load each policy against the default hand (catches metadata/model mismatches)",
+    )
 
 
 def _summary(meta: dict[str, Any]) -> str:
@@ -64,6 +68,5 @@ def run(args: argparse.Namespace) -> int:
             print(f"{'':28s} {desc}")
     print(f"{'oracle, oracle:scale=K':28s} debugging policies of the mock world (true contact force)")
     if args.json:
-
         write_output(check_output(args.json, "--json"), json.dumps(docs, indent=2) + "\n")
     return status

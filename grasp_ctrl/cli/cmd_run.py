@@ -36,10 +36,20 @@ def auto_jobs(backend: str, trials: int, cpus: int | None = None) -> int:
 
 
 # The flags that define which trials a run holds (run.json stores them).
-PLAN_FLAGS = ("hand", "object_file", "backend", "emulate", "objects", "policy", "trials", "seed", "preset",
-              "no_tick_logs")
-DEFAULT_BACKEND = "mujoco"        # the reference world (docs/mujoco.md)
-EMULATED = "dynamixel-emulated"   # the run's backend with --emulate (= manifest.EMULATED_BACKEND; lazy imports)
+PLAN_FLAGS = (
+    "hand",
+    "object_file",
+    "backend",
+    "emulate",
+    "objects",
+    "policy",
+    "trials",
+    "seed",
+    "preset",
+    "no_tick_logs",
+)
+DEFAULT_BACKEND = "mujoco"  # the reference world (docs/mujoco.md)
+EMULATED = "dynamixel-emulated"  # the run's backend with --emulate (= manifest.EMULATED_BACKEND; lazy imports)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -47,72 +57,129 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from grasp_ctrl.trials.runs.presets import PRESETS
 
     presets = "; ".join(f"{k}: {v.description} ({', '.join(v.policies)})" for k, v in PRESETS.items())
-    p.add_argument("--hand", default=None, metavar="FILE",
-                   help="hand config TOML (default: hand_configs/leap_hand.toml)")
-    p.add_argument("--object-file", default=None, metavar="FILE",
-                   help="object profiles TOML (default: hand_configs/objects.toml)")
-    p.add_argument("--backend", choices=("mock", "mujoco", "dynamixel"), default=None,
-                   help="mujoco (default): the reference world, a MuJoCo scene built from the hand and "
-                        "object files (docs/mujoco.md); mock: the hand-written world, a fast test double whose "
-                        "success rates are not results (docs/results.md); dynamixel: the real hand, the operator "
-                        "labels each trial")
-    p.add_argument("--emulate", action="store_true", default=None,
-                   help="with --backend dynamixel: the servo chain (Protocol 2.0) and the fingertip stream "
-                        "(protocol v1) are emulated on pseudo-terminals with the MuJoCo world's physics behind "
-                        "them, so the whole hardware path runs without hardware; scored from that world")
-    p.add_argument("--yes", action="store_true",
-                   help="answer the pre-flight confirmation (arm at its start pose) with yes, for scripted runs")
-    p.add_argument("--objects", default=None, metavar="a,b|all",
-                   help="objects to run (default: the object file's default_set)")
-    p.add_argument("--policy", nargs="+", action="extend", metavar="NAME|PATH",
-                   help=f"force estimator(s): a name in policies/, a path to a policy .json/.onnx, "
-                        f"or on the mock 'oracle' / 'oracle:scale=K' (default: {DEFAULT_POLICY}); repeatable")
+    p.add_argument(
+        "--hand", default=None, metavar="FILE", help="hand config TOML (default: hand_configs/leap_hand.toml)"
+    )
+    p.add_argument(
+        "--object-file", default=None, metavar="FILE", help="object profiles TOML (default: hand_configs/objects.toml)"
+    )
+    p.add_argument(
+        "--backend",
+        choices=("mock", "mujoco", "dynamixel"),
+        default=None,
+        help="mujoco (default): the reference world, a MuJoCo scene built from the hand and "
+        "object files (docs/mujoco.md); mock: the hand-written world, a fast test double whose "
+        "success rates are not results (docs/results.md); dynamixel: the real hand, the operator "
+        "labels each trial",
+    )
+    p.add_argument(
+        "--emulate",
+        action="store_true",
+        default=None,
+        help="with --backend dynamixel: the servo chain (Protocol 2.0) and the fingertip stream "
+        "(protocol v1) are emulated on pseudo-terminals with the MuJoCo world's physics behind "
+        "them, so the whole hardware path runs without hardware; scored from that world",
+    )
+    p.add_argument(
+        "--yes",
+        action="store_true",
+        help="answer the pre-flight confirmation (arm at its start pose) with yes, for scripted runs",
+    )
+    p.add_argument(
+        "--objects", default=None, metavar="a,b|all", help="objects to run (default: the object file's default_set)"
+    )
+    p.add_argument(
+        "--policy",
+        nargs="+",
+        action="extend",
+        metavar="NAME|PATH",
+        help=f"force estimator(s): a name in policies/, a path to a policy .json/.onnx, "
+        f"or on the mock 'oracle' / 'oracle:scale=K' (default: {DEFAULT_POLICY}); repeatable",
+    )
     p.add_argument("--trials", type=int, default=None, metavar="N", help="trials per object and policy (default 5)")
     p.add_argument("--seed", type=int, default=None, metavar="S", help="base random seed (default 0)")
-    p.add_argument("--preset", default=None, metavar="NAME",
-                   help=f"a named protocol; flags given beside it override it. {presets}")
-    p.add_argument("--out", default=None, metavar="DIR",
-                   help="run directory for logs (default: runs/<date>-<time>-seed<S>)")
-    p.add_argument("--resume", default=None, metavar="RUN_DIR",
-                   help="continue an interrupted run with the parameters in RUN_DIR/run.json")
+    p.add_argument(
+        "--preset", default=None, metavar="NAME", help=f"a named protocol; flags given beside it override it. {presets}"
+    )
+    p.add_argument(
+        "--out", default=None, metavar="DIR", help="run directory for logs (default: runs/<date>-<time>-seed<S>)"
+    )
+    p.add_argument(
+        "--resume",
+        default=None,
+        metavar="RUN_DIR",
+        help="continue an interrupted run with the parameters in RUN_DIR/run.json",
+    )
     p.add_argument("--json", default=None, metavar="FILE", help="also write the run summary JSON here")
-    p.add_argument("--force", action="store_true",
-                   help="with --resume: continue although a policy, hand or object file or run.json's settings "
-                        "changed since the run started (recorded in run.json); on a Dynamixel hand (real or "
-                        "--emulate): run objects the grasp cannot carry at the configured currents and tau "
-                        "(the capacity preflight refuses them otherwise)")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="with --resume: continue although a policy, hand or object file or run.json's settings "
+        "changed since the run started (recorded in run.json); on a Dynamixel hand (real or "
+        "--emulate): run objects the grasp cannot carry at the configured currents and tau "
+        "(the capacity preflight refuses them otherwise)",
+    )
     p.add_argument("--threads", type=int, default=1, metavar="N", help="inference threads per policy (default 1)")
-    p.add_argument("--jobs", type=int, default=None, metavar="N",
-                   help="mock trials run in N processes at once (default: one per CPU core, at most "
-                        f"{MAX_AUTO_JOBS}, for runs of {MIN_TRIALS_PER_JOB * 2}+ trials; else 1); "
-                        "results do not depend on it")
-    p.add_argument("--executor", choices=("local", "ray"), default="local",
-                   help="local: trials in this machine's processes (default); ray: as tasks on Ray (the ray "
-                        "extra), a local instance of --jobs CPUs or the cluster at --address")
-    p.add_argument("--address", default=None, metavar="ADDR",
-                   help="with --executor ray: a running Ray cluster (e.g. 10.0.0.5:6379 or 'auto')")
-    p.add_argument("--record-video", default=None, metavar="DIR",
-                   help="with --backend mujoco: render each trial offscreen to DIR/POLICY-OBJECT-TRIAL.mp4 (.gif "
-                        "without imageio-ffmpeg); needs a GL backend (MUJOCO_GL=egl or osmesa), else says so and "
-                        "runs without video; trials then run one at a time")
-    p.add_argument("--rrd", default=None, metavar="DIR",
-                   help="also write a Rerun recording of every trial, DIR/POLICY/OBJECT/trial_NNN.rrd (the viz extra)")
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=None,
+        metavar="N",
+        help="mock trials run in N processes at once (default: one per CPU core, at most "
+        f"{MAX_AUTO_JOBS}, for runs of {MIN_TRIALS_PER_JOB * 2}+ trials; else 1); "
+        "results do not depend on it",
+    )
+    p.add_argument(
+        "--executor",
+        choices=("local", "ray"),
+        default="local",
+        help="local: trials in this machine's processes (default); ray: as tasks on Ray (the ray "
+        "extra), a local instance of --jobs CPUs or the cluster at --address",
+    )
+    p.add_argument(
+        "--address",
+        default=None,
+        metavar="ADDR",
+        help="with --executor ray: a running Ray cluster (e.g. 10.0.0.5:6379 or 'auto')",
+    )
+    p.add_argument(
+        "--record-video",
+        default=None,
+        metavar="DIR",
+        help="with --backend mujoco: render each trial offscreen to DIR/POLICY-OBJECT-TRIAL.mp4 (.gif "
+        "without imageio-ffmpeg); needs a GL backend (MUJOCO_GL=egl or osmesa), else says so and "
+        "runs without video; trials then run one at a time",
+    )
+    p.add_argument(
+        "--rrd",
+        default=None,
+        metavar="DIR",
+        help="also write a Rerun recording of every trial, DIR/POLICY/OBJECT/trial_NNN.rrd (the viz extra)",
+    )
     p.add_argument("--no-tick-logs", action="store_true", default=None, help="skip the per-tick logs (faster)")
     p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
-    p.add_argument("--port", default=None, metavar="PORT",
-                   help="dynamixel: the servo bus port (default: the hand file's [dynamixel] port)")
-    p.add_argument("--sensor-port", default=None, metavar="PORT",
-                   help="dynamixel: one serial port for all fingertip sensors (default: the hand file's [tactile])")
+    p.add_argument(
+        "--port",
+        default=None,
+        metavar="PORT",
+        help="dynamixel: the servo bus port (default: the hand file's [dynamixel] port)",
+    )
+    p.add_argument(
+        "--sensor-port",
+        default=None,
+        metavar="PORT",
+        help="dynamixel: one serial port for all fingertip sensors (default: the hand file's [tactile])",
+    )
 
 
 def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     """A new run's hand and manifest from the flags (and preset)."""
+    from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.estimators.registry import DEFAULT_POLICY
     from grasp_ctrl.paths import default_hand_file, default_objects_file
     from grasp_ctrl.trials.runs.manifest import MAX_TRIALS, RunManifest, file_sha256
     from grasp_ctrl.trials.runs.presets import get_preset
-    from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.trials.runs.selection import select_objects
 
     preset = get_preset(args.preset) if args.preset else None
@@ -135,20 +202,27 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
             raise UsageError("--emulate: only with --backend dynamixel (it emulates the real hand's links)")
         backend = EMULATED
     manifest = RunManifest(
-        backend=backend, hand=hand.name, seed=args.seed if args.seed is not None else 0,
-        trials=trials, policies=policies, objects=objects, tick_logs=not args.no_tick_logs,
-        hand_file=str(hand_file.resolve()), hand_sha256=file_sha256(hand_file),
-        object_file=str(object_file.resolve()), preset=args.preset,
+        backend=backend,
+        hand=hand.name,
+        seed=args.seed if args.seed is not None else 0,
+        trials=trials,
+        policies=policies,
+        objects=objects,
+        tick_logs=not args.no_tick_logs,
+        hand_file=str(hand_file.resolve()),
+        hand_sha256=file_sha256(hand_file),
+        object_file=str(object_file.resolve()),
+        preset=args.preset,
     )
     return hand, manifest
 
 
 def _resumed(args: argparse.Namespace, run_dir: Path) -> tuple[Any, Any]:
+    from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.paths import default_hand_file
     from grasp_ctrl.trials.runs.fingerprint import check_resume
     from grasp_ctrl.trials.runs.manifest import read_manifest
-    from grasp_ctrl.config.hand import load_hand
 
     given = [f"--{f.replace('_', '-')}" for f in PLAN_FLAGS if getattr(args, f) is not None]
     if given or args.out:
@@ -163,20 +237,22 @@ def _resumed(args: argparse.Namespace, run_dir: Path) -> tuple[Any, Any]:
         raise UsageError(f"--resume: the run's hand file {hand_file} ({run_dir}/run.json: hand_file) is gone")
     hand = load_hand(hand_file)
     if hand.name != manifest.hand:
-        raise UsageError(f"--resume: {hand_file} describes hand {hand.name!r}, the run used {manifest.hand!r} "
-                         f"({run_dir}/run.json: hand)")
-    check_resume(manifest, run_dir / "run.json", args.force)   # no mixed experiments (trials/runs/fingerprint.py)
+        raise UsageError(
+            f"--resume: {hand_file} describes hand {hand.name!r}, the run used {manifest.hand!r} "
+            f"({run_dir}/run.json: hand)"
+        )
+    check_resume(manifest, run_dir / "run.json", args.force)  # no mixed experiments (trials/runs/fingerprint.py)
     return hand, manifest
 
 
 def _hardware_trial_fn(hand: Any, manifest: Any, threads: int, port: str | None, sensor_port: str | None) -> Any:
     """The real-hand trial runner wrapped with the operator's labelling prompt."""
+    from grasp_ctrl.trials.episode.hardware import hardware_trial_fn
     from grasp_ctrl.trials.episode.labelling import OperatorLabeller, labelled
 
-    from grasp_ctrl.trials.episode.hardware import hardware_trial_fn
-
-    trial_fn = hardware_trial_fn(hand, manifest.policies, manifest.settings, threads,
-                                 port=port, sensor_port=sensor_port)
+    trial_fn = hardware_trial_fn(
+        hand, manifest.policies, manifest.settings, threads, port=port, sensor_port=sensor_port
+    )
     return labelled(trial_fn, OperatorLabeller())
 
 
@@ -197,11 +273,11 @@ def _preflight(hand: Any, manifest: Any, args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.errors import Terminated, UsageError
-    from grasp_ctrl.trials.episode.labelling import OperatorQuit
-    from grasp_ctrl.trials.runs.records import load_records
-    from grasp_ctrl.trials.episode.runner import run_series
-    from grasp_ctrl.trials.runs.summary import format_table
     from grasp_ctrl.safe_write import check_output, check_run_tree, write_output
+    from grasp_ctrl.trials.episode.labelling import OperatorQuit
+    from grasp_ctrl.trials.episode.runner import run_series
+    from grasp_ctrl.trials.runs.records import load_records
+    from grasp_ctrl.trials.runs.summary import format_table
 
     if args.threads < 1:
         raise UsageError("--threads: must be at least 1")
@@ -223,18 +299,25 @@ def run(args: argparse.Namespace) -> int:
 
     check_executor(args.executor, args.address)
     if args.executor != "local" and not is_simulated(manifest.backend):
-        raise UsageError("--executor ray: only simulated trials (mujoco, mock); a (real or emulated) hand runs "
-                         "here, one trial at a time")
+        raise UsageError(
+            "--executor ray: only simulated trials (mujoco, mock); a (real or emulated) hand runs "
+            "here, one trial at a time"
+        )
     trial_fn = None
     if args.record_video is not None and manifest.backend != "mujoco":
         raise UsageError("--record-video: only with --backend mujoco")
     from grasp_ctrl.trials.episode.capacity_check import preflight_capacity
     from grasp_ctrl.trials.runs.summary_flags import MOCK_NOTE, flag_summary
 
-    short = preflight_capacity(hand, list(manifest.objects), manifest.settings,
-                               on_hand=manifest.backend in ("dynamixel", EMULATED), force=args.force,
-                               say=lambda text: print(text, file=sys.stderr, flush=True),
-                               source=str(run_dir / "run.json") if args.resume else str(manifest.object_file))
+    short = preflight_capacity(
+        hand,
+        list(manifest.objects),
+        manifest.settings,
+        on_hand=manifest.backend in ("dynamixel", EMULATED),
+        force=args.force,
+        say=lambda text: print(text, file=sys.stderr, flush=True),
+        source=str(run_dir / "run.json") if args.resume else str(manifest.object_file),
+    )
     if manifest.backend in ("dynamixel", EMULATED):
         _preflight(hand, manifest, args)
     if manifest.backend == "dynamixel":
@@ -244,8 +327,15 @@ def run(args: argparse.Namespace) -> int:
         from grasp_ctrl.sim.mujoco_backends import make_world
         from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
-        trial_fn = sim_trial_fn(hand, manifest.policies, manifest.settings, args.threads,
-                                 make_backends=emulated_backends, backend=EMULATED, make_world=make_world)
+        trial_fn = sim_trial_fn(
+            hand,
+            manifest.policies,
+            manifest.settings,
+            args.threads,
+            make_backends=emulated_backends,
+            backend=EMULATED,
+            make_world=make_world,
+        )
     elif manifest.backend == "mujoco" and args.record_video:
         from grasp_ctrl.trials.episode.mujoco_video import video_trial_fn
 
@@ -260,24 +350,39 @@ def run(args: argparse.Namespace) -> int:
         jobs = args.jobs if args.jobs is not None else auto_jobs(manifest.backend, manifest.total)
     try:
         summary = run_series(
-            hand, manifest.objects, manifest.policies, manifest.trials, manifest.seed, run_dir,
+            hand,
+            manifest.objects,
+            manifest.policies,
+            manifest.trials,
+            manifest.seed,
+            run_dir,
             # On the real hand the operator's prompts own the terminal: no progress bar there.
-            settings=manifest.settings, progress=not args.quiet and manifest.backend != "dynamixel",
+            settings=manifest.settings,
+            progress=not args.quiet and manifest.backend != "dynamixel",
             tick_logs=manifest.tick_logs,
-            threads=args.threads, resume=bool(args.resume), manifest=manifest, trial_fn=trial_fn,
-            backend=manifest.backend, jobs=jobs, executor=args.executor, address=args.address,
+            threads=args.threads,
+            resume=bool(args.resume),
+            manifest=manifest,
+            trial_fn=trial_fn,
+            backend=manifest.backend,
+            jobs=jobs,
+            executor=args.executor,
+            address=args.address,
         )
     except (KeyboardInterrupt, OperatorQuit) as exc:
         why = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc)
-        if not (run_dir / "run.json").is_file():   # stopped before the run existed: nothing to resume
+        if not (run_dir / "run.json").is_file():  # stopped before the run existed: nothing to resume
             print(f"{why} before the run started; nothing was recorded", file=sys.stderr)
             return 143 if isinstance(exc, Terminated) else 130
         done = len(load_records(run_dir).records)
-        print(f"{why}: {done} of {manifest.total} trials are recorded in {run_dir}; "
-              f"continue with: grasp-ctrl run --resume {run_dir}", file=sys.stderr)
+        print(
+            f"{why}: {done} of {manifest.total} trials are recorded in {run_dir}; "
+            f"continue with: grasp-ctrl run --resume {run_dir}",
+            file=sys.stderr,
+        )
         return 143 if isinstance(exc, Terminated) else 130
     flagged = flag_summary(summary, short)
-    if flagged != summary:   # short objects, the mock's test-double flag: written into summary.json
+    if flagged != summary:  # short objects, the mock's test-double flag: written into summary.json
         from grasp_ctrl.storage import SUMMARY_FILE, write_json
 
         summary = flagged

@@ -7,8 +7,8 @@ import contextlib
 import signal
 import sys
 import threading
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 NAME = "sensors"
 HELP = "live monitor of the tactile fingertips (serial protocol v1); can record frames to CSV"
@@ -29,17 +29,32 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--mode", choices=("binary", "text"), help="protocol mode (default: the hand file's)")
     p.add_argument("--baud", type=int, metavar="N", help="baud rate (default: the hand file's)")
     p.add_argument("--record", metavar="FILE", help="write every valid frame to this CSV file")
-    p.add_argument("--seconds", type=float, metavar="S", help="stop after S seconds of monitoring (default: until Ctrl-C)")
+    p.add_argument(
+        "--seconds", type=float, metavar="S", help="stop after S seconds of monitoring (default: until Ctrl-C)"
+    )
     p.add_argument("--policy", metavar="NAME", help="force estimator policy (default: the default policy)")
-    p.add_argument("--refresh", type=float, default=0.5, metavar="S", help="seconds between table updates (default 0.5)")
+    p.add_argument(
+        "--refresh", type=float, default=0.5, metavar="S", help="seconds between table updates (default 0.5)"
+    )
     p.add_argument("--no-reconnect", action="store_true", help="do not reopen an unplugged port")
     emu = p.add_argument_group("emulator (no hardware needed)")
-    emu.add_argument("--emulate", action="store_true", help="stream from a built-in sensor-bridge emulator on a pseudo-terminal")
-    emu.add_argument("--skip-bad-rows", action="store_true",
-                     help="with --emulate-from: leave out rows that are short, not numbers or out of range "
-                          "(counted on stderr) instead of stopping at the first")
-    emu.add_argument("--emulate-from", metavar="CSV", help="replay this recording (columns pdc, e1..e19) instead of synthetic presses")
-    emu.add_argument("--emulate-corrupt", type=float, default=0.0, metavar="P", help="probability of a corrupted frame (bit flips)")
+    emu.add_argument(
+        "--emulate", action="store_true", help="stream from a built-in sensor-bridge emulator on a pseudo-terminal"
+    )
+    emu.add_argument(
+        "--skip-bad-rows",
+        action="store_true",
+        help="with --emulate-from: leave out rows that are short, not numbers or out of range "
+        "(counted on stderr) instead of stopping at the first",
+    )
+    emu.add_argument(
+        "--emulate-from",
+        metavar="CSV",
+        help="replay this recording (columns pdc, e1..e19) instead of synthetic presses",
+    )
+    emu.add_argument(
+        "--emulate-corrupt", type=float, default=0.0, metavar="P", help="probability of a corrupted frame (bit flips)"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -95,8 +110,11 @@ def run(args: argparse.Namespace) -> int:
             emulator.start()
         monitor = Monitor(hand, sensors, estimator, recorder, refresh_s=args.refresh, redraw=sys.stdout.isatty())
         tare_timeout = 2.0 + 2.0 * hand.tactile.tare_frames / hand.rate_hz
-        print(f"taring {len(hand.fingers)} fingertips on {', '.join(sensors.port_status())} "
-              f"({hand.tactile.tare_frames} frames, keep them free of contact) ...", flush=True)
+        print(
+            f"taring {len(hand.fingers)} fingertips on {', '.join(sensors.port_status())} "
+            f"({hand.tactile.tare_frames} frames, keep them free of contact) ...",
+            flush=True,
+        )
         with _ctrl_c_sets(monitor.stop):
             monitor.take_tare(tare_timeout)
             monitor.run(args.seconds)
@@ -125,7 +143,10 @@ def _make_emulator(hand, mode: str, recording: str | None, corrupt: float, skip_
         except (OSError, ValueError) as exc:
             raise UsageError(f"--emulate-from {recording}: {exc}") from None
     return TactileBridgeEmulator(
-        [f.sensor_id for f in hand.fingers], source, rate_hz=hand.rate_hz, mode=mode,
+        [f.sensor_id for f in hand.fingers],
+        source,
+        rate_hz=hand.rate_hz,
+        mode=mode,
         faults=FaultConfig(corrupt_prob=corrupt),
     )
 

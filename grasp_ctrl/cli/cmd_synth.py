@@ -22,14 +22,20 @@ ORDER = 69
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--sources", default="mixed",
-                   help="mixed (default), or a comma list of rigid-ft, ball-ft, planar-pushing (always simulated "
-                        "in that order, so a subset holds the same trials as the full set where the order allows)")
+    p.add_argument(
+        "--sources",
+        default="mixed",
+        help="mixed (default), or a comma list of rigid-ft, ball-ft, planar-pushing (always simulated "
+        "in that order, so a subset holds the same trials as the full set where the order allows)",
+    )
     p.add_argument("--n", type=int, required=True, metavar="N", help="at least N force samples per source")
     p.add_argument("--seed", type=int, default=0, help="simulation seed (same as train --synthetic --seed)")
     p.add_argument("--out", required=True, metavar="FILE.csv", help="dataset CSV to write")
-    p.add_argument("--raw", action="store_true",
-                   help="raw signals with each trial's tare rows and whole stream instead of tared samples")
+    p.add_argument(
+        "--raw",
+        action="store_true",
+        help="raw signals with each trial's tare rows and whole stream instead of tared samples",
+    )
     p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
 
 
@@ -63,6 +69,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--out: {out}: cannot write ({exc.strerror or exc})") from None
     per_source = ", ".join(f"{s} {int((samples.source == s).sum())}" for s in sources)
     kind = "raw signals, whole streams" if args.raw else "tared signals, force samples only"
-    print(f"wrote {out}: {n_rows} rows ({kind}), {len(trials)} trials, {len(samples)} force samples "
-          f"({per_source}), seed {args.seed}")
+    print(
+        f"wrote {out}: {n_rows} rows ({kind}), {len(trials)} trials, {len(samples)} force samples "
+        f"({per_source}), seed {args.seed}"
+    )
     return 0

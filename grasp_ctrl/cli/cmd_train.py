@@ -34,21 +34,39 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--lr", type=float, default=1e-4, help="initial learning rate (paper: 1e-4)")
     p.add_argument("--patience", type=int, default=None, help="stop after N epochs without validation improvement")
     p.add_argument("--threads", type=int, default=1, help="torch CPU threads")
-    p.add_argument("--init-from", metavar="POLICY|FILE",
-                   help="fine-tune: start from an exported policy (NAME or .onnx), a .pt checkpoint, or the "
-                        "authors' ICRA 2019 weights (.npz or the converted policy icra19_official, --arch voxel)")
+    p.add_argument(
+        "--init-from",
+        metavar="POLICY|FILE",
+        help="fine-tune: start from an exported policy (NAME or .onnx), a .pt checkpoint, or the "
+        "authors' ICRA 2019 weights (.npz or the converted policy icra19_official, --arch voxel)",
+    )
     p.add_argument("--out", metavar="FILE", help="checkpoint to write (.pt; .json for --arch analytic)")
-    p.add_argument("--experiment", choices=("fig3", "fig4", "fig3+fig4"),
-                   help="run the paper's comparison instead of one model (fig4: the voxel network and its "
-                        "ablations without alpha and without voxels)")
+    p.add_argument(
+        "--experiment",
+        choices=("fig3", "fig4", "fig3+fig4"),
+        help="run the paper's comparison instead of one model (fig4: the voxel network and its "
+        "ablations without alpha and without voxels)",
+    )
     p.add_argument("--out-dir", metavar="DIR", default="runs/fig3", help="experiment output folder")
-    p.add_argument("--executor", choices=("local", "ray"), default="local",
-                   help="with --experiment: ray trains the models as Ray tasks (the ray extra; --threads CPUs each)")
+    p.add_argument(
+        "--executor",
+        choices=("local", "ray"),
+        default="local",
+        help="with --experiment: ray trains the models as Ray tasks (the ray extra; --threads CPUs each)",
+    )
     p.add_argument("--address", default=None, metavar="ADDR", help="with --executor ray: a running Ray cluster")
-    p.add_argument("--jobs", type=int, default=None, metavar="N",
-                   help="with --executor ray and no --address: CPUs of the local Ray instance (default: all)")
-    p.add_argument("--quiet", action="store_true",
-                   help="no progress line (the current model and epoch; shown only on a terminal anyway)")
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=None,
+        metavar="N",
+        help="with --executor ray and no --address: CPUs of the local Ray instance (default: all)",
+    )
+    p.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress line (the current model and epoch; shown only on a terminal anyway)",
+    )
 
 
 def _init_state(spec: str, arch: str):
@@ -80,7 +98,7 @@ def _init_state(spec: str, arch: str):
         from grasp_ctrl.learning.official import is_converted_policy, official_arrays_from_onnx, official_state_dict
 
         try:
-            if is_converted_policy(onnx_path):   # e.g. icra19_official: the authors' weights, read from the graph
+            if is_converted_policy(onnx_path):  # e.g. icra19_official: the authors' weights, read from the graph
                 init_arch, state = "voxel", official_state_dict(official_arrays_from_onnx(onnx_path))
             else:
                 init_arch, state = load_onnx_weights(onnx_path)
@@ -117,13 +135,29 @@ def _train(args: argparse.Namespace, spec: Any, status: Any) -> int:
     progress = status.update
     ds, data_info = load_data(spec, report=status.note)
     split = split_by_trials(ds, seed=args.seed, test_per_source=args.test_per_source)
-    status.note(f"split by trials: {len(split.train)} train, {len(split.val)} validation, {len(split.test)} test samples")
+    status.note(
+        f"split by trials: {len(split.train)} train, {len(split.val)} validation, {len(split.test)} test samples"
+    )
 
     if args.experiment:
         models = experiment_models(args.experiment)
-        doc = run_experiment(ds, split, models, Path(args.out_dir), args.epochs, args.seed, data_info,
-                             threads=args.threads, progress=progress, lr0=args.lr, patience=args.patience,
-                             report=status.note, executor=args.executor, address=args.address, jobs=args.jobs)
+        doc = run_experiment(
+            ds,
+            split,
+            models,
+            Path(args.out_dir),
+            args.epochs,
+            args.seed,
+            data_info,
+            threads=args.threads,
+            progress=progress,
+            lr0=args.lr,
+            patience=args.patience,
+            report=status.note,
+            executor=args.executor,
+            address=args.address,
+            jobs=args.jobs,
+        )
         status.note((Path(args.out_dir) / "results.md").read_text())
         status.note(f"results: {Path(args.out_dir) / 'results.json'}; checkpoints in {args.out_dir}")
         return 0 if doc else 1
@@ -133,22 +167,40 @@ def _train(args: argparse.Namespace, spec: Any, status: Any) -> int:
     init = _init_state(args.init_from, args.arch) if args.init_from else None
     if args.init_from and args.arch == "analytic":
         raise UsageError("--init-from: the analytic model is refitted, not fine-tuned")
-    info = train_one(ds, split, sources, args.arch, beta, args.epochs, args.seed, args.batch_size, args.patience,
-                     init, args.threads, args.lr, progress)
+    info = train_one(
+        ds,
+        split,
+        sources,
+        args.arch,
+        beta,
+        args.epochs,
+        args.seed,
+        args.batch_size,
+        args.patience,
+        init,
+        args.threads,
+        args.lr,
+        progress,
+    )
     if info["n_train"] == 0:
         raise UsageError(f"no training samples for --sources {args.sources}")
-    out = args.out or (f"{args.arch}_{'-'.join(sources) if len(sources) < 3 else 'mixed'}.{'json' if args.arch == 'analytic' else 'pt'}")
+    out = args.out or (
+        f"{args.arch}_{'-'.join(sources) if len(sources) < 3 else 'mixed'}.{'json' if args.arch == 'analytic' else 'pt'}"
+    )
     data = {**data_info, "sources": list(sources), "n_train": info["n_train"]}
     if args.arch == "analytic":
         from grasp_ctrl.learning.export import analytic_policy
 
-        write_output(check_output(out, "--out"), json.dumps(analytic_policy(Path(out).stem, info["gains"], data, info["metrics"]), indent=2) + "\n")
+        write_output(
+            check_output(out, "--out"),
+            json.dumps(analytic_policy(Path(out).stem, info["gains"], data, info["metrics"]), indent=2) + "\n",
+        )
     else:
         from grasp_ctrl.learning.train import save_checkpoint
 
         save_checkpoint(out, info["result"], {"data": data, "metrics": info["metrics"], "init_from": args.init_from})
         status.note(f"best epoch {info['result'].best_epoch}, {info['seconds_per_epoch']:.2f} s per epoch")
-    status.close()   # the table below is printed as it is
+    status.close()  # the table below is printed as it is
     _print_metrics(info["metrics"])
     status.note(f"wrote {out}")
     return 0

@@ -32,41 +32,87 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
     which = p.add_mutually_exclusive_group(required=True)
     which.add_argument("--object", metavar="NAME", help="the object to tune")
-    which.add_argument("--objects", metavar="a,b|all",
-                       help="tune each of these objects (its own study); --write puts every best setting "
-                            "into the one object file")
-    p.add_argument("--param", required=True, action="append", metavar="NAME=LOW:HIGH",
-                   help="a threshold and where to search it: LOW:HIGH a continuous range (LOW:HIGH:log on a "
-                        "log scale), START:STOP:STEP (STOP included), A,B,C or one value a grid; repeat for "
-                        f"several. Tunable: {', '.join(TUNABLE)} (tau and release_threshold also accepted)")
-    p.add_argument("--trials", type=int, default=3, metavar="K",
-                   help="seeded trials per setting, the same seeds for every setting (default 3)")
-    p.add_argument("--budget", type=int, default=None, metavar="N",
-                   help=f"settings in the study (default: the whole grid when every --param is a grid, "
-                        f"else {DEFAULT_BUDGET}); a resumed study runs only those it lacks")
-    p.add_argument("--policy", default=DEFAULT_POLICY, metavar="NAME|PATH", help=f"force estimator (default {DEFAULT_POLICY})")
-    p.add_argument("--seed", type=int, default=0, metavar="S", help="base random seed of the trials and sampler (default 0)")
+    which.add_argument(
+        "--objects",
+        metavar="a,b|all",
+        help="tune each of these objects (its own study); --write puts every best setting into the one object file",
+    )
+    p.add_argument(
+        "--param",
+        required=True,
+        action="append",
+        metavar="NAME=LOW:HIGH",
+        help="a threshold and where to search it: LOW:HIGH a continuous range (LOW:HIGH:log on a "
+        "log scale), START:STOP:STEP (STOP included), A,B,C or one value a grid; repeat for "
+        f"several. Tunable: {', '.join(TUNABLE)} (tau and release_threshold also accepted)",
+    )
+    p.add_argument(
+        "--trials",
+        type=int,
+        default=3,
+        metavar="K",
+        help="seeded trials per setting, the same seeds for every setting (default 3)",
+    )
+    p.add_argument(
+        "--budget",
+        type=int,
+        default=None,
+        metavar="N",
+        help=f"settings in the study (default: the whole grid when every --param is a grid, "
+        f"else {DEFAULT_BUDGET}); a resumed study runs only those it lacks",
+    )
+    p.add_argument(
+        "--policy", default=DEFAULT_POLICY, metavar="NAME|PATH", help=f"force estimator (default {DEFAULT_POLICY})"
+    )
+    p.add_argument(
+        "--seed", type=int, default=0, metavar="S", help="base random seed of the trials and sampler (default 0)"
+    )
     p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE", help="hand config TOML")
     p.add_argument("--object-file", default=str(default_objects_file()), metavar="FILE", help="object profiles TOML")
-    p.add_argument("--backend", choices=("mujoco", "mock", "dynamixel"), default="mujoco",
-                   help="mujoco: the reference world (default; the sim extra); mock: the fast mock world; "
-                        "dynamixel: the real hand, each trial labelled by the operator")
+    p.add_argument(
+        "--backend",
+        choices=("mujoco", "mock", "dynamixel"),
+        default="mujoco",
+        help="mujoco: the reference world (default; the sim extra); mock: the fast mock world; "
+        "dynamixel: the real hand, each trial labelled by the operator",
+    )
     p.add_argument("--port", default=None, metavar="PORT", help="dynamixel: the servo bus port")
     p.add_argument("--sensor-port", default=None, metavar="PORT", help="dynamixel: the fingertip sensors' port")
-    p.add_argument("--storage", default=None, metavar="sqlite:///FILE",
-                   help="keep the study in this database; the same command again continues it")
-    p.add_argument("--study-name", default=None, metavar="NAME",
-                   help="the study's name in --storage (default: tune-OBJECT-<hash of object, policy, backend, "
-                        "seed, trials and params>)")
+    p.add_argument(
+        "--storage",
+        default=None,
+        metavar="sqlite:///FILE",
+        help="keep the study in this database; the same command again continues it",
+    )
+    p.add_argument(
+        "--study-name",
+        default=None,
+        metavar="NAME",
+        help="the study's name in --storage (default: tune-OBJECT-<hash of object, policy, backend, "
+        "seed, trials and params>)",
+    )
     p.add_argument("--no-prune", action="store_true", help="run every setting's trials to the end")
     p.add_argument("--write", action="store_true", help="write the best setting into the object file")
     p.add_argument("--json", default=None, metavar="FILE", help="write the ranked settings as JSON")
-    p.add_argument("--plots", default=None, metavar="DIR",
-                   help="write the study's history and parameter importances as PNG (the plot extra)")
-    p.add_argument("--jobs", type=int, default=1, metavar="N",
-                   help="settings run in N processes at once (default 1; with --executor ray: the local instance's CPUs)")
-    p.add_argument("--executor", choices=("local", "ray"), default="local",
-                   help="ray: the trials as Ray tasks (the ray extra), on a local instance or --address")
+    p.add_argument(
+        "--plots",
+        default=None,
+        metavar="DIR",
+        help="write the study's history and parameter importances as PNG (the plot extra)",
+    )
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=1,
+        metavar="N",
+        help="settings run in N processes at once (default 1; with --executor ray: the local instance's CPUs)",
+    )
+    p.add_argument(
+        "--executor",
+        choices=("local", "ray"),
+        default="local",
+        help="ray: the trials as Ray tasks (the ray extra), on a local instance or --address",
+    )
     p.add_argument("--address", default=None, metavar="ADDR", help="with --executor ray: a running Ray cluster")
     p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
 
@@ -112,9 +158,12 @@ def _executor(args: argparse.Namespace, hand: Any, trial_fn: Any) -> Any:
         from grasp_ctrl.trials.episode.hardware import hardware_trial_fn
         from grasp_ctrl.trials.episode.labelling import OperatorLabeller, labelled
 
-        return SerialExecutor(labelled(
-            hardware_trial_fn(hand, [args.policy], None, 1, port=args.port, sensor_port=args.sensor_port),
-            OperatorLabeller()))
+        return SerialExecutor(
+            labelled(
+                hardware_trial_fn(hand, [args.policy], None, 1, port=args.port, sensor_port=args.sensor_port),
+                OperatorLabeller(),
+            )
+        )
     if args.executor == "ray":
         return RayExecutor(args.address, args.jobs if args.jobs > 1 else None, hand, args.policy, args.backend)
     if args.jobs > 1:
@@ -127,14 +176,14 @@ def run(args: argparse.Namespace) -> int:
 
     _check_args(args)
     require_optuna()
-    if args.backend == "mujoco":   # the sim extra, before any study is opened
+    if args.backend == "mujoco":  # the sim extra, before any study is opened
         from grasp_ctrl.sim.mujoco_world import _mujoco
 
         _mujoco()
     from grasp_ctrl.config.checks import check_objects_for_hand
     from grasp_ctrl.config.hand import load_hand
-    from grasp_ctrl.trials.tuning.search_space import corner_settings, grid_size, parse_params
     from grasp_ctrl.trials.runs.selection import select_objects
+    from grasp_ctrl.trials.tuning.search_space import corner_settings, grid_size, parse_params
     from grasp_ctrl.trials.tuning.study import StudyPlan
     from grasp_ctrl.trials.tuning.study_defaults import DEFAULT_BUDGET
     from grasp_ctrl.trials.tuning.tune import apply_setting
@@ -154,10 +203,23 @@ def run(args: argparse.Namespace) -> int:
 
         raise UsageError("--study-name: one object only (each object has its own study)")
     budget = args.budget or (grid_size(params) or DEFAULT_BUDGET)
-    plans = [StudyPlan(obj, params, args.trials, args.seed, args.policy, args.backend, budget, args.storage,
-                       args.study_name, prune=not args.no_prune) for obj in objects]
+    plans = [
+        StudyPlan(
+            obj,
+            params,
+            args.trials,
+            args.seed,
+            args.policy,
+            args.backend,
+            budget,
+            args.storage,
+            args.study_name,
+            prune=not args.no_prune,
+        )
+        for obj in objects
+    ]
     trial_fn = None
-    if args.backend != "dynamixel":   # the policy and world load here, so a bad one fails before any study
+    if args.backend != "dynamixel":  # the policy and world load here, so a bad one fails before any study
         from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
         trial_fn = sim_trial_fn(hand, [args.policy], backend=args.backend)
@@ -199,8 +261,14 @@ def _tune_one(plan: Any, args: argparse.Namespace, hand: Any, trial_fn: Any) -> 
             progress.close()
             from grasp_ctrl.trials.tuning.study import finished_settings
 
-            kept = (f"{len(finished_settings(study))} of {plan.budget} settings are kept in {plan.storage}; "
-                    f"run the same command again to continue") if plan.storage else "nothing is kept without --storage"
+            kept = (
+                (
+                    f"{len(finished_settings(study))} of {plan.budget} settings are kept in {plan.storage}; "
+                    f"run the same command again to continue"
+                )
+                if plan.storage
+                else "nothing is kept without --storage"
+            )
             print(f"interrupted: {plan.obj.name}: {kept}", file=sys.stderr)
             return None
         finally:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+
 from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "view"
@@ -21,9 +22,12 @@ ORDER = 40
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backend", choices=("mujoco",), default="mujoco", help="the world to show (only mujoco)")
     p.add_argument("--object", required=True, metavar="NAME", help="an object of the object file")
-    p.add_argument("--hand", default=None, metavar="FILE", help="hand config TOML (default: hand_configs/leap_hand.toml)")
-    p.add_argument("--object-file", default=None, metavar="FILE",
-                   help="object profiles TOML (default: hand_configs/objects.toml)")
+    p.add_argument(
+        "--hand", default=None, metavar="FILE", help="hand config TOML (default: hand_configs/leap_hand.toml)"
+    )
+    p.add_argument(
+        "--object-file", default=None, metavar="FILE", help="object profiles TOML (default: hand_configs/objects.toml)"
+    )
     p.add_argument("--seed", type=int, default=0, metavar="S", help="draws the placement jitter (default 0)")
     p.add_argument("--save-xml", default=None, metavar="FILE", help="write the scene's MJCF here (no display needed)")
 
@@ -51,9 +55,12 @@ def run(args: argparse.Namespace) -> int:
         print(f"scene: {args.save_xml}")
     if not has_display():
         if not args.save_xml:
-            print("view: no display (DISPLAY is not set), so MuJoCo's viewer cannot open here; run it on a machine "
-                  "with a screen, or write the scene with --save-xml FILE and open it with "
-                  "'python -m mujoco.viewer --mjcf FILE'", file=sys.stderr)
+            print(
+                "view: no display (DISPLAY is not set), so MuJoCo's viewer cannot open here; run it on a machine "
+                "with a screen, or write the scene with --save-xml FILE and open it with "
+                "'python -m mujoco.viewer --mjcf FILE'",
+                file=sys.stderr,
+            )
             return 2
         return 0
     import mujoco.viewer

@@ -6,7 +6,7 @@ so they run before a run starts (``run``, ``tune``, ``run --resume``).
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
@@ -20,9 +20,15 @@ def check_objects_for_hand(objects: Sequence[ObjectProfile], hand: HandConfig, s
     for obj in objects:
         key = f"objects.{obj.name}."
         if obj.tau_n >= limit:
-            raise ConfigError(source, key + "tau_n",
-                              f"a grip target below safety.max_fingertip_force_n = {limit:g} N of hand "
-                              f"{hand.name!r} (got {obj.tau_n:g} N: every grasp would end as overforce)")
+            raise ConfigError(
+                source,
+                key + "tau_n",
+                f"a grip target below safety.max_fingertip_force_n = {limit:g} N of hand "
+                f"{hand.name!r} (got {obj.tau_n:g} N: every grasp would end as overforce)",
+            )
         if obj.cap is not None and obj.cap.finger not in grasping:
-            raise ConfigError(source, key + "cap.finger",
-                              f"a grasping finger of hand {hand.name!r} ({', '.join(grasping)}; got {obj.cap.finger!r})")
+            raise ConfigError(
+                source,
+                key + "cap.finger",
+                f"a grasping finger of hand {hand.name!r} ({', '.join(grasping)}; got {obj.cap.finger!r})",
+            )

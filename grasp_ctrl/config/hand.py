@@ -10,46 +10,46 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from grasp_ctrl.config.servos import MODELS as SERVO_MODELS
-from grasp_ctrl.tactile.layout import LAYOUTS, SensorLayout, layout_for
 from grasp_ctrl.config.toml_reader import Table, read_toml
+from grasp_ctrl.tactile.layout import LAYOUTS, SensorLayout, layout_for
 
 SAFE_ACTIONS = ("hold", "open", "torque_off")
 ARM_KINDS = ("mock", "dynamixel", "external")
 SERIAL_MODES = ("binary", "text")
-DXL_MAX_BAUD = 4_500_000        # the fastest rate of the Dynamixel X series' bus
-DXL_MAX_PROFILE = 32_767        # Profile Velocity / Acceleration registers (velocity-based profile)
-SERIAL_MAX_BAUD = 12_000_000    # a full-speed USB serial bridge's fastest rate
-MAX_OFFSET_M = 10.0             # any position or offset in the file, per component
-MAX_ANGLE_RAD = 10.0            # any roll, pitch or yaw
+DXL_MAX_BAUD = 4_500_000  # the fastest rate of the Dynamixel X series' bus
+DXL_MAX_PROFILE = 32_767  # Profile Velocity / Acceleration registers (velocity-based profile)
+SERIAL_MAX_BAUD = 12_000_000  # a full-speed USB serial bridge's fastest rate
+MAX_OFFSET_M = 10.0  # any position or offset in the file, per component
+MAX_ANGLE_RAD = 10.0  # any roll, pitch or yaw
 
 
 @dataclass(frozen=True)
 class JointConfig:
     name: str
     servo_id: int
-    axis: tuple[float, float, float]          # unit, in the parent link frame
-    origin_xyz: tuple[float, float, float]    # m, parent link -> joint
-    origin_rpy: tuple[float, float, float]    # rad
+    axis: tuple[float, float, float]  # unit, in the parent link frame
+    origin_xyz: tuple[float, float, float]  # m, parent link -> joint
+    origin_rpy: tuple[float, float, float]  # rad
     lower_rad: float
     upper_rad: float
-    open_rad: float                           # safe open posture
-    pregrasp_rad: float                       # posture used when reaching
-    offset_rad: float = 0.0                   # servo zero -> joint zero
-    sign: int = 1                             # servo direction
+    open_rad: float  # safe open posture
+    pregrasp_rad: float  # posture used when reaching
+    offset_rad: float = 0.0  # servo zero -> joint zero
+    sign: int = 1  # servo direction
     current_limit_a: float = 1.0
-    gain_scale: float = 1.0                   # x the [dynamixel] position gains (LEAP API: 0.75 on abduction)
+    gain_scale: float = 1.0  # x the [dynamixel] position gains (LEAP API: 0.75 on abduction)
 
 
 @dataclass(frozen=True)
 class FingerConfig:
     name: str
-    sensor_id: int                            # finger number on the tactile link
-    grasp: bool                               # takes part in the grasp
-    task_vector_hand: tuple[float, float, float]   # unit closing direction, hand frame
+    sensor_id: int  # finger number on the tactile link
+    grasp: bool  # takes part in the grasp
+    task_vector_hand: tuple[float, float, float]  # unit closing direction, hand frame
     base_xyz: tuple[float, float, float]
     base_rpy: tuple[float, float, float]
     joints: tuple[JointConfig, ...]
-    tip_xyz: tuple[float, float, float]       # last link -> sensor frame
+    tip_xyz: tuple[float, float, float]  # last link -> sensor frame
     tip_rpy: tuple[float, float, float]
 
 
@@ -62,16 +62,16 @@ class DynamixelConfig:
     retries: int = 2
     profile_velocity: int = 0
     profile_acceleration: int = 0
-    fast_sync_read: bool = True               # fall back to plain Sync Read if unsupported
-    latency_timer_ms: int = 1                 # USB serial latency timer set on connect
-    position_p_gain: int | None = None        # None: keep the servo's value
+    fast_sync_read: bool = True  # fall back to plain Sync Read if unsupported
+    latency_timer_ms: int = 1  # USB serial latency timer set on connect
+    position_p_gain: int | None = None  # None: keep the servo's value
     position_i_gain: int | None = None
     position_d_gain: int | None = None
 
 
 @dataclass(frozen=True)
 class TactileConfig:
-    sensor_type: str = "biotac"               # one of tactile/layout.py's LAYOUTS
+    sensor_type: str = "biotac"  # one of tactile/layout.py's LAYOUTS
     port: str = "/dev/ttyACM0"
     baud: int = 1_000_000
     mode: str = "binary"
@@ -81,7 +81,7 @@ class TactileConfig:
     tare_frames: int = 50
     # Optional per-finger ports (finger name -> port); fingers not listed use ``port``.
     ports: tuple[tuple[str, str], ...] = ()
-    reconnect: bool = True                    # reopen an unplugged port when it comes back
+    reconnect: bool = True  # reopen an unplugged port when it comes back
 
     def port_for(self, finger_name: str) -> str:
         return dict(self.ports).get(finger_name, self.port)
@@ -108,8 +108,8 @@ class ArmConfig:
     base_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
     tool_xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
     tool_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    line_xy: tuple[float, float] | None = None   # vertical line; None: where the palm is at connect
-    tolerance_m: float = 0.002                    # IK accuracy / "arrived" distance
+    line_xy: tuple[float, float] | None = None  # vertical line; None: where the palm is at connect
+    tolerance_m: float = 0.002  # IK accuracy / "arrived" distance
     # kind = "external": ask for a confirmation every time the target moved this far
     confirm_step_m: float = 0.02
 
@@ -168,10 +168,23 @@ class HandConfig:
 
 
 def _joint(t: Table) -> JointConfig:
-    t.unknown_keys({
-        "name", "servo_id", "axis", "origin_xyz", "origin_rpy", "lower_rad", "upper_rad",
-        "open_rad", "pregrasp_rad", "offset_rad", "sign", "current_limit_a", "gain_scale",
-    })
+    t.unknown_keys(
+        {
+            "name",
+            "servo_id",
+            "axis",
+            "origin_xyz",
+            "origin_rpy",
+            "lower_rad",
+            "upper_rad",
+            "open_rad",
+            "pregrasp_rad",
+            "offset_rad",
+            "sign",
+            "current_limit_a",
+            "gain_scale",
+        }
+    )
     lower = t.float("lower_rad", lo=-6.3, hi=6.3)
     upper = t.float("upper_rad", lo=-6.3, hi=6.3)
     if upper <= lower:
@@ -198,10 +211,19 @@ def _joint(t: Table) -> JointConfig:
 
 
 def _finger(t: Table) -> FingerConfig:
-    t.unknown_keys({
-        "name", "sensor_id", "grasp", "task_vector_hand", "base_xyz", "base_rpy", "joints",
-        "tip_xyz", "tip_rpy",
-    })
+    t.unknown_keys(
+        {
+            "name",
+            "sensor_id",
+            "grasp",
+            "task_vector_hand",
+            "base_xyz",
+            "base_rpy",
+            "joints",
+            "tip_xyz",
+            "tip_rpy",
+        }
+    )
     joints = tuple(_joint(j) for j in t.tables("joints", min_len=1))
     return FingerConfig(
         name=t.str("name"),
@@ -238,10 +260,22 @@ def load_hand(path: str | Path) -> HandConfig:
         raise root.fail("fingers", "at least one finger with grasp = true")
 
     d = root.table("dynamixel", {})
-    d.unknown_keys({
-        "port", "baud", "model", "packet_timeout_ms", "retries", "profile_velocity", "profile_acceleration",
-        "fast_sync_read", "latency_timer_ms", "position_p_gain", "position_i_gain", "position_d_gain",
-    })
+    d.unknown_keys(
+        {
+            "port",
+            "baud",
+            "model",
+            "packet_timeout_ms",
+            "retries",
+            "profile_velocity",
+            "profile_acceleration",
+            "fast_sync_read",
+            "latency_timer_ms",
+            "position_p_gain",
+            "position_i_gain",
+            "position_d_gain",
+        }
+    )
     dynamixel = DynamixelConfig(
         port=d.str("port", DynamixelConfig.port),
         baud=d.int("baud", DynamixelConfig.baud, lo=9600, hi=DXL_MAX_BAUD),
@@ -258,10 +292,20 @@ def load_hand(path: str | Path) -> HandConfig:
     )
 
     s = root.table("tactile", {})
-    s.unknown_keys({
-        "sensor_type", "port", "ports", "baud", "mode", "stale_after_s", "contact_pdc_threshold",
-        "contact_frames", "tare_frames", "reconnect",
-    })
+    s.unknown_keys(
+        {
+            "sensor_type",
+            "port",
+            "ports",
+            "baud",
+            "mode",
+            "stale_after_s",
+            "contact_pdc_threshold",
+            "contact_frames",
+            "tare_frames",
+            "reconnect",
+        }
+    )
     port_table = s.table("ports", {})
     ports = []
     for finger_name in port_table.data:
@@ -282,10 +326,26 @@ def load_hand(path: str | Path) -> HandConfig:
     )
 
     a = root.table("arm", {})
-    a.unknown_keys({
-        "kind", "max_speed_m_s", "lift_height_m", "z_min_m", "z_max_m", "port", "baud", "model", "joints",
-        "base_xyz", "base_rpy", "tool_xyz", "tool_rpy", "line_xy", "tolerance_m", "confirm_step_m",
-    })
+    a.unknown_keys(
+        {
+            "kind",
+            "max_speed_m_s",
+            "lift_height_m",
+            "z_min_m",
+            "z_max_m",
+            "port",
+            "baud",
+            "model",
+            "joints",
+            "base_xyz",
+            "base_rpy",
+            "tool_xyz",
+            "tool_rpy",
+            "line_xy",
+            "tolerance_m",
+            "confirm_step_m",
+        }
+    )
     arm_joints = tuple(_joint(j) for j in a.tables("joints"))
     arm = ArmConfig(
         kind=a.str("kind", "mock", choices=ARM_KINDS),

@@ -18,33 +18,34 @@ from grasp_ctrl.names import SAFE_NAME_RULE, is_safe_name
 GRIP_TARGET_MODES = ("equal", "force_closure")
 
 SHAPES = ("cylinder", "box")
-MIN_MASS_KG = 0.001   # 1 g: lighter bodies make MuJoCo's inertias degenerate
+MIN_MASS_KG = 0.001  # 1 g: lighter bodies make MuJoCo's inertias degenerate
 
 
 @dataclass(frozen=True)
 class CapProfile:
     """A domed cap on the body's top (the mustard bottle's) and the finger placed on it."""
-    diameter_m: float               # base of the dome
-    height_m: float                 # above the body's top
-    offset_m: tuple[float, float]   # dome centre from the footprint centre (x, y)
-    finger: str                     # this fingertip grasps the cap (a non-flat contact)
-    contact_height_m: float         # its contact height above the table
+
+    diameter_m: float  # base of the dome
+    height_m: float  # above the body's top
+    offset_m: tuple[float, float]  # dome centre from the footprint centre (x, y)
+    finger: str  # this fingertip grasps the cap (a non-flat contact)
+    contact_height_m: float  # its contact height above the table
 
 
 @dataclass(frozen=True)
 class ObjectProfile:
     name: str
-    shape: str                      # cylinder | box (footprint on the table)
-    size_m: tuple[float, float]     # cylinder: (diameter, diameter); box: (x, y) footprint
+    shape: str  # cylinder | box (footprint on the table)
+    size_m: tuple[float, float]  # cylinder: (diameter, diameter); box: (x, y) footprint
     height_m: float
     mass_kg: float
-    mu: float                       # fingertip-object friction coefficient
-    stiffness_n_per_m: float        # contact stiffness (skin + object surface)
+    mu: float  # fingertip-object friction coefficient
+    stiffness_n_per_m: float  # contact stiffness (skin + object surface)
     deformable: bool
-    crush_force_n: float | None     # grip force that crushes a deformable object
-    grasp_height_m: float           # height of the fingertip contacts above the table
-    tip_force_n: float              # push into the table that knocks it over
-    cap: CapProfile | None = None   # height_m is then the body's, without the cap
+    crush_force_n: float | None  # grip force that crushes a deformable object
+    grasp_height_m: float  # height of the fingertip contacts above the table
+    tip_force_n: float  # push into the table that knocks it over
+    cap: CapProfile | None = None  # height_m is then the body's, without the cap
     # controller thresholds (tunable per object)
     tau_n: float = 2.0
     release_threshold_n: float = 0.3
@@ -57,7 +58,7 @@ class ObjectProfile:
     def half_width_m(self) -> float:
         return 0.5 * self.size_m[0]
 
-    def with_params(self, **params: Any) -> "ObjectProfile":
+    def with_params(self, **params: Any) -> ObjectProfile:
         return replace(self, **params)
 
 
@@ -65,10 +66,24 @@ TUNABLE = ("tau_n", "release_threshold_n", "release_debounce", "lift_height_m", 
 
 
 def _object(name: str, t: Table) -> ObjectProfile:
-    t.unknown_keys({
-        "shape", "diameter_m", "size_m", "height_m", "mass_kg", "mu", "stiffness_n_per_m",
-        "deformable", "crush_force_n", "grasp_height_m", "tip_force_n", "cap", "grip_targets", *TUNABLE,
-    })
+    t.unknown_keys(
+        {
+            "shape",
+            "diameter_m",
+            "size_m",
+            "height_m",
+            "mass_kg",
+            "mu",
+            "stiffness_n_per_m",
+            "deformable",
+            "crush_force_n",
+            "grasp_height_m",
+            "tip_force_n",
+            "cap",
+            "grip_targets",
+            *TUNABLE,
+        }
+    )
     shape = t.str("shape", choices=SHAPES)
     if shape == "cylinder":
         d = t.float("diameter_m", lo=0.005, hi=0.5)

@@ -20,13 +20,13 @@ from grasp_ctrl.errors import UsageError
 class ServoModel:
     name: str
     model_number: int
-    amp_per_current_unit: float          # Present/Goal Current, Current Limit unit
-    max_current_limit: int               # largest Current Limit register value
+    amp_per_current_unit: float  # Present/Goal Current, Current Limit unit
+    max_current_limit: int  # largest Current Limit register value
     has_current_control: bool = True
     stall_torque_nm: float | None = None  # data sheet, at the rated voltage
     stall_current_a: float | None = None
     no_load_speed_rpm: float | None = None
-    pwm_limit: int = 885                 # full PWM duty in register units
+    pwm_limit: int = 885  # full PWM duty in register units
     pulses_per_rev: int = 4096
 
     @property
@@ -38,7 +38,7 @@ class ServoModel:
         """Stall torque / stall current (N m/A): the current-based torque limit's scale."""
         if not self.known_torque:
             raise UsageError(f"servo model {self.name}: no stall torque and current known here")
-        return self.stall_torque_nm / self.stall_current_a   # type: ignore[operator]
+        return self.stall_torque_nm / self.stall_current_a  # type: ignore[operator]
 
     @property
     def no_load_speed_rad_s(self) -> float:
@@ -65,8 +65,9 @@ class ServoModel:
 MODELS: dict[str, ServoModel] = {
     m.name: m
     for m in (
-        ServoModel("XC330-M288-T", 1240, 0.001, 2352, stall_torque_nm=0.93, stall_current_a=1.8,
-                   no_load_speed_rpm=103.0),   # checked against the e-manual table
+        ServoModel(
+            "XC330-M288-T", 1240, 0.001, 2352, stall_torque_nm=0.93, stall_current_a=1.8, no_load_speed_rpm=103.0
+        ),  # checked against the e-manual table
         ServoModel("XC330-M181-T", 1230, 0.001, 1750),
         ServoModel("XC330-T288-T", 1220, 0.001, 1750),
         ServoModel("XC330-T181-T", 1210, 0.001, 1750),

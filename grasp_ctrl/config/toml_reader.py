@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import math
 import tomllib
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 from grasp_ctrl.errors import ConfigError
 
@@ -72,13 +73,13 @@ class Table:
             raise self.fail(name, "required key is missing")
         return default
 
-    def table(self, name: str, default: Any = _MISSING) -> "Table":
+    def table(self, name: str, default: Any = _MISSING) -> Table:
         value = self._get(name, {} if default is not _MISSING else _MISSING)
         if not isinstance(value, dict):
             raise self.fail(name, "a table")
         return Table(self.path, value, f"{self.key(name)}.")
 
-    def tables(self, name: str, min_len: int = 0) -> list["Table"]:
+    def tables(self, name: str, min_len: int = 0) -> list[Table]:
         value = self._get(name, _MISSING if min_len else [])
         if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
             raise self.fail(name, "an array of tables")
@@ -117,15 +118,20 @@ class Table:
     ) -> float:
         value = self._get(name, default)
         if not finite_number(value):
-            span = "" if lo is None and hi is None else f" from {lo if lo is not None else '-inf'} to {hi if hi is not None else 'inf'}"
+            span = (
+                ""
+                if lo is None and hi is None
+                else f" from {lo if lo is not None else '-inf'} to {hi if hi is not None else 'inf'}"
+            )
             raise self.fail(name, f"a finite number{span} (got {_shown(value)})")
         if lo_open and lo is not None and value <= lo:
             raise self.fail(name, f"a number > {lo} (got {value})")
         _check_range(self, name, float(value), lo, hi)
         return float(value)
 
-    def vector(self, name: str, n: int, default: Any = _MISSING, unit: bool = False,
-               bound: float = MAX_VECTOR_COMPONENT) -> tuple[float, ...]:
+    def vector(
+        self, name: str, n: int, default: Any = _MISSING, unit: bool = False, bound: float = MAX_VECTOR_COMPONENT
+    ) -> tuple[float, ...]:
         value = self._get(name, default)
         if not isinstance(value, (list, tuple)) or len(value) != n or not all(finite_number(v) for v in value):
             raise self.fail(name, f"a list of {n} finite numbers")

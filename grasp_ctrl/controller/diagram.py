@@ -17,8 +17,15 @@ from grasp_ctrl.controller.settings import ControllerSettings
 
 # Faults raised outside the guards, from any active state (GraspController.tick, the
 # sensing pipeline, control_tick, the runner; docs/safety.md).
-RUNTIME_FAULTS = ("sensor_stale", "sensor_invalid", "estimate_invalid", "goal_invalid", "hardware_error",
-                  "overforce", "aborted")
+RUNTIME_FAULTS = (
+    "sensor_stale",
+    "sensor_invalid",
+    "estimate_invalid",
+    "goal_invalid",
+    "hardware_error",
+    "overforce",
+    "aborted",
+)
 
 
 def guard_conditions(s: ControllerSettings | None = None) -> dict[str, str]:
@@ -32,16 +39,15 @@ def guard_conditions(s: ControllerSettings | None = None) -> dict[str, str]:
         "all_in_contact": "every grasping tip's contact gate fired",
         "close_timed_out": f"{s.close_timeout_s:g} s in close",
         "ramp_settled": f"grips averaged over {s.ramp_filter_s:g} s: every grip within {s.ramp_tolerance_n:g} N of tau "
-                        f"for {s.ramp_settle_s:g} s, or "
-                        f"balanced: mean within {s.ramp_tolerance_n:g} N, each within {s.ramp_balance_band_n:g} N, "
-                        f"steady for {s.ramp_steady_s:g} s",
+        f"for {s.ramp_settle_s:g} s, or "
+        f"balanced: mean within {s.ramp_tolerance_n:g} N, each within {s.ramp_balance_band_n:g} N, "
+        f"steady for {s.ramp_steady_s:g} s",
         "ramp_timed_out": f"{s.ramp_timeout_s:g} s in ramp",
         "grip_lost": f"a grasping tip without contact or grip below {s.grip_lost_fraction:g} tau "
-                     f"for {s.contact_lost_s:g} s",
+        f"for {s.contact_lost_s:g} s",
         "at_lift_height": "palm at lift_height_m",
         "hold_done": "hold_s elapsed",
-        "release_detected": "index force on the object along +z below -release_threshold_n "
-                            "for release_debounce ticks",
+        "release_detected": "index force on the object along +z below -release_threshold_n for release_debounce ticks",
         "lower_exhausted": f"palm {s.lower_overshoot_m * 1000:g} mm below the grasp height",
         "fingers_open": f"{s.open_s:g} s opening",
         "retreat_done": f"palm {s.retreat_m * 1000:g} mm above the release point",
@@ -90,8 +96,17 @@ def mermaid(settings: ControllerSettings | None = None) -> str:
 # Grid positions (column, row) of the states in the picture: the success path
 # snakes down the left, fault and done on the right.
 _LAYOUT = {
-    "tare": (0, 0), "reach": (0, 1), "close": (0, 2), "ramp": (0, 3), "lift": (0, 4), "hold": (0, 5),
-    "lower": (0, 6), "release": (0, 7), "retreat": (0, 8), "done": (0, 9.2), "fault": (2.2, 4.5),
+    "tare": (0, 0),
+    "reach": (0, 1),
+    "close": (0, 2),
+    "ramp": (0, 3),
+    "lift": (0, 4),
+    "hold": (0, 5),
+    "lower": (0, 6),
+    "release": (0, 7),
+    "retreat": (0, 8),
+    "done": (0, 9.2),
+    "fault": (2.2, 4.5),
 }
 
 
@@ -107,28 +122,61 @@ def draw(path: Path, settings: ControllerSettings | None = None) -> Path:
     ax.axis("off")
     box = {"boxstyle": "round,pad=0.4", "fc": "#eef3fb", "ec": "#4a6fa5"}
     for state, (x, y) in _LAYOUT.items():
-        style = dict(box, fc="#f9d6d5", ec="#b03a2e") if state == "fault" else (
-            dict(box, fc="#d5f5e3", ec="#1e8449") if state == "done" else box)
+        style = (
+            dict(box, fc="#f9d6d5", ec="#b03a2e")
+            if state == "fault"
+            else (dict(box, fc="#d5f5e3", ec="#1e8449") if state == "done" else box)
+        )
         ax.text(x, y, state, ha="center", va="center", fontsize=11, bbox=style, zorder=3)
     for e in all_edges:
         (x0, y0), (x1, y1) = _LAYOUT[e.src], _LAYOUT[e.dst]
         fault = e.dst == "fault"
         colour = "#b03a2e" if fault else "#333333"
-        ax.annotate("", (x1, y1), (x0, y0), zorder=2,
-                    arrowprops={"arrowstyle": "-|>", "color": colour, "lw": 1.0, "shrinkA": 14, "shrinkB": 14,
-                                "connectionstyle": "arc3,rad=0.05" if fault else "arc3"})
+        ax.annotate(
+            "",
+            (x1, y1),
+            (x0, y0),
+            zorder=2,
+            arrowprops={
+                "arrowstyle": "-|>",
+                "color": colour,
+                "lw": 1.0,
+                "shrinkA": 14,
+                "shrinkB": 14,
+                "connectionstyle": "arc3,rad=0.05" if fault else "arc3",
+            },
+        )
         if fault:
             # On the edge, a third of the way along (the two edges out of lower share a line).
             k = 0.55 if e.guard == "lower_exhausted" else 0.33
             tx, ty = x0 + k * (x1 - x0), y0 + k * (y1 - y0)
-            ax.text(tx, ty, f"{e.guard} → {e.reason}", fontsize=7.5, color=colour, ha="center", va="center",
-                    bbox={"fc": "white", "ec": "none", "alpha": 0.85, "pad": 0.5}, zorder=4)
+            ax.text(
+                tx,
+                ty,
+                f"{e.guard} → {e.reason}",
+                fontsize=7.5,
+                color=colour,
+                ha="center",
+                va="center",
+                bbox={"fc": "white", "ec": "none", "alpha": 0.85, "pad": 0.5},
+                zorder=4,
+            )
         else:
-            ax.text(x0 + 0.12, (y0 + y1) / 2, f"{e.guard}\n{e.condition}", fontsize=7.5, ha="left", va="center",
-                    zorder=4)
+            ax.text(
+                x0 + 0.12, (y0 + y1) / 2, f"{e.guard}\n{e.condition}", fontsize=7.5, ha="left", va="center", zorder=4
+            )
     fx, fy = _LAYOUT["fault"]
-    ax.text(fx, fy + 0.55, "from every active state also:\n" + textwrap.fill(", ".join(RUNTIME_FAULTS), 44)
-            + "\nthen safety.on_fault (open | hold | torque_off)", fontsize=8, ha="center", va="top", color="#b03a2e")
+    ax.text(
+        fx,
+        fy + 0.55,
+        "from every active state also:\n"
+        + textwrap.fill(", ".join(RUNTIME_FAULTS), 44)
+        + "\nthen safety.on_fault (open | hold | torque_off)",
+        fontsize=8,
+        ha="center",
+        va="top",
+        color="#b03a2e",
+    )
     ax.set_title("grasp_ctrl lift-and-place controller", fontsize=12)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -30,7 +30,7 @@ TORQUE_PER_AMP_NM = 0.5
 #: Radius of the pad's contact patch for torsional friction (the MuJoCo scene's).
 TORSION_RADIUS_M = 0.003
 GRAVITY_M_S2 = 9.81
-_FACETS = 8   # sides of the friction pyramid (inscribed in the cone)
+_FACETS = 8  # sides of the friction pyramid (inscribed in the cone)
 
 
 @dataclass(frozen=True)
@@ -40,7 +40,7 @@ class PadContact:
     finger: str
     point_hand: np.ndarray
     normal_hand: np.ndarray
-    facing_deg: float = 0.0   # the pad's normal off the surface's (how squarely the pad meets it)
+    facing_deg: float = 0.0  # the pad's normal off the surface's (how squarely the pad meets it)
 
 
 @dataclass(frozen=True)
@@ -57,7 +57,7 @@ class PadLoad:
 
 @dataclass(frozen=True)
 class Capacity:
-    weight_n: float                  # the largest weight the grasp carries (0: none)
+    weight_n: float  # the largest weight the grasp carries (0: none)
     loads: tuple[PadLoad, ...]
 
     def margin(self, mass_kg: float) -> float:
@@ -65,10 +65,15 @@ class Capacity:
         return self.weight_n / (mass_kg * GRAVITY_M_S2)
 
 
-def liftable_weight(hand: HandConfig, q_all: np.ndarray, contacts: list[PadContact], mu: float,
-                    kin: HandKinematics | None = None,
-                    torque_per_amp_nm: float = TORQUE_PER_AMP_NM,
-                    normal_max_n: dict[str, float] | None = None) -> Capacity:
+def liftable_weight(
+    hand: HandConfig,
+    q_all: np.ndarray,
+    contacts: list[PadContact],
+    mu: float,
+    kin: HandKinematics | None = None,
+    torque_per_amp_nm: float = TORQUE_PER_AMP_NM,
+    normal_max_n: dict[str, float] | None = None,
+) -> Capacity:
     """The largest weight (N) the pads in ``contacts`` carry at joint angles ``q_all`` (hand-file
     order), the object's weight acting on the vertical line through the hand frame's origin.
     ``normal_max_n`` (finger -> N): each listed pad's normal force at most that (its grip target)."""
@@ -76,7 +81,7 @@ def liftable_weight(hand: HandConfig, q_all: np.ndarray, contacts: list[PadConta
 
     kin = kin or HandKinematics(hand)
     z = np.array([0.0, 0.0, 1.0])
-    nv = 4 * len(contacts) + 1           # per pad: normal, tangent up, tangent across, torsion; weight
+    nv = 4 * len(contacts) + 1  # per pad: normal, tangent up, tangent across, torsion; weight
     a_ub: list[np.ndarray] = []
     b_ub: list[float] = []
     balance = np.zeros((6, nv))
@@ -108,7 +113,7 @@ def liftable_weight(hand: HandConfig, q_all: np.ndarray, contacts: list[PadConta
         finger = hand.finger(c.finger)
         _, jac = kin.chains[c.finger].point_and_jacobian(q_all[kin.slices[c.finger]], PAD_POINT_SENSOR)
         limits = np.array([j.current_limit_a * torque_per_amp_nm for j in finger.joints])
-        per_n = np.stack([jac.T @ n, jac.T @ up, jac.T @ across], axis=1)   # joint torque per N
+        per_n = np.stack([jac.T @ n, jac.T @ up, jac.T @ across], axis=1)  # joint torque per N
         for j, tau_max in enumerate(limits):
             row = np.zeros(nv)
             row[cols[:3]] = per_n[j]
@@ -129,7 +134,9 @@ def liftable_weight(hand: HandConfig, q_all: np.ndarray, contacts: list[PadConta
     for c, (cols, per_n, limits, finger) in zip(contacts, frames):
         share = np.abs(per_n @ res.x[cols[:3]]) / limits
         j = int(np.argmax(share))
-        loads.append(PadLoad(c.finger, float(res.x[cols[0]]), float(res.x[cols[1]]), finger.joints[j].name, float(share[j])))
+        loads.append(
+            PadLoad(c.finger, float(res.x[cols[0]]), float(res.x[cols[1]]), finger.joints[j].name, float(share[j]))
+        )
     return Capacity(float(res.x[-1]), tuple(loads))
 
 
@@ -139,8 +146,8 @@ def _cap_contact(obj: ObjectProfile, pad: np.ndarray, top_z_hand: float) -> tupl
     cap = obj.cap
     a, h = 0.5 * cap.diameter_m, cap.height_m
     radius = (a * a + h * h) / (2.0 * h)
-    centre_z = h - radius                        # sphere centre above the body's top
-    z_rel = pad[2] - top_z_hand                  # pad height above the body's top
+    centre_z = h - radius  # sphere centre above the body's top
+    z_rel = pad[2] - top_z_hand  # pad height above the body's top
     ring = math.sqrt(max(radius * radius - (z_rel - centre_z) ** 2, 1e-12))
     dx, dy = pad[0] - cap.offset_m[0], pad[1] - cap.offset_m[1]
     r = math.hypot(dx, dy)
@@ -149,9 +156,14 @@ def _cap_contact(obj: ObjectProfile, pad: np.ndarray, top_z_hand: float) -> tupl
     return r - ring, normal
 
 
-def object_capacity(hand: HandConfig, obj: ObjectProfile, standoff_m: float = 0.01,
-                    step_m: float = 0.0005, kin: HandKinematics | None = None,
-                    normal_max_n: dict[str, float] | None = None) -> tuple[Capacity, list[PadContact], np.ndarray]:
+def object_capacity(
+    hand: HandConfig,
+    obj: ObjectProfile,
+    standoff_m: float = 0.01,
+    step_m: float = 0.0005,
+    kin: HandKinematics | None = None,
+    normal_max_n: dict[str, float] | None = None,
+) -> tuple[Capacity, list[PadContact], np.ndarray]:
     """The grasp of ``obj`` as the controller makes it (preshape, cap finger raised, pads closed
     along their task vectors until they touch), its capacity, the contacts and the posture.
     The hand frame's origin is ``[grasp] palm_above_contact_m`` above the reach height."""
@@ -183,7 +195,7 @@ def object_capacity(hand: HandConfig, obj: ObjectProfile, standoff_m: float = 0.
                 break
             qf = chain.ik_step(qf, v * min(step_m, gap + 1e-5), PAD_POINT_SENSOR)
         else:
-            continue   # the pad does not reach the object: it carries nothing
+            continue  # the pad does not reach the object: it carries nothing
         q[sl] = qf
         rot, origin = chain.fk_rp(qf)
         pad = rot @ PAD_POINT_SENSOR + origin

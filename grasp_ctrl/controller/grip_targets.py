@@ -24,8 +24,15 @@ from grasp_ctrl.config.objects import GRIP_TARGET_MODES  # noqa: F401  (the mode
 GRAVITY_M_S2 = 9.81
 
 
-def grip_targets(task_vectors_hand: np.ndarray, grasping: np.ndarray, tau_n: float, mode: str = "equal",
-                 mass_kg: float = 0.0, mu: float = 1.0, weight_margin: float = 0.0) -> np.ndarray:
+def grip_targets(
+    task_vectors_hand: np.ndarray,
+    grasping: np.ndarray,
+    tau_n: float,
+    mode: str = "equal",
+    mass_kg: float = 0.0,
+    mu: float = 1.0,
+    weight_margin: float = 0.0,
+) -> np.ndarray:
     """One target per fingertip (finger order; non-grasping fingers get tau_n, unused)."""
     if mode not in GRIP_TARGET_MODES:
         raise ValueError(f"grip target mode must be one of {GRIP_TARGET_MODES} (got {mode!r})")
@@ -36,7 +43,7 @@ def grip_targets(task_vectors_hand: np.ndarray, grasping: np.ndarray, tau_n: flo
     if mode == "force_closure" and len(idx) >= 2:
         from scipy.optimize import lsq_linear
 
-        horizontal = vectors[idx, :2].T                       # (2, k): columns v_i,xy
+        horizontal = vectors[idx, :2].T  # (2, k): columns v_i,xy
         # the net horizontal push (minimised) and, lightly weighted, the distance from tau
         # (picks the smallest consistent targets when the cancellation has many solutions)
         a = np.vstack([horizontal, 1e-6 * np.eye(len(idx))])

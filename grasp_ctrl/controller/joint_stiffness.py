@@ -54,14 +54,22 @@ def joint_stiffness(hand: HandConfig) -> JointStiffness:
     """The joints' stiffness from ``[dynamixel] position_p_gain`` x each joint's ``gain_scale``."""
     p_gain = hand.dynamixel.position_p_gain
     if p_gain is None:
-        return JointStiffness(None, f"hand {hand.name!r} sets no [dynamixel] position_p_gain (the servos keep "
-                                    "gains this file does not know)")
+        return JointStiffness(
+            None,
+            f"hand {hand.name!r} sets no [dynamixel] position_p_gain (the servos keep gains this file does not know)",
+        )
     if p_gain <= 0:
-        return JointStiffness(None, f"hand {hand.name!r}: [dynamixel] position_p_gain = {p_gain} (no position stiffness)")
+        return JointStiffness(
+            None, f"hand {hand.name!r}: [dynamixel] position_p_gain = {p_gain} (no position stiffness)"
+        )
     model = servo_model(hand.dynamixel.model)
     if model.stall_torque_nm is None:
-        return JointStiffness(None, f"hand {hand.name!r}: servo model {model.name} has no stall torque in "
-                                    "config/servos.py (its stiffness is unknown)")
+        return JointStiffness(
+            None,
+            f"hand {hand.name!r}: servo model {model.name} has no stall torque in "
+            "config/servos.py (its stiffness is unknown)",
+        )
     kp = np.array([model.kp_nm_per_rad(p_gain) * j.gain_scale for j in hand.joints])
-    return JointStiffness(kp, f"[dynamixel] position_p_gain = {p_gain} x gain_scale: kp "
-                              f"{kp.min():.3g} to {kp.max():.3g} N m/rad")
+    return JointStiffness(
+        kp, f"[dynamixel] position_p_gain = {p_gain} x gain_scale: kp {kp.min():.3g} to {kp.max():.3g} N m/rad"
+    )

@@ -20,18 +20,18 @@ from transitions import Machine
 from grasp_ctrl import jit
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
-from grasp_ctrl.controller.motion import FingertipMotion
-from grasp_ctrl.kinematics.pad_ik import Facing
-from grasp_ctrl.kinematics.preshape import preshape
-from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES, grip_targets
-from grasp_ctrl.vec3 import norm3
-from grasp_ctrl.controller.ramp_settle import RampSettle
 from grasp_ctrl.controller import tick_kernels as tk
+from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES, grip_targets
+from grasp_ctrl.controller.motion import FingertipMotion
+from grasp_ctrl.controller.ramp_settle import RampSettle
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import ConfigError
 from grasp_ctrl.finite import all_finite
 from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.kinematics.pad_ik import Facing
+from grasp_ctrl.kinematics.preshape import preshape
+from grasp_ctrl.vec3 import norm3
 
 STATES = ["tare", "reach", "close", "ramp", "lift", "hold", "lower", "release", "retreat", "done", "fault"]
 ACTIVE = STATES[:-2]
@@ -61,15 +61,28 @@ TRANSITIONS: list[tuple[str, str, str, str | None]] = [
 
 #: The states whose usual tick runs in one compiled call (GraspController._squeeze_state_tick):
 #: the squeeze states, close, release and the arm's moves reach and retreat.
-_SQUEEZE_STATES = {"lift": tk.LIFT, "hold": tk.HOLD, "lower": tk.LOWER, "close": tk.CLOSE, "release": tk.RELEASE,
-                   "reach": tk.REACH, "retreat": tk.RETREAT}
+_SQUEEZE_STATES = {
+    "lift": tk.LIFT,
+    "hold": tk.HOLD,
+    "lower": tk.LOWER,
+    "close": tk.CLOSE,
+    "release": tk.RELEASE,
+    "reach": tk.REACH,
+    "retreat": tk.RETREAT,
+}
 
 
 def _distance(a: np.ndarray, b: np.ndarray) -> float:
-    if (jit.JIT and type(a) is np.ndarray and type(b) is np.ndarray and a.dtype is _FLOAT64 and b.dtype is _FLOAT64
-            and a.shape == b.shape == (3,)):
-        return tk.distance3(a, b)   # the same, compiled
-    return norm3(a - b)   # fixed-order sum: the kernel's bits on any CPU (grasp_ctrl/vec3.py)
+    if (
+        jit.JIT
+        and type(a) is np.ndarray
+        and type(b) is np.ndarray
+        and a.dtype is _FLOAT64
+        and b.dtype is _FLOAT64
+        and a.shape == b.shape == (3,)
+    ):
+        return tk.distance3(a, b)  # the same, compiled
+    return norm3(a - b)  # fixed-order sum: the kernel's bits on any CPU (grasp_ctrl/vec3.py)
 
 
 def build_machine(model: Any, reason_setter: Any = None, machine_cls: type = Machine, **extra: Any) -> Machine:
@@ -136,39 +149,43 @@ class GraspController:
         # Each fingertip's grip target (controller/grip_targets.py); all tau by default.
         # An object's profile may choose its own mode (a heavy box: force_closure, objects.toml).
         if self.s.grip_targets not in GRIP_TARGET_MODES:
-            raise ConfigError("controller settings", "grip_targets",
-                              f"one of {', '.join(GRIP_TARGET_MODES)} (got {self.s.grip_targets!r})")
+            raise ConfigError(
+                "controller settings",
+                "grip_targets",
+                f"one of {', '.join(GRIP_TARGET_MODES)} (got {self.s.grip_targets!r})",
+            )
         mode = obj.grip_targets or self.s.grip_targets
-        self.grip_targets = grip_targets(self.motion.task_vectors, self.grasp_mask, obj.tau_n, mode,
-                                         obj.mass_kg, obj.mu, self.s.grip_weight_margin)
+        self.grip_targets = grip_targets(
+            self.motion.task_vectors, self.grasp_mask, obj.tau_n, mode, obj.mass_kg, obj.mu, self.s.grip_weight_margin
+        )
         self._targets = self.grip_targets.tolist()
         # The compiled kernels take one target for every fingertip: unequal targets run the
         # Python tick (the reference the kernels are checked against).
         self._compiled = self.motion.ik.compiled and all(t == obj.tau_n for t in self._targets)
         self._force_shape = (len(self.names), 3)
         self._tip_shape = (len(self.names),)
-        self._no_palm = np.zeros(3)   # squeeze's palm arguments when the palm stays
+        self._no_palm = np.zeros(3)  # squeeze's palm arguments when the palm stays
         self.release_idx = self.names.index(hand.grasp.release_finger)
         self.reach_pose = np.asarray(reach_pose_world, dtype=float)
         self.reach_q = self._reach_posture()
         self.lift_top = self.reach_pose + np.array([0.0, 0.0, obj.lift_height_m])
         self.lower_limit_z = self.reach_pose[2] - self.s.lower_overshoot_m
-        self.lower_bottom = self.reach_pose.copy()   # where lowering stops at the latest
+        self.lower_bottom = self.reach_pose.copy()  # where lowering stops at the latest
         self.lower_bottom[2] = self.lower_limit_z
         self.palm_target: np.ndarray | None = None
         self._retreat_goal: np.ndarray | None = None
         self.torque_on = True
         self.failure_reason: str | None = None
-        self.failure_detail: str | None = None      # what failed, for the record
+        self.failure_detail: str | None = None  # what failed, for the record
         self.ticks_in_state = 0
         self.release_count = 0
         self.settle_count = 0
         self.ramp_settle = RampSettle(self.s, self.dt)
-        self._lost = np.zeros(len(self.names), dtype=np.int64)   # ticks each fingertip has seemed to slip
+        self._lost = np.zeros(len(self.names), dtype=np.int64)  # ticks each fingertip has seemed to slip
         self.snap: Snapshot | None = None
-        self.history: list[tuple[float, str, str]] = []   # (t, from, to)
+        self.history: list[tuple[float, str, str]] = []  # (t, from, to)
 
-        self._squeeze_cache: dict[int, tuple] = {}   # squeeze_plan's arguments that stay, per squeeze state
+        self._squeeze_cache: dict[int, tuple] = {}  # squeeze_plan's arguments that stay, per squeeze state
         self.machine = build_machine(self, self._reason_setter)
         # The guards of each state's transitions: the machine is triggered only when one
         # holds (guards are pure, so this skips its overhead on the ticks nothing happens).
@@ -208,6 +225,7 @@ class GraspController:
     def _reason_setter(self, reason: str):
         def setter(*_: Any, **__: Any) -> None:
             self.failure_reason = reason
+
         return setter
 
     def _set_reason(self, reason: str, detail: str | None = None) -> None:
@@ -266,7 +284,7 @@ class GraspController:
 
     def grip_lost(self) -> bool:
         dt, limit = self.dt, self.s.contact_lost_s
-        for count, grasping in zip(self.lost_count, self._grasping):   # a plain loop: no generator per tick
+        for count, grasping in zip(self.lost_count, self._grasping):  # a plain loop: no generator per tick
             if grasping and count * dt >= limit:
                 return True
         return False
@@ -312,8 +330,10 @@ class GraspController:
         if self.state == "ramp":
             self.ramp_settle.update(self.grip_targets[self.grasp_mask] - snap.grip_n[self.grasp_mask])
         fraction = self.s.grip_lost_fraction
-        self.lost_count = [count + 1 if not touching or g < fraction * t else 0
-                           for count, touching, g, t in zip(self.lost_count, snap.in_contact.tolist(), grip, targets)]
+        self.lost_count = [
+            count + 1 if not touching or g < fraction * t else 0
+            for count, touching, g, t in zip(self.lost_count, snap.in_contact.tolist(), grip, targets)
+        ]
         below = self.release_force_n(snap) < -self.obj.release_threshold_n
         self.release_count = self.release_count + 1 if below else 0
 
@@ -327,7 +347,7 @@ class GraspController:
         """``tk.FORCE_NOT_FINITE`` or ``tk.OVERFORCE`` (the largest |f_sensor| above ``limit``), or 0."""
         force_sq = self._force_sq(snap)
         if not all(map(math.isfinite, force_sq)) and not all_finite(np.asarray(snap.f_sensor, dtype=float)):
-            return tk.FORCE_NOT_FINITE   # (finite components whose square overflows are overforce)
+            return tk.FORCE_NOT_FINITE  # (finite components whose square overflows are overforce)
         return tk.OVERFORCE if max(force_sq, default=0.0) > limit * limit else 0
 
     def _compiled_checks(self, snap: Snapshot, limit: float) -> int:
@@ -335,15 +355,36 @@ class GraspController:
         for a snapshot of float64 arrays of the usual shapes; -1 (nothing done) otherwise."""
         nd = np.ndarray
         grip, f_sensor, f_world, contact = snap.grip_n, snap.f_sensor, snap.f_world, snap.in_contact
-        if not (self._compiled and type(grip) is nd and type(f_sensor) is nd and type(f_world) is nd
-                and type(contact) is nd and grip.dtype is _FLOAT64 and f_sensor.dtype is _FLOAT64
-                and f_world.dtype is _FLOAT64 and grip.shape == self._tip_shape and contact.shape == self._tip_shape
-                and f_sensor.shape == self._force_shape and f_world.shape == self._force_shape):
+        if not (
+            self._compiled
+            and type(grip) is nd
+            and type(f_sensor) is nd
+            and type(f_world) is nd
+            and type(contact) is nd
+            and grip.dtype is _FLOAT64
+            and f_sensor.dtype is _FLOAT64
+            and f_world.dtype is _FLOAT64
+            and grip.shape == self._tip_shape
+            and contact.shape == self._tip_shape
+            and f_sensor.shape == self._force_shape
+            and f_world.shape == self._force_shape
+        ):
             return -1
         tau = self.tau
-        flags = tk.tick_checks(grip, contact, f_sensor, f_world, self.grasp_mask, tau, self.s.ramp_tolerance_n,
-                               self.s.grip_lost_fraction * tau, self.release_idx, self.obj.release_threshold_n,
-                               limit, self._lost)
+        flags = tk.tick_checks(
+            grip,
+            contact,
+            f_sensor,
+            f_world,
+            self.grasp_mask,
+            tau,
+            self.s.ramp_tolerance_n,
+            self.s.grip_lost_fraction * tau,
+            self.release_idx,
+            self.obj.release_threshold_n,
+            limit,
+            self._lost,
+        )
         self.settle_count = self.settle_count + 1 if flags & tk.WITHIN_TOLERANCE else 0
         if self.state == "ramp":
             self.ramp_settle.update(tau - grip[self.grasp_mask])
@@ -360,12 +401,18 @@ class GraspController:
         stays within a state is made once (``_squeeze_statics``)."""
         state = _SQUEEZE_STATES.get(self.state)
         p = self.palm_target
-        if (state is None or not self._compiled or not self.torque_on or type(p) is not np.ndarray
-                or p.dtype is not _FLOAT64 or p.shape != (3,)):
+        if (
+            state is None
+            or not self._compiled
+            or not self.torque_on
+            or type(p) is not np.ndarray
+            or p.dtype is not _FLOAT64
+            or p.shape != (3,)
+        ):
             return None
         m = self.motion
         if state == tk.REACH and not m.holds_posture(self.reach_q):
-            return None   # (the first reach tick sets its posture: the Python way)
+            return None  # (the first reach tick sets its posture: the Python way)
         goal = self._state_palm_goal(state)
         if goal is None:
             return None
@@ -410,7 +457,7 @@ class GraspController:
         s, tau, obj = self.s, self.tau, self.obj
         if not (type(goal) is np.ndarray and goal.dtype is _FLOAT64 and goal.shape == (3,)):
             return None
-        move = state == tk.LIFT or state == tk.LOWER   # (the squeeze moves the palm too)
+        move = state == tk.LIFT or state == tk.LOWER  # (the squeeze moves the palm too)
         (damping, orient_damping, max_step), before, after = self.motion.squeeze_statics()
         c = np.empty(tk.N_SQUEEZE_CONSTS)
         c[tk.C_TAU], c[tk.C_TOLERANCE], c[tk.C_FLOOR] = tau, s.ramp_tolerance_n, s.grip_lost_fraction * tau
@@ -418,11 +465,15 @@ class GraspController:
         c[tk.C_LIMIT], c[tk.C_STATE], c[tk.C_DT] = self.hand.safety.max_fingertip_force_n, state, self.dt
         c[tk.C_LOST_S], c[tk.C_DEBOUNCE], c[tk.C_HOLD_S] = s.contact_lost_s, obj.release_debounce, obj.hold_s
         c[tk.C_LIFT_TOP_Z], c[tk.C_REACH_TOLERANCE] = self.lift_top[2], s.reach_tolerance_m
-        c[tk.C_LOWER_LIMIT_Z], c[tk.C_GAIN], c[tk.C_MAX_SPEED] = self.lower_limit_z, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s
+        c[tk.C_LOWER_LIMIT_Z], c[tk.C_GAIN], c[tk.C_MAX_SPEED] = (
+            self.lower_limit_z,
+            s.hold_gain_m_s_per_n,
+            s.hold_max_speed_m_s,
+        )
         c[tk.C_DAMPING], c[tk.C_ORIENT_DAMPING] = damping, orient_damping
         c[tk.C_MOVE_PALM], c[tk.C_MAX_STEP] = float(move), max_step
         c[tk.C_CLOSE_STEP], c[tk.C_CLOSE_TIMEOUT_S] = s.close_speed_m_s * self.dt, s.close_timeout_s
-        c[tk.C_RELEASE_STEP], c[tk.C_OPEN_S] = -s.release_back_off_m_s * self.dt, s.open_s   # (as _act computes it)
+        c[tk.C_RELEASE_STEP], c[tk.C_OPEN_S] = -s.release_back_off_m_s * self.dt, s.open_s  # (as _act computes it)
         c[tk.C_ARM_STEP], c[tk.C_REACH_TIMEOUT_S] = self.hand.arm.max_speed_m_s * self.dt, s.reach_timeout_s
         return (c, self.grasp_mask, self._lost) + before + (goal,) + after
 
@@ -451,13 +502,27 @@ class GraspController:
         nd = np.ndarray
         grip, f_sensor, f_world, contact, q = snap.grip_n, snap.f_sensor, snap.f_world, snap.in_contact, snap.q
         palm = snap.p_palm_world
-        if not (snap.fault is None and snap.variance is None and type(grip) is nd and type(f_sensor) is nd
-                and type(f_world) is nd and type(contact) is nd and type(q) is nd and type(palm) is nd
-                and grip.dtype is _FLOAT64 and f_sensor.dtype is _FLOAT64 and f_world.dtype is _FLOAT64
-                and q.dtype is _FLOAT64 and palm.dtype is _FLOAT64 and grip.shape == self._tip_shape
-                and contact.shape == self._tip_shape and f_sensor.shape == self._force_shape
-                and f_world.shape == self._force_shape and q.shape == self.motion.q_goal.shape
-                and palm.shape == (3,)):
+        if not (
+            snap.fault is None
+            and snap.variance is None
+            and type(grip) is nd
+            and type(f_sensor) is nd
+            and type(f_world) is nd
+            and type(contact) is nd
+            and type(q) is nd
+            and type(palm) is nd
+            and grip.dtype is _FLOAT64
+            and f_sensor.dtype is _FLOAT64
+            and f_world.dtype is _FLOAT64
+            and q.dtype is _FLOAT64
+            and palm.dtype is _FLOAT64
+            and grip.shape == self._tip_shape
+            and contact.shape == self._tip_shape
+            and f_sensor.shape == self._force_shape
+            and f_world.shape == self._force_shape
+            and q.shape == self.motion.q_goal.shape
+            and palm.shape == (3,)
+        ):
             return None
         plan = self.squeeze_plan(float(palm[2]))
         if plan is None:
@@ -473,18 +538,18 @@ class GraspController:
             self.motion.sync(snap.q)
         if not self.terminal:
             if self.state in _SQUEEZE_STATES:
-                cmd = self._squeeze_state_tick(snap)   # the usual tick of these states, compiled
+                cmd = self._squeeze_state_tick(snap)  # the usual tick of these states, compiled
                 if cmd is not None:
                     return cmd
             self.ticks_in_state += 1
             limit = self.hand.safety.max_fingertip_force_n
             checks = self._compiled_checks(snap, limit)
-            if checks < 0:   # the Python way
+            if checks < 0:  # the Python way
                 self._update_counters(snap)
                 checks = self._force_checks(snap, limit)
             self._decide(snap, checks, limit)
         self._act(snap)
-        return Command(self.motion.next_goal(), self.palm_target.copy(), self.torque_on)   # (positional: cheaper)
+        return Command(self.motion.next_goal(), self.palm_target.copy(), self.torque_on)  # (positional: cheaper)
 
     def _decide(self, snap: Snapshot, checks: int, limit: float) -> None:
         """A fault of the snapshot or of the force checks (``checks``: ``_compiled_checks``' bits),
@@ -494,12 +559,14 @@ class GraspController:
         elif checks & tk.FORCE_NOT_FINITE:
             # never let NaN slip past the over-force comparison (NaN > x is False)
             self.fail(reason="estimate_invalid", detail="non-finite estimated force in the snapshot")
-        elif checks & tk.OVERFORCE:   # all finite here
+        elif checks & tk.OVERFORCE:  # all finite here
             force_sq = self._force_sq(snap)
             i = force_sq.index(max(force_sq))
-            magnitude = math.hypot(*np.asarray(snap.f_sensor, dtype=float)[i])   # no overflow for huge components
-            self.fail(reason="overforce",
-                      detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {magnitude:.4g} N > {limit:g} N")
+            magnitude = math.hypot(*np.asarray(snap.f_sensor, dtype=float)[i])  # no overflow for huge components
+            self.fail(
+                reason="overforce",
+                detail=f"fingertip {self.names[i]!r}: estimated |f_sensor| {magnitude:.4g} N > {limit:g} N",
+            )
         else:
             for guard in self._guards[self.state]:
                 if guard():
@@ -510,7 +577,11 @@ class GraspController:
         """The safe action from the measured pose, discarding the motion state (after a
         command came out non-finite): the goals restart at the measured joint angles."""
         q = np.where(np.isfinite(snap.q), snap.q, self.motion.open_q)
-        last = self.palm_target if self.palm_target is not None and np.all(np.isfinite(self.palm_target)) else self.reach_pose
+        last = (
+            self.palm_target
+            if self.palm_target is not None and np.all(np.isfinite(self.palm_target))
+            else self.reach_pose
+        )
         p = snap.p_palm_world if np.all(np.isfinite(snap.p_palm_world)) else last
         self.motion.sync(q)
         self.palm_target = np.array(p, dtype=float)
@@ -522,36 +593,64 @@ class GraspController:
     def _move_palm_toward(self, target: np.ndarray, speed: float) -> None:
         assert self.palm_target is not None
         p = self.palm_target
-        if (self._compiled and type(p) is np.ndarray and type(target) is np.ndarray and p.dtype is _FLOAT64
-                and target.dtype is _FLOAT64 and p.shape == target.shape == (3,)):
-            tk.move_palm_toward(p, target, speed * self.dt)   # the same, compiled, in place (p is our own)
+        if (
+            self._compiled
+            and type(p) is np.ndarray
+            and type(target) is np.ndarray
+            and p.dtype is _FLOAT64
+            and target.dtype is _FLOAT64
+            and p.shape == target.shape == (3,)
+        ):
+            tk.move_palm_toward(p, target, speed * self.dt)  # the same, compiled, in place (p is our own)
             return
         delta = target - self.palm_target
-        dist = norm3(delta)   # fixed-order sum, as the kernel (grasp_ctrl/vec3.py)
+        dist = norm3(delta)  # fixed-order sum, as the kernel (grasp_ctrl/vec3.py)
         step = speed * self.dt
         self.palm_target = target.copy() if dist <= step else self.palm_target + delta * (step / dist)
 
-    def _squeeze(self, snap: Snapshot, gain: float, max_speed: float, palm_goal: np.ndarray | None = None,
-                 palm_speed: float = 0.0) -> None:
+    def _squeeze(
+        self,
+        snap: Snapshot,
+        gain: float,
+        max_speed: float,
+        palm_goal: np.ndarray | None = None,
+        palm_speed: float = 0.0,
+    ) -> None:
         """Per-finger force control along the closing vectors toward tau; with ``palm_goal``,
         the palm moves toward it at ``palm_speed`` too (``_move_palm_toward``)."""
         tau = self.tau
         grip = snap.grip_n
         q = snap.q
         p = self.palm_target
-        if (self._compiled and not (self.s.low_confidence_slowdown and snap.variance is not None)
-                and type(grip) is np.ndarray and grip.dtype is _FLOAT64 and grip.shape == self._tip_shape
-                and type(q) is np.ndarray and q.dtype is _FLOAT64 and q.shape == self.motion.q_goal.shape
-                and (palm_goal is None or (type(p) is np.ndarray and type(palm_goal) is np.ndarray
-                                           and p.dtype is _FLOAT64 and palm_goal.dtype is _FLOAT64
-                                           and p.shape == palm_goal.shape == (3,)))):
+        if (
+            self._compiled
+            and not (self.s.low_confidence_slowdown and snap.variance is not None)
+            and type(grip) is np.ndarray
+            and grip.dtype is _FLOAT64
+            and grip.shape == self._tip_shape
+            and type(q) is np.ndarray
+            and q.dtype is _FLOAT64
+            and q.shape == self.motion.q_goal.shape
+            and (
+                palm_goal is None
+                or (
+                    type(p) is np.ndarray
+                    and type(palm_goal) is np.ndarray
+                    and p.dtype is _FLOAT64
+                    and palm_goal.dtype is _FLOAT64
+                    and p.shape == palm_goal.shape == (3,)
+                )
+            )
+        ):
             # the same, compiled: one call (the palm in place: palm_target is our own array)
             if palm_goal is None:
-                self.motion.squeeze(grip, self.grasp_mask, tau, gain, max_speed, self.dt, False, self._no_palm,
-                                    self._no_palm, 0.0, q)
+                self.motion.squeeze(
+                    grip, self.grasp_mask, tau, gain, max_speed, self.dt, False, self._no_palm, self._no_palm, 0.0, q
+                )
             else:
-                self.motion.squeeze(grip, self.grasp_mask, tau, gain, max_speed, self.dt, True, p, palm_goal,
-                                    palm_speed * self.dt, q)
+                self.motion.squeeze(
+                    grip, self.grasp_mask, tau, gain, max_speed, self.dt, True, p, palm_goal, palm_speed * self.dt, q
+                )
             return
         self._squeeze_python(snap, gain, max_speed)
         if palm_goal is not None:
@@ -563,8 +662,11 @@ class GraspController:
         if self.s.low_confidence_slowdown and snap.variance is not None:
             speed = (np.array(speed) / (1.0 + np.max(snap.variance, axis=1) / self.s.variance_scale_n2)).tolist()
         dt = self.dt
-        self.motion.squeeze_all(np.array([v * dt if grasping else 0.0 for v, grasping in zip(speed, self._grasping)]),
-                                np.asarray(snap.q, dtype=float), max_speed * dt)
+        self.motion.squeeze_all(
+            np.array([v * dt if grasping else 0.0 for v, grasping in zip(speed, self._grasping)]),
+            np.asarray(snap.q, dtype=float),
+            max_speed * dt,
+        )
 
     def _act(self, snap: Snapshot) -> None:
         state = self.state
@@ -576,8 +678,14 @@ class GraspController:
             self._move_palm_toward(self.reach_pose, self.hand.arm.max_speed_m_s)
         elif state == "close":
             step = s.close_speed_m_s * self.dt
-            self.motion.advance_all(np.array([step if grasping and not touching else 0.0
-                                              for grasping, touching in zip(self._grasping, snap.in_contact.tolist())]))
+            self.motion.advance_all(
+                np.array(
+                    [
+                        step if grasping and not touching else 0.0
+                        for grasping, touching in zip(self._grasping, snap.in_contact.tolist())
+                    ]
+                )
+            )
         elif state == "ramp":
             self._squeeze(snap, s.ramp_gain_m_s_per_n, s.ramp_max_speed_m_s)
         elif state == "hold":
@@ -588,8 +696,13 @@ class GraspController:
             # The object was picked up at the reach pose: near that height the table is
             # close, so slow down and let the release debounce cost little extra push.
             near = snap.p_palm_world[2] - self.reach_pose[2] < s.lower_slow_zone_m
-            self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s, self.lower_bottom,
-                          s.lower_slow_speed_m_s if near else s.lower_speed_m_s)
+            self._squeeze(
+                snap,
+                s.hold_gain_m_s_per_n,
+                s.hold_max_speed_m_s,
+                self.lower_bottom,
+                s.lower_slow_speed_m_s if near else s.lower_speed_m_s,
+            )
         elif state == "release":
             # Back the pads off along their closing vectors: swinging straight to the open
             # posture can sweep a fingertip (the LEAP thumb) into the table beside the object.
@@ -612,7 +725,7 @@ class GraspController:
     def _safe_action(self, snap: Snapshot) -> None:
         action = self.hand.safety.on_fault
         assert self.palm_target is not None
-        self.palm_target = snap.p_palm_world.copy()   # stop the arm where it is
+        self.palm_target = snap.p_palm_world.copy()  # stop the arm where it is
         if action == "open":
             self.motion.set_posture(self.motion.open_q)
         elif action == "torque_off" and self.torque_on:

@@ -55,22 +55,22 @@ class FingertipMotion:
         self.max_step = hand.safety.max_joint_step_rad
         self.names = [f.name for f in hand.fingers]
         self.index = {name: i for i, name in enumerate(self.names)}
-        self.task_vectors = np.array([f.task_vector_hand for f in hand.fingers], dtype=float)   # (F, 3)
-        self.ik = shared_pad_ik(kin)   # pad points are PAD_POINT_SENSOR
-        self.facing: Facing | None = None          # pads kept facing these ways while moving
+        self.task_vectors = np.array([f.task_vector_hand for f in hand.fingers], dtype=float)  # (F, 3)
+        self.ik = shared_pad_ik(kin)  # pad points are PAD_POINT_SENSOR
+        self.facing: Facing | None = None  # pads kept facing these ways while moving
         # The squeeze's joint compliance (rad per N m; empty: squeeze along the closing vectors).
         self.compliance = joint_stiffness(hand).compliance_rad_per_nm if stiffness_aware else np.zeros(0)
         self.squeeze_mode = squeeze_mode(hand, stiffness_aware)
-        self._directions = np.zeros((len(self.names), 3))   # squeeze's scratch
-        self._pads = np.zeros((len(self.names), 3))         # squeeze's scratch
+        self._directions = np.zeros((len(self.names), 3))  # squeeze's scratch
+        self._pads = np.zeros((len(self.names), 3))  # squeeze's scratch
         # Each pad's measured position along its closing vector at the last squeeze tick
         # (NaN: none since the goals were last set otherwise).
         self._pad_along = np.full(len(self.names), np.nan)
         self.q_goal = self.open_q.copy()
-        self.q_sent = self.open_q.copy()   # the goal last sent (next_goal steps it toward q_goal)
-        self._posture: np.ndarray | None = None   # the posture the targets were last reset to
-        self.targets = np.zeros((len(self.names), 3))   # pad targets, hand frame, finger order
-        self._distances = np.zeros(len(self.names))     # squeeze's scratch
+        self.q_sent = self.open_q.copy()  # the goal last sent (next_goal steps it toward q_goal)
+        self._posture: np.ndarray | None = None  # the posture the targets were last reset to
+        self.targets = np.zeros((len(self.names), 3))  # pad targets, hand frame, finger order
+        self._distances = np.zeros(len(self.names))  # squeeze's scratch
         self._reset_targets()
 
     def _reset_targets(self) -> None:
@@ -86,14 +86,19 @@ class FingertipMotion:
         goals still there), by a compiled check of float64 angles; False where that check
         does not apply."""
         posture = self._posture
-        return bool(jit.JIT and posture is not None and type(q) is np.ndarray and q.dtype is _FLOAT64
-                    and q.shape == self.lower.shape == posture.shape == self.q_goal.shape
-                    and clipped_equals(q, self.lower, self.upper, posture, self.q_goal))
+        return bool(
+            jit.JIT
+            and posture is not None
+            and type(q) is np.ndarray
+            and q.dtype is _FLOAT64
+            and q.shape == self.lower.shape == posture.shape == self.q_goal.shape
+            and clipped_equals(q, self.lower, self.upper, posture, self.q_goal)
+        )
 
     def set_posture(self, q: np.ndarray) -> None:
         # States that hold a posture set it every tick: the targets follow from it alone.
         if self.holds_posture(q):
-            return   # (the check below, compiled: the same posture again)
+            return  # (the check below, compiled: the same posture again)
         q_goal = np.clip(np.asarray(q, dtype=float), self.lower, self.upper)
         if self._posture is not None and np.array_equal(q_goal, self._posture) and np.array_equal(q_goal, self.q_goal):
             return
@@ -124,8 +129,10 @@ class FingertipMotion:
             fit = least_squares(residual, q[sl], bounds=(self.lower[sl], self.upper[sl]))
             miss = float(np.linalg.norm(fit.fun[:3]))
             if miss > tolerance_m:
-                raise ValueError(f"{finger}: cannot raise the pad by {dz * 1000:.1f} mm within the joint limits "
-                                 f"({miss * 1000:.1f} mm short)")
+                raise ValueError(
+                    f"{finger}: cannot raise the pad by {dz * 1000:.1f} mm within the joint limits "
+                    f"({miss * 1000:.1f} mm short)"
+                )
             q[sl] = fit.x
         return q
 
@@ -147,9 +154,15 @@ class FingertipMotion:
         order; 0 leaves a finger as it is), one IK step per moving finger."""
         # Track an explicit pad target, so linearisation errors of the small IK steps
         # are corrected every tick instead of accumulating into a drift off the line.
-        self._pad_along[:] = np.nan   # a position move: the next squeeze starts afresh
-        if self.ik.advance(self.q_goal, self.targets, self.task_vectors,
-                           np.ascontiguousarray(distances_m, dtype=float), IK_DAMPING, self.facing):
+        self._pad_along[:] = np.nan  # a position move: the next squeeze starts afresh
+        if self.ik.advance(
+            self.q_goal,
+            self.targets,
+            self.task_vectors,
+            np.ascontiguousarray(distances_m, dtype=float),
+            IK_DAMPING,
+            self.facing,
+        ):
             self._posture = None
 
     def squeeze_all(self, distances_m: np.ndarray, q_measured: np.ndarray, max_cross_m: float) -> None:
@@ -162,14 +175,33 @@ class FingertipMotion:
         if not self.compliance.size:
             self.advance_all(distances)
             return
-        if self.ik.squeeze_targets(self.q_goal, q_measured, self.targets, self.task_vectors, distances,
-                                   self.compliance, self._pad_along, max_cross_m):
+        if self.ik.squeeze_targets(
+            self.q_goal,
+            q_measured,
+            self.targets,
+            self.task_vectors,
+            distances,
+            self.compliance,
+            self._pad_along,
+            max_cross_m,
+        ):
             self.ik.step(self.q_goal, self.targets, distances != 0.0, IK_DAMPING, self.facing)
             self._posture = None
 
-    def squeeze(self, grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float, max_speed: float,
-                dt: float, move_palm: bool, palm: np.ndarray, palm_goal: np.ndarray, palm_step: float,
-                q_measured: np.ndarray) -> None:
+    def squeeze(
+        self,
+        grip: np.ndarray,
+        grasping: np.ndarray,
+        tau: float,
+        gain: float,
+        max_speed: float,
+        dt: float,
+        move_palm: bool,
+        palm: np.ndarray,
+        palm_goal: np.ndarray,
+        palm_step: float,
+        q_measured: np.ndarray,
+    ) -> None:
         """``squeeze_all`` by each grasping fingertip's force-control step toward ``tau``:
         ``min(max(gain (tau - grip), -max_speed), max_speed) * dt`` (GraspController._squeeze),
         in one compiled call (``grip``: float64, one per finger); with ``move_palm``
@@ -178,10 +210,33 @@ class FingertipMotion:
         measured joint angles (float64, every joint)."""
         facing = self.facing or self.ik._no_facing
         ik = self.ik
-        if squeeze_pads(grip, grasping, tau, gain, max_speed, dt, self.q_goal, self.targets, self.task_vectors,
-                        ik.geometry, ik.layout, IK_DAMPING, facing.normals_hand, facing.fingers, facing.damping,
-                        self._distances, move_palm, palm, palm_goal, palm_step, self.compliance, q_measured,
-                        self._pad_along, self._directions, self._pads):
+        if squeeze_pads(
+            grip,
+            grasping,
+            tau,
+            gain,
+            max_speed,
+            dt,
+            self.q_goal,
+            self.targets,
+            self.task_vectors,
+            ik.geometry,
+            ik.layout,
+            IK_DAMPING,
+            facing.normals_hand,
+            facing.fingers,
+            facing.damping,
+            self._distances,
+            move_palm,
+            palm,
+            palm_goal,
+            palm_step,
+            self.compliance,
+            q_measured,
+            self._pad_along,
+            self._directions,
+            self._pads,
+        ):
             self._posture = None
 
     def squeeze_statics(self) -> tuple[tuple, tuple, tuple]:
@@ -192,9 +247,11 @@ class FingertipMotion:
         distances; arrays after it: compliance to the joint limits)``."""
         facing = self.facing or self.ik._no_facing
         ik = self.ik
-        return ((IK_DAMPING, facing.damping, self.max_step),
-                (self.task_vectors, ik.geometry, ik.layout, facing.normals_hand, facing.fingers, self._distances),
-                (self.compliance, self._pad_along, self._directions, self._pads, self.lower, self.upper))
+        return (
+            (IK_DAMPING, facing.damping, self.max_step),
+            (self.task_vectors, ik.geometry, ik.layout, facing.normals_hand, facing.fingers, self._distances),
+            (self.compliance, self._pad_along, self._directions, self._pads, self.lower, self.upper),
+        )
 
     def squeezed(self) -> None:
         """A squeeze outside ``squeeze`` moved a fingertip (``squeeze_state_tick``'s PADS_MOVED)."""

@@ -41,8 +41,8 @@ class RampSettle:
         self.window = max(1, int(round(settings.ramp_filter_s / dt)))
         self.within_ticks = 0
         self.steady_ticks = 0
-        self._ref_err: np.ndarray | None = None   # errors when the steady window began
-        self._recent: deque[np.ndarray] = deque(maxlen=self.window)   # the last ``window`` raw errors
+        self._ref_err: np.ndarray | None = None  # errors when the steady window began
+        self._recent: deque[np.ndarray] = deque(maxlen=self.window)  # the last ``window`` raw errors
 
     def reset(self) -> None:
         self.within_ticks = 0
@@ -56,8 +56,9 @@ class RampSettle:
         err = recent[0] if len(recent) == 1 else np.mean(recent, axis=0)
         abs_err = np.abs(err)
         self.within_ticks = self.within_ticks + 1 if bool((abs_err <= self.s.ramp_tolerance_n).all()) else 0
-        in_band = (abs(float(err.mean())) <= self.s.ramp_tolerance_n
-                   and bool((abs_err <= self.s.ramp_balance_band_n).all()))
+        in_band = abs(float(err.mean())) <= self.s.ramp_tolerance_n and bool(
+            (abs_err <= self.s.ramp_balance_band_n).all()
+        )
         if not in_band or self._ref_err is None or bool((np.abs(err - self._ref_err) > self.s.ramp_steady_n).any()):
             self._ref_err = err.copy() if in_band else None
             self.steady_ticks = 0
@@ -65,5 +66,4 @@ class RampSettle:
             self.steady_ticks += 1
 
     def settled(self, dt: float) -> bool:
-        return (self.within_ticks * dt >= self.s.ramp_settle_s
-                or self.steady_ticks * dt >= self.s.ramp_steady_s)
+        return self.within_ticks * dt >= self.s.ramp_settle_s or self.steady_ticks * dt >= self.s.ramp_steady_s

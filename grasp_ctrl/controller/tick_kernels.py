@@ -19,13 +19,13 @@ from grasp_ctrl.kinematics.pad_ik import advance_pads_kernel, squeeze_targets_ke
 from grasp_ctrl.limits import step_toward
 
 #: ``tick_checks`` result bits.
-WITHIN_TOLERANCE = 1      # every grasping grip within the ramp tolerance of tau
-RELEASE_BELOW = 2         # the release fingertip's force below -release threshold
-FORCE_NOT_FINITE = 4      # an estimated |f_sensor|^2 is not finite
-OVERFORCE = 8             # the largest |f_sensor| is above the limit (all finite)
+WITHIN_TOLERANCE = 1  # every grasping grip within the ramp tolerance of tau
+RELEASE_BELOW = 2  # the release fingertip's force below -release threshold
+FORCE_NOT_FINITE = 4  # an estimated |f_sensor|^2 is not finite
+OVERFORCE = 8  # the largest |f_sensor| is above the limit (all finite)
 #: ``squeeze_state_tick``'s further bits.
-TICK_DONE = 16            # no fault and no guard held: squeezed and the goal stepped
-PADS_MOVED = 32           # the squeeze moved a fingertip (the motion's posture no longer holds)
+TICK_DONE = 16  # no fault and no guard held: squeezed and the goal stepped
+PADS_MOVED = 32  # the squeeze moved a fingertip (the motion's posture no longer holds)
 
 #: The states ``squeeze_state_tick`` takes: GraspController's squeeze states lift, hold and
 #: lower, close (the fingertips closing along their task vectors until they touch) and
@@ -35,9 +35,20 @@ LIFT, HOLD, LOWER, CLOSE, RELEASE, REACH, RETREAT = 0, 1, 2, 3, 4, 5, 6
 
 
 @njit
-def tick_checks(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.ndarray, f_world: np.ndarray,
-                grasping: np.ndarray, tau: float, tolerance: float, floor: float, release_idx: int,
-                release_threshold: float, limit: float, lost: np.ndarray) -> int:
+def tick_checks(
+    grip: np.ndarray,
+    in_contact: np.ndarray,
+    f_sensor: np.ndarray,
+    f_world: np.ndarray,
+    grasping: np.ndarray,
+    tau: float,
+    tolerance: float,
+    floor: float,
+    release_idx: int,
+    release_threshold: float,
+    limit: float,
+    lost: np.ndarray,
+) -> int:
     """``GraspController._update_counters``' flags and lost counts (``lost`` in place:
     +1 for a fingertip out of contact or with its grip below ``floor``, else 0), then
     the over-force check of ``tick``: squared norms summed as ((0 + x^2) + z^2) + y^2,
@@ -61,7 +72,7 @@ def tick_checks(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.ndarray, 
         if not math.isfinite(sq):
             if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
                 return out | FORCE_NOT_FINITE
-            sq = math.inf   # finite components whose square overflows: above any limit (overforce)
+            sq = math.inf  # finite components whose square overflows: above any limit (overforce)
         if i == 0 or sq > largest:
             largest = sq
     if f_sensor.shape[0] and largest > limit * limit:
@@ -70,12 +81,33 @@ def tick_checks(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.ndarray, 
 
 
 @njit
-def squeeze_pads(grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float, max_speed: float, dt: float,
-                 q: np.ndarray, targets: np.ndarray, task_vectors: np.ndarray, geometry: np.ndarray,
-                 layout: np.ndarray, damping: float, normal_targets: np.ndarray, facing: np.ndarray,
-                 orient_damping: float, distances: np.ndarray, move_palm: bool, palm: np.ndarray,
-                 palm_goal: np.ndarray, palm_step: float, compliance: np.ndarray, q_measured: np.ndarray,
-                 pad_along: np.ndarray, directions: np.ndarray, pads: np.ndarray) -> bool:
+def squeeze_pads(
+    grip: np.ndarray,
+    grasping: np.ndarray,
+    tau: float,
+    gain: float,
+    max_speed: float,
+    dt: float,
+    q: np.ndarray,
+    targets: np.ndarray,
+    task_vectors: np.ndarray,
+    geometry: np.ndarray,
+    layout: np.ndarray,
+    damping: float,
+    normal_targets: np.ndarray,
+    facing: np.ndarray,
+    orient_damping: float,
+    distances: np.ndarray,
+    move_palm: bool,
+    palm: np.ndarray,
+    palm_goal: np.ndarray,
+    palm_step: float,
+    compliance: np.ndarray,
+    q_measured: np.ndarray,
+    pad_along: np.ndarray,
+    directions: np.ndarray,
+    pads: np.ndarray,
+) -> bool:
     """``GraspController._squeeze`` without the variance slowdown: each grasping
     fingertip's speed ``min(max(gain (tau - grip), -max_speed), max_speed)`` times dt
     into ``distances``; then, with the joints' ``compliance``, the stiffness-aware pad
@@ -97,16 +129,29 @@ def squeeze_pads(grip: np.ndarray, grasping: np.ndarray, tau: float, gain: float
             v = max_speed
         distances[f] = v * dt if grasping[f] else 0.0
     if compliance.shape[0] > 0:
-        if not squeeze_targets_kernel(q, q_measured, targets, task_vectors, distances, compliance, pad_along,
-                                      max_speed * dt, geometry, layout, directions, pads):
+        if not squeeze_targets_kernel(
+            q,
+            q_measured,
+            targets,
+            task_vectors,
+            distances,
+            compliance,
+            pad_along,
+            max_speed * dt,
+            geometry,
+            layout,
+            directions,
+            pads,
+        ):
             return False
         move = np.empty(distances.shape[0], dtype=np.bool_)
         for f in range(distances.shape[0]):
             move[f] = distances[f] != 0.0
         step_pads_kernel(q, targets, move, geometry, layout, damping, normal_targets, facing, orient_damping)
         return True
-    return advance_pads_kernel(q, targets, task_vectors, distances, geometry, layout, damping, normal_targets, facing,
-                               orient_damping)
+    return advance_pads_kernel(
+        q, targets, task_vectors, distances, geometry, layout, damping, normal_targets, facing, orient_damping
+    )
 
 
 @njit
@@ -138,21 +183,69 @@ def move_palm_toward(palm: np.ndarray, target: np.ndarray, step: float) -> None:
 #: speed limit, IK damping, facing damping, whether the palm moves, joint step limit,
 #: closing step per tick and closing time-out, release step per tick (negative) and
 #: opening time, the arm's step per tick and the reach time-out.
-(C_TAU, C_TOLERANCE, C_FLOOR, C_RELEASE_IDX, C_RELEASE_THRESHOLD, C_LIMIT, C_STATE, C_DT, C_LOST_S, C_DEBOUNCE,
- C_HOLD_S, C_LIFT_TOP_Z, C_REACH_TOLERANCE, C_LOWER_LIMIT_Z, C_GAIN, C_MAX_SPEED, C_DAMPING, C_ORIENT_DAMPING,
- C_MOVE_PALM, C_MAX_STEP, C_CLOSE_STEP, C_CLOSE_TIMEOUT_S, C_RELEASE_STEP, C_OPEN_S, C_ARM_STEP,
- C_REACH_TIMEOUT_S) = range(26)
+(
+    C_TAU,
+    C_TOLERANCE,
+    C_FLOOR,
+    C_RELEASE_IDX,
+    C_RELEASE_THRESHOLD,
+    C_LIMIT,
+    C_STATE,
+    C_DT,
+    C_LOST_S,
+    C_DEBOUNCE,
+    C_HOLD_S,
+    C_LIFT_TOP_Z,
+    C_REACH_TOLERANCE,
+    C_LOWER_LIMIT_Z,
+    C_GAIN,
+    C_MAX_SPEED,
+    C_DAMPING,
+    C_ORIENT_DAMPING,
+    C_MOVE_PALM,
+    C_MAX_STEP,
+    C_CLOSE_STEP,
+    C_CLOSE_TIMEOUT_S,
+    C_RELEASE_STEP,
+    C_OPEN_S,
+    C_ARM_STEP,
+    C_REACH_TIMEOUT_S,
+) = range(26)
 N_SQUEEZE_CONSTS = 26
 
 
 @njit
-def squeeze_state_tick(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.ndarray, f_world: np.ndarray,
-                       q_measured: np.ndarray, palm_measured: np.ndarray, c: np.ndarray, grasping: np.ndarray, lost: np.ndarray,
-                       task_vectors: np.ndarray, geometry: np.ndarray, layout: np.ndarray, normal_targets: np.ndarray,
-                       facing: np.ndarray, distances: np.ndarray, palm_goal: np.ndarray, compliance: np.ndarray,
-                       pad_along: np.ndarray, directions: np.ndarray, pads: np.ndarray, lower: np.ndarray,
-                       upper: np.ndarray, ticks_in_state: int, release_count: int, q: np.ndarray,
-                       targets: np.ndarray, palm: np.ndarray, palm_step: float, q_sent: np.ndarray) -> int:
+def squeeze_state_tick(
+    grip: np.ndarray,
+    in_contact: np.ndarray,
+    f_sensor: np.ndarray,
+    f_world: np.ndarray,
+    q_measured: np.ndarray,
+    palm_measured: np.ndarray,
+    c: np.ndarray,
+    grasping: np.ndarray,
+    lost: np.ndarray,
+    task_vectors: np.ndarray,
+    geometry: np.ndarray,
+    layout: np.ndarray,
+    normal_targets: np.ndarray,
+    facing: np.ndarray,
+    distances: np.ndarray,
+    palm_goal: np.ndarray,
+    compliance: np.ndarray,
+    pad_along: np.ndarray,
+    directions: np.ndarray,
+    pads: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    ticks_in_state: int,
+    release_count: int,
+    q: np.ndarray,
+    targets: np.ndarray,
+    palm: np.ndarray,
+    palm_step: float,
+    q_sent: np.ndarray,
+) -> int:
     """One ``GraspController.tick`` in a squeeze state (``LIFT``, ``HOLD``, ``LOWER``), in
     ``CLOSE``, ``RELEASE``, ``REACH`` or ``RETREAT`` as far as no fault and no transition interrupt it (the snapshot's arrays first, then
     ``GraspController.squeeze_plan``: the constants ``c`` (``C_TAU``...), the arrays that
@@ -169,24 +262,55 @@ def squeeze_state_tick(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.nd
     ``PADS_MOVED``) set; otherwise nothing more is done and the controller's Python
     goes on from its guards."""
     tau, dt = c[C_TAU], c[C_DT]
-    flags = tick_checks(grip, in_contact, f_sensor, f_world, grasping, tau, c[C_TOLERANCE], c[C_FLOOR],
-                        int(c[C_RELEASE_IDX]), c[C_RELEASE_THRESHOLD], c[C_LIMIT], lost)
+    flags = tick_checks(
+        grip,
+        in_contact,
+        f_sensor,
+        f_world,
+        grasping,
+        tau,
+        c[C_TOLERANCE],
+        c[C_FLOOR],
+        int(c[C_RELEASE_IDX]),
+        c[C_RELEASE_THRESHOLD],
+        c[C_LIMIT],
+        lost,
+    )
     if flags & (FORCE_NOT_FINITE | OVERFORCE):
         return flags
     state = int(c[C_STATE])
     if state == REACH or state == RETREAT:
-        if (distance3(palm_measured, palm_goal) < c[C_REACH_TOLERANCE]
-                or (state == REACH and ticks_in_state * dt > c[C_REACH_TIMEOUT_S])):
+        if distance3(palm_measured, palm_goal) < c[C_REACH_TOLERANCE] or (
+            state == REACH and ticks_in_state * dt > c[C_REACH_TIMEOUT_S]
+        ):
             return flags
         move_palm_toward(palm, palm_goal, c[C_ARM_STEP])
         step_toward(q, q_sent, c[C_MAX_STEP], lower, upper)
         return flags | TICK_DONE
     if state == CLOSE or state == RELEASE:
-        return advance_tick(flags, state, in_contact, c, grasping, task_vectors, geometry, layout, normal_targets,
-                            facing, distances, pad_along, lower, upper, ticks_in_state, q, targets, q_sent)
+        return advance_tick(
+            flags,
+            state,
+            in_contact,
+            c,
+            grasping,
+            task_vectors,
+            geometry,
+            layout,
+            normal_targets,
+            facing,
+            distances,
+            pad_along,
+            lower,
+            upper,
+            ticks_in_state,
+            q,
+            targets,
+            q_sent,
+        )
     palm_z = palm_measured[2]
     held = False
-    for i in range(lost.shape[0]):   # grip_lost
+    for i in range(lost.shape[0]):  # grip_lost
         if grasping[i] and lost[i] * dt >= c[C_LOST_S]:
             held = True
             break
@@ -199,19 +323,58 @@ def squeeze_state_tick(grip: np.ndarray, in_contact: np.ndarray, f_sensor: np.nd
         held = held or count >= c[C_DEBOUNCE] or palm_z <= c[C_LOWER_LIMIT_Z] + 1e-4
     if held:
         return flags
-    moved = squeeze_pads(grip, grasping, tau, c[C_GAIN], c[C_MAX_SPEED], dt, q, targets, task_vectors, geometry,
-                         layout, c[C_DAMPING], normal_targets, facing, c[C_ORIENT_DAMPING], distances,
-                         c[C_MOVE_PALM] != 0.0, palm, palm_goal, palm_step, compliance, q_measured, pad_along,
-                         directions, pads)
+    moved = squeeze_pads(
+        grip,
+        grasping,
+        tau,
+        c[C_GAIN],
+        c[C_MAX_SPEED],
+        dt,
+        q,
+        targets,
+        task_vectors,
+        geometry,
+        layout,
+        c[C_DAMPING],
+        normal_targets,
+        facing,
+        c[C_ORIENT_DAMPING],
+        distances,
+        c[C_MOVE_PALM] != 0.0,
+        palm,
+        palm_goal,
+        palm_step,
+        compliance,
+        q_measured,
+        pad_along,
+        directions,
+        pads,
+    )
     step_toward(q, q_sent, c[C_MAX_STEP], lower, upper)
     return flags | TICK_DONE | (PADS_MOVED if moved else 0)
 
 
 @njit
-def advance_tick(flags: int, state: int, in_contact: np.ndarray, c: np.ndarray, grasping: np.ndarray,
-                 task_vectors: np.ndarray, geometry: np.ndarray, layout: np.ndarray, normal_targets: np.ndarray,
-                 facing: np.ndarray, distances: np.ndarray, pad_along: np.ndarray, lower: np.ndarray,
-                 upper: np.ndarray, ticks_in_state: int, q: np.ndarray, targets: np.ndarray, q_sent: np.ndarray) -> int:
+def advance_tick(
+    flags: int,
+    state: int,
+    in_contact: np.ndarray,
+    c: np.ndarray,
+    grasping: np.ndarray,
+    task_vectors: np.ndarray,
+    geometry: np.ndarray,
+    layout: np.ndarray,
+    normal_targets: np.ndarray,
+    facing: np.ndarray,
+    distances: np.ndarray,
+    pad_along: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    ticks_in_state: int,
+    q: np.ndarray,
+    targets: np.ndarray,
+    q_sent: np.ndarray,
+) -> int:
     """``squeeze_state_tick`` in close or release after the checks (``flags``): the guards
     (close: ``all_in_contact``, ``close_timed_out``; release: ``fingers_open``); when none
     holds, the action, ``FingertipMotion.advance_all`` (which forgets the squeeze's last pad
@@ -237,7 +400,8 @@ def advance_tick(flags: int, state: int, in_contact: np.ndarray, c: np.ndarray, 
             distances[f] = step if grasping[f] else 0.0
     for f in range(pad_along.shape[0]):
         pad_along[f] = np.nan
-    moved = advance_pads_kernel(q, targets, task_vectors, distances, geometry, layout, c[C_DAMPING], normal_targets,
-                                facing, c[C_ORIENT_DAMPING])
+    moved = advance_pads_kernel(
+        q, targets, task_vectors, distances, geometry, layout, c[C_DAMPING], normal_targets, facing, c[C_ORIENT_DAMPING]
+    )
     step_toward(q, q_sent, c[C_MAX_STEP], lower, upper)
     return flags | TICK_DONE | (PADS_MOVED if moved else 0)

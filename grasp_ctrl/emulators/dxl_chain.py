@@ -23,7 +23,8 @@ import threading
 import time
 import tty
 from collections import Counter
-from typing import TYPE_CHECKING, Iterable, Sequence
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from grasp_ctrl.config.hand import HandConfig
@@ -33,7 +34,9 @@ from grasp_ctrl.emulators.dxl_servo import EmulatedServo
 
 
 class DynamixelChainEmulator:
-    def __init__(self, ids: Iterable[int], model_number: int = 1240, initial_counts: dict[int, float] | None = None) -> None:
+    def __init__(
+        self, ids: Iterable[int], model_number: int = 1240, initial_counts: dict[int, float] | None = None
+    ) -> None:
         self.servos: dict[int, EmulatedServo] = {}
         for i in ids:
             s = EmulatedServo(int(i), model_number=model_number)
@@ -58,7 +61,7 @@ class DynamixelChainEmulator:
         self._last_step = time.monotonic()
 
     @classmethod
-    def for_hand(cls, hand: "HandConfig", q_rad: "Sequence[float] | None" = None) -> "DynamixelChainEmulator":
+    def for_hand(cls, hand: HandConfig, q_rad: Sequence[float] | None = None) -> DynamixelChainEmulator:
         """A chain with the hand's servo ids and model, resting at ``q_rad`` (default: the open posture)."""
         from grasp_ctrl.hardware.dynamixel.calibration import Calibration
         from grasp_ctrl.hardware.dynamixel.control_table import MODELS
@@ -74,7 +77,7 @@ class DynamixelChainEmulator:
         )
 
     # ---- lifecycle -------------------------------------------------------------
-    def start(self) -> "DynamixelChainEmulator":
+    def start(self) -> DynamixelChainEmulator:
         self._master, self._slave = os.openpty()
         tty.setraw(self._slave)  # no echo, no line editing: a clean byte pipe
         self.port = os.ttyname(self._slave)
@@ -97,7 +100,7 @@ class DynamixelChainEmulator:
                     pass
         self._master = self._slave = -1
 
-    def __enter__(self) -> "DynamixelChainEmulator":
+    def __enter__(self) -> DynamixelChainEmulator:
         return self.start()
 
     def __exit__(self, *exc: object) -> None:

@@ -70,10 +70,10 @@ COUNTS_PER_RAD = 4096 / (2.0 * math.pi)
 class MotorModel:
     """Crude but monotone: current demand grows with the position error, speed with current."""
 
-    current_per_count_ma: float = 4.0      # proportional current demand per count of error
-    speed_per_ma_counts_s: float = 20.0    # counts/s of speed per mA of (unsaturated) current
-    max_speed_counts_s: float = 8000.0     # ~12 rad/s no-load speed
-    overload_after_s: float = 1.0          # saturated current this long against a block -> overload
+    current_per_count_ma: float = 4.0  # proportional current demand per count of error
+    speed_per_ma_counts_s: float = 20.0  # counts/s of speed per mA of (unsaturated) current
+    max_speed_counts_s: float = 8000.0  # ~12 rad/s no-load speed
+    overload_after_s: float = 1.0  # saturated current this long against a block -> overload
 
 
 @dataclass
@@ -83,7 +83,7 @@ class EmulatedServo:
     position_counts: float = 2048.0
     motor: MotorModel = field(default_factory=MotorModel)
     mem: bytearray = field(default_factory=lambda: bytearray(TABLE_SIZE))
-    blocked_at: float | None = None        # a wall the joint cannot pass (counts)
+    blocked_at: float | None = None  # a wall the joint cannot pass (counts)
     saturated_for_s: float = 0.0
     goal_history: list[int] = field(default_factory=list)  # every goal position written
 
@@ -99,8 +99,8 @@ class EmulatedServo:
         self.set(BAUD_RATE, 1)
         self.set(RETURN_DELAY, 250)
         self.set(OPERATING_MODE, MODE_POSITION)
-        self.set(TEMPERATURE_LIMIT, 70)     # degC; X330 e-manual defaults
-        self.set(MAX_VOLTAGE_LIMIT, 140)    # 0.1 V
+        self.set(TEMPERATURE_LIMIT, 70)  # degC; X330 e-manual defaults
+        self.set(MAX_VOLTAGE_LIMIT, 140)  # 0.1 V
         self.set(MIN_VOLTAGE_LIMIT, 55)
         self.set(CURRENT_LIMIT, 1750)
         self.set(VELOCITY_LIMIT, 445)
@@ -179,11 +179,16 @@ class EmulatedServo:
             return
         limit_ma = float(self.get(CURRENT_LIMIT))
         if self.get(OPERATING_MODE) == MODE_CURRENT_POSITION:
-            limit_ma = min(limit_ma, float(self.get(GOAL_CURRENT, True)) if self.get(GOAL_CURRENT, True) > 0 else limit_ma)
+            limit_ma = min(
+                limit_ma, float(self.get(GOAL_CURRENT, True)) if self.get(GOAL_CURRENT, True) > 0 else limit_ma
+            )
         err = self.get(GOAL_POSITION, True) - self.position_counts
         demand = self.motor.current_per_count_ma * err
         current = max(-limit_ma, min(limit_ma, demand))
-        speed = max(-self.motor.max_speed_counts_s, min(self.motor.max_speed_counts_s, current * self.motor.speed_per_ma_counts_s))
+        speed = max(
+            -self.motor.max_speed_counts_s,
+            min(self.motor.max_speed_counts_s, current * self.motor.speed_per_ma_counts_s),
+        )
         new_pos = self.position_counts + speed * dt
         # Never overshoot the goal within one step.
         if (err > 0 and new_pos > self.position_counts + err) or (err < 0 and new_pos < self.position_counts + err):

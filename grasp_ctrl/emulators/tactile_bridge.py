@@ -22,9 +22,9 @@ import tempfile
 import threading
 import time
 import tty
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Sequence
 
 import numpy as np
 
@@ -55,7 +55,11 @@ class SyntheticSource:
     its own simulated sensor (baselines, gains, noise), stepped once per call."""
 
     def __init__(
-        self, seed: int = 0, rate_hz: float = 100.0, period_s: float = 3.0, peak_force_n: float = 2.0,
+        self,
+        seed: int = 0,
+        rate_hz: float = 100.0,
+        period_s: float = 3.0,
+        peak_force_n: float = 2.0,
         free_s: float = 1.0,
     ) -> None:
         self.rate_hz = rate_hz
@@ -80,8 +84,14 @@ class SyntheticSource:
         # the press leans a little along the finger as it comes and goes
         sway = 0.2 * np.sin(2 * np.pi * k / (self.rate_hz * self.period_s))
         f_sensor = self.peak_force_n * depth * np.array([[sway, 0.0, 1.0]])
-        frame = sensor.frames(PAD_POINT_SENSOR[None], f_sensor, PAD_NORMAL_SENSOR[None], np.array([depth > 0.0]),
-                              np.zeros(1), 1.0 / self.rate_hz)
+        frame = sensor.frames(
+            PAD_POINT_SENSOR[None],
+            f_sensor,
+            PAD_NORMAL_SENSOR[None],
+            np.array([depth > 0.0]),
+            np.zeros(1),
+            1.0 / self.rate_hz,
+        )
         return frame[0].astype(np.int64)
 
 
@@ -89,15 +99,16 @@ class RecordingSource:
     """Replays rows of a CSV with columns ``pdc, e1..e19`` (e.g. robotic_finger_tidy.csv),
     looping; each fingertip starts at a different row so the tips do not move in lockstep."""
 
-    def __init__(self, path: str | Path, seed: int = 0, max_rows: int | None = None,
-                 skip_bad_rows: bool = False) -> None:
+    def __init__(
+        self, path: str | Path, seed: int = 0, max_rows: int | None = None, skip_bad_rows: bool = False
+    ) -> None:
         from grasp_ctrl.csv_rows import Column, read_rows
         from grasp_ctrl.errors import UsageError
 
         cols = [Column(f"e{i}", 0.0, 4095.0) for i in range(1, 20)] + [Column("pdc", 0.0, 4095.0)]
         try:
             rows = read_rows(path, cols, skip_bad_rows=skip_bad_rows).values
-        except UsageError as exc:   # the callers report ValueError naming the flag
+        except UsageError as exc:  # the callers report ValueError naming the flag
             raise ValueError(str(exc)) from None
         if max_rows is not None:
             rows = rows[:max_rows]
@@ -126,9 +137,9 @@ class RecordingSource:
 
 @dataclass(frozen=True)
 class FaultConfig:
-    corrupt_prob: float = 0.0     # per frame: flip 1..3 random bits
-    truncate_prob: float = 0.0    # per frame: send only a prefix
-    garbage_prob: float = 0.0     # per tick: a burst of random bytes between frames
+    corrupt_prob: float = 0.0  # per frame: flip 1..3 random bits
+    truncate_prob: float = 0.0  # per frame: send only a prefix
+    garbage_prob: float = 0.0  # per tick: a burst of random bytes between frames
     garbage_max_bytes: int = 64
 
 
@@ -171,7 +182,7 @@ class TactileBridgeEmulator:
         self._dir = Path(tempfile.mkdtemp(prefix="tactile_bridge_")) if link_dir is None else Path(link_dir)
         self.port = str(self._dir / link_name)
         self.sent: list[SentFrame] = []
-        self.bytes_dropped = 0        # bytes the pty would not take (nobody reading)
+        self.bytes_dropped = 0  # bytes the pty would not take (nobody reading)
         self._seq = {s: 0 for s in self.sensor_ids}
         self._paused_until: dict[int, float] = {}
         self._lock = threading.Lock()
@@ -220,7 +231,7 @@ class TactileBridgeEmulator:
 
     # -------------------------------------------------------------- streaming
 
-    def start(self) -> "TactileBridgeEmulator":
+    def start(self) -> TactileBridgeEmulator:
         if self._thread is None:
             self._thread = threading.Thread(target=self._run, name="tactile-bridge-emulator", daemon=True)
             self._thread.start()
@@ -241,7 +252,7 @@ class TactileBridgeEmulator:
             except OSError:
                 pass
 
-    def __enter__(self) -> "TactileBridgeEmulator":
+    def __enter__(self) -> TactileBridgeEmulator:
         return self
 
     def __exit__(self, *exc: object) -> None:

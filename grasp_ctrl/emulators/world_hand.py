@@ -39,7 +39,7 @@ class _WorldClock:
 def _present_current_a(world: Any) -> np.ndarray:
     """The servos' present current (A): MuJoCo's actuator torques, or the mock world's servo
     spring, over the torque constant."""
-    if hasattr(world, "joint_torque_nm"):   # MuJoCoWorld
+    if hasattr(world, "joint_torque_nm"):  # MuJoCoWorld
         return np.asarray(world.joint_torque_nm) / world.params.scene.torque_per_amp_nm
     p = world.params
     return p.servo_stiffness_nm_per_rad * (np.asarray(world.q_servo) - np.asarray(world.q)) / p.torque_per_amp_nm

@@ -10,7 +10,7 @@ so fitted gains come out positive.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 

@@ -8,13 +8,14 @@ in the sensor frame (docs/design.md 4). A pad press gives mostly +z.
 
 from __future__ import annotations
 
-from typing import NamedTuple, Protocol, Sequence, runtime_checkable
+from collections.abc import Sequence
+from typing import NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
 
-class Estimate(NamedTuple):   # immutable, and cheap to make every tick
-    f_sensor: np.ndarray               # (n, 3) N
+class Estimate(NamedTuple):  # immutable, and cheap to make every tick
+    f_sensor: np.ndarray  # (n, 3) N
     variance: np.ndarray | None = None  # (n, 3) N^2, when the policy provides it
 
 

@@ -11,21 +11,28 @@ invalidate the correction).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
-from grasp_ctrl.storage import file_sha256
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.base import Estimate, ForceEstimator
+from grasp_ctrl.storage import file_sha256
 from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN
 
 
 class CalibratedEstimator:
-    def __init__(self, base: ForceEstimator, matrix: np.ndarray, electrode_weights: np.ndarray | None,
-                 bias: np.ndarray, name: str) -> None:
+    def __init__(
+        self,
+        base: ForceEstimator,
+        matrix: np.ndarray,
+        electrode_weights: np.ndarray | None,
+        bias: np.ndarray,
+        name: str,
+    ) -> None:
         self.base = base
         self.A = np.asarray(matrix, dtype=float).reshape(3, 3)
         self.W = np.zeros((3, 19)) if electrode_weights is None else np.asarray(electrode_weights, dtype=float)
@@ -44,7 +51,7 @@ class CalibratedEstimator:
             raise ValueError(f"{self.name}: expected tared frames of shape (n, {FRAME_LEN}), got {tared.shape}")
         est = self.base.estimate(tared, fingers)
         # per-axis variance through the linear map, axes taken as independent
-        variance = None if est.variance is None else est.variance @ (self.A ** 2).T
+        variance = None if est.variance is None else est.variance @ (self.A**2).T
         return Estimate(f_sensor=self.correct(est.f_sensor, tared), variance=variance)
 
 
@@ -57,7 +64,7 @@ def policy_files(json_path: Path, meta: dict[str, Any]) -> list[Path]:
     return files
 
 
-sha256_of = file_sha256   # the policy files' hashes (storage.file_sha256)
+sha256_of = file_sha256  # the policy files' hashes (storage.file_sha256)
 
 
 def _base_path(meta: dict[str, Any], json_path: Path) -> Path:
@@ -74,8 +81,9 @@ def _base_path(meta: dict[str, Any], json_path: Path) -> Path:
     return resolve_policy_path(base["name"])
 
 
-def load_calibrated_policy(meta: dict[str, Any], json_path: Path, hand: HandConfig | None,
-                           threads: int) -> CalibratedEstimator:
+def load_calibrated_policy(
+    meta: dict[str, Any], json_path: Path, hand: HandConfig | None, threads: int
+) -> CalibratedEstimator:
     """Registry loader for kind "calibrated"."""
     from grasp_ctrl.estimators.registry import load_policy, read_metadata
 
@@ -84,17 +92,24 @@ def load_calibrated_policy(meta: dict[str, Any], json_path: Path, hand: HandConf
     base_meta = read_metadata(base_json)
     if base_meta.get("kind") == "calibrated":
         raise PolicyError(f"{json_path}: base_policy: {base_json} is itself calibrated (calibrate its base instead)")
-    want = (meta["base_policy"].get("sha256") or {})
+    want = meta["base_policy"].get("sha256") or {}
     for f in policy_files(base_json, base_meta):
         if f.name in want and sha256_of(f) != want[f.name]:
-            raise PolicyError(f"{json_path}: base_policy: {f} changed since the calibration (sha256 differs); "
-                              f"re-run `launch.py calibrate`")
+            raise PolicyError(
+                f"{json_path}: base_policy: {f} changed since the calibration (sha256 differs); "
+                f"re-run `launch.py calibrate`"
+            )
     base = load_policy(str(base_json), hand, threads)
     corr = meta.get("correction")
     if not isinstance(corr, dict):
         raise PolicyError(f"{json_path}: correction: required (matrix, electrode_weights_n_per_count, bias_n)")
     try:
-        return CalibratedEstimator(base, corr.get("matrix"), corr.get("electrode_weights_n_per_count"),  # type: ignore[arg-type]
-                                   corr.get("bias_n"), name=str(meta.get("name", json_path.stem)))  # type: ignore[arg-type]
+        return CalibratedEstimator(
+            base,
+            corr.get("matrix"),
+            corr.get("electrode_weights_n_per_count"),  # type: ignore[arg-type]
+            corr.get("bias_n"),
+            name=str(meta.get("name", json_path.stem)),
+        )  # type: ignore[arg-type]
     except (TypeError, ValueError) as exc:
         raise PolicyError(f"{json_path}: correction: {exc}") from None

@@ -9,8 +9,9 @@ with the same metadata layout (docs/design.md 5.5).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -31,7 +32,7 @@ def feature_tensors(kind: str, tared: np.ndarray) -> dict[str, np.ndarray]:
     tared = np.asarray(tared, dtype=float)
     out = {"electrodes": tared[:, ELECTRODES].astype(np.float32)}
     if kind == "electrodes_pdc":
-        out["pdc"] = tared[:, PDC:PDC + 1].astype(np.float32)
+        out["pdc"] = tared[:, PDC : PDC + 1].astype(np.float32)
     else:
         out["contact_point"] = contact_points(tared).astype(np.float32)
     return out
@@ -56,14 +57,17 @@ class FeatureOnnxEstimator:
         return Estimate(f_sensor=self._sign * np.asarray(f, dtype=float))
 
 
-def load_feature_onnx_policy(meta: dict[str, Any], json_path: Path, hand: HandConfig | None, threads: int) -> FeatureOnnxEstimator:
+def load_feature_onnx_policy(
+    meta: dict[str, Any], json_path: Path, hand: HandConfig | None, threads: int
+) -> FeatureOnnxEstimator:
     json_path = Path(json_path)
     name = meta.get("name", json_path.stem)
     if meta.get("sensor_type") != "biotac":
         raise PolicyError(f"{json_path}: sensor_type: 'biotac' expected (got {meta.get('sensor_type')!r})")
     if hand is not None and hand.tactile.sensor_type != "biotac":
-        raise PolicyError(f"{json_path}: sensor_type: policy is for 'biotac', the hand {hand.name!r} has "
-                          f"{hand.tactile.sensor_type!r}")
+        raise PolicyError(
+            f"{json_path}: sensor_type: policy is for 'biotac', the hand {hand.name!r} has {hand.tactile.sensor_type!r}"
+        )
     kind = (meta.get("input") or {}).get("kind")
     if kind not in FEATURE_KINDS:
         raise PolicyError(f"{json_path}: input.kind: one of {', '.join(FEATURE_KINDS)} (got {kind!r})")
@@ -81,14 +85,17 @@ def load_feature_onnx_policy(meta: dict[str, Any], json_path: Path, hand: HandCo
     opts = ort.SessionOptions()
     opts.intra_op_num_threads = max(1, int(threads))
     opts.inter_op_num_threads = 1
-    verify_model_hash(meta, json_path, model_file)   # before onnxruntime parses the file
+    verify_model_hash(meta, json_path, model_file)  # before onnxruntime parses the file
     try:
         session = ort.InferenceSession(str(model_file), opts, providers=["CPUExecutionProvider"])
     except Exception as exc:  # onnxruntime raises its own types
-        raise PolicyError(f"{model_file}: cannot load the ONNX model ({(str(exc).splitlines() or [type(exc).__name__])[0]})") from None
+        raise PolicyError(
+            f"{model_file}: cannot load the ONNX model ({(str(exc).splitlines() or [type(exc).__name__])[0]})"
+        ) from None
     check_graph_io(session, meta, json_path)
     have = {i.name for i in session.get_inputs()}
     if have != set(FEATURE_KINDS[kind]):
-        raise PolicyError(f"{json_path}: input.tensors: the ONNX model takes {sorted(have)}, {kind} needs "
-                          f"{list(FEATURE_KINDS[kind])}")
+        raise PolicyError(
+            f"{json_path}: input.tensors: the ONNX model takes {sorted(have)}, {kind} needs {list(FEATURE_KINDS[kind])}"
+        )
     return FeatureOnnxEstimator(session, name, kind, force_out, float(out["to_f_sensor"]))

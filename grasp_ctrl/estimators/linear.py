@@ -6,7 +6,7 @@ electrode gets its own weight per axis, so shear patterns can be picked up.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -50,7 +50,7 @@ class LinearEstimator:
         self.W = W
         self.b = b
         self.name = name
-        self._W_T = W.T   # the transpose the product uses, made once
+        self._W_T = W.T  # the transpose the product uses, made once
 
     def estimate(self, tared: np.ndarray, fingers: Sequence[str]) -> Estimate:
         if type(tared) is not np.ndarray or tared.dtype is not _FLOAT64:
@@ -61,5 +61,5 @@ class LinearEstimator:
         if jit.JIT and f_sensor.ndim == 2:
             add_bias(f_sensor, self.b)
         else:
-            f_sensor += self.b   # = (... @ W.T) + b, without a second array
+            f_sensor += self.b  # = (... @ W.T) + b, without a second array
         return Estimate(f_sensor)

@@ -12,7 +12,8 @@ differently); without it, numpy's calls.
 from __future__ import annotations
 
 import math
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -27,15 +28,15 @@ _FLOAT64 = np.dtype(np.float64)
 #: tanh(x) is 1.0 in float64 for |x| >= 19.1: inputs are clamped to +-20 before exp(2x)
 _TANH_CLAMP = 20.0
 _INV_LN2 = 1.4426950408889634
-_LN2_HI = 6.93147180369123816490e-01   # ln 2 in two parts (Cody and Waite), the first exact
-_LN2_LO = 1.90821492927058770002e-10   # in its leading bits so that n * _LN2_HI is exact
-_ROUNDER = 6755399441055744.0          # 1.5 * 2**52: y + it rounds y to an integer held in its low bits
-_ROUNDER_BITS = 0x4338000000000000     # the float64 bits of _ROUNDER
+_LN2_HI = 6.93147180369123816490e-01  # ln 2 in two parts (Cody and Waite), the first exact
+_LN2_LO = 1.90821492927058770002e-10  # in its leading bits so that n * _LN2_HI is exact
+_ROUNDER = 6755399441055744.0  # 1.5 * 2**52: y + it rounds y to an integer held in its low bits
+_ROUNDER_BITS = 0x4338000000000000  # the float64 bits of _ROUNDER
 #: exp's Taylor coefficients 1 / k!, k = 0..13 (the remainder is below 1e-17 for |r| <= ln2 / 2)
 _E = tuple(1.0 / math.factorial(k) for k in range(14))
 
 
-@njit(numpy_division=True)   # its one division vectorised
+@njit(numpy_division=True)  # its one division vectorised
 def tanh_rows(h: np.ndarray, cols: int, scratch: np.ndarray) -> None:
     """``h[:, :cols] = tanh(h[:, :cols])`` to within 4e-16 (absolute) of numpy's tanh, as
     1 - 2 / (exp(2x) + 1), exp(2x) = exp(r) 2**n with |r| <= ln2 / 2 and exp(r) by a degree-13
@@ -45,13 +46,13 @@ def tanh_rows(h: np.ndarray, cols: int, scratch: np.ndarray) -> None:
     for i in range(h.shape[0]):
         for j in range(cols):
             x = h[i, j]
-            x = _TANH_CLAMP if x > _TANH_CLAMP else x   # comparisons that keep a NaN
+            x = _TANH_CLAMP if x > _TANH_CLAMP else x  # comparisons that keep a NaN
             x = -_TANH_CLAMP if x < -_TANH_CLAMP else x
             y = 2.0 * x
             t = y * _INV_LN2 + _ROUNDER
             n = t - _ROUNDER
             r = (y - n * _LN2_HI) - n * _LN2_LO
-            r2 = r * r   # Estrin's scheme: a short dependency chain
+            r2 = r * r  # Estrin's scheme: a short dependency chain
             r4 = r2 * r2
             low = (_E[0] + _E[1] * r + (_E[2] + _E[3] * r) * r2) + (_E[4] + _E[5] * r + (_E[6] + _E[7] * r) * r2) * r4
             high = _E[8] + _E[9] * r + (_E[10] + _E[11] * r) * r2 + (_E[12] + _E[13] * r) * r4
@@ -59,7 +60,7 @@ def tanh_rows(h: np.ndarray, cols: int, scratch: np.ndarray) -> None:
             scratch[i, j] = t
     for i in range(h.shape[0]):
         for j in range(cols):
-            bits[i, j] = (bits[i, j] - _ROUNDER_BITS + 1023) << 52   # 2**n
+            bits[i, j] = (bits[i, j] - _ROUNDER_BITS + 1023) << 52  # 2**n
     for i in range(h.shape[0]):
         for j in range(cols):
             h[i, j] = 1.0 - 2.0 / (h[i, j] * scratch[i, j] + 1.0)
@@ -77,7 +78,7 @@ def products(a: np.ndarray, W_T: np.ndarray, dst: np.ndarray, rows: int) -> None
         for j in range(n_out):
             dst[i, j] = 0.0
     i = 0
-    while rows - i >= 3 and rows - i != 4:   # (four rows: two pairs)
+    while rows - i >= 3 and rows - i != 4:  # (four rows: two pairs)
         d0, d1, d2, a0, a1, a2 = dst[i], dst[i + 1], dst[i + 2], a[i], a[i + 1], a[i + 2]
         for m in range(n_in):
             x0, x1, x2, w = a0[m], a1[m], a2[m], W_T[m]
@@ -112,8 +113,8 @@ def mlp_forward(tared: np.ndarray, layout: np.ndarray, params: np.ndarray, out: 
     ``tanh_rows``. The sums are rounded in another order than BLAS's: a few ulp apart
     from the numpy pass."""
     rows, n_in = tared.shape[0], layout[0]
-    channels = layout[1:1 + n_in]
-    shapes = layout[1 + n_in:].reshape((-1, 2))
+    channels = layout[1 : 1 + n_in]
+    shapes = layout[1 + n_in :].reshape((-1, 2))
     width = n_in
     for k in range(shapes.shape[0]):
         width = max(width, shapes[k, 1])
@@ -125,8 +126,8 @@ def mlp_forward(tared: np.ndarray, layout: np.ndarray, params: np.ndarray, out: 
     last = shapes.shape[0] - 1
     for k in range(last + 1):
         n_rows_w, n_out = shapes[k, 0], shapes[k, 1]
-        W_T = params[at:at + n_rows_w * n_out].reshape((n_rows_w, n_out))
-        b = params[at + n_rows_w * n_out:at + n_rows_w * n_out + n_out]
+        W_T = params[at : at + n_rows_w * n_out].reshape((n_rows_w, n_out))
+        b = params[at + n_rows_w * n_out : at + n_rows_w * n_out + n_out]
         at += n_rows_w * n_out + n_out
         dst = out if k == last else z
         products(a, W_T, dst, rows)
@@ -154,8 +155,11 @@ class MlpEstimator:
     has_variance = False
 
     def __init__(self, channels: Any, mean: Any, scale: Any, layers: Any, name: str = "mlp") -> None:
-        if not isinstance(channels, list) or not channels or not all(
-                isinstance(c, int) and not isinstance(c, bool) and 0 <= c < FRAME_LEN for c in channels):
+        if (
+            not isinstance(channels, list)
+            or not channels
+            or not all(isinstance(c, int) and not isinstance(c, bool) and 0 <= c < FRAME_LEN for c in channels)
+        ):
             raise ValueError(f"input_channels: a list of channel indices 0..{FRAME_LEN - 1}")
         mean_a = _finite_array(mean, "input_mean", 1)
         scale_a = _finite_array(scale, "input_scale", 1)
@@ -173,9 +177,11 @@ class MlpEstimator:
             W = _finite_array(layer.get("weights"), f"layers[{k}].weights", 2)
             b = _finite_array(layer.get("bias"), f"layers[{k}].bias", 1)
             if W.shape[1] != width or b.shape != (W.shape[0],):
-                raise ValueError(f"layers[{k}]: weights of shape (out, {width}) and bias of shape (out,) expected, "
-                                 f"got {W.shape} and {b.shape}")
-            self._layers.append((W.T.copy(), b))   # stored transposed: rows @ W.T
+                raise ValueError(
+                    f"layers[{k}]: weights of shape (out, {width}) and bias of shape (out,) expected, "
+                    f"got {W.shape} and {b.shape}"
+                )
+            self._layers.append((W.T.copy(), b))  # stored transposed: rows @ W.T
             width = W.shape[0]
         if width != 3:
             raise ValueError(f"layers: the last layer must give 3 outputs (f_sensor), got {width}")
@@ -183,10 +189,12 @@ class MlpEstimator:
         self._mean = mean_a
         self._inv_scale = 1.0 / scale_a
         # the compiled pass's arguments (mlp_forward): every layer's (in, out) and all numbers flat
-        self._layout = np.array([len(channels), *channels, *(n for W_T, _ in self._layers for n in W_T.shape)],
-                                dtype=np.int64)
-        self._params = np.concatenate([self._mean, self._inv_scale]
-                                      + [part.ravel() for W_T, b in self._layers for part in (W_T, b)])
+        self._layout = np.array(
+            [len(channels), *channels, *(n for W_T, _ in self._layers for n in W_T.shape)], dtype=np.int64
+        )
+        self._params = np.concatenate(
+            [self._mean, self._inv_scale] + [part.ravel() for W_T, b in self._layers for part in (W_T, b)]
+        )
         self.name = name
 
     def estimate(self, tared: np.ndarray, fingers: Sequence[str]) -> Estimate:

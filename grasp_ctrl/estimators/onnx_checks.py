@@ -15,14 +15,18 @@ import re
 from pathlib import Path
 from typing import Any
 
-from grasp_ctrl.storage import file_sha256
 from grasp_ctrl.errors import PolicyError
+from grasp_ctrl.storage import file_sha256
 
 SHA256_HEX = re.compile(r"^[0-9a-f]{64}$")
 # metadata dtype -> onnxruntime's type string
 ORT_TYPES = {
-    "float32": "tensor(float)", "float64": "tensor(double)", "float16": "tensor(float16)",
-    "int64": "tensor(int64)", "int32": "tensor(int32)", "bool": "tensor(bool)",
+    "float32": "tensor(float)",
+    "float64": "tensor(double)",
+    "float16": "tensor(float16)",
+    "int64": "tensor(int64)",
+    "int32": "tensor(int32)",
+    "bool": "tensor(bool)",
 }
 
 
@@ -34,8 +38,10 @@ def verify_model_hash(meta: dict[str, Any], json_path: Path, model_file: Path) -
         raise PolicyError(f"{json_path}: model_sha256: 64 hexadecimal digits expected (got {want!r})")
     got = file_sha256(model_file)
     if got != want.lower():
-        raise PolicyError(f"{json_path}: model_sha256: {model_file.name} has SHA-256 {got}, the metadata says {want} "
-                          "(model file replaced or corrupted)")
+        raise PolicyError(
+            f"{json_path}: model_sha256: {model_file.name} has SHA-256 {got}, the metadata says {want} "
+            "(model file replaced or corrupted)"
+        )
 
 
 def _shape_ok(want: list[Any], got: list[Any]) -> bool:
@@ -45,7 +51,7 @@ def _shape_ok(want: list[Any], got: list[Any]) -> bool:
         if isinstance(w, int) and not isinstance(w, bool):
             if g != w:
                 return False
-        elif isinstance(g, int) and not isinstance(g, bool):   # metadata symbolic, graph fixed
+        elif isinstance(g, int) and not isinstance(g, bool):  # metadata symbolic, graph fixed
             return False
     return True
 
@@ -57,7 +63,9 @@ def _check_tensors(json_path: Path, section: str, declared: Any, graph: dict[str
         where = f"{json_path}: {section}.{name}"
         if name not in graph:
             kind = "input" if section.startswith("input") else "output"
-            raise PolicyError(f"{json_path}: {section}: {name!r} is not an {kind} of the ONNX model (it has {sorted(graph)})")
+            raise PolicyError(
+                f"{json_path}: {section}: {name!r} is not an {kind} of the ONNX model (it has {sorted(graph)})"
+            )
         if not isinstance(spec, dict):
             raise PolicyError(f"{where}: a table with shape and dtype expected")
         node = graph[name]

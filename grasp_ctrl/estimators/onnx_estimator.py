@@ -12,8 +12,9 @@ network predicts the force the finger applies (-f_sensor), so that is -1.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -42,9 +43,17 @@ def _get(meta: dict[str, Any], json_path: Path, dotted: str, expected: str) -> A
 class OnnxEstimator:
     """Voxel-grid ONNX network -> f_sensor (and variance when the policy has one)."""
 
-    def __init__(self, session: Any, name: str, electrode_input: str, contact_input: str,
-                 force_output: str, variance_output: str | None, to_f_sensor: float,
-                 voxel_variant: str) -> None:
+    def __init__(
+        self,
+        session: Any,
+        name: str,
+        electrode_input: str,
+        contact_input: str,
+        force_output: str,
+        variance_output: str | None,
+        to_f_sensor: float,
+        voxel_variant: str,
+    ) -> None:
         self.session = session
         self.name = name
         self.has_variance = variance_output is not None
@@ -73,13 +82,13 @@ class OnnxEstimator:
         return Estimate(f_sensor=f_sensor, variance=variance)
 
 
-def _check_onnx_interface(session: Any, json_path: Path, tensors_in: dict[str, Any],
-                          needed_out: list[str]) -> None:
+def _check_onnx_interface(session: Any, json_path: Path, tensors_in: dict[str, Any], needed_out: list[str]) -> None:
     got_in = {i.name: i for i in session.get_inputs()}
     for name, spec in tensors_in.items():
         if name not in got_in:
-            raise PolicyError(f"{json_path}: input.tensors: {name!r} is not an input of the ONNX model "
-                              f"(it has {sorted(got_in)})")
+            raise PolicyError(
+                f"{json_path}: input.tensors: {name!r} is not an input of the ONNX model (it has {sorted(got_in)})"
+            )
         shape = list(got_in[name].shape)[1:]
         want = list(spec.get("shape", []))[1:]
         if want and shape != want:
@@ -87,8 +96,9 @@ def _check_onnx_interface(session: Any, json_path: Path, tensors_in: dict[str, A
     got_out = {o.name for o in session.get_outputs()}
     for name in needed_out:
         if name not in got_out:
-            raise PolicyError(f"{json_path}: output.tensors: {name!r} is not an output of the ONNX model "
-                              f"(it has {sorted(got_out)})")
+            raise PolicyError(
+                f"{json_path}: output.tensors: {name!r} is not an output of the ONNX model (it has {sorted(got_out)})"
+            )
 
 
 def load_onnx_policy(meta: dict[str, Any], json_path: Path, hand: HandConfig | None, threads: int) -> OnnxEstimator:
@@ -96,11 +106,14 @@ def load_onnx_policy(meta: dict[str, Any], json_path: Path, hand: HandConfig | N
     json_path = Path(json_path)
     name = meta.get("name", json_path.stem)
     if meta.get("sensor_type") != "biotac":
-        raise PolicyError(f"{json_path}: sensor_type: this estimator reads BioTac frames, policy says "
-                          f"{meta.get('sensor_type')!r}")
+        raise PolicyError(
+            f"{json_path}: sensor_type: this estimator reads BioTac frames, policy says {meta.get('sensor_type')!r}"
+        )
     if hand is not None and hand.tactile.sensor_type != meta["sensor_type"]:
-        raise PolicyError(f"{json_path}: sensor_type: policy is for {meta['sensor_type']!r}, the hand "
-                          f"{hand.name!r} has {hand.tactile.sensor_type!r}")
+        raise PolicyError(
+            f"{json_path}: sensor_type: policy is for {meta['sensor_type']!r}, the hand "
+            f"{hand.name!r} has {hand.tactile.sensor_type!r}"
+        )
     if (meta.get("input") or {}).get("kind") in ("electrodes_pdc", "electrodes_contact_point"):
         # Networks on signal vectors (Su et al., the no-voxel model) rather than voxel grids.
         from grasp_ctrl.estimators.feature_onnx_estimator import load_feature_onnx_policy
@@ -115,8 +128,10 @@ def load_onnx_policy(meta: dict[str, Any], json_path: Path, hand: HandConfig | N
     el_name, cp_name = list(tensors_in)
     for tname, spec in tensors_in.items():
         if list(spec.get("shape", []))[1:] != list(GRID_SHAPE):
-            raise PolicyError(f"{json_path}: input.tensors.{tname}.shape: [batch, {', '.join(map(str, GRID_SHAPE))}] "
-                              f"expected, got {spec.get('shape')}")
+            raise PolicyError(
+                f"{json_path}: input.tensors.{tname}.shape: [batch, {', '.join(map(str, GRID_SHAPE))}] "
+                f"expected, got {spec.get('shape')}"
+            )
     tare = _get(meta, json_path, "preprocessing.tare", "'value - baseline'")
     if tare not in SUPPORTED_TARE:
         raise PolicyError(f"{json_path}: preprocessing.tare: one of {SUPPORTED_TARE} (got {tare!r})")
@@ -159,11 +174,13 @@ def load_onnx_policy(meta: dict[str, Any], json_path: Path, hand: HandConfig | N
     opts.inter_op_num_threads = 1
     opts.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
     opts.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
-    verify_model_hash(meta, json_path, model_file)   # before onnxruntime parses the file
+    verify_model_hash(meta, json_path, model_file)  # before onnxruntime parses the file
     try:
         session = ort.InferenceSession(str(model_file), opts, providers=["CPUExecutionProvider"])
     except Exception as exc:  # onnxruntime raises its own exception types
-        raise PolicyError(f"{model_file}: cannot load the ONNX model ({(str(exc).splitlines() or [type(exc).__name__])[0]})") from None
+        raise PolicyError(
+            f"{model_file}: cannot load the ONNX model ({(str(exc).splitlines() or [type(exc).__name__])[0]})"
+        ) from None
     _check_onnx_interface(session, json_path, tensors_in, [force_out] + ([var_out] if var_out else []))
     check_graph_io(session, meta, json_path)
     return OnnxEstimator(session, name, el_name, cp_name, force_out, var_out, float(sign), variant)

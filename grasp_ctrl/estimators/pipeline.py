@@ -7,7 +7,8 @@ zero variance), as the paper did.
 
 from __future__ import annotations
 
-from typing import NamedTuple, Sequence
+from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -24,15 +25,21 @@ _FLOAT64 = np.dtype(np.float64)
 class TipForces(NamedTuple):
     """One tick's tactile results (an immutable tuple: cheap to make every tick)."""
 
-    tared: np.ndarray              # (n_tips, 44) counts
-    in_contact: np.ndarray         # (n_tips,) bool
-    f_sensor: np.ndarray           # (n_tips, 3) N, zero where not in contact
-    variance: np.ndarray | None    # (n_tips, 3) N^2 when the estimator provides it
+    tared: np.ndarray  # (n_tips, 44) counts
+    in_contact: np.ndarray  # (n_tips,) bool
+    f_sensor: np.ndarray  # (n_tips, 3) N, zero where not in contact
+    variance: np.ndarray | None  # (n_tips, 3) N^2 when the estimator provides it
 
 
 class TactilePipeline:
-    def __init__(self, estimator: ForceEstimator, fingers: Sequence[str], threshold: float = 10.0,
-                 frames: int = 10, validate: bool = True) -> None:
+    def __init__(
+        self,
+        estimator: ForceEstimator,
+        fingers: Sequence[str],
+        threshold: float = 10.0,
+        frames: int = 10,
+        validate: bool = True,
+    ) -> None:
         self.estimator = estimator
         self.fingers = tuple(fingers)
         self.tare = Tare(len(self.fingers))
@@ -45,9 +52,14 @@ class TactilePipeline:
         self._subsets: dict[int, tuple[np.ndarray, tuple[str, ...]]] = {}
 
     @classmethod
-    def from_hand(cls, hand: HandConfig, estimator: ForceEstimator, validate: bool = True) -> "TactilePipeline":
-        return cls(estimator, [f.name for f in hand.fingers], hand.tactile.contact_pdc_threshold,
-                   hand.tactile.contact_frames, validate)
+    def from_hand(cls, hand: HandConfig, estimator: ForceEstimator, validate: bool = True) -> TactilePipeline:
+        return cls(
+            estimator,
+            [f.name for f in hand.fingers],
+            hand.tactile.contact_pdc_threshold,
+            hand.tactile.contact_frames,
+            validate,
+        )
 
     def set_baseline(self, frames: np.ndarray) -> None:
         """(k, n_tips, 44) raw no-contact frames; also resets the contact gate."""
@@ -77,19 +89,31 @@ class TactilePipeline:
         tared = np.empty((n, FRAME_LEN))
         contact = np.empty(n, dtype=bool)
         bits = -1
-        if (jit.JIT and self.validate and type(raw) is np.ndarray and raw.dtype is _FLOAT64
-                and raw.shape == self._frame_shape and raw.flags.c_contiguous and n <= 62):
-            bits = tare_and_gate_bits(raw, self.tare.baseline, self.gate.count, self.gate.threshold,
-                                      self.gate.frames, tared, contact)
-        if bits < 0:   # the numpy path (and the one that names a bad value)
+        if (
+            jit.JIT
+            and self.validate
+            and type(raw) is np.ndarray
+            and raw.dtype is _FLOAT64
+            and raw.shape == self._frame_shape
+            and raw.flags.c_contiguous
+            and n <= 62
+        ):
+            bits = tare_and_gate_bits(
+                raw, self.tare.baseline, self.gate.count, self.gate.threshold, self.gate.frames, tared, contact
+            )
+        if bits < 0:  # the numpy path (and the one that names a bad value)
             raw = validate_frames(raw, self.fingers) if self.validate else np.asarray(raw, dtype=float)
             tared = self.tare.apply(raw)
             contact = self.gate.update(tared)
             bits = sum(1 << i for i in np.flatnonzero(contact).tolist())
         return tared, contact, bits
 
-    def forces(self, tared: np.ndarray, bits: int, touching: np.ndarray | None = None,
-               ) -> tuple[np.ndarray, np.ndarray | None]:
+    def forces(
+        self,
+        tared: np.ndarray,
+        bits: int,
+        touching: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray | None]:
         """``(f_sensor, variance)`` of the fingertips: one batched estimate for those in
         contact (``bits``, from ``gate_frames``), zero for the others. ``touching``, when
         given, holds their tared rows in order in its first rows (``tared[idx]``, already
@@ -99,8 +123,8 @@ class TactilePipeline:
         if bits == self._all_bits and n:
             # Every fingertip in contact: no gather, no scatter.
             est = self.estimator.estimate(tared, self.fingers)
-            f_sensor = np.array(est.f_sensor, dtype=float)   # own copy, as the scatter below makes
-            if f_sensor.shape != (n, 3):   # let the scatter broadcast or name the bad shape
+            f_sensor = np.array(est.f_sensor, dtype=float)  # own copy, as the scatter below makes
+            if f_sensor.shape != (n, 3):  # let the scatter broadcast or name the bad shape
                 f_sensor = np.zeros((n, 3))
                 f_sensor[:] = est.f_sensor
             if variance is not None and est.variance is not None:
@@ -109,10 +133,15 @@ class TactilePipeline:
             f_sensor = np.zeros((n, 3))
             if bits:
                 idx, names = self._subset(bits)
-                est = self.estimator.estimate(tared[idx] if touching is None else touching[:len(idx)], names)
+                est = self.estimator.estimate(tared[idx] if touching is None else touching[: len(idx)], names)
                 rows = est.f_sensor
-                if (jit.JIT and type(rows) is np.ndarray and rows.dtype is _FLOAT64 and rows.shape == (len(idx), 3)
-                        and rows.flags.c_contiguous):
+                if (
+                    jit.JIT
+                    and type(rows) is np.ndarray
+                    and rows.dtype is _FLOAT64
+                    and rows.shape == (len(idx), 3)
+                    and rows.flags.c_contiguous
+                ):
                     scatter_rows(rows, bits, f_sensor)
                 else:
                     f_sensor[idx] = rows

@@ -10,8 +10,9 @@ are built by the trial runner, not here.
 from __future__ import annotations
 
 import importlib
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import PolicyError
@@ -78,7 +79,9 @@ def load_linear(meta: dict[str, Any], json_path: Path, hand: HandConfig | None, 
     from grasp_ctrl.estimators.linear import LinearEstimator
 
     try:
-        return LinearEstimator(meta.get("weights_n_per_count"), meta.get("bias_n"), name=meta.get("name", json_path.stem))  # type: ignore[arg-type]
+        return LinearEstimator(
+            meta.get("weights_n_per_count"), meta.get("bias_n"), name=meta.get("name", json_path.stem)
+        )  # type: ignore[arg-type]
     except (TypeError, ValueError) as exc:
         raise PolicyError(f"{json_path}: weights_n_per_count/bias_n: {exc}") from None
 
@@ -87,8 +90,13 @@ def load_mlp(meta: dict[str, Any], json_path: Path, hand: HandConfig | None, thr
     from grasp_ctrl.estimators.mlp import MlpEstimator
 
     try:
-        return MlpEstimator(meta.get("input_channels"), meta.get("input_mean"), meta.get("input_scale"),
-                            meta.get("layers"), name=meta.get("name", json_path.stem))
+        return MlpEstimator(
+            meta.get("input_channels"),
+            meta.get("input_mean"),
+            meta.get("input_scale"),
+            meta.get("layers"),
+            name=meta.get("name", json_path.stem),
+        )
     except ValueError as exc:
         raise PolicyError(f"{json_path}: {exc}") from None
 

@@ -18,22 +18,27 @@ Two kinds of evidence, both from material no one here wrote:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 from scipy.stats import spearmanr
 
 from grasp_ctrl.evaluation.robotic_finger import Trial, read_trials
-from grasp_ctrl.evaluation.tilt_profile import TiltProfile, format_tilt_profiles, real_tilt_profile, simulated_tilt_profile
+from grasp_ctrl.evaluation.tilt_profile import (
+    TiltProfile,
+    format_tilt_profiles,
+    real_tilt_profile,
+    simulated_tilt_profile,
+)
 from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PDC
 
 #: The two long trials of the real recordings (A: 7,106 rows, B: 6,469 rows).
 TRIAL_A = "15330_1571242563995"
 TRIAL_B = "15834_1571243162016"
 REAL_TARE_ROWS = 50
-PRESSED_PDC = 50.0          # tared pdc above which a frame counts as pressed
+PRESSED_PDC = 50.0  # tared pdc above which a frame counts as pressed
 RISE_COUNTS = 20.0
 
 
@@ -42,13 +47,13 @@ class PatternFigures:
     """Electrode-pattern statistics of one set of pressed frames."""
 
     frames: int
-    variance_in_real_a_top5: float      # centred, share of this set's variance
-    best_match_residual_median: float   # real B frames matched among this set's frames
-    rising_electrodes_median: float     # electrodes with tared value > 20 counts
-    max_rise_median: float              # counts, at tared pdc 300-400
+    variance_in_real_a_top5: float  # centred, share of this set's variance
+    best_match_residual_median: float  # real B frames matched among this set's frames
+    rising_electrodes_median: float  # electrodes with tared value > 20 counts
+    max_rise_median: float  # counts, at tared pdc 300-400
     largest_drop_over_pdc_median: float
     drop_vs_pdc_loglog_slope: float
-    rest_noise_sd: float                # counts, electrodes at rest
+    rest_noise_sd: float  # counts, electrodes at rest
 
 
 @dataclass(frozen=True)
@@ -103,12 +108,19 @@ def best_match_residuals(targets: np.ndarray, library: np.ndarray) -> np.ndarray
     # in blocks: a full targets x library product of large sets would not fit in memory
     block = max(1, 20_000_000 // max(1, len(lib)))
     for start in range(0, len(targets), block):
-        cos[start:start + block] = np.clip(unit_targets[start:start + block] @ lib.T, 0.0, None).max(axis=1)
+        cos[start : start + block] = np.clip(unit_targets[start : start + block] @ lib.T, 0.0, None).max(axis=1)
     return np.sqrt(np.clip(1.0 - cos**2, 0.0, None))
 
 
-def pattern_figures(e: np.ndarray, pdc: np.ndarray, rest_sd: float, real_a: np.ndarray, real_b: np.ndarray,
-                    library: np.ndarray | None = None, max_targets: int = 1500) -> PatternFigures:
+def pattern_figures(
+    e: np.ndarray,
+    pdc: np.ndarray,
+    rest_sd: float,
+    real_a: np.ndarray,
+    real_b: np.ndarray,
+    library: np.ndarray | None = None,
+    max_targets: int = 1500,
+) -> PatternFigures:
     """Figures of pressed frames ``e`` (k, 19) with tared ``pdc`` (k,) against real A and B;
     real B's frames are matched among ``library`` (default: the frames ``e`` themselves)."""
     keep = pdc > PRESSED_PDC
@@ -153,8 +165,8 @@ class PressureResponse:
     """How a network's force magnitude follows tared pdc on one set of pressed frames."""
 
     frames: int
-    median_n_by_bin: tuple[float, ...]   # median |f_est| (N) per PRESSURE_BINS; nan under 10 frames
-    rank_corr: float                     # Spearman correlation of |f_est| with tared pdc, pdc 50-500
+    median_n_by_bin: tuple[float, ...]  # median |f_est| (N) per PRESSURE_BINS; nan under 10 frames
+    rank_corr: float  # Spearman correlation of |f_est| with tared pdc, pdc 50-500
 
     @property
     def rise(self) -> float:
@@ -170,8 +182,11 @@ def pressure_response(f_est: np.ndarray, pdc: np.ndarray) -> PressureResponse:
         medians.append(float(np.median(mag[inside])) if inside.sum() >= MIN_BIN_FRAMES else float("nan"))
     # over the bins' range only: the real recordings reach pdc 500-700, simulated presses 3000
     span = (pdc >= PRESSURE_BINS[0][0]) & (pdc < PRESSURE_BINS[-1][1])
-    return PressureResponse(frames=int(span.sum()), median_n_by_bin=tuple(medians),
-                            rank_corr=float(spearmanr(mag[span], pdc[span]).statistic))
+    return PressureResponse(
+        frames=int(span.sum()),
+        median_n_by_bin=tuple(medians),
+        rank_corr=float(spearmanr(mag[span], pdc[span]).statistic),
+    )
 
 
 def tared_frames(e: np.ndarray, pdc: np.ndarray) -> np.ndarray:
@@ -187,7 +202,7 @@ class AnchorReport:
     per_source: dict[str, NetFigures]
     pooled: NetFigures
     simulated: PatternFigures
-    real_b: PatternFigures            # the real-to-real reference (B against A)
+    real_b: PatternFigures  # the real-to-real reference (B against A)
     # (d): the network's magnitude against tared pdc: real A, real B, simulated rigid-ft
     pressure: dict[str, PressureResponse]
     # (b) split by where the skin is pressed (``location_shares``)
@@ -210,8 +225,13 @@ def rest_noise_sd(params: object | None = None, frames: int = 200, seed: int = 0
     return float(raw[:, :, ELECTRODES].std(axis=0).mean())
 
 
-def anchor_report(real_path: str | Path, n_per_source: int = 20000, seed: int = 7, params: object | None = None,
-                  policy: str = "icra19_official") -> AnchorReport:
+def anchor_report(
+    real_path: str | Path,
+    n_per_source: int = 20000,
+    seed: int = 7,
+    params: object | None = None,
+    policy: str = "icra19_official",
+) -> AnchorReport:
     """All anchor figures of the simulated BioTac (``params``, default: the model's defaults)
     on ``n_per_source`` synthetic force samples of rigid-ft and ball-ft."""
     from grasp_ctrl.estimators.registry import load_policy
@@ -232,7 +252,7 @@ def anchor_report(real_path: str | Path, n_per_source: int = 20000, seed: int = 
         data = generate_source(source, n_per_source, forward, rng)
         est = net.estimate(data.tared, ["sim"] * len(data.tared)).f_sensor
         per_source[source] = net_figures(est, data.f_sensor)
-        if source == "rigid-ft":       # pad presses, as the real plate presses
+        if source == "rigid-ft":  # pad presses, as the real plate presses
             pressure["simulated rigid-ft"] = pressure_response(est, data.tared[:, PDC])
         tared_all.append(data.tared)
         est_all.append(est)
@@ -253,11 +273,15 @@ def anchor_report(real_path: str | Path, n_per_source: int = 20000, seed: int = 
 
 
 def format_report(report: AnchorReport) -> str:
-    lines = ["the authors' network (icra19_official) on simulated presses:",
-             f"  {'source':10s} {'samples':>7s} {'median angle':>12s} {'|f_est|/|f|':>11s} {'corr':>6s}"]
+    lines = [
+        "the authors' network (icra19_official) on simulated presses:",
+        f"  {'source':10s} {'samples':>7s} {'median angle':>12s} {'|f_est|/|f|':>11s} {'corr':>6s}",
+    ]
     for name, fig in [*report.per_source.items(), ("pooled", report.pooled)]:
-        lines.append(f"  {name:10s} {fig.samples:7d} {fig.median_angle_deg:10.1f} deg {fig.magnitude_ratio_median:11.2f} "
-                     f"{fig.magnitude_corr:6.2f}")
+        lines.append(
+            f"  {name:10s} {fig.samples:7d} {fig.median_angle_deg:10.1f} deg {fig.magnitude_ratio_median:11.2f} "
+            f"{fig.magnitude_corr:6.2f}"
+        )
     lines.append("electrode patterns of pressed frames (tared pdc > 50):")
     lines.append(f"  {'figure':40s} {'simulated':>10s} {'real B':>10s}")
     for key in PatternFigures.__dataclass_fields__:
@@ -279,8 +303,9 @@ PAD_SCAN_X_M = (-0.012, -0.009, -0.006, -0.003, 0.0, 0.003)
 PAD_SCAN_FORCES_N = (0.5, 1.0, 2.0, 3.0)
 
 
-def pad_press_ratios(params: object | None = None, policy: str = "icra19_official", hold_s: float = 1.0,
-                     seed: int = 0) -> np.ndarray:
+def pad_press_ratios(
+    params: object | None = None, policy: str = "icra19_official", hold_s: float = 1.0, seed: int = 0
+) -> np.ndarray:
     """|f_est| / |f| of ``policy`` for steady normal presses on the simulated pad: rows
     PAD_SCAN_X_M, columns PAD_SCAN_FORCES_N. A grasp presses the pad near one spot with
     about tau = 2 N, so this is the read the controller gets; the pooled anchor figures
@@ -304,15 +329,17 @@ def pad_press_ratios(params: object | None = None, policy: str = "icra19_officia
                 frame = model.frames(point, f_sensor, normal_sensor, ~free, np.zeros(1), dt)
             est = net.estimate(frame - rest, ["sim"]).f_sensor[0]
             ratios[i, j] = float(np.linalg.norm(est)) / force
-            for _ in range(3 * steps):    # let the slow part of the load decay before the next press
+            for _ in range(3 * steps):  # let the slow part of the load decay before the next press
                 model.frames(zeros, zeros, zeros, free, np.zeros(1), dt)
     return ratios
 
 
 def format_pad_scan(ratios: np.ndarray, policy: str = "icra19_official") -> str:
     forces = "  ".join(f"{f:>5.1f} N" for f in PAD_SCAN_FORCES_N)
-    lines = [f"{policy} on steady normal pad presses, |f_est| / |f| (sensor x along the pad midline):",
-             f"  x (mm)   {forces}"]
+    lines = [
+        f"{policy} on steady normal pad presses, |f_est| / |f| (sensor x along the pad midline):",
+        f"  x (mm)   {forces}",
+    ]
     for x, row in zip(PAD_SCAN_X_M, ratios):
         lines.append(f"  {x * 1000:+6.0f}   " + "  ".join(f"{r:7.2f}" for r in row))
     within = float(np.mean((ratios >= 0.5) & (ratios <= 2.0)))
@@ -333,7 +360,7 @@ class LocationShare:
 
     x_m: tuple[float, ...]
     share: tuple[float, ...]
-    real_centroid_x_m: tuple[float, float, float]   # real A's drop centroid: quartiles (m)
+    real_centroid_x_m: tuple[float, float, float]  # real A's drop centroid: quartiles (m)
 
 
 def drop_centroid_x(e: np.ndarray) -> np.ndarray:
@@ -370,20 +397,29 @@ def location_shares(real_a: np.ndarray, params: object | None = None, seed: int 
         points, normals = surface_point_and_normal(radial)
         magnitude = np.exp(rng.uniform(np.log(0.5), np.log(6.0), n))
         f_sensor = sheared_forces(normals, magnitude, rng.uniform(0.0, 0.3, n), rng)
-        out = static_frames(np.ascontiguousarray(points), np.ascontiguousarray(normals),
-                            np.ascontiguousarray(f_sensor), np.ones((n, N_GAIN)), constants)
+        out = static_frames(
+            np.ascontiguousarray(points),
+            np.ascontiguousarray(normals),
+            np.ascontiguousarray(f_sensor),
+            np.ones((n, N_GAIN)),
+            constants,
+        )
         pressed = out[:, 19] > PRESSED_PDC
         shares.append(variance_share(out[pressed, :19], components))
     quartiles = np.nanpercentile(drop_centroid_x(real_a), [25, 50, 75])
-    return LocationShare(x_m=LOCATION_SCAN_X_M, share=tuple(shares),
-                         real_centroid_x_m=(float(quartiles[0]), float(quartiles[1]), float(quartiles[2])))
+    return LocationShare(
+        x_m=LOCATION_SCAN_X_M,
+        share=tuple(shares),
+        real_centroid_x_m=(float(quartiles[0]), float(quartiles[1]), float(quartiles[2])),
+    )
 
 
 def format_location_shares(scan: LocationShare) -> str:
     q = [v * 1000 for v in scan.real_centroid_x_m]
-    lines = ["variance of simulated presses inside real A's top-5 components, by press location "
-             "(real B: see above):",
-             "  x (mm)  " + "".join(f"{x * 1000:>7.0f}" for x in scan.x_m),
-             "  share   " + "".join(f"{s:7.2f}" for s in scan.share),
-             f"  real A presses at the front: drop centroid x quartiles {q[0]:.1f} / {q[1]:.1f} / {q[2]:.1f} mm"]
+    lines = [
+        "variance of simulated presses inside real A's top-5 components, by press location (real B: see above):",
+        "  x (mm)  " + "".join(f"{x * 1000:>7.0f}" for x in scan.x_m),
+        "  share   " + "".join(f"{s:7.2f}" for s in scan.share),
+        f"  real A presses at the front: drop centroid x quartiles {q[0]:.1f} / {q[1]:.1f} / {q[2]:.1f} mm",
+    ]
     return "\n".join(lines)

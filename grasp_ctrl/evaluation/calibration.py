@@ -24,9 +24,9 @@ Labels come in two kinds:
 from __future__ import annotations
 
 import csv
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Sequence
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -37,27 +37,29 @@ from grasp_ctrl.evaluation.direction import angles_deg, fit_rotation, unit
 from grasp_ctrl.tactile.layout import ELECTRODES
 
 MODELS = ("gains", "linear", "affine", "residual")
-MIN_LABEL_N = 0.05          # labels below this are clamped in the relative weight (as in the training loss)
+MIN_LABEL_N = 0.05  # labels below this are clamped in the relative weight (as in the training loss)
 PLATE_COLUMNS = ("nx", "ny", "nz", "in_paper_trial")
 
 
 @dataclass
 class CalibrationData:
-    trial_id: np.ndarray      # (n,) str
-    tared: np.ndarray         # (n, 44) counts, in contact
-    labels: np.ndarray        # (n, 3): force labels (N, sensor frame) or unit plate normals (mount frame)
+    trial_id: np.ndarray  # (n,) str
+    tared: np.ndarray  # (n, 44) counts, in contact
+    labels: np.ndarray  # (n, 3): force labels (N, sensor frame) or unit plate normals (mount frame)
     direction_only: bool
     notes: list[str] = field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.tared)
 
-    def select(self, trial_ids: Sequence[str], what: str) -> "CalibrationData":
+    def select(self, trial_ids: Sequence[str], what: str) -> CalibrationData:
         known = list(dict.fromkeys(self.trial_id.tolist()))
         unknown = [t for t in trial_ids if t not in known]
         if unknown:
-            raise UsageError(f"{what}: unknown trial id {unknown[0]!r} (the file has {', '.join(known[:6])}"
-                             f"{', ...' if len(known) > 6 else ''})")
+            raise UsageError(
+                f"{what}: unknown trial id {unknown[0]!r} (the file has {', '.join(known[:6])}"
+                f"{', ...' if len(known) > 6 else ''})"
+            )
         m = np.isin(self.trial_id, list(trial_ids))
         return CalibrationData(self.trial_id[m], self.tared[m], self.labels[m], self.direction_only, self.notes)
 
@@ -72,8 +74,9 @@ def is_plate_recording(path: Path) -> bool:
     return all(c in [h.strip() for h in head] for c in PLATE_COLUMNS)
 
 
-def load_data(path: Path, tare_frames: int | None = None, min_pdc: float = 50.0,
-              skip_bad_rows: bool = False) -> CalibrationData:
+def load_data(
+    path: Path, tare_frames: int | None = None, min_pdc: float = 50.0, skip_bad_rows: bool = False
+) -> CalibrationData:
     """Labelled in-contact frames from a dataset file or a plate-normal recording.
 
     ``tare_frames``: dataset RAW files: minimum tare rows per trial (default 10); plate
@@ -88,9 +91,12 @@ def load_data(path: Path, tare_frames: int | None = None, min_pdc: float = 50.0,
         parts = [p for p in parts if len(p.tared)]
         if not parts:
             raise UsageError(f"{path}: no frames in contact")
-        return CalibrationData(np.concatenate([np.full(len(p.tared), p.trial_id) for p in parts]),
-                               np.concatenate([p.tared for p in parts]), np.concatenate([p.labels for p in parts]),
-                               direction_only=True)
+        return CalibrationData(
+            np.concatenate([np.full(len(p.tared), p.trial_id) for p in parts]),
+            np.concatenate([p.tared for p in parts]),
+            np.concatenate([p.labels for p in parts]),
+            direction_only=True,
+        )
     from grasp_ctrl.learning.dataset import read_dataset
 
     ds, _ = read_dataset(path, tare_frames or 10)
@@ -106,6 +112,7 @@ def load_data(path: Path, tare_frames: int | None = None, min_pdc: float = 50.0,
 @dataclass(frozen=True)
 class LabelFrame:
     """Direction-only labels: R maps sensor-frame directions into the label frame, up to a sign."""
+
     rotation: Rotation
     sign: float
 
@@ -129,9 +136,9 @@ def targets(data: CalibrationData, f_base: np.ndarray, frame: LabelFrame | None)
 @dataclass
 class Correction:
     model: str
-    matrix: np.ndarray                     # (3, 3)
-    electrode_weights: np.ndarray | None   # (3, 19) N/count
-    bias: np.ndarray                       # (3,) N
+    matrix: np.ndarray  # (3, 3)
+    electrode_weights: np.ndarray | None  # (3, 19) N/count
+    bias: np.ndarray  # (3,) N
 
     def apply(self, f_base: np.ndarray, tared: np.ndarray) -> np.ndarray:
         out = f_base @ self.matrix.T + self.bias
@@ -149,9 +156,11 @@ class Correction:
         return {
             "model": self.model,
             "formula": "f_sensor = matrix @ f_base + electrode_weights_n_per_count @ e + bias_n "
-                       "(e: the 19 tared electrodes, counts)",
+            "(e: the 19 tared electrodes, counts)",
             "matrix": self.matrix.tolist(),
-            "electrode_weights_n_per_count": None if self.electrode_weights is None else self.electrode_weights.tolist(),
+            "electrode_weights_n_per_count": None
+            if self.electrode_weights is None
+            else self.electrode_weights.tolist(),
             "bias_n": self.bias.tolist(),
             "polar_rotation_deg": float(np.degrees(np.linalg.norm(rotvec))),
             "polar_rotation_axis": (rotvec / (np.linalg.norm(rotvec) or 1.0)).tolist(),
@@ -159,8 +168,9 @@ class Correction:
         }
 
 
-def fit_correction(f_base: np.ndarray, tared: np.ndarray, target: np.ndarray, model: str = "residual",
-                   ridge: float = 1e-3) -> Correction:
+def fit_correction(
+    f_base: np.ndarray, tared: np.ndarray, target: np.ndarray, model: str = "residual", ridge: float = 1e-3
+) -> Correction:
     """Least squares of ``target ~ correction(f_base, tared)``, relative errors
     (each residual divided by |target|, at least MIN_LABEL_N: the paper's Q_3d), so light
     touches count as much as firm presses."""
@@ -169,6 +179,7 @@ def fit_correction(f_base: np.ndarray, tared: np.ndarray, target: np.ndarray, mo
         raise ValueError(f"model: one of {', '.join(MODELS)}")
     weight = 1.0 / np.maximum(np.linalg.norm(target, axis=1), MIN_LABEL_N)[:, None]
     if model == "gains":
+
         def residual(x: np.ndarray) -> np.ndarray:
             m = Rotation.from_rotvec(x[:3]).as_matrix() @ np.diag(np.exp(x[3:]))
             return ((f_base @ m.T - target) * weight).ravel()
@@ -189,9 +200,11 @@ def fit_correction(f_base: np.ndarray, tared: np.ndarray, target: np.ndarray, mo
     xs = x / scale * weight
     penalty = np.zeros(x.shape[1])
     if model == "residual":
-        penalty[3:22] = ridge * float(np.sum(weight ** 2))
-    coef = np.linalg.solve(xs.T @ xs + np.diag(penalty) + 1e-12 * np.eye(x.shape[1]),
-                           xs.T @ (target * weight)) / scale[:, None]
+        penalty[3:22] = ridge * float(np.sum(weight**2))
+    coef = (
+        np.linalg.solve(xs.T @ xs + np.diag(penalty) + 1e-12 * np.eye(x.shape[1]), xs.T @ (target * weight))
+        / scale[:, None]
+    )
     m = coef[:3].T
     w = coef[3:22].T if model == "residual" else None
     b = coef[-1] if model in ("affine", "residual") else np.zeros(3)
@@ -205,13 +218,18 @@ def error_summary(f_est: np.ndarray, data: CalibrationData, frame: LabelFrame | 
         ang = angles_deg(frame.rotation.apply(unit(f_est)), frame.sign * unit(data.labels))
     else:
         ang = angles_deg(f_est, data.labels)
-    out = {"n": int(len(ang)), "median_deg": float(np.median(ang)), "p75_deg": float(np.percentile(ang, 75)),
-           "p90_deg": float(np.percentile(ang, 90))}
+    out = {
+        "n": int(len(ang)),
+        "median_deg": float(np.median(ang)),
+        "p75_deg": float(np.percentile(ang, 75)),
+        "p90_deg": float(np.percentile(ang, 90)),
+    }
     if not data.direction_only:
         ratio = np.linalg.norm(f_est, axis=1) / np.maximum(np.linalg.norm(data.labels, axis=1), 1e-9)
         out["magnitude_ratio_median"] = float(np.median(ratio))
-        out["magnitude_error_n_median"] = float(np.median(np.abs(np.linalg.norm(f_est, axis=1)
-                                                                - np.linalg.norm(data.labels, axis=1))))
+        out["magnitude_error_n_median"] = float(
+            np.median(np.abs(np.linalg.norm(f_est, axis=1) - np.linalg.norm(data.labels, axis=1)))
+        )
     return out
 
 
@@ -219,21 +237,32 @@ def error_summary(f_est: np.ndarray, data: CalibrationData, frame: LabelFrame | 
 class CalibrationResult:
     correction: Correction
     frame: LabelFrame | None
-    metrics: dict[str, dict[str, dict[str, float]]]   # fit/test -> before/after -> summary
+    metrics: dict[str, dict[str, dict[str, float]]]  # fit/test -> before/after -> summary
 
 
-def calibrate(base_directions: Callable[[np.ndarray], np.ndarray], fit: CalibrationData,
-              test: CalibrationData | None, model: str = "residual", ridge: float = 1e-3) -> CalibrationResult:
+def calibrate(
+    base_directions: Callable[[np.ndarray], np.ndarray],
+    fit: CalibrationData,
+    test: CalibrationData | None,
+    model: str = "residual",
+    ridge: float = 1e-3,
+) -> CalibrationResult:
     """Fit the correction on ``fit``; report errors before and after on ``fit`` (and ``test``).
 
     ``base_directions``: tared (m, 44) -> the base policy's f_sensor (m, 3)."""
     f_fit = base_directions(fit.tared)
     frame = estimate_label_frame(f_fit, fit.labels) if fit.direction_only else None
     corr = fit_correction(f_fit, fit.tared, targets(fit, f_fit, frame), model, ridge)
-    metrics = {"fit": {"before": error_summary(f_fit, fit, frame),
-                       "after": error_summary(corr.apply(f_fit, fit.tared), fit, frame)}}
+    metrics = {
+        "fit": {
+            "before": error_summary(f_fit, fit, frame),
+            "after": error_summary(corr.apply(f_fit, fit.tared), fit, frame),
+        }
+    }
     if test is not None and len(test):
         f_test = base_directions(test.tared)
-        metrics["test"] = {"before": error_summary(f_test, test, frame),
-                           "after": error_summary(corr.apply(f_test, test.tared), test, frame)}
+        metrics["test"] = {
+            "before": error_summary(f_test, test, frame),
+            "after": error_summary(corr.apply(f_test, test.tared), test, frame),
+        }
     return CalibrationResult(corr, frame, metrics)

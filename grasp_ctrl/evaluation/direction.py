@@ -22,8 +22,8 @@ Direction estimators:
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
 
 import numpy as np
 from scipy.optimize import minimize
@@ -42,13 +42,14 @@ PERCENTILES = (50, 75, 90)
 @dataclass(frozen=True)
 class ContactSamples:
     trial_id: str
-    tared: np.ndarray      # (m, 44) tared frames in contact
-    labels: np.ndarray     # (m, 3) unit plate normals (mount frame)
-    onset: int | None      # index of the first gated contact frame in the trial
+    tared: np.ndarray  # (m, 44) tared frames in contact
+    labels: np.ndarray  # (m, 3) unit plate normals (mount frame)
+    onset: int | None  # index of the first gated contact frame in the trial
 
 
-def gate_trial(trial: Trial, tare_frames: int = 50, threshold: float = 10.0, frames: int = 10,
-               min_pdc: float = 0.0) -> ContactSamples:
+def gate_trial(
+    trial: Trial, tare_frames: int = 50, threshold: float = 10.0, frames: int = 10, min_pdc: float = 0.0
+) -> ContactSamples:
     """Tare on the first ``tare_frames`` frames, gate contact, keep contact frames.
 
     ``min_pdc``: additionally require tared pdc >= this (drops the drift-only
@@ -58,7 +59,7 @@ def gate_trial(trial: Trial, tare_frames: int = 50, threshold: float = 10.0, fra
     tare.set_baseline(trial.raw[:tare_frames, None, :])
     gate = ContactGate(1, threshold, frames)
     tared = tare.apply(trial.raw)
-    flags = np.array([gate.update(tared[i:i + 1])[0] for i in range(len(trial))])
+    flags = np.array([gate.update(tared[i : i + 1])[0] for i in range(len(trial))])
     keep = flags & (tared[:, PDC] >= min_pdc)
     labels = trial.normals[keep]
     labels = labels / np.linalg.norm(labels, axis=1, keepdims=True)
@@ -77,8 +78,8 @@ def angles_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Fit:
-    rotation: Rotation     # sensor frame -> mount frame
-    label_sign: float      # +1 or -1 applied to the labels
+    rotation: Rotation  # sensor frame -> mount frame
+    label_sign: float  # +1 or -1 applied to the labels
     gains: np.ndarray | None = None
 
 
@@ -101,11 +102,15 @@ def held_out_angles(fit: Fit, dirs: np.ndarray, labels: np.ndarray) -> np.ndarra
 
 # ---- direction estimators: tared (m, 44) -> (m, 3) directions, sensor frame ----
 
+
 def policy_directions(estimator: ForceEstimator, batch: int = 1024) -> Callable[[np.ndarray], np.ndarray]:
     def run(tared: np.ndarray) -> np.ndarray:
-        out = [estimator.estimate(tared[i:i + batch], ["finger"] * len(tared[i:i + batch])).f_sensor
-               for i in range(0, len(tared), batch)]
+        out = [
+            estimator.estimate(tared[i : i + batch], ["finger"] * len(tared[i : i + batch])).f_sensor
+            for i in range(0, len(tared), batch)
+        ]
         return np.concatenate(out) if out else np.zeros((0, 3))
+
     return run
 
 
@@ -123,8 +128,12 @@ def fit_analytic_gains(tared: np.ndarray, labels: np.ndarray) -> Fit:
         cost = float(np.mean(1.0 - np.cos(np.radians(held_out_angles(f, s * g, labels)))))
         return Fit(f.rotation, f.label_sign, g), cost
 
-    res = minimize(lambda x: fit_for(x)[1], x0=np.zeros(2), method="Nelder-Mead",
-                   options={"xatol": 1e-3, "fatol": 1e-7, "maxiter": 400})
+    res = minimize(
+        lambda x: fit_for(x)[1],
+        x0=np.zeros(2),
+        method="Nelder-Mead",
+        options={"xatol": 1e-3, "fatol": 1e-7, "maxiter": 400},
+    )
     return fit_for(res.x)[0]
 
 
@@ -150,8 +159,9 @@ def pooled_percentiles(results: Sequence[DirectionResult]) -> tuple[int, dict[in
     return len(ang), {p: float(np.percentile(ang, p)) for p in PERCENTILES}
 
 
-def evaluate(name: str, samples: Sequence[ContactSamples],
-             directions: Callable[[np.ndarray], np.ndarray] | None) -> list[DirectionResult]:
+def evaluate(
+    name: str, samples: Sequence[ContactSamples], directions: Callable[[np.ndarray], np.ndarray] | None
+) -> list[DirectionResult]:
     """Train on each trial, test on each other trial. ``directions=None`` = analytic with fitted gains."""
     results = []
     dirs = {} if directions is None else {s.trial_id: directions(s.tared) for s in samples}
@@ -166,8 +176,18 @@ def evaluate(name: str, samples: Sequence[ContactSamples],
                 fit = fit_rotation(dirs[tr.trial_id], tr.labels)
                 d_test = dirs[te.trial_id]
             ang = held_out_angles(fit, d_test, te.labels)
-            results.append(DirectionResult(
-                name, tr.trial_id, te.trial_id, len(tr.tared), len(te.tared),
-                {p: float(np.percentile(ang, p)) for p in PERCENTILES}, fit.label_sign,
-                None if fit.gains is None else [float(g) for g in fit.gains], ang, fit.rotation))
+            results.append(
+                DirectionResult(
+                    name,
+                    tr.trial_id,
+                    te.trial_id,
+                    len(tr.tared),
+                    len(te.tared),
+                    {p: float(np.percentile(ang, p)) for p in PERCENTILES},
+                    fit.label_sign,
+                    None if fit.gains is None else [float(g) for g in fit.gains],
+                    ang,
+                    fit.rotation,
+                )
+            )
     return results

@@ -14,8 +14,9 @@ simulated one, so that one can see where the simulated sensor is read unlike a r
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -29,7 +30,7 @@ if TYPE_CHECKING:
 #: beyond 90 deg; simulated ball-ft contacts above the equator do.
 TILT_BINS_DEG = ((0.0, 15.0), (15.0, 30.0), (30.0, 45.0), (45.0, 60.0), (60.0, 90.0), (90.0, 180.0))
 MIN_BIN_SAMPLES = 20
-PAD_NORMAL_INWARD = np.array([0.0, 0.0, 1.0])   # +z: a press straight on the pad
+PAD_NORMAL_INWARD = np.array([0.0, 0.0, 1.0])  # +z: a press straight on the pad
 
 
 @dataclass(frozen=True)
@@ -65,7 +66,7 @@ def real_tilt_profile(trials: Sequence[Trial], estimator: ForceEstimator) -> Til
     results = evaluate("tilt", list(samples.values()), policy_directions(estimator))
     errors, tilts = [], []
     for r in results:
-        assert r.rotation is not None      # a policy's directions: a fitted rotation, no gains
+        assert r.rotation is not None  # a policy's directions: a fitted rotation, no gains
         errors.append(r.angles)
         # the label in the sensor frame: the fitted rotation maps sensor -> mount
         tilts.append(tilt_deg(r.rotation.inv().apply(r.label_sign * samples[r.test].labels)))
@@ -78,13 +79,23 @@ def simulated_tilt_profile(f_est: np.ndarray, f_true: np.ndarray) -> TiltProfile
 
 
 def format_tilt_profiles(real: TiltProfile, simulated: TiltProfile) -> str:
-    lines = ["its direction error against the tilt of the force from the pad normal (median deg, samples):",
-             f"  {'tilt (deg)':12s} {'real (plate presses)':>22s} {'simulated (rigid-ft + ball-ft)':>32s}"]
-    for (lo, hi), n_r, e_r, n_s, e_s in zip(TILT_BINS_DEG, real.samples, real.median_error_deg,
-                                            simulated.samples, simulated.median_error_deg):
+    lines = [
+        "its direction error against the tilt of the force from the pad normal (median deg, samples):",
+        f"  {'tilt (deg)':12s} {'real (plate presses)':>22s} {'simulated (rigid-ft + ball-ft)':>32s}",
+    ]
+    for (lo, hi), n_r, e_r, n_s, e_s in zip(
+        TILT_BINS_DEG, real.samples, real.median_error_deg, simulated.samples, simulated.median_error_deg
+    ):
         lines.append(f"  {f'{lo:.0f}-{hi:.0f}':12s} {e_r:14.1f} ({n_r:5d}) {e_s:24.1f} ({n_s:5d})")
     return "\n".join(lines)
 
 
-__all__ = ["TILT_BINS_DEG", "TiltProfile", "format_tilt_profiles", "profile", "real_tilt_profile",
-           "simulated_tilt_profile", "tilt_deg"]
+__all__ = [
+    "TILT_BINS_DEG",
+    "TiltProfile",
+    "format_tilt_profiles",
+    "profile",
+    "real_tilt_profile",
+    "simulated_tilt_profile",
+    "tilt_deg",
+]

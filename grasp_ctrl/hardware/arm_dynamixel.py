@@ -56,7 +56,7 @@ class DynamixelArm:
         self.max_joint_step = hand.safety.max_joint_step_rad
         self.q_goal: np.ndarray | None = None
         self.line_xy: np.ndarray | None = None
-        self.z_set = 0.0            # current set point on the line
+        self.z_set = 0.0  # current set point on the line
         self.unreachable_z: float | None = None
         self.connected = False
 

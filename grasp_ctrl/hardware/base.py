@@ -13,11 +13,11 @@ from typing import NamedTuple, Protocol, runtime_checkable
 import numpy as np
 
 
-class JointState(NamedTuple):   # immutable, and cheap to make every tick
-    q: np.ndarray          # rad
-    dq: np.ndarray         # rad/s
+class JointState(NamedTuple):  # immutable, and cheap to make every tick
+    q: np.ndarray  # rad
+    dq: np.ndarray  # rad/s
     current_a: np.ndarray  # A (signed, as reported)
-    t: float               # s, clock time of the read
+    t: float  # s, clock time of the read
 
 
 @runtime_checkable
@@ -32,6 +32,7 @@ class HandBackend(Protocol):
     def check_health(self) -> None:
         """Raise HardwareError if a servo reports a fault."""
         ...
+
     def close(self) -> None: ...
 
 
@@ -43,6 +44,7 @@ class ArmBackend(Protocol):
     def command(self, p_world: np.ndarray) -> None:
         """Set the palm position target; the arm moves there at its speed limit."""
         ...
+
     def position(self) -> np.ndarray: ...
     def stop(self) -> None: ...
     def close(self) -> None: ...
@@ -52,8 +54,8 @@ class ArmBackend(Protocol):
 class TactileFrame:
     sensor_id: int
     seq: int
-    t_recv: float          # s, clock time the frame was received
-    values: np.ndarray     # (44,) raw counts, BioTac order
+    t_recv: float  # s, clock time the frame was received
+    values: np.ndarray  # (44,) raw counts, BioTac order
 
 
 @runtime_checkable

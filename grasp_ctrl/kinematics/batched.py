@@ -20,24 +20,24 @@ class _Group:
         self.n = self.idx.shape[1]
         self.R_base = np.array([c._R_base for c in chains])
         self.p_base = np.array([c._p_base for c in chains])
-        self.R_org = np.array([c._R_org for c in chains])       # (F, n, 3, 3)
+        self.R_org = np.array([c._R_org for c in chains])  # (F, n, 3, 3)
         # Joint origins without a rotation (the common case) skip a matrix product.
         self.org_rotates = [not np.allclose(self.R_org[:, i], np.eye(3)) for i in range(self.R_org.shape[1])]
-        self.p_org = np.array([c._p_org for c in chains])[..., None]   # (F, n, 3, 1)
+        self.p_org = np.array([c._p_org for c in chains])[..., None]  # (F, n, 3, 1)
         self.eye = np.eye(3)
         self.K = np.array([c._K for c in chains])
         self.K2 = np.array([c._K2 for c in chains])
-        self.axes = np.array([c.axes for c in chains])          # (F, n, 3)
+        self.axes = np.array([c.axes for c in chains])  # (F, n, 3)
         self.R_tip = np.array([c._R_tip for c in chains])
-        self.p_tip = np.array([c._p_tip for c in chains])[..., None]   # (F, 3, 1)
+        self.p_tip = np.array([c._p_tip for c in chains])[..., None]  # (F, 3, 1)
 
     def frames(self, q_all: np.ndarray):
-        q = q_all[self.idx]                                     # (F, n)
+        q = q_all[self.idx]  # (F, n)
         # All joint rotations at once (Rodrigues with precomputed K, K^2).
         rots = self.eye + np.sin(q)[..., None, None] * self.K + (1.0 - np.cos(q))[..., None, None] * self.K2
         F = len(self.rows)
         R = self.R_base
-        p = self.p_base[..., None]                               # (F, 3, 1)
+        p = self.p_base[..., None]  # (F, 3, 1)
         Rs = np.empty((F, self.n, 3, 3))
         ps = np.empty((F, self.n, 3, 1))
         for i in range(self.n):
@@ -89,14 +89,17 @@ class BatchedKinematics:
             rows = [self.order[n] for n in g.rows]
             Rs, ps, R, p = g.frames(q_all)
             local = p_sensor[rows][..., None] if per_finger else p_sensor
-            pt = (R @ local)[..., 0] + p if per_finger else R @ p_sensor + p   # (F, 3)
-            a = (Rs @ g.axes[..., None])[..., 0]                     # (F, n, 3) joint axes, hand frame
+            pt = (R @ local)[..., 0] + p if per_finger else R @ p_sensor + p  # (F, 3)
+            a = (Rs @ g.axes[..., None])[..., 0]  # (F, n, 3) joint axes, hand frame
             b = pt[:, None, :] - ps
-            J = np.stack([
-                a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
-                a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
-                a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0],
-            ], axis=-1)                                              # (F, n, 3)
+            J = np.stack(
+                [
+                    a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+                    a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                    a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0],
+                ],
+                axis=-1,
+            )  # (F, n, 3)
             pts[rows] = pt
             rots[rows] = R
             for k, i in enumerate(rows):

@@ -7,8 +7,8 @@ to the fingertip sensor frame. Joint vectors are ordered as in the hand file.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -19,10 +19,10 @@ from grasp_ctrl.kinematics.transforms import rpy_matrix, transform
 @dataclass
 class FingerChain:
     name: str
-    T_hand_base: np.ndarray          # (4, 4)
-    T_origins: list[np.ndarray]      # per joint, parent link -> joint frame (4, 4)
-    axes: np.ndarray                 # (n, 3) joint axes in the joint frames
-    T_tip: np.ndarray                # last link -> sensor frame (4, 4)
+    T_hand_base: np.ndarray  # (4, 4)
+    T_origins: list[np.ndarray]  # per joint, parent link -> joint frame (4, 4)
+    axes: np.ndarray  # (n, 3) joint axes in the joint frames
+    T_tip: np.ndarray  # last link -> sensor frame (4, 4)
     lower: np.ndarray
     upper: np.ndarray
 
@@ -49,7 +49,7 @@ class FingerChain:
         joints: Sequence[JointConfig],
         tip_xyz: Sequence[float],
         tip_rpy: Sequence[float],
-    ) -> "FingerChain":
+    ) -> FingerChain:
         """A chain from its base pose, joint configs and end (tip or tool) pose."""
         return cls(
             name=name,
@@ -62,7 +62,7 @@ class FingerChain:
         )
 
     @classmethod
-    def from_config(cls, f: FingerConfig) -> "FingerChain":
+    def from_config(cls, f: FingerConfig) -> FingerChain:
         return cls.from_joints(f.name, f.base_xyz, f.base_rpy, f.joints, f.tip_xyz, f.tip_rpy)
 
     @property
@@ -107,11 +107,13 @@ class FingerChain:
         p_hand = p_s if p_sensor is None else R_s @ np.asarray(p_sensor, dtype=float) + p_s
         a = np.einsum("nij,nj->ni", Rs, self.axes)
         b = p_hand - ps
-        J = np.array([
-            a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
-            a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
-            a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0],
-        ])
+        J = np.array(
+            [
+                a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+                a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0],
+            ]
+        )
         return p_hand, J
 
     def jacobian(self, q: np.ndarray, p_sensor: np.ndarray | None = None) -> np.ndarray:
@@ -137,8 +139,9 @@ class FingerChain:
             return np.clip(q, self.lower, self.upper)
         return np.clip(q + step[0], self.lower, self.upper)
 
-    def dls_delta(self, q: np.ndarray, J: np.ndarray, dp_hand: np.ndarray,
-                  damping: float = 0.01) -> tuple[np.ndarray, np.ndarray] | None:
+    def dls_delta(
+        self, q: np.ndarray, J: np.ndarray, dp_hand: np.ndarray, damping: float = 0.01
+    ) -> tuple[np.ndarray, np.ndarray] | None:
         """The joint change of ``dls_step`` (unclamped) and the joints that carry it;
         None when every joint is blocked at a limit."""
         # Joints at a limit that the step would push further are frozen, so the

@@ -42,7 +42,7 @@ def skin_contact_point(ux: float, uy: float, uz: float) -> tuple[float, float, f
     if yz > 1e-9:
         ry, rz = uy / yz, uz / yz
     else:
-        ry, rz = 0.0, 1.0      # the pad's opposite side (-PAD_NORMAL_SENSOR)
+        ry, rz = 0.0, 1.0  # the pad's opposite side (-PAD_NORMAL_SENSOR)
     x = min(max(PAD_POINT_X_M + PAD_SLIDE_M * ux / CAP_TILT_SIN, PAD_X_MIN_M), 0.0)
     return x, SKIN_RADIUS_M * ry, SKIN_RADIUS_M * rz, 0.0, ry, rz
 

@@ -19,7 +19,7 @@ from grasp_ctrl.kinematics.chain import FingerChain, HandKinematics
 @dataclass(frozen=True)
 class IKResult:
     q: np.ndarray
-    error_m: float        # remaining distance to the target
+    error_m: float  # remaining distance to the target
     iterations: int
     converged: bool
 

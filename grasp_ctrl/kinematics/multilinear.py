@@ -60,7 +60,7 @@ def _pose_table(chain: FingerChain, n: int) -> np.ndarray:
         if i < chain.n:
             T_org = _homogeneous(chain._R_org[i], chain._p_org[i])
             links.append((T_org, [T_org @ B for B in _basis(chain._K[i])], chain.axes[i]))
-        else:   # padding: a fixed joint with no axis
+        else:  # padding: a fixed joint with no axis
             links.append((np.eye(4), [np.eye(4), np.zeros((4, 4)), np.zeros((4, 4))], np.zeros(3)))
     W = np.zeros((3**n, 12 + 6 * n))
     for row, combo in enumerate(itertools.product(range(3), repeat=n)):
@@ -87,8 +87,8 @@ def contract(q: np.ndarray, take: np.ndarray, W: np.ndarray, rows: np.ndarray) -
     J = q.shape[0]
     vals = np.empty(2 * J + 2)
     vals[0] = 1.0
-    vals[1:J + 1] = np.cos(q)
-    vals[J + 1:2 * J + 1] = np.sin(q)
+    vals[1 : J + 1] = np.cos(q)
+    vals[J + 1 : 2 * J + 1] = np.sin(q)
     vals[2 * J + 1] = 0.0
     # The monomials: vals gathered by take, multiplied slot by slot in order (what
     # np.take and in-place products computed, without their (n, F, 3^n) temporaries).
@@ -121,11 +121,11 @@ class MultilinearKinematics:
         self.n = n = max(kin.chains[name].n for name in names)
         if n > MAX_JOINTS:
             raise ValueError(f"multilinear kinematics handles chains of up to {MAX_JOINTS} joints, not {n}")
-        self.W = np.array([_pose_table(kin.chains[name], n) for name in names])   # (F, 3^n, 12 + 6n)
+        self.W = np.array([_pose_table(kin.chains[name], n) for name in names])  # (F, 3^n, 12 + 6n)
         # Monomial j of finger f is the product over slots i of vals[take[i, f, j]] with
         # vals = (1, cos q_0..q_J-1, sin q_0..q_J-1, 0): one gather, n - 1 products.
         J = sum(kin.chains[name].n for name in names)
-        digits = np.array(list(itertools.product(range(3), repeat=n))).T        # (n, 3^n)
+        digits = np.array(list(itertools.product(range(3), repeat=n))).T  # (n, 3^n)
         take = np.zeros((n, F, 3**n), dtype=np.intp)
         for f, name in enumerate(names):
             sl = kin.slices[name]
@@ -133,7 +133,7 @@ class MultilinearKinematics:
                 if i < sl.stop - sl.start:
                     joint = sl.start + i
                     take[i, f] = np.choose(digits[i], [0, 1 + joint, 1 + J + joint])
-                else:   # padded slot: cos and sin terms read the trailing zero
+                else:  # padded slot: cos and sin terms read the trailing zero
                     take[i, f] = np.where(digits[i] == 0, 0, 1 + 2 * J)
         self.take = take
 

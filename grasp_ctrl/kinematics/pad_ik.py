@@ -19,10 +19,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from grasp_ctrl import jit
+from grasp_ctrl.jit import njit
 from grasp_ctrl.kinematics.batched import BatchedKinematics
 from grasp_ctrl.kinematics.chain import FingerChain, HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
-from grasp_ctrl.jit import njit
 
 
 @njit
@@ -62,8 +62,33 @@ def _chain_frames(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, R, p, Rs,
 
 
 @njit
-def _pad_and_jacobian(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, pad, J,
-                      normal_s, nrm, Jn, R, p, Rs, ps, tmp, rot):
+def _pad_and_jacobian(
+    q,
+    f,
+    start,
+    n,
+    R_base,
+    p_base,
+    R_org,
+    p_org,
+    K,
+    K2,
+    axes,
+    R_tip,
+    p_tip,
+    point,
+    pad,
+    J,
+    normal_s,
+    nrm,
+    Jn,
+    R,
+    p,
+    Rs,
+    ps,
+    tmp,
+    rot,
+):
     """Pad point (hand frame) of finger ``f`` into ``pad`` (3,) and its Jacobian into J (3, n);
     the pad normal ``normal_s`` (sensor frame) turned into the hand frame into ``nrm`` (3,)
     and its Jacobian d(normal)/dq = axis x normal into Jn (3, n). ``R`` .. ``tmp``: scratch
@@ -92,9 +117,14 @@ def _pad_and_jacobian(q, f, start, n, R_base, p_base, R_org, p_org, K, K2, axes,
 @njit
 def _frames_scratch(nmax):
     """Scratch arrays of ``_chain_frames`` for chains of up to ``nmax`` joints."""
-    return (np.empty((3, 3)), np.empty(3), np.empty((nmax, 3, 3)), np.empty((nmax, 3)), np.empty((3, 3)),
-            np.empty((3, 3)))
-
+    return (
+        np.empty((3, 3)),
+        np.empty(3),
+        np.empty((nmax, 3, 3)),
+        np.empty((nmax, 3)),
+        np.empty((3, 3)),
+        np.empty((3, 3)),
+    )
 
 
 #: Largest turn per joint and step that keeping a pad's facing may add (rad): the
@@ -120,8 +150,18 @@ def _damped_gram_into(J, active, n, damping, A):
 @njit
 def _facing_scratch(nmax):
     """Scratch arrays of ``_facing_step`` for chains of up to ``nmax`` joints."""
-    return (np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty((3, 3)), np.empty(3), np.empty((nmax, nmax)),
-            np.empty((nmax, 3)), np.empty((3, 3)), np.empty(3), np.empty(3))
+    return (
+        np.empty((3, 3)),
+        np.empty((3, 3)),
+        np.empty(3),
+        np.empty((3, 3)),
+        np.empty(3),
+        np.empty((nmax, nmax)),
+        np.empty((nmax, 3)),
+        np.empty((3, 3)),
+        np.empty(3),
+        np.empty(3),
+    )
 
 
 @njit
@@ -132,7 +172,7 @@ def _facing_step(J, Jn, dn, active, n, damping, orient_damping, dq1, dq, A, Ainv
     inactive joints (columns of J and Jn) left out. ``A`` to ``y``: scratch
     (``_facing_scratch``, made once per IK call rather than per finger)."""
     _damped_gram_into(J, active, n, damping, A)
-    for c in range(3):   # Ainv = A^-1, by columns
+    for c in range(3):  # Ainv = A^-1, by columns
         for r in range(3):
             unit[r] = 0.0
         unit[c] = 1.0
@@ -147,7 +187,7 @@ def _facing_step(J, Jn, dn, active, n, damping, orient_damping, dq1, dq, A, Ainv
                     for c in range(3):
                         acc += J[r, i] * Ainv[r, c] * J[c, k]
             N[i, k] = (1.0 if i == k else 0.0) - acc
-    for i in range(n):          # W = N Jn^T, active columns only
+    for i in range(n):  # W = N Jn^T, active columns only
         for r in range(3):
             acc = 0.0
             for k in range(n):
@@ -205,8 +245,30 @@ def _solve3_into(A, b, M, x):
 
 
 @njit
-def _step_pads(q, targets, move, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
-                     point, damping, lower, upper, normal_s, normal_targets, facing, orient_damping):
+def _step_pads(
+    q,
+    targets,
+    move,
+    starts,
+    counts,
+    R_base,
+    p_base,
+    R_org,
+    p_org,
+    K,
+    K2,
+    axes,
+    R_tip,
+    p_tip,
+    point,
+    damping,
+    lower,
+    upper,
+    normal_s,
+    normal_targets,
+    facing,
+    orient_damping,
+):
     """One damped least-squares step per finger with ``move[f]`` toward its pad target
     (the arithmetic of FingerChain.point_and_jacobian + dls_step); updates ``q`` in place.
     Fingers with ``facing[f]`` also turn their pad normal toward ``normal_targets[f]``
@@ -227,8 +289,33 @@ def _step_pads(q, targets, move, starts, counts, R_base, p_base, R_org, p_org, K
             continue
         s = starts[f]
         n = counts[f]
-        _pad_and_jacobian(q, f, s, n, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, pad, J,
-                          normal_s, nrm, Jn, R, p, Rs, ps, tmp, rot)
+        _pad_and_jacobian(
+            q,
+            f,
+            s,
+            n,
+            R_base,
+            p_base,
+            R_org,
+            p_org,
+            K,
+            K2,
+            axes,
+            R_tip,
+            p_tip,
+            point,
+            pad,
+            J,
+            normal_s,
+            nrm,
+            Jn,
+            R,
+            p,
+            Rs,
+            ps,
+            tmp,
+            rot,
+        )
         for r in range(3):
             dp[r] = targets[f, r] - pad[r]
             dn[r] = normal_targets[f, r] - nrm[r]
@@ -259,8 +346,9 @@ def _step_pads(q, targets, move, starts, counts, R_base, p_base, R_org, p_org, K
         if facing[f] and any_active:
             for i in range(n):
                 dq1[i] = dq[i]
-            _facing_step(J, Jn, dn, active, n, damping, orient_damping, dq1, dq, fA, fAinv, funit, fM, fx, fN, fW,
-                         fC, fe, fy)
+            _facing_step(
+                J, Jn, dn, active, n, damping, orient_damping, dq1, dq, fA, fAinv, funit, fM, fx, fN, fW, fC, fe, fy
+            )
             _keep_within(q, s, n, dq1, dq, lower, upper)
         for i in range(n):
             q[s + i] = min(max(q[s + i] + dq[i], lower[s + i]), upper[s + i])
@@ -295,8 +383,33 @@ def _pad_points(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_
     no_normal, nrm = np.zeros(3), np.empty(3)
     J, Jn = np.empty((3, nmax)), np.empty((3, nmax))
     for f in range(len(starts)):
-        _pad_and_jacobian(q, f, starts[f], counts[f], R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
-                          point, pad, J, no_normal, nrm, Jn, R, p, Rs, ps, tmp, rot)
+        _pad_and_jacobian(
+            q,
+            f,
+            starts[f],
+            counts[f],
+            R_base,
+            p_base,
+            R_org,
+            p_org,
+            K,
+            K2,
+            axes,
+            R_tip,
+            p_tip,
+            point,
+            pad,
+            J,
+            no_normal,
+            nrm,
+            Jn,
+            R,
+            p,
+            Rs,
+            ps,
+            tmp,
+            rot,
+        )
         for r in range(3):
             out[f, r] = pad[r]
 
@@ -316,9 +429,31 @@ def _sensor_rotations(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, ax
 
 
 @njit
-def _advance_pads(q, targets, task_vectors, distances, starts, counts, R_base, p_base, R_org, p_org, K, K2,
-                        axes, R_tip, p_tip, point, damping, lower, upper, normal_s, normal_targets, facing,
-                        orient_damping):
+def _advance_pads(
+    q,
+    targets,
+    task_vectors,
+    distances,
+    starts,
+    counts,
+    R_base,
+    p_base,
+    R_org,
+    p_org,
+    K,
+    K2,
+    axes,
+    R_tip,
+    p_tip,
+    point,
+    damping,
+    lower,
+    upper,
+    normal_s,
+    normal_targets,
+    facing,
+    orient_damping,
+):
     """Move each finger's pad target along its task vector by its distance (0: stays)
     and take one IK step for the fingers that moved (``_step_pads``); ``q`` and
     ``targets`` in place. False when no finger moves (nothing changed)."""
@@ -333,8 +468,30 @@ def _advance_pads(q, targets, task_vectors, distances, starts, counts, R_base, p
     for f in range(F):
         for r in range(3):
             targets[f, r] = targets[f, r] + task_vectors[f, r] * distances[f]
-    _step_pads(q, targets, move, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
-                     point, damping, lower, upper, normal_s, normal_targets, facing, orient_damping)
+    _step_pads(
+        q,
+        targets,
+        move,
+        starts,
+        counts,
+        R_base,
+        p_base,
+        R_org,
+        p_org,
+        K,
+        K2,
+        axes,
+        R_tip,
+        p_tip,
+        point,
+        damping,
+        lower,
+        upper,
+        normal_s,
+        normal_targets,
+        facing,
+        orient_damping,
+    )
     return True
 
 
@@ -345,8 +502,27 @@ MAX_SQUEEZE_STRETCH = 4.0
 
 
 @njit
-def _squeeze_directions(q, task_vectors, distances, compliance, starts, counts, R_base, p_base, R_org, p_org, K, K2,
-                        axes, R_tip, p_tip, point, lower, upper, out):
+def _squeeze_directions(
+    q,
+    task_vectors,
+    distances,
+    compliance,
+    starts,
+    counts,
+    R_base,
+    p_base,
+    R_org,
+    p_org,
+    K,
+    K2,
+    axes,
+    R_tip,
+    p_tip,
+    point,
+    lower,
+    upper,
+    out,
+):
     """Per finger with a distance: where to move its pad goal so that the joints' position
     springs push the pad along its closing vector v (``out`` (F, 3)).
 
@@ -371,8 +547,33 @@ def _squeeze_directions(q, task_vectors, distances, compliance, starts, counts, 
         if d == 0.0:
             continue
         s, n = starts[f], counts[f]
-        _pad_and_jacobian(q, f, s, n, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, pad, J,
-                          no_normal, nrm, Jn, R, p, Rs, ps, tmp, rot)
+        _pad_and_jacobian(
+            q,
+            f,
+            s,
+            n,
+            R_base,
+            p_base,
+            R_org,
+            p_org,
+            K,
+            K2,
+            axes,
+            R_tip,
+            p_tip,
+            point,
+            pad,
+            J,
+            no_normal,
+            nrm,
+            Jn,
+            R,
+            p,
+            Rs,
+            ps,
+            tmp,
+            rot,
+        )
         u0, u1, u2 = 0.0, 0.0, 0.0
         for i in range(n):
             # (J^T v)_i: the joint's torque per N along v; times its compliance: its goal change.
@@ -393,8 +594,7 @@ def _squeeze_directions(q, task_vectors, distances, compliance, starts, counts, 
 
 
 @njit
-def _sensor_forces(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
-                         f_sensor, f_hand, grip):
+def _sensor_forces(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, f_sensor, f_hand, grip):
     """Sensor-frame forces (F, 3) into the hand frame (``f_hand``, F x 3) and their part
     across the hand's z axis (``grip``, F). Each product sums its terms in the order
     ``np.einsum("nij,nj->ni", ...)`` does ((0 + a0 b0 + a2 b2) + a1 b1), so the result,
@@ -403,17 +603,24 @@ def _sensor_forces(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes,
     _sensor_rotations(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, R)
     for f in range(len(starts)):
         for r in range(3):
-            f_hand[f, r] = ((0.0 + R[f, r, 0] * f_sensor[f, 0]) + R[f, r, 2] * f_sensor[f, 2]) + R[f, r, 1] * f_sensor[f, 1]
+            f_hand[f, r] = ((0.0 + R[f, r, 0] * f_sensor[f, 0]) + R[f, r, 2] * f_sensor[f, 2]) + R[f, r, 1] * f_sensor[
+                f, 1
+            ]
         grip[f] = math.sqrt(f_hand[f, 0] * f_hand[f, 0] + f_hand[f, 1] * f_hand[f, 1])
-
 
 
 # ----- the kernels PadIK calls: the chains' geometry packed into two arrays ---------
 # (a compiled call costs about 65 ns per array argument: two instead of fifteen)
 
 
-def pack_geometry(chains: list[FingerChain], starts: np.ndarray, point: np.ndarray, normal: np.ndarray,
-                  lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def pack_geometry(
+    chains: list[FingerChain],
+    starts: np.ndarray,
+    point: np.ndarray,
+    normal: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
     """``(geometry, layout)``: every chain's base pose, joint origins, axes and tip pose
     (fingers with fewer joints than the longest padded with zeros), the pad point and
     normal (sensor frame) and the joint limits, as one float64 array; the sizes and
@@ -423,10 +630,21 @@ def pack_geometry(chains: list[FingerChain], starts: np.ndarray, point: np.ndarr
     def padded(get):
         return np.array([np.concatenate([get(c), np.zeros((nmax - c.n, *get(c).shape[1:]))]) for c in chains])
 
-    parts = [np.array([c._R_base for c in chains]), np.array([c._p_base for c in chains]),
-             padded(lambda c: c._R_org), padded(lambda c: c._p_org), padded(lambda c: c._K),
-             padded(lambda c: c._K2), padded(lambda c: c.axes), np.array([c._R_tip for c in chains]),
-             np.array([c._p_tip for c in chains]), point, normal, lower, upper]
+    parts = [
+        np.array([c._R_base for c in chains]),
+        np.array([c._p_base for c in chains]),
+        padded(lambda c: c._R_org),
+        padded(lambda c: c._p_org),
+        padded(lambda c: c._K),
+        padded(lambda c: c._K2),
+        padded(lambda c: c.axes),
+        np.array([c._R_tip for c in chains]),
+        np.array([c._p_tip for c in chains]),
+        point,
+        normal,
+        lower,
+        upper,
+    ]
     geometry = np.concatenate([np.ascontiguousarray(p, dtype=float).ravel() for p in parts])
     layout = np.concatenate([[len(chains), nmax, len(lower)], starts, [c.n for c in chains]]).astype(np.int64)
     return geometry, layout
@@ -438,36 +656,53 @@ def _unpack(geometry, layout):
     K, K2, axes, R_tip, p_tip, point, normal, lower, upper."""
     F, nmax, J = layout[0], layout[1], layout[2]
     o = 0
-    R_base = geometry[o:o + 9 * F].reshape((F, 3, 3))
+    R_base = geometry[o : o + 9 * F].reshape((F, 3, 3))
     o += 9 * F
-    p_base = geometry[o:o + 3 * F].reshape((F, 3))
+    p_base = geometry[o : o + 3 * F].reshape((F, 3))
     o += 3 * F
-    R_org = geometry[o:o + 9 * F * nmax].reshape((F, nmax, 3, 3))
+    R_org = geometry[o : o + 9 * F * nmax].reshape((F, nmax, 3, 3))
     o += 9 * F * nmax
-    p_org = geometry[o:o + 3 * F * nmax].reshape((F, nmax, 3))
+    p_org = geometry[o : o + 3 * F * nmax].reshape((F, nmax, 3))
     o += 3 * F * nmax
-    K = geometry[o:o + 9 * F * nmax].reshape((F, nmax, 3, 3))
+    K = geometry[o : o + 9 * F * nmax].reshape((F, nmax, 3, 3))
     o += 9 * F * nmax
-    K2 = geometry[o:o + 9 * F * nmax].reshape((F, nmax, 3, 3))
+    K2 = geometry[o : o + 9 * F * nmax].reshape((F, nmax, 3, 3))
     o += 9 * F * nmax
-    axes = geometry[o:o + 3 * F * nmax].reshape((F, nmax, 3))
+    axes = geometry[o : o + 3 * F * nmax].reshape((F, nmax, 3))
     o += 3 * F * nmax
-    R_tip = geometry[o:o + 9 * F].reshape((F, 3, 3))
+    R_tip = geometry[o : o + 9 * F].reshape((F, 3, 3))
     o += 9 * F
-    p_tip = geometry[o:o + 3 * F].reshape((F, 3))
+    p_tip = geometry[o : o + 3 * F].reshape((F, 3))
     o += 3 * F
-    point = geometry[o:o + 3]
-    normal = geometry[o + 3:o + 6]
-    lower = geometry[o + 6:o + 6 + J]
-    upper = geometry[o + 6 + J:o + 6 + 2 * J]
-    return (layout[3:3 + F], layout[3 + F:3 + 2 * F], R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip,
-            point, normal, lower, upper)
+    point = geometry[o : o + 3]
+    normal = geometry[o + 3 : o + 6]
+    lower = geometry[o + 6 : o + 6 + J]
+    upper = geometry[o + 6 + J : o + 6 + 2 * J]
+    return (
+        layout[3 : 3 + F],
+        layout[3 + F : 3 + 2 * F],
+        R_base,
+        p_base,
+        R_org,
+        p_org,
+        K,
+        K2,
+        axes,
+        R_tip,
+        p_tip,
+        point,
+        normal,
+        lower,
+        upper,
+    )
 
 
 @njit
 def pad_points_kernel(q, geometry, layout, out):
     """Every finger's pad point (hand frame) into ``out`` (F, 3)."""
-    starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, _n, _l, _u = _unpack(geometry, layout)
+    starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, _n, _l, _u = _unpack(
+        geometry, layout
+    )
     _pad_points(q, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, out)
 
 
@@ -488,15 +723,39 @@ def sensor_forces_kernel(q, geometry, layout, f_sensor, f_hand, grip):
 @njit
 def step_pads_kernel(q, targets, move, geometry, layout, damping, normal_targets, facing, orient_damping):
     """``_step_pads``: one DLS step per finger with ``move[f]`` (``q`` in place)."""
-    starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, normal, lower, upper = \
-        _unpack(geometry, layout)
-    _step_pads(q, targets, move, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point,
-               damping, lower, upper, normal, normal_targets, facing, orient_damping)
+    starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, normal, lower, upper = _unpack(
+        geometry, layout
+    )
+    _step_pads(
+        q,
+        targets,
+        move,
+        starts,
+        counts,
+        R_base,
+        p_base,
+        R_org,
+        p_org,
+        K,
+        K2,
+        axes,
+        R_tip,
+        p_tip,
+        point,
+        damping,
+        lower,
+        upper,
+        normal,
+        normal_targets,
+        facing,
+        orient_damping,
+    )
 
 
 @njit
-def advance_pads_kernel(q, targets, task_vectors, distances, geometry, layout, damping, normal_targets, facing,
-                        orient_damping):
+def advance_pads_kernel(
+    q, targets, task_vectors, distances, geometry, layout, damping, normal_targets, facing, orient_damping
+):
     """``_advance_pads``: targets moved along the task vectors, one DLS step for the fingers
     that moved (``q`` and ``targets`` in place); False when none moves."""
     moved = False
@@ -504,25 +763,80 @@ def advance_pads_kernel(q, targets, task_vectors, distances, geometry, layout, d
         moved = moved or distances[f] != 0.0
     if not moved:
         return False
-    starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, normal, lower, upper = \
-        _unpack(geometry, layout)
-    return _advance_pads(q, targets, task_vectors, distances, starts, counts, R_base, p_base, R_org, p_org, K, K2,
-                         axes, R_tip, p_tip, point, damping, lower, upper, normal, normal_targets, facing,
-                         orient_damping)
+    starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, normal, lower, upper = _unpack(
+        geometry, layout
+    )
+    return _advance_pads(
+        q,
+        targets,
+        task_vectors,
+        distances,
+        starts,
+        counts,
+        R_base,
+        p_base,
+        R_org,
+        p_org,
+        K,
+        K2,
+        axes,
+        R_tip,
+        p_tip,
+        point,
+        damping,
+        lower,
+        upper,
+        normal,
+        normal_targets,
+        facing,
+        orient_damping,
+    )
 
 
 @njit
 def squeeze_directions_kernel(q, task_vectors, distances, compliance, geometry, layout, out):
     """``_squeeze_directions``: each moving finger's stiffness-aware squeeze direction into ``out`` (F, 3)."""
-    starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, _n, lower, upper = \
-        _unpack(geometry, layout)
-    _squeeze_directions(q, task_vectors, distances, compliance, starts, counts, R_base, p_base, R_org, p_org, K, K2,
-                        axes, R_tip, p_tip, point, lower, upper, out)
+    starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, _n, lower, upper = _unpack(
+        geometry, layout
+    )
+    _squeeze_directions(
+        q,
+        task_vectors,
+        distances,
+        compliance,
+        starts,
+        counts,
+        R_base,
+        p_base,
+        R_org,
+        p_org,
+        K,
+        K2,
+        axes,
+        R_tip,
+        p_tip,
+        point,
+        lower,
+        upper,
+        out,
+    )
 
 
 @njit
-def squeeze_targets_kernel(q_goal, q_measured, targets, task_vectors, distances, compliance, pad_along, max_cross,
-                           geometry, layout, directions, pads):
+def squeeze_targets_kernel(
+    q_goal,
+    q_measured,
+    targets,
+    task_vectors,
+    distances,
+    compliance,
+    pad_along,
+    max_cross,
+    geometry,
+    layout,
+    directions,
+    pads,
+):
     """The stiffness-aware squeeze's pad targets (``targets`` in place): each finger with a
     distance d moves its target by v d along its closing vector v plus (u - v) (d - s),
     u its squeeze direction at ``q_goal`` (``_squeeze_directions``, v . u = 1), s how far
@@ -533,10 +847,30 @@ def squeeze_targets_kernel(q_goal, q_measured, targets, task_vectors, distances,
     deflection, not from where it went. d - s is capped at +/- ``max_cross``.
     ``directions``, ``pads``: (F, 3) scratch (the directions and the measured pads).
     True when a finger moved."""
-    starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, _n, lower, upper = \
-        _unpack(geometry, layout)
-    _squeeze_directions(q_goal, task_vectors, distances, compliance, starts, counts, R_base, p_base, R_org, p_org, K,
-                        K2, axes, R_tip, p_tip, point, lower, upper, directions)
+    starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, _n, lower, upper = _unpack(
+        geometry, layout
+    )
+    _squeeze_directions(
+        q_goal,
+        task_vectors,
+        distances,
+        compliance,
+        starts,
+        counts,
+        R_base,
+        p_base,
+        R_org,
+        p_org,
+        K,
+        K2,
+        axes,
+        R_tip,
+        p_tip,
+        point,
+        lower,
+        upper,
+        directions,
+    )
     _pad_points(q_measured, starts, counts, R_base, p_base, R_org, p_org, K, K2, axes, R_tip, p_tip, point, pads)
     moved = False
     for f in range(distances.shape[0]):
@@ -545,7 +879,7 @@ def squeeze_targets_kernel(q_goal, q_measured, targets, task_vectors, distances,
         if d != 0.0:
             moved = True
             last = pad_along[f]
-            cross = d - (along - last) if last == last else d   # (NaN: no last position)
+            cross = d - (along - last) if last == last else d  # (NaN: no last position)
             cross = min(max(cross, -max_cross), max_cross)
             for r in range(3):
                 v = task_vectors[f, r]
@@ -557,8 +891,9 @@ def squeeze_targets_kernel(q_goal, q_measured, targets, task_vectors, distances,
 class PadIK:
     """Pad points and IK steps of all fingers of one hand (hand-file finger order)."""
 
-    def __init__(self, kin: HandKinematics, point_sensor: np.ndarray = PAD_POINT_SENSOR,
-                 compiled: bool | None = None) -> None:
+    def __init__(
+        self, kin: HandKinematics, point_sensor: np.ndarray = PAD_POINT_SENSOR, compiled: bool | None = None
+    ) -> None:
         self.kin = kin
         self.names = list(kin.chains)
         self.point = np.ascontiguousarray(point_sensor, dtype=float)
@@ -605,8 +940,14 @@ class PadIK:
         if self.compiled:
             f_hand = np.empty((len(self.names), 3))
             grip = np.empty(len(self.names))
-            sensor_forces_kernel(np.ascontiguousarray(q_all, dtype=float), self.geometry, self.layout,
-                                 np.ascontiguousarray(f_sensor, dtype=float), f_hand, grip)
+            sensor_forces_kernel(
+                np.ascontiguousarray(q_all, dtype=float),
+                self.geometry,
+                self.layout,
+                np.ascontiguousarray(f_sensor, dtype=float),
+                f_hand,
+                grip,
+            )
             return f_hand, grip
         f_hand = np.einsum("nij,nj->ni", self.sensor_rotations(q_all), f_sensor)
         return f_hand, np.sqrt(f_hand[:, 0] ** 2 + f_hand[:, 1] ** 2)
@@ -615,16 +956,35 @@ class PadIK:
         """(F, 3) outward pad normals, hand frame."""
         return np.einsum("nij,j->ni", self.sensor_rotations(q_all), self.normal)
 
-    def advance(self, q_all: np.ndarray, targets: np.ndarray, task_vectors: np.ndarray, distances: np.ndarray,
-                damping: float, facing: Facing | None = None) -> bool:
+    def advance(
+        self,
+        q_all: np.ndarray,
+        targets: np.ndarray,
+        task_vectors: np.ndarray,
+        distances: np.ndarray,
+        damping: float,
+        facing: Facing | None = None,
+    ) -> bool:
         """Move the pad ``targets`` (F, 3, in place) along ``task_vectors`` (F, 3) by
         ``distances`` (F,) and take one DLS step for the fingers that moved (``q_all``
         in place); False when every distance is 0 (nothing changes). With ``facing``,
         its fingers also turn their pads toward its normals (``step``)."""
         facing = facing or self._no_facing
         if self.compiled:
-            return bool(advance_pads_kernel(q_all, targets, task_vectors, distances, self.geometry, self.layout,
-                                            damping, facing.normals_hand, facing.fingers, facing.damping))
+            return bool(
+                advance_pads_kernel(
+                    q_all,
+                    targets,
+                    task_vectors,
+                    distances,
+                    self.geometry,
+                    self.layout,
+                    damping,
+                    facing.normals_hand,
+                    facing.fingers,
+                    facing.damping,
+                )
+            )
         move = distances != 0.0
         if not move.any():
             return False
@@ -632,8 +992,9 @@ class PadIK:
         self.step(q_all, targets, move, damping, facing)
         return True
 
-    def squeeze_directions(self, q_all: np.ndarray, task_vectors: np.ndarray, distances: np.ndarray,
-                           compliance: np.ndarray) -> np.ndarray:
+    def squeeze_directions(
+        self, q_all: np.ndarray, task_vectors: np.ndarray, distances: np.ndarray, compliance: np.ndarray
+    ) -> np.ndarray:
         """(F, 3): for each finger with a distance, the direction to move its pad goal so that
         the joints' position springs (``compliance`` per joint, rad per N m) push the pad
         along its task vector (``_squeeze_directions``); the task vector itself for the others."""
@@ -641,8 +1002,15 @@ class PadIK:
         v = np.ascontiguousarray(task_vectors, dtype=float)
         out = np.empty((len(self.names), 3))
         if self.compiled:
-            squeeze_directions_kernel(q, v, np.ascontiguousarray(distances, dtype=float),
-                                      np.ascontiguousarray(compliance, dtype=float), self.geometry, self.layout, out)
+            squeeze_directions_kernel(
+                q,
+                v,
+                np.ascontiguousarray(distances, dtype=float),
+                np.ascontiguousarray(compliance, dtype=float),
+                self.geometry,
+                self.layout,
+                out,
+            )
             return out
         out[:] = v
         for f, name in enumerate(self.names):
@@ -659,18 +1027,37 @@ class PadIK:
                 out[f] = u / along
         return out
 
-    def squeeze_targets(self, q_goal: np.ndarray, q_measured: np.ndarray, targets: np.ndarray,
-                        task_vectors: np.ndarray, distances: np.ndarray, compliance: np.ndarray,
-                        pad_along: np.ndarray, max_cross: float) -> bool:
+    def squeeze_targets(
+        self,
+        q_goal: np.ndarray,
+        q_measured: np.ndarray,
+        targets: np.ndarray,
+        task_vectors: np.ndarray,
+        distances: np.ndarray,
+        compliance: np.ndarray,
+        pad_along: np.ndarray,
+        max_cross: float,
+    ) -> bool:
         """``squeeze_targets_kernel``: the stiffness-aware squeeze's pad ``targets`` and
         ``pad_along`` (in place); True when a finger moved. The numpy form without numba."""
         if self.compiled:
             F = len(self.names)
-            return bool(squeeze_targets_kernel(
-                np.ascontiguousarray(q_goal, dtype=float), np.ascontiguousarray(q_measured, dtype=float), targets,
-                np.ascontiguousarray(task_vectors, dtype=float), np.ascontiguousarray(distances, dtype=float),
-                np.ascontiguousarray(compliance, dtype=float), pad_along, float(max_cross), self.geometry, self.layout,
-                np.empty((F, 3)), np.empty((F, 3))))
+            return bool(
+                squeeze_targets_kernel(
+                    np.ascontiguousarray(q_goal, dtype=float),
+                    np.ascontiguousarray(q_measured, dtype=float),
+                    targets,
+                    np.ascontiguousarray(task_vectors, dtype=float),
+                    np.ascontiguousarray(distances, dtype=float),
+                    np.ascontiguousarray(compliance, dtype=float),
+                    pad_along,
+                    float(max_cross),
+                    self.geometry,
+                    self.layout,
+                    np.empty((F, 3)),
+                    np.empty((F, 3)),
+                )
+            )
         v = np.asarray(task_vectors, dtype=float)
         u = self.squeeze_directions(q_goal, v, distances, compliance)
         along = np.einsum("fr,fr->f", self.pad_points(q_measured), v)
@@ -681,16 +1068,26 @@ class PadIK:
         pad_along[:] = along
         return bool(moving.any())
 
-    def step(self, q_all: np.ndarray, targets: np.ndarray, move: np.ndarray, damping: float,
-             facing: Facing | None = None) -> None:
+    def step(
+        self, q_all: np.ndarray, targets: np.ndarray, move: np.ndarray, damping: float, facing: Facing | None = None
+    ) -> None:
         """One DLS step toward ``targets`` (F, 3) for the fingers with ``move``; ``q_all``
         in place. Fingers in ``facing`` also turn their pad normal toward its target
         with the joints the position task leaves spare (its null space), so the pad
         keeps facing the object while it moves along the closing vector."""
         facing = facing or self._no_facing
         if self.compiled:
-            step_pads_kernel(q_all, targets, move, self.geometry, self.layout, damping, facing.normals_hand,
-                             facing.fingers, facing.damping)
+            step_pads_kernel(
+                q_all,
+                targets,
+                move,
+                self.geometry,
+                self.layout,
+                damping,
+                facing.normals_hand,
+                facing.fingers,
+                facing.damping,
+            )
             return
         for f, name in enumerate(self.names):
             if not move[f]:
@@ -700,8 +1097,9 @@ class PadIK:
             if not facing.fingers[f]:
                 q_all[sl] = chain.dls_step(q_all[sl], J, targets[f] - pad, damping)
                 continue
-            q_all[sl] = facing_dls_step(chain, q_all[sl], J, targets[f] - pad, self.normal, facing.normals_hand[f],
-                                        damping, facing.damping)
+            q_all[sl] = facing_dls_step(
+                chain, q_all[sl], J, targets[f] - pad, self.normal, facing.normals_hand[f], damping, facing.damping
+            )
 
 
 @functools.lru_cache(maxsize=8)
@@ -717,29 +1115,37 @@ class Facing:
     direction (outward pad normals, hand frame, (F, 3)); ``damping`` of that
     secondary task (its errors are unit-vector differences)."""
 
-    fingers: np.ndarray          # (F,) bool
-    normals_hand: np.ndarray     # (F, 3)
+    fingers: np.ndarray  # (F,) bool
+    normals_hand: np.ndarray  # (F, 3)
     damping: float = 0.1
 
     @classmethod
-    def none(cls, n_fingers: int) -> "Facing":
+    def none(cls, n_fingers: int) -> Facing:
         return cls(np.zeros(n_fingers, dtype=bool), np.zeros((n_fingers, 3)))
 
 
-def facing_dls_step(chain: FingerChain, q: np.ndarray, J: np.ndarray, dp_hand: np.ndarray, normal_sensor: np.ndarray,
-                    normal_target_hand: np.ndarray, damping: float, orient_damping: float) -> np.ndarray:
+def facing_dls_step(
+    chain: FingerChain,
+    q: np.ndarray,
+    J: np.ndarray,
+    dp_hand: np.ndarray,
+    normal_sensor: np.ndarray,
+    normal_target_hand: np.ndarray,
+    damping: float,
+    orient_damping: float,
+) -> np.ndarray:
     """``FingerChain.dls_step`` plus the null-space turn of the pad normal toward
     ``normal_target_hand`` (numpy form of the compiled ``_facing_step``)."""
     R_s = chain.fk_rp(q)[0]
     normal = R_s @ normal_sensor
     axes_hand = chain.joint_axes_and_origins(q)[0]
-    Jn = np.cross(axes_hand, normal).T                  # (3, n): d(normal)/dq
+    Jn = np.cross(axes_hand, normal).T  # (3, n): d(normal)/dq
     dn = normal_target_hand - normal
     step = chain.dls_delta(q, J, dp_hand, damping)
     if step is None:
         return np.clip(q, chain.lower, chain.upper)
     dq1, active = step
-    Ja, Jna = J * active, Jn * active                # inactive joints: zero columns
+    Ja, Jna = J * active, Jn * active  # inactive joints: zero columns
     A = Ja @ Ja.T + damping**2 * np.eye(3)
     N = np.eye(chain.n) - Ja.T @ np.linalg.inv(A) @ Ja
     W = (N @ Jna.T) * active[:, None]

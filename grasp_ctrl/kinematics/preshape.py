@@ -54,10 +54,12 @@ class Preshape:
 
     q: np.ndarray
     pad_normals_hand: tuple[np.ndarray | None, ...]
-    contacts_hand: tuple[np.ndarray | None, ...]   # expected contact points (hand frame)
+    contacts_hand: tuple[np.ndarray | None, ...]  # expected contact points (hand frame)
 
 
-def surface_hit(obj: ObjectProfile, start_hand: np.ndarray, direction_hand: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+def surface_hit(
+    obj: ObjectProfile, start_hand: np.ndarray, direction_hand: np.ndarray
+) -> tuple[np.ndarray, np.ndarray] | None:
     """Where the horizontal ray from ``start_hand`` along ``direction_hand`` first meets
     the side of ``obj`` (centred at the hand frame's x = y = 0), and the outward
     surface normal there; None when it misses or starts inside."""
@@ -112,8 +114,9 @@ def side_gap(obj: ObjectProfile, p_hand: np.ndarray) -> tuple[float, np.ndarray]
     return gy, np.array([0.0, math.copysign(1.0, y), 0.0])
 
 
-def solve_preshape(hand: HandConfig, obj: ObjectProfile, standoff_m: float,
-                   kin: HandKinematics | None = None) -> Preshape:
+def solve_preshape(
+    hand: HandConfig, obj: ObjectProfile, standoff_m: float, kin: HandKinematics | None = None
+) -> Preshape:
     """The preshape of ``obj`` for ``hand`` (see the module docstring)."""
     from scipy.optimize import least_squares
 
@@ -145,16 +148,18 @@ def solve_preshape(hand: HandConfig, obj: ObjectProfile, standoff_m: float,
             hit_here = surface_hit(obj, pad, v_flat)
             touch, n_touch = hit_here if hit_here is not None else (contact, n_surface)
             ahead = float((touch - pad) @ v_flat)
-            return np.concatenate([
-                [pad[2] - height, ahead - standoff_m, SLIDE_WEIGHT * float((pad - contact) @ across)],
-                FACING_WEIGHT_M * (R @ PAD_NORMAL_SENSOR + n_touch),   # the pad's outward normal faces inward
-            ])
+            return np.concatenate(
+                [
+                    [pad[2] - height, ahead - standoff_m, SLIDE_WEIGHT * float((pad - contact) @ across)],
+                    FACING_WEIGHT_M * (R @ PAD_NORMAL_SENSOR + n_touch),  # the pad's outward normal faces inward
+                ]
+            )
 
         fit = least_squares(residual, q[sl], bounds=(chain.lower, chain.upper))
         if float(np.linalg.norm(fit.fun[:2])) > MAX_MISS_M:
             continue
         if float(np.linalg.norm(fit.fun[3:])) / FACING_WEIGHT_M > math.radians(MAX_FACING_ERROR_DEG):
-            continue   # the finger cannot face the object there: the pregrasp posture is as good
+            continue  # the finger cannot face the object there: the pregrasp posture is as good
         q[sl] = fit.x
         R, p = chain.fk_rp(fit.x)
         pad = R @ PAD_POINT_SENSOR + p

@@ -30,10 +30,9 @@ import contextlib
 import csv
 import io
 import math
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Sequence
 
 import numpy as np
 
@@ -54,22 +53,22 @@ class DatasetError(GraspCtrlError):
 
 @dataclass
 class Dataset:
-    trial_id: np.ndarray        # (n,) str
-    source: np.ndarray          # (n,) str
-    t: np.ndarray               # (n,) s
-    tared: np.ndarray           # (n, 44) counts
-    f_sensor: np.ndarray        # (n, 3) N
-    projected: np.ndarray       # (n,) bool
+    trial_id: np.ndarray  # (n,) str
+    source: np.ndarray  # (n,) str
+    t: np.ndarray  # (n,) s
+    tared: np.ndarray  # (n, 44) counts
+    f_sensor: np.ndarray  # (n, 3) N
+    projected: np.ndarray  # (n,) bool
     r_world_sensor: np.ndarray  # (n, 3, 3); identity where not projected
 
     def __len__(self) -> int:
         return len(self.t)
 
-    def subset(self, mask_or_index: np.ndarray) -> "Dataset":
+    def subset(self, mask_or_index: np.ndarray) -> Dataset:
         return Dataset(*(getattr(self, f)[mask_or_index] for f in _FIELDS))
 
     @staticmethod
-    def concat(parts: Sequence["Dataset"]) -> "Dataset":
+    def concat(parts: Sequence[Dataset]) -> Dataset:
         return Dataset(*(np.concatenate([getattr(p, f) for p in parts]) for f in _FIELDS))
 
     def sources(self) -> list[str]:
@@ -110,11 +109,14 @@ def _columns_spec(header: Sequence[str], path: Path) -> tuple[list[str], bool]:
     raise DatasetError(f"{path}: missing signal column(s) {', '.join(absent[:5])} (tared e1..tac or raw_e1..raw_tac)")
 
 
-LABEL_SAMPLE, LABEL_ZERO, LABEL_NONE = 0, 1, 2   # a force label, "0 0 0" (no force), no label known
+LABEL_SAMPLE, LABEL_ZERO, LABEL_NONE = 0, 1, 2  # a force label, "0 0 0" (no force), no label known
 
 
 def _parse_rows(
-    records: Iterable[tuple[int, dict[str, object]]], signal_cols: list[str], has_rot: bool, raw: bool,
+    records: Iterable[tuple[int, dict[str, object]]],
+    signal_cols: list[str],
+    has_rot: bool,
+    raw: bool,
     problems: _Problems,
 ) -> dict[str, list]:
     out: dict[str, list] = {f: [] for f in ("where", "trial_id", "source", "t", "z", "f", "kind", "proj", "r")}
@@ -146,8 +148,17 @@ def _parse_rows(
         except ValueError as exc:
             problems.add(where, str(exc))
             continue
-        for key, value in (("where", where), ("trial_id", trial), ("source", source), ("t", t), ("z", z),
-                           ("f", f), ("kind", kind), ("proj", proj), ("r", r)):
+        for key, value in (
+            ("where", where),
+            ("trial_id", trial),
+            ("source", source),
+            ("t", t),
+            ("z", z),
+            ("f", f),
+            ("kind", kind),
+            ("proj", proj),
+            ("r", r),
+        ):
             out[key].append(value)
     return out
 
@@ -196,11 +207,14 @@ def _build(cols: dict[str, list], raw: bool, min_tare_rows: int, path: Path, gat
     trial = np.asarray(cols["trial_id"], dtype=object).astype(str)
     keep = np.ones(n, dtype=bool)
     if raw:
-        z, keep = _tare_and_gate(z, trial, np.asarray(cols["kind"]), np.asarray(cols["where"]), min_tare_rows,
-                                 path, gate)
+        z, keep = _tare_and_gate(
+            z, trial, np.asarray(cols["kind"]), np.asarray(cols["where"]), min_tare_rows, path, gate
+        )
         if not keep.any():
-            raise DatasetError(f"{path}: no samples (no labelled row with the contact gate on: tared pdc > "
-                               f"{gate.pdc_threshold:g} counts for {gate.frames} rows)")
+            raise DatasetError(
+                f"{path}: no samples (no labelled row with the contact gate on: tared pdc > "
+                f"{gate.pdc_threshold:g} counts for {gate.frames} rows)"
+            )
     with np.errstate(all="ignore"):
         finite = np.isfinite(z[keep]).all()
     if not finite:
@@ -216,8 +230,15 @@ def _build(cols: dict[str, list], raw: bool, min_tare_rows: int, path: Path, gat
     )
 
 
-def _tare_and_gate(z: np.ndarray, trial: np.ndarray, kind: np.ndarray, where: np.ndarray, min_tare_rows: int,
-                   path: Path, gate: GateRule) -> tuple[np.ndarray, np.ndarray]:
+def _tare_and_gate(
+    z: np.ndarray,
+    trial: np.ndarray,
+    kind: np.ndarray,
+    where: np.ndarray,
+    min_tare_rows: int,
+    path: Path,
+    gate: GateRule,
+) -> tuple[np.ndarray, np.ndarray]:
     """Raw rows -> (tared rows, sample mask): per trial, its leading "0 0 0" rows are the baseline."""
     tared = z.copy()
     keep = np.zeros(len(z), dtype=bool)
@@ -228,7 +249,8 @@ def _tare_and_gate(z: np.ndarray, trial: np.ndarray, kind: np.ndarray, where: np
         if n_tare < min_tare_rows:
             raise DatasetError(
                 f"{path}: trial {tid!r} (line {where[idx[0]]}): {n_tare} contact-free tare row(s) labelled 0 0 0 "
-                f"at its start, at least {min_tare_rows} needed (raw signals are tared on them)")
+                f"at its start, at least {min_tare_rows} needed (raw signals are tared on them)"
+            )
         with np.errstate(all="ignore"):
             tared[idx] -= z[idx[:n_tare]].mean(axis=0)
         stream = idx[n_tare:]
@@ -236,8 +258,9 @@ def _tare_and_gate(z: np.ndarray, trial: np.ndarray, kind: np.ndarray, where: np
     return tared, keep
 
 
-def read_csv(path: str | Path, min_tare_rows: int = 10, on_bad: str = "raise",
-             gate: GateRule = GateRule()) -> tuple[Dataset, list[tuple[int, str]]]:
+def read_csv(
+    path: str | Path, min_tare_rows: int = 10, on_bad: str = "raise", gate: GateRule = GateRule()
+) -> tuple[Dataset, list[tuple[int, str]]]:
     """Read a dataset CSV. ``on_bad="raise"`` fails listing the bad lines; ``"skip"``
     leaves them out and returns them as (line, problem) for the caller to report."""
     p = Path(path)
@@ -266,7 +289,9 @@ def read_csv(path: str | Path, min_tare_rows: int = 10, on_bad: str = "raise",
 
             cols = _parse_rows(records(), signal_cols, has_rot, raw, problems)
         except UnicodeDecodeError as exc:
-            raise DatasetError(f"{p}: not UTF-8 text (byte {exc.start} of a block near line {reader.line_num + 1})") from None
+            raise DatasetError(
+                f"{p}: not UTF-8 text (byte {exc.start} of a block near line {reader.line_num + 1})"
+            ) from None
         except csv.Error as exc:
             raise DatasetError(f"{p}: line {reader.line_num}: not valid CSV ({exc})") from None
     if on_bad == "raise":
@@ -274,8 +299,9 @@ def read_csv(path: str | Path, min_tare_rows: int = 10, on_bad: str = "raise",
     return _build(cols, raw, min_tare_rows, p, gate), problems.items
 
 
-def read_parquet(path: str | Path, min_tare_rows: int = 10, on_bad: str = "raise",
-                 gate: GateRule = GateRule()) -> tuple[Dataset, list[tuple[int, str]]]:
+def read_parquet(
+    path: str | Path, min_tare_rows: int = 10, on_bad: str = "raise", gate: GateRule = GateRule()
+) -> tuple[Dataset, list[tuple[int, str]]]:
     """Parquet with the same columns (needs pyarrow); rows are numbered from 1."""
     p = Path(path)
     try:
@@ -285,7 +311,9 @@ def read_parquet(path: str | Path, min_tare_rows: int = 10, on_bad: str = "raise
     try:
         table = pq.read_table(p)
     except Exception as exc:  # pyarrow raises its own types for corrupt files
-        raise DatasetError(f"{p}: unreadable Parquet ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
+        raise DatasetError(
+            f"{p}: unreadable Parquet ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})"
+        ) from None
     header = [str(c) for c in table.column_names]
     signal_cols, raw = _columns_spec(header, p)
     has_rot = all(c in header for c in ROTATION_COLUMNS)
@@ -298,14 +326,18 @@ def read_parquet(path: str | Path, min_tare_rows: int = 10, on_bad: str = "raise
     return _build(cols, raw, min_tare_rows, p, gate), problems.items
 
 
-def read_dataset(path: str | Path, min_tare_rows: int = 10, on_bad: str = "raise") -> tuple[Dataset, list[tuple[int, str]]]:
+def read_dataset(
+    path: str | Path, min_tare_rows: int = 10, on_bad: str = "raise"
+) -> tuple[Dataset, list[tuple[int, str]]]:
     p = Path(path)
     if p.suffix.lower() in (".parquet", ".pq"):
         return read_parquet(p, min_tare_rows, on_bad)
     return read_csv(p, min_tare_rows, on_bad)
 
 
-def read_datasets(paths: Sequence[str | Path], min_tare_rows: int = 10, on_bad: str = "raise") -> tuple[Dataset, list[str]]:
+def read_datasets(
+    paths: Sequence[str | Path], min_tare_rows: int = 10, on_bad: str = "raise"
+) -> tuple[Dataset, list[str]]:
     parts, notes = [], []
     for path in paths:
         ds, bad = read_dataset(path, min_tare_rows, on_bad)
@@ -340,19 +372,25 @@ def write_csv(path: str | Path, ds: Dataset) -> None:
         w = csv.writer(fh)
         w.writerow(header())
         for i in range(len(ds)):
-            w.writerow([ds.trial_id[i], ds.source[i], repr(float(ds.t[i]))] + _cells(ds.tared[i])
-                       + _cells(ds.f_sensor[i]) + [int(ds.projected[i])] + _cells(ds.r_world_sensor[i].ravel()))
+            w.writerow(
+                [ds.trial_id[i], ds.source[i], repr(float(ds.t[i]))]
+                + _cells(ds.tared[i])
+                + _cells(ds.f_sensor[i])
+                + [int(ds.projected[i])]
+                + _cells(ds.r_world_sensor[i].ravel())
+            )
 
 
 @dataclass
 class RawTrial:
     """One trial's whole stream for a RAW file: tare rows (label 0 0 0) first, then the presses."""
+
     trial_id: str
     source: str
-    t: np.ndarray               # (m,) s
-    raw: np.ndarray             # (m, 44) counts
-    f_sensor: np.ndarray        # (m, 3) N; 0 0 0 = no force, NaN = no label known
-    projected: np.ndarray       # (m,) bool
+    t: np.ndarray  # (m,) s
+    raw: np.ndarray  # (m, 44) counts
+    f_sensor: np.ndarray  # (m, 3) N; 0 0 0 = no force, NaN = no label known
+    projected: np.ndarray  # (m,) bool
     r_world_sensor: np.ndarray  # (m, 3, 3)
 
 
@@ -364,5 +402,10 @@ def write_raw_csv(path: str | Path, trials: Iterable[RawTrial]) -> None:
             for i in range(len(tr.t)):
                 label = tr.f_sensor[i]
                 label_cells = ["", "", ""] if np.isnan(label).any() else _cells(label)
-                w.writerow([tr.trial_id, tr.source, repr(float(tr.t[i]))] + _cells(tr.raw[i]) + label_cells
-                           + [int(tr.projected[i])] + _cells(tr.r_world_sensor[i].ravel()))
+                w.writerow(
+                    [tr.trial_id, tr.source, repr(float(tr.t[i]))]
+                    + _cells(tr.raw[i])
+                    + label_cells
+                    + [int(tr.projected[i])]
+                    + _cells(tr.r_world_sensor[i].ravel())
+                )

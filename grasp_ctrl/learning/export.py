@@ -15,7 +15,7 @@ import io
 import json
 import tempfile
 import warnings
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -39,12 +39,16 @@ INPUT_KIND = {
 PREPROCESSING = {
     "tare": "value - baseline; baseline = mean of a no-contact window (counts, unscaled)",
     "contact_gate": {"pdc_threshold_counts": 10, "frames": 10},
-    "contact_point_rule": ("centroid of the electrode positions weighted by the squared tared electrode values, "
-                           "projected onto the sensor surface of radius 5.5 mm (sphere for x > 0, cylinder about x "
-                           "otherwise); sensor frame, metres"),
-    "voxel_grid": ("icra19: (16, 16, 8) cells, edges = numpy.histogramdd(electrode positions, bins=(15, 15, 7)), "
-                   "index = digitize - 1 with -1 wrapping to the last cell; electrode grid = tared electrode counts, "
-                   "contact grid = 1 at the contact point"),
+    "contact_point_rule": (
+        "centroid of the electrode positions weighted by the squared tared electrode values, "
+        "projected onto the sensor surface of radius 5.5 mm (sphere for x > 0, cylinder about x "
+        "otherwise); sensor frame, metres"
+    ),
+    "voxel_grid": (
+        "icra19: (16, 16, 8) cells, edges = numpy.histogramdd(electrode positions, bins=(15, 15, 7)), "
+        "index = digitize - 1 with -1 wrapping to the last cell; electrode grid = tared electrode counts, "
+        "contact grid = 1 at the contact point"
+    ),
 }
 
 
@@ -87,15 +91,23 @@ def export_onnx(model: torch.nn.Module, arch: str, onnx_path: Path) -> float:
         # the TorchScript exporter: the newer one needs onnxscript, which the train extra does not pull in
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DeprecationWarning)
-            torch.onnx.export(model, args, str(raw_path), input_names=names, output_names=outputs,
-                              dynamic_axes=dyn, opset_version=17, dynamo=False)
+            torch.onnx.export(
+                model,
+                args,
+                str(raw_path),
+                input_names=names,
+                output_names=outputs,
+                dynamic_axes=dyn,
+                opset_version=17,
+                dynamo=False,
+            )
         proto = onnx.load(str(raw_path))
     for key, value in ((STATE_DICT_KEY, base64.b64encode(state_dict_bytes(model)).decode("ascii")), (ARCH_KEY, arch)):
         entry = proto.metadata_props.add()
         entry.key, entry.value = key, value
     onnx.checker.check_model(proto)
     onnx_path.parent.mkdir(parents=True, exist_ok=True)
-    with output_file(onnx_path) as tmp:   # a symlink at onnx_path is replaced, not followed
+    with output_file(onnx_path) as tmp:  # a symlink at onnx_path is replaced, not followed
         onnx.save(proto, str(tmp))
     # parity on other inputs than the tracing ones, including a batch of one
     sess = ort.InferenceSession(str(onnx_path), providers=["CPUExecutionProvider"])
@@ -123,8 +135,9 @@ def load_onnx_weights(onnx_path: str | Path) -> tuple[str, dict[str, Any]]:
     proto = onnx.load(str(onnx_path), load_external_data=False)
     props = {p.key: p.value for p in proto.metadata_props}
     if STATE_DICT_KEY not in props or ARCH_KEY not in props:
-        raise ExportError(f"{onnx_path}: has no grasp_ctrl training weights (only policies exported by "
-                          f"`export` can be fine-tuned)")
+        raise ExportError(
+            f"{onnx_path}: has no grasp_ctrl training weights (only policies exported by `export` can be fine-tuned)"
+        )
     state = torch.load(io.BytesIO(base64.b64decode(props[STATE_DICT_KEY])), map_location="cpu", weights_only=True)
     return props[ARCH_KEY], state
 
@@ -138,22 +151,37 @@ _MEANING = {
 }
 
 
-def policy_metadata(name: str, arch: str, ckpt: dict[str, Any], parity: float, sha256: str,
-                    description: str | None = None) -> dict[str, Any]:
+def policy_metadata(
+    name: str, arch: str, ckpt: dict[str, Any], parity: float, sha256: str, description: str | None = None
+) -> dict[str, Any]:
     """Metadata in the layout read by grasp_ctrl.estimators.onnx_estimator (docs/design.md 5.5);
     ``description`` replaces the generic one (say what the policy is: base, data, seed...)."""
     has_var = arch == "voxel-dropout"
-    out_tensors = {"f_sensor": {"shape": ["batch", 3], "dtype": "float32", "units": "N",
-                                "meaning": "force ON the sensor skin (docs/design.md 4); a pad press gives +z"}}
+    out_tensors = {
+        "f_sensor": {
+            "shape": ["batch", 3],
+            "dtype": "float32",
+            "units": "N",
+            "meaning": "force ON the sensor skin (docs/design.md 4); a pad press gives +z",
+        }
+    }
     if has_var:
-        out_tensors["variance"] = {"shape": ["batch", 3], "dtype": "float32", "units": "N^2",
-                                   "meaning": "per-axis variance over the 10 heads"}
+        out_tensors["variance"] = {
+            "shape": ["batch", 3],
+            "dtype": "float32",
+            "units": "N^2",
+            "meaning": "per-axis variance over the 10 heads",
+        }
     preprocessing: dict[str, Any] = {
         "tare": "value - baseline",
         "tare_note": PREPROCESSING["tare"],
         "electrode_scaling": "none (raw tared counts; the network scales internally)",
-        "contact_gate": {"signal": "tared pdc", "threshold_counts": 10, "frames": 10,
-                         "outside_contact": "zero force, the network is not run"},
+        "contact_gate": {
+            "signal": "tared pdc",
+            "threshold_counts": 10,
+            "frames": 10,
+            "outside_contact": "zero force, the network is not run",
+        },
     }
     if arch in ("voxel", "voxel-dropout", "novoxel"):
         preprocessing["contact_point"] = "squared_signal_centroid_projected"
@@ -168,17 +196,32 @@ def policy_metadata(name: str, arch: str, ckpt: dict[str, Any], parity: float, s
         "model_file": f"{name}.onnx",
         "model_sha256": sha256,
         "sensor_type": "biotac",
-        "description": description or (DESCRIPTIONS[arch] + (" with the alpha loss weight" if cfg.get("beta") is not None else "")
-                                       + (f", fine-tuned from {ckpt['init_from']}" if ckpt.get("init_from") else "")),
+        "description": description
+        or (
+            DESCRIPTIONS[arch]
+            + (" with the alpha loss weight" if cfg.get("beta") is not None else "")
+            + (f", fine-tuned from {ckpt['init_from']}" if ckpt.get("init_from") else "")
+        ),
         "arch": arch,
-        "input": {"kind": INPUT_KIND[arch],
-                  "tensors": {k: {"shape": ["batch", *v[1:]], "dtype": "float32", "meaning": _MEANING[k]}
-                              for k, v in input_shapes(arch).items()}},
+        "input": {
+            "kind": INPUT_KIND[arch],
+            "tensors": {
+                k: {"shape": ["batch", *v[1:]], "dtype": "float32", "meaning": _MEANING[k]}
+                for k, v in input_shapes(arch).items()
+            },
+        },
         "preprocessing": preprocessing,
-        "output": {"tensors": out_tensors, "units": "N", "frame": "sensor", "to_f_sensor": 1.0,
-                   "estimator_returns": "f_sensor"},
+        "output": {
+            "tensors": out_tensors,
+            "units": "N",
+            "frame": "sensor",
+            "to_f_sensor": 1.0,
+            "estimator_returns": "f_sensor",
+        },
         "has_variance": has_var,
-        "dropout": {"heads": 10, "keep_prob": 0.7, "at_inference": "off (heads differ by their layer norms)"} if has_var else None,
+        "dropout": {"heads": 10, "keep_prob": 0.7, "at_inference": "off (heads differ by their layer norms)"}
+        if has_var
+        else None,
         "training": {
             "config": cfg,
             "data": ckpt.get("data"),
@@ -191,14 +234,14 @@ def policy_metadata(name: str, arch: str, ckpt: dict[str, Any], parity: float, s
         "metrics_note": "test split (whole trials) of the training data; median, q1, q3 per source and mixed (paper eqs. 14-15)",
         "provenance": {
             "trained_with": "grasp_ctrl train (docs/learning.md)",
-            "exported": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "exported": datetime.now(UTC).isoformat(timespec="seconds"),
             "onnx_opset": 17,
             "onnx_vs_torch_max_error": parity,
             "onnx_vs_torch_error_definition": "max |onnx - torch| / max(1, max |torch|) on 200 + 1 realistic inputs",
         },
         "licence": "BSD-3-Clause (grasp_ctrl)",
         "citation": "Architecture and losses after B. Sundaralingam et al., Robust Learning of Tactile Force "
-                    "Estimation through Robot Interaction, IEEE ICRA 2019",
+        "Estimation through Robot Interaction, IEEE ICRA 2019",
     }
 
 
@@ -210,19 +253,24 @@ DESCRIPTIONS = {
 }
 
 
-def export_checkpoint(ckpt: dict[str, Any], name: str, out_dir: Path,
-                      description: str | None = None) -> tuple[Path, Path, float]:
+def export_checkpoint(
+    ckpt: dict[str, Any], name: str, out_dir: Path, description: str | None = None
+) -> tuple[Path, Path, float]:
     model = build_model(ckpt["arch"])
     model.load_state_dict(ckpt["state_dict"])
     onnx_path = out_dir / f"{name}.onnx"
     parity = export_onnx(model, ckpt["arch"], onnx_path)
     json_path = out_dir / f"{name}.json"
     sha = hashlib.sha256(onnx_path.read_bytes()).hexdigest()
-    write_output(json_path, json.dumps(policy_metadata(name, ckpt["arch"], ckpt, parity, sha, description), indent=2) + "\n")
+    write_output(
+        json_path, json.dumps(policy_metadata(name, ckpt["arch"], ckpt, parity, sha, description), indent=2) + "\n"
+    )
     return onnx_path, json_path, parity
 
 
-def analytic_policy(name: str, gains: np.ndarray, data: dict[str, Any] | None, metrics: dict[str, Any] | None) -> dict[str, Any]:
+def analytic_policy(
+    name: str, gains: np.ndarray, data: dict[str, Any] | None, metrics: dict[str, Any] | None
+) -> dict[str, Any]:
     """Metadata of the analytic model (kind "analytic", loaded by the registry)."""
     return {
         "name": name,
@@ -233,8 +281,11 @@ def analytic_policy(name: str, gains: np.ndarray, data: dict[str, Any] | None, m
         "output_units": "N",
         "output_frame": "sensor",
         "has_variance": False,
-        "preprocessing": {"tare": "value - baseline", "tare_note": PREPROCESSING["tare"],
-                          "contact_gate": PREPROCESSING["contact_gate"]},
+        "preprocessing": {
+            "tare": "value - baseline",
+            "tare_note": PREPROCESSING["tare"],
+            "contact_gate": PREPROCESSING["contact_gate"],
+        },
         "training": {"method": "per-axis least squares (Lin et al. 2013, paper eq. 15)", "data": data},
         "metrics": metrics,
         "provenance": "fitted with grasp_ctrl (`train --arch analytic`)",

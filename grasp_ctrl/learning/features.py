@@ -22,7 +22,7 @@ from grasp_ctrl.tactile.voxel import GRID_SHAPE, VoxelGrid
 
 VOXEL_VARIANT = "icra19"
 _GRID = VoxelGrid(VOXEL_VARIANT)
-_ELECTRODE_CELLS = _GRID.electrode_cells          # (19, 3), all distinct
+_ELECTRODE_CELLS = _GRID.electrode_cells  # (19, 3), all distinct
 
 
 def _cell_index(points: np.ndarray) -> np.ndarray:
@@ -63,7 +63,7 @@ def model_inputs(tared: np.ndarray) -> dict[str, np.ndarray]:
         "electrode_voxels": e_vox,
         "contact_voxels": c_vox,
         "electrodes": tared[:, ELECTRODES].astype(np.float32),
-        "pdc": tared[:, PDC:PDC + 1].astype(np.float32),
+        "pdc": tared[:, PDC : PDC + 1].astype(np.float32),
         "contact_point": s_c.astype(np.float32),
         "surface_normal": s_n.astype(np.float32),
     }

@@ -10,8 +10,8 @@ import numpy as np
 
 @dataclass(frozen=True)
 class GateRule:
-    pdc_threshold: float = 10.0   # counts, tared
-    frames: int = 10              # consecutive frames above the threshold
+    pdc_threshold: float = 10.0  # counts, tared
+    frames: int = 10  # consecutive frames above the threshold
 
 
 def contact_gate(tared_pdc: np.ndarray, rule: GateRule = GateRule()) -> np.ndarray:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import torch
 
-MIN_LABEL_N = 0.05   # guards the 1/||f_3d|| scaling against near-zero labels
+MIN_LABEL_N = 0.05  # guards the 1/||f_3d|| scaling against near-zero labels
 WORLD_UP = torch.tensor([0.0, 0.0, 1.0])
 
 
@@ -38,8 +38,12 @@ def q_proj(f_3d: torch.Tensor, f_p: torch.Tensor, r_world_sensor: torch.Tensor) 
 
 
 def sample_losses(
-    f_3d: torch.Tensor, f_p: torch.Tensor, projected: torch.Tensor, r_world_sensor: torch.Tensor,
-    s_n_out: torch.Tensor, beta: float | None,
+    f_3d: torch.Tensor,
+    f_p: torch.Tensor,
+    projected: torch.Tensor,
+    r_world_sensor: torch.Tensor,
+    s_n_out: torch.Tensor,
+    beta: float | None,
 ) -> torch.Tensor:
     """Q per sample: alpha * (Q_proj if planar pushing else Q_3d); beta=None -> alpha = 1."""
     q = torch.where(projected, q_proj(f_3d, f_p, r_world_sensor), q_3d(f_3d, f_p))

@@ -17,7 +17,7 @@ def per_sample(f_true: np.ndarray, f_pred: np.ndarray) -> dict[str, np.ndarray]:
     npred = np.linalg.norm(f_pred, axis=1)
     cos = np.einsum("ij,ij->i", f_true, f_pred) / np.maximum(nt * npred, 1e-12)
     angle = np.arccos(np.clip(cos, -1.0, 1.0))
-    angle = np.where(npred > 0, angle, np.pi / 2)   # a zero prediction has no direction: call it 90 deg
+    angle = np.where(npred > 0, angle, np.pi / 2)  # a zero prediction has no direction: call it 90 deg
     return {
         "direction_error_pct": 100.0 * angle / np.pi,
         "magnitude_error_pct": 100.0 * np.abs(nt - npred) / np.maximum(nt + npred, 1e-12),

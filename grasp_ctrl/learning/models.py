@@ -22,9 +22,9 @@ import torch
 from torch import nn
 
 GRID = (16, 16, 8)
-E_SCALE = 1.0 / 1000.0        # counts -> O(1), for the fully connected input layers
-SC_SCALE = 1.0 / 5.5e-3       # metres on the sensor surface -> O(1)
-VOXEL_INPUT_SCALE = 0.01      # counts -> first voxel convolution (see VoxelTrunk)
+E_SCALE = 1.0 / 1000.0  # counts -> O(1), for the fully connected input layers
+SC_SCALE = 1.0 / 5.5e-3  # metres on the sensor surface -> O(1)
+VOXEL_INPUT_SCALE = 0.01  # counts -> first voxel convolution (see VoxelTrunk)
 
 
 class SampleLayerNorm(nn.Module):
@@ -92,11 +92,11 @@ class VoxelTrunk(nn.Module):
         self.ln4 = SampleLayerNorm(128)
 
     def forward(self, electrode_voxels: torch.Tensor, contact_voxels: torch.Tensor) -> torch.Tensor:
-        e = torch.relu(self.ln_e(self.conv_e(electrode_voxels.unsqueeze(-1) * self.input_scale)))   # (n, 8, 8, 4, 64)
+        e = torch.relu(self.ln_e(self.conv_e(electrode_voxels.unsqueeze(-1) * self.input_scale)))  # (n, 8, 8, 4, 64)
         c = torch.relu(self.ln_c(self.conv_c(contact_voxels.unsqueeze(-1))))
-        x = torch.relu(self.ln2(self.conv2(torch.cat([e, c], dim=-1))))          # (n, 4, 4, 2, 64)
-        x = torch.relu(self.ln3(self.conv3(x)))                                  # (n, 2, 2, 1, 64)
-        x = torch.relu(self.ln4(self.conv4(x.squeeze(3))))                       # (n, 1, 1, 128)
+        x = torch.relu(self.ln2(self.conv2(torch.cat([e, c], dim=-1))))  # (n, 4, 4, 2, 64)
+        x = torch.relu(self.ln3(self.conv3(x)))  # (n, 2, 2, 1, 64)
+        x = torch.relu(self.ln4(self.conv4(x.squeeze(3))))  # (n, 1, 1, 128)
         return x.flatten(1)
 
 
@@ -117,14 +117,16 @@ class SparseVoxelTrunk:
         keys = (patch[:, 0] * 8 + patch[:, 1]) * 4 + patch[:, 2]
         uniq, inverse = torch.unique(keys, return_inverse=True)
         self.k = len(uniq)
-        self.e_patch = inverse                                   # electrode -> special patch
-        self.e_sub = sub[:, 0] * 4 + sub[:, 1] * 2 + sub[:, 2]   # position inside the patch
+        self.e_patch = inverse  # electrode -> special patch
+        self.e_sub = sub[:, 0] * 4 + sub[:, 1] * 2 + sub[:, 2]  # position inside the patch
         px, py, pz = uniq // 32, (uniq // 4) % 8, uniq % 4
-        self.p_block = ((px // 2) * 4 + py // 2) * 2 + pz // 2   # special patch -> conv2 output cell
-        self.p_sub = (px % 2) * 4 + (py % 2) * 2 + pz % 2        # its position inside the conv2 patch
+        self.p_block = ((px // 2) * 4 + py // 2) * 2 + pz // 2  # special patch -> conv2 output cell
+        self.p_sub = (px % 2) * 4 + (py % 2) * 2 + pz % 2  # its position inside the conv2 patch
 
     @staticmethod
-    def _ln_background(y_special: torch.Tensor, bias: torch.Tensor, n_background: int, ln: SampleLayerNorm) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    def _ln_background(
+        y_special: torch.Tensor, bias: torch.Tensor, n_background: int, ln: SampleLayerNorm
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """Layer-norm statistics over special patches + n_background copies of ``bias``."""
         c = bias.shape[0]
         total = y_special.shape[1] + n_background
@@ -138,32 +140,32 @@ class SparseVoxelTrunk:
         z_bg = torch.relu(d_bg * inv[:, None] * ln.weight + ln.bias)
         return z_sp, z_bg, inv
 
-    def __call__(self, t: "VoxelTrunk", electrodes: torch.Tensor, contact_cell: torch.Tensor) -> torch.Tensor:
+    def __call__(self, t: VoxelTrunk, electrodes: torch.Tensor, contact_cell: torch.Tensor) -> torch.Tensor:
         n = electrodes.shape[0]
         n_patches = 8 * 8 * 4
-        w1e, b1e = t.conv_e.linear.weight, t.conv_e.linear.bias        # (64, 8), (64,)
+        w1e, b1e = t.conv_e.linear.weight, t.conv_e.linear.bias  # (64, 8), (64,)
         w1c, b1c = t.conv_c.linear.weight, t.conv_c.linear.bias
         # electrode branch: the k patches holding electrodes
         x = electrodes.new_zeros(n, self.k, 8)
         x[:, self.e_patch, self.e_sub] = electrodes * t.input_scale
-        y_e = x @ w1e.T + b1e                                           # (n, k, 64)
+        y_e = x @ w1e.T + b1e  # (n, k, 64)
         z_e, bg_e, _ = self._ln_background(y_e, b1e, n_patches - self.k, t.ln_e)
         # contact branch: one patch with a single 1 at its sub-position
         cpatch = contact_cell // 2
-        csub = (contact_cell % 2)
+        csub = contact_cell % 2
         csub = csub[:, 0] * 4 + csub[:, 1] * 2 + csub[:, 2]
-        y_c = (w1c.T[csub] + b1c)[:, None, :]                           # (n, 1, 64)
+        y_c = (w1c.T[csub] + b1c)[:, None, :]  # (n, 1, 64)
         z_c, bg_c, _ = self._ln_background(y_c, b1c, n_patches - 1, t.ln_c)
         # conv2 = background everywhere + corrections at the special patches
-        w2 = t.conv2.linear.weight.view(64, 8, 128)                     # (c_out, sub, c_in)
-        base = t.conv2.linear.bias + torch.cat([bg_e, bg_c], dim=1) @ w2.sum(dim=1).T   # (n, 64)
-        out = base[:, None, :].repeat(1, 32, 1)                         # (n, 4*4*2, 64)
-        w2e = w2[:, self.p_sub, :64].permute(1, 2, 0)                   # (k, 64 in, 64 out)
+        w2 = t.conv2.linear.weight.view(64, 8, 128)  # (c_out, sub, c_in)
+        base = t.conv2.linear.bias + torch.cat([bg_e, bg_c], dim=1) @ w2.sum(dim=1).T  # (n, 64)
+        out = base[:, None, :].repeat(1, 32, 1)  # (n, 4*4*2, 64)
+        w2e = w2[:, self.p_sub, :64].permute(1, 2, 0)  # (k, 64 in, 64 out)
         corr_e = torch.einsum("nki,kio->nko", z_e - bg_e[:, None, :], w2e)
         out = out.index_add(1, self.p_block, corr_e)
         cblock = ((cpatch[:, 0] // 2) * 4 + cpatch[:, 1] // 2) * 2 + cpatch[:, 2] // 2
         cs2 = (cpatch[:, 0] % 2) * 4 + (cpatch[:, 1] % 2) * 2 + cpatch[:, 2] % 2
-        w2c = w2[:, :, 64:].permute(1, 2, 0)[cs2]                       # (n, 64 in, 64 out)
+        w2c = w2[:, :, 64:].permute(1, 2, 0)[cs2]  # (n, 64 in, 64 out)
         corr_c = torch.bmm((z_c[:, 0] - bg_c)[:, None, :], w2c)[:, 0]
         onehot = torch.nn.functional.one_hot(cblock, 32).to(out.dtype)  # (n, 32)
         out = out + onehot[:, :, None] * corr_c[:, None, :]
@@ -234,7 +236,7 @@ class MultiHeadDropoutNet(nn.Module):
     def heads_forward(self, a: torch.Tensor, b: torch.Tensor, compact: bool = False) -> torch.Tensor:
         x = self.fc1(sparse_trunk()(self.trunk, a, b) if compact else self.trunk(a, b))
         outs = [self.fc3(torch.relu(ln(self.fc32(self.drop(x))))) for ln in self.head_ln]
-        return torch.stack(outs, dim=1)                     # (n, heads, 3)
+        return torch.stack(outs, dim=1)  # (n, heads, 3)
 
     def forward(self, a: torch.Tensor, b: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         h = self.heads_forward(a, b)
@@ -280,8 +282,11 @@ def build_model(arch: str) -> nn.Module:
 
 def input_shapes(arch: str) -> dict[str, list[int | str]]:
     shapes = {
-        "electrode_voxels": ["n", *GRID], "contact_voxels": ["n", *GRID],
-        "electrodes": ["n", 19], "contact_point": ["n", 3], "pdc": ["n", 1],
+        "electrode_voxels": ["n", *GRID],
+        "contact_voxels": ["n", *GRID],
+        "electrodes": ["n", 19],
+        "contact_point": ["n", 3],
+        "pdc": ["n", 1],
     }
     return {name: shapes[name] for name in ARCHS[arch]["inputs"]}
 

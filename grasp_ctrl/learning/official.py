@@ -29,9 +29,20 @@ CONVERTER = "grasp_ctrl.policy_tools.convert_icra19"
 
 # initializer name prefix in the converted ONNX graph -> the authors' variable scope
 _ONNX_SCOPES = {
-    "conv_el": "Conv", "ln_el": "LayerNorm", "conv_cp": "Conv_1", "ln_cp": "LayerNorm_1", "ln2": "LayerNorm_2",
-    "conv3": "Conv_3", "ln3": "LayerNorm_3", "conv4": "Conv_4", "ln4": "LayerNorm_4", "fc": "fully_connected",
-    "ln5": "LayerNorm_5", "fc1": "fully_connected_1", "ln6": "LayerNorm_6", "fc2": "fully_connected_2",
+    "conv_el": "Conv",
+    "ln_el": "LayerNorm",
+    "conv_cp": "Conv_1",
+    "ln_cp": "LayerNorm_1",
+    "ln2": "LayerNorm_2",
+    "conv3": "Conv_3",
+    "ln3": "LayerNorm_3",
+    "conv4": "Conv_4",
+    "ln4": "LayerNorm_4",
+    "fc": "fully_connected",
+    "ln5": "LayerNorm_5",
+    "fc1": "fully_connected_1",
+    "ln6": "LayerNorm_6",
+    "fc2": "fully_connected_2",
 }
 
 
@@ -79,15 +90,23 @@ def official_state_dict(source: str | Path | Mapping[str, np.ndarray]) -> dict[s
     d = source if isinstance(source, Mapping) else np.load(source)
     t = lambda a: torch.as_tensor(np.asarray(a, dtype=np.float32).copy())  # noqa: E731
     sd: dict[str, torch.Tensor] = {"trunk.input_scale": torch.tensor(1.0)}
-    convs = {"conv_e": ("Conv", "LayerNorm"), "conv_c": ("Conv_1", "LayerNorm_1"), "conv2": ("Conv_2", "LayerNorm_2"),
-             "conv3": ("Conv_3", "LayerNorm_3"), "conv4": ("Conv_4", "LayerNorm_4")}
+    convs = {
+        "conv_e": ("Conv", "LayerNorm"),
+        "conv_c": ("Conv_1", "LayerNorm_1"),
+        "conv2": ("Conv_2", "LayerNorm_2"),
+        "conv3": ("Conv_3", "LayerNorm_3"),
+        "conv4": ("Conv_4", "LayerNorm_4"),
+    }
     ln_names = {"conv_e": "ln_e", "conv_c": "ln_c", "conv2": "ln2", "conv3": "ln3", "conv4": "ln4"}
     for ours, (conv, ln) in convs.items():
         sd[f"trunk.{ours}.linear.weight"] = _conv(d[f"{conv}/weights"])
         sd[f"trunk.{ours}.linear.bias"] = t(d[f"{conv}/biases"])
         sd[f"trunk.{ln_names[ours]}.weight"] = t(d[f"{ln}/gamma"])
         sd[f"trunk.{ln_names[ours]}.bias"] = t(d[f"{ln}/beta"])
-    for ours, (fc, ln) in {"fc1": ("fully_connected", "LayerNorm_5"), "fc2": ("fully_connected_1", "LayerNorm_6")}.items():
+    for ours, (fc, ln) in {
+        "fc1": ("fully_connected", "LayerNorm_5"),
+        "fc2": ("fully_connected_1", "LayerNorm_6"),
+    }.items():
         sd[f"{ours}.0.weight"] = t(d[f"{fc}/weights"].T)
         sd[f"{ours}.0.bias"] = t(d[f"{fc}/biases"])
         sd[f"{ours}.1.weight"] = t(d[f"{ln}/gamma"])

@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -53,10 +54,15 @@ def load_data(spec: DataSpec, report: Callable[[str], None] = print) -> tuple[Da
 
     t0 = time.perf_counter()
     ds = generate(spec.synthetic_per_source, seed=spec.seed)
-    report(f"synthetic data: {len(ds)} force samples ({spec.synthetic_per_source}+ per source, seed {spec.seed}) "
-           f"in {time.perf_counter() - t0:.1f} s")
-    return ds, {"synthetic_per_source": spec.synthetic_per_source, "seed": spec.seed,
-                "forward_model": "grasp_ctrl.sim.biotac_model (mock world)"}
+    report(
+        f"synthetic data: {len(ds)} force samples ({spec.synthetic_per_source}+ per source, seed {spec.seed}) "
+        f"in {time.perf_counter() - t0:.1f} s"
+    )
+    return ds, {
+        "synthetic_per_source": spec.synthetic_per_source,
+        "seed": spec.seed,
+        "forward_model": "grasp_ctrl.sim.biotac_model (mock world)",
+    }
 
 
 def source_mask(ds: Dataset, sources: Sequence[str]) -> np.ndarray:
@@ -81,29 +87,59 @@ def test_metrics(test: Dataset, f_pred: np.ndarray) -> dict[str, Any]:
 
 
 def train_one(
-    ds: Dataset, split: Split, sources: Sequence[str], arch: str, beta: float | None, epochs: int, seed: int,
-    batch_size: int = 512, patience: int | None = None, init_state: dict | None = None, threads: int = 1,
-    lr0: float = 1e-4, progress: Callable[[str], None] | None = print,
+    ds: Dataset,
+    split: Split,
+    sources: Sequence[str],
+    arch: str,
+    beta: float | None,
+    epochs: int,
+    seed: int,
+    batch_size: int = 512,
+    patience: int | None = None,
+    init_state: dict | None = None,
+    threads: int = 1,
+    lr0: float = 1e-4,
+    progress: Callable[[str], None] | None = print,
 ) -> dict[str, Any]:
     """Train one model on ``sources``; evaluate on the test samples of every source."""
     tr_idx, va_idx = train_indices(ds, split, sources)
     test = ds.subset(split.test)
-    info: dict[str, Any] = {"arch": arch, "beta": beta, "sources": list(sources),
-                            "n_train": int(len(tr_idx)), "n_val": int(len(va_idx)), "n_test": int(len(test))}
+    info: dict[str, Any] = {
+        "arch": arch,
+        "beta": beta,
+        "sources": list(sources),
+        "n_train": int(len(tr_idx)),
+        "n_val": int(len(va_idx)),
+        "n_test": int(len(test)),
+    }
     if arch == "analytic":
         t0 = time.perf_counter()
         gains = fit_analytic(ds, tr_idx)
-        info.update(gains=gains, seconds=time.perf_counter() - t0, metrics=test_metrics(test, predict_analytic(gains, test)))
+        info.update(
+            gains=gains, seconds=time.perf_counter() - t0, metrics=test_metrics(test, predict_analytic(gains, test))
+        )
         return info
     from grasp_ctrl.learning.train import TensorData, TrainConfig, predict_data, train
 
-    cfg = TrainConfig(arch=arch, beta=beta, epochs=epochs, batch_size=batch_size, seed=seed, patience=patience,
-                      threads=threads, lr0=lr0)
+    cfg = TrainConfig(
+        arch=arch,
+        beta=beta,
+        epochs=epochs,
+        batch_size=batch_size,
+        seed=seed,
+        patience=patience,
+        threads=threads,
+        lr0=lr0,
+    )
     t0 = time.perf_counter()
     result = train(ds.subset(tr_idx), ds.subset(va_idx), cfg, init_state=init_state, progress=progress)
     f_pred, _ = predict_data(result.model, TensorData(test))
-    info.update(result=result, seconds=time.perf_counter() - t0, seconds_per_epoch=result.seconds_per_epoch,
-                metrics=test_metrics(test, f_pred))
+    info.update(
+        result=result,
+        seconds=time.perf_counter() - t0,
+        seconds_per_epoch=result.seconds_per_epoch,
+        metrics=test_metrics(test, f_pred),
+    )
     return info
 
 
@@ -120,30 +156,60 @@ def metrics_table(results: dict[str, dict[str, dict[str, Any]]], test_source: st
 
 
 def run_experiment(
-    ds: Dataset, split: Split, models: dict[str, tuple[str, float | None]], out_dir: Path, epochs: int, seed: int,
-    data_info: dict[str, Any], threads: int = 1, progress: Callable[[str], None] = print,
-    lr0: float = 1e-4, patience: int | None = None, report: Callable[[str], None] | None = None,
-    executor: str = "local", address: str | None = None, jobs: int | None = None,
+    ds: Dataset,
+    split: Split,
+    models: dict[str, tuple[str, float | None]],
+    out_dir: Path,
+    epochs: int,
+    seed: int,
+    data_info: dict[str, Any],
+    threads: int = 1,
+    progress: Callable[[str], None] = print,
+    lr0: float = 1e-4,
+    patience: int | None = None,
+    report: Callable[[str], None] | None = None,
+    executor: str = "local",
+    address: str | None = None,
+    jobs: int | None = None,
 ) -> dict[str, Any]:
     """Every model on every training-source combination; checkpoints, JSON and tables in out_dir.
     ``progress``: per-epoch status; ``report``: each model's result line (default: ``progress``).
     ``executor="ray"``: the models train as Ray tasks (``threads`` CPUs each; ``address``: a
     running cluster, else a local instance of ``jobs`` CPUs); same files."""
     report = report or progress
-    plan = [(combo, sources, name, arch, beta) for combo, sources in COMBOS.items()
-            for name, (arch, beta) in models.items()]
+    plan = [
+        (combo, sources, name, arch, beta) for combo, sources in COMBOS.items() for name, (arch, beta) in models.items()
+    ]
     if executor == "ray":
         from grasp_ctrl.trials.runs.ray_executor import ray_map
 
-        args = [(sources, arch, beta, epochs, seed, 512, patience, None, threads, lr0, None)
-                for _, sources, _, arch, beta in plan]
+        args = [
+            (sources, arch, beta, epochs, seed, 512, patience, None, threads, lr0, None)
+            for _, sources, _, arch, beta in plan
+        ]
         trained = ray_map(address, jobs, train_one, args, shared=(ds, split), cpus_per_task=threads)
     else:
+
         def one_by_one():  # type: ignore[no-untyped-def]
             for i, (combo, sources, name, arch, beta) in enumerate(plan):
                 progress(f"== {name} on {combo}")
-                yield i, train_one(ds, split, sources, arch, beta, epochs, seed, threads=threads, progress=progress,
-                                   lr0=lr0, patience=patience)
+                yield (
+                    i,
+                    train_one(
+                        ds,
+                        split,
+                        sources,
+                        arch,
+                        beta,
+                        epochs,
+                        seed,
+                        threads=threads,
+                        progress=progress,
+                        lr0=lr0,
+                        patience=patience,
+                    ),
+                )
+
         trained = one_by_one()
     from grasp_ctrl.learning.train import save_checkpoint
 
@@ -155,22 +221,34 @@ def run_experiment(
         if arch == "analytic":
             from grasp_ctrl.learning.export import analytic_policy
 
-            (out_dir / f"{stem}.json").write_text(json.dumps(analytic_policy(
-                stem, info["gains"], {**data_info, "sources": list(sources)}, info["metrics"]), indent=2) + "\n")
+            (out_dir / f"{stem}.json").write_text(
+                json.dumps(
+                    analytic_policy(stem, info["gains"], {**data_info, "sources": list(sources)}, info["metrics"]),
+                    indent=2,
+                )
+                + "\n"
+            )
             info["gains"] = [float(g) for g in info["gains"]]
         else:
             result = info.pop("result")
-            save_checkpoint(str(out_dir / f"{stem}.pt"), result,
-                            {"data": {**data_info, "sources": list(sources), "n_train": info["n_train"]},
-                             "metrics": info["metrics"]})
+            save_checkpoint(
+                str(out_dir / f"{stem}.pt"),
+                result,
+                {
+                    "data": {**data_info, "sources": list(sources), "n_train": info["n_train"]},
+                    "metrics": info["metrics"],
+                },
+            )
             info["best_epoch"] = result.best_epoch
         m = info["metrics"]["mixed"]
         done[i] = info
-        report(f"{model_name} on {combo} ({len(done)}/{len(plan)}): angle "
-               f"{m['angle_deg']['median']:.1f} deg, magnitude {m['magnitude_error_n']['median']:.3f} N "
-               f"(median on the mixed test set), {info['seconds']:.0f} s")
+        report(
+            f"{model_name} on {combo} ({len(done)}/{len(plan)}): angle "
+            f"{m['angle_deg']['median']:.1f} deg, magnitude {m['magnitude_error_n']['median']:.3f} N "
+            f"(median on the mixed test set), {info['seconds']:.0f} s"
+        )
     results: dict[str, dict[str, dict[str, Any]]] = {combo: {} for combo in COMBOS}
-    for i, (combo, _, model_name, _, _) in enumerate(plan):   # the table's order, whatever finished first
+    for i, (combo, _, model_name, _, _) in enumerate(plan):  # the table's order, whatever finished first
         results[combo][model_name] = done[i]
     doc = {"data": data_info, "epochs": epochs, "seed": seed, "lr0": lr0, "patience": patience, "results": results}
     (out_dir / "results.json").write_text(json.dumps(doc, indent=2, default=float) + "\n")

@@ -2,16 +2,19 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 
 from grasp_ctrl.errors import UsageError
 
 
-def box_plots(per_model: Mapping[str, Mapping[str, np.ndarray]], path: str | Path,
-              metrics: tuple[str, ...] = ("angle_deg", "magnitude_error_n")) -> None:
+def box_plots(
+    per_model: Mapping[str, Mapping[str, np.ndarray]],
+    path: str | Path,
+    metrics: tuple[str, ...] = ("angle_deg", "magnitude_error_n"),
+) -> None:
     """per_model: label -> {metric: per-sample values}; one panel per metric."""
     try:
         import matplotlib

@@ -13,7 +13,7 @@ from grasp_ctrl.learning.dataset import Dataset
 
 @dataclass(frozen=True)
 class Split:
-    train: np.ndarray   # sample indices
+    train: np.ndarray  # sample indices
     val: np.ndarray
     test: np.ndarray
 
@@ -32,7 +32,7 @@ def split_by_trials(
         # a trial goes where its middle sample falls in the cumulative 80 / 10 / 10 partition
         mid = (np.cumsum(sizes) - sizes / 2) / sizes.sum()
         where = np.where(mid < train_frac, 0, np.where(mid < train_frac + val_frac, 1, 2))
-        if len(parts) >= 3:          # small sources: still one trial for validation and one for test
+        if len(parts) >= 3:  # small sources: still one trial for validation and one for test
             if not np.any(where == 2):
                 where[-1] = 2
             if not np.any(where == 1):

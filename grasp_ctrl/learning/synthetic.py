@@ -22,8 +22,8 @@ picks the same samples from it as ``generate`` does.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -44,13 +44,14 @@ RATE_HZ = 100.0
 @dataclass
 class SimTrial:
     """One simulated trial: the whole raw stream and what the dataset keeps of it."""
+
     trial_id: str
     source: str
-    raw: np.ndarray        # (TARE_FRAMES + n, 44) counts: the contact-free tare window, then the stream
-    label: np.ndarray      # (n, 3) N, f_sensor label; NaN where the source gives none (unsolved push)
-    keep: np.ndarray       # (n,) bool: force samples (contact gate on, non-zero label)
+    raw: np.ndarray  # (TARE_FRAMES + n, 44) counts: the contact-free tare window, then the stream
+    label: np.ndarray  # (n, 3) N, f_sensor label; NaN where the source gives none (unsolved push)
+    keep: np.ndarray  # (n,) bool: force samples (contact gate on, non-zero label)
     projected: np.ndarray  # (n,) bool
-    rotation: np.ndarray   # (n, 3, 3) R_world_sensor
+    rotation: np.ndarray  # (n, 3, 3) R_world_sensor
 
     def tared(self) -> np.ndarray:
         """(n, 44) stream tared on the mean of the tare window."""
@@ -60,8 +61,12 @@ class SimTrial:
         keep = self.keep
         n = int(keep.sum())
         return Dataset(
-            trial_id=np.full(n, self.trial_id), source=np.full(n, self.source), t=np.flatnonzero(keep) / RATE_HZ,
-            tared=self.tared()[keep], f_sensor=self.label[keep], projected=self.projected[keep],
+            trial_id=np.full(n, self.trial_id),
+            source=np.full(n, self.source),
+            t=np.flatnonzero(keep) / RATE_HZ,
+            tared=self.tared()[keep],
+            f_sensor=self.label[keep],
+            projected=self.projected[keep],
             r_world_sensor=self.rotation[keep],
         )
 
@@ -74,10 +79,15 @@ class SimTrial:
         stream_label = label[TARE_FRAMES:]
         stream_label[~(np.linalg.norm(np.nan_to_num(stream_label), axis=1) > 0)] = np.nan
         return RawTrial(
-            trial_id=self.trial_id, source=self.source, t=np.arange(-TARE_FRAMES, n) / RATE_HZ, raw=self.raw,
-            f_sensor=label, projected=np.r_[np.full(TARE_FRAMES, self.projected[0] if n else False), self.projected],
-            r_world_sensor=np.vstack([np.repeat(self.rotation[:1] if n else np.eye(3)[None], TARE_FRAMES, axis=0),
-                                      self.rotation]),
+            trial_id=self.trial_id,
+            source=self.source,
+            t=np.arange(-TARE_FRAMES, n) / RATE_HZ,
+            raw=self.raw,
+            f_sensor=label,
+            projected=np.r_[np.full(TARE_FRAMES, self.projected[0] if n else False), self.projected],
+            r_world_sensor=np.vstack(
+                [np.repeat(self.rotation[:1] if n else np.eye(3)[None], TARE_FRAMES, axis=0), self.rotation]
+            ),
         )
 
 
@@ -92,15 +102,17 @@ def mock_biotac_forward(params: object | None = None) -> ForwardModel:
         out = np.empty((len(p_sensor), 44))
         for i in range(len(p_sensor)):
             touching = np.array([np.linalg.norm(f_sensor[i]) > 0])
-            out[i] = model.frames(p_sensor[i:i + 1], f_sensor[i:i + 1], n_out[i:i + 1], touching,
-                                  np.zeros(1), 1.0 / RATE_HZ)[0]
+            out[i] = model.frames(
+                p_sensor[i : i + 1], f_sensor[i : i + 1], n_out[i : i + 1], touching, np.zeros(1), 1.0 / RATE_HZ
+            )[0]
         return out
 
     return forward
 
 
-def _sensor_trial(forward: ForwardModel, p: np.ndarray, f: np.ndarray, rng: np.random.Generator,
-                  rule: GateRule) -> tuple[np.ndarray, np.ndarray]:
+def _sensor_trial(
+    forward: ForwardModel, p: np.ndarray, f: np.ndarray, rng: np.random.Generator, rule: GateRule
+) -> tuple[np.ndarray, np.ndarray]:
     """Raw frames for a trial after a no-contact tare window; (raw (TARE_FRAMES + n, 44), gate (n,))."""
     p_all = np.vstack([np.repeat(p[:1], TARE_FRAMES, axis=0), p])
     f_all = np.vstack([np.zeros((TARE_FRAMES, 3)), f])
@@ -122,7 +134,7 @@ def _any_point(rng: np.random.Generator) -> np.ndarray:
     if rng.uniform() < 0.25:
         d = rng.standard_normal(3)
         d[0] = abs(d[0])
-        d[2] = -abs(d[2])                          # the lower half of the cap
+        d[2] = -abs(d[2])  # the lower half of the cap
         return SURFACE_RADIUS_M * d / np.linalg.norm(d)
     return _pad_point(rng, (-0.014, 0.0), np.deg2rad(100))
 
@@ -161,13 +173,13 @@ def _ft_trial(forward: ForwardModel, rng: np.random.Generator, source: str, rule
         # a human presses objects on the pad: the contact wanders a little, mostly normal force
         ends = [_pad_point(rng, (-0.012, 0.002), np.deg2rad(35)) for _ in range(2)]
         tangential = rng.uniform(0.0, 0.2)
-        label_rotation = np.eye(3)                   # the mount is rigid and known
+        label_rotation = np.eye(3)  # the mount is rigid and known
     else:
         # the hand rolls the fingertip over the ball: contacts all over the sensor
         p0 = _any_point(rng)
         ends = [p0, p0 + rng.normal(0.0, 2.5e-3, 3)]
         tangential = rng.uniform(0.0, 0.8)
-        label_rotation = _random_rotation(rng, np.deg2rad(3.0))   # tracked sensor orientation error
+        label_rotation = _random_rotation(rng, np.deg2rad(3.0))  # tracked sensor orientation error
     u = np.linspace(0.0, 1.0, n)[:, None]
     points, n_out = surface_point_and_normal((1 - u) * ends[0] + u * ends[1])
     t1, t2 = zip(*(_tangent_basis(v) for v in n_out))
@@ -179,8 +191,13 @@ def _ft_trial(forward: ForwardModel, rng: np.random.Generator, source: str, rule
     raw, gate = _sensor_trial(forward, points, f_true, rng, rule)
     sigma = rng.uniform(0.01, 0.1)
     label = f_true @ label_rotation.T + sigma * rng.standard_normal(f_true.shape)
-    return raw, label, gate & (np.linalg.norm(label, axis=1) > 0), np.zeros(n, bool), \
-        np.repeat(np.eye(3)[None], n, axis=0)
+    return (
+        raw,
+        label,
+        gate & (np.linalg.norm(label, axis=1) > 0),
+        np.zeros(n, bool),
+        np.repeat(np.eye(3)[None], n, axis=0),
+    )
 
 
 def _rotation_aligning(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -217,7 +234,7 @@ def _push_trial(forward: ForwardModel, rng: np.random.Generator, rule: GateRule)
     f_world3 = np.zeros((len(push.t), 3))
     f_world3[:, :2] = -push.f_world_true
     f_world3[:, 2] = rng.uniform(-0.3, 0.3) * np.linalg.norm(push.f_world_true, axis=1)
-    f_true = f_world3 @ r_ws                       # R^T f, row-wise
+    f_true = f_world3 @ r_ws  # R^T f, row-wise
     p = np.repeat(point[None], len(push.t), axis=0)
     raw, gate = _sensor_trial(forward, p, f_true, rng, rule)
     solved = ~np.isnan(est.f_world[:, 0])
@@ -228,7 +245,11 @@ def _push_trial(forward: ForwardModel, rng: np.random.Generator, rule: GateRule)
 
 
 def simulate_trials(
-    source: str, n_samples: int, forward: ForwardModel, rng: np.random.Generator, rule: GateRule = GateRule(),
+    source: str,
+    n_samples: int,
+    forward: ForwardModel,
+    rng: np.random.Generator,
+    rule: GateRule = GateRule(),
     trial_prefix: str = "",
 ) -> list[SimTrial]:
     """Trials of one source until at least ``n_samples`` force samples are collected (trials
@@ -250,7 +271,11 @@ def simulate_trials(
 
 
 def generate_source(
-    source: str, n_samples: int, forward: ForwardModel, rng: np.random.Generator, rule: GateRule = GateRule(),
+    source: str,
+    n_samples: int,
+    forward: ForwardModel,
+    rng: np.random.Generator,
+    rule: GateRule = GateRule(),
     trial_prefix: str = "",
 ) -> Dataset:
     """Force samples of one source, at least ``n_samples``."""

@@ -6,14 +6,15 @@ from __future__ import annotations
 import math
 import pickle
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import torch
 
 from grasp_ctrl.learning.dataset import Dataset
-from grasp_ctrl.learning.features import GRID_SHAPE, _ELECTRODE_CELLS, _cell_index, contact_point_and_normal
+from grasp_ctrl.learning.features import _ELECTRODE_CELLS, GRID_SHAPE, _cell_index, contact_point_and_normal
 from grasp_ctrl.learning.losses import sample_losses
 from grasp_ctrl.learning.models import MultiHeadDropoutNet, build_model
 from grasp_ctrl.tactile.layout import ELECTRODES, PDC
@@ -24,15 +25,15 @@ CHECKPOINT_FORMAT = "grasp_ctrl-force-checkpoint-1"
 @dataclass
 class TrainConfig:
     arch: str = "voxel"
-    beta: float | None = 1.0          # None: no alpha weight
+    beta: float | None = 1.0  # None: no alpha weight
     epochs: int = 200
     batch_size: int = 512
     lr0: float = 1e-4
     warmup_epochs: int = 2
     decay: float = 0.95
     seed: int = 0
-    patience: int | None = None       # stop after this many epochs without improvement
-    threads: int = 1                  # torch CPU threads (more threads are slower on a busy 2-core box)
+    patience: int | None = None  # stop after this many epochs without improvement
+    threads: int = 1  # torch CPU threads (more threads are slower on a busy 2-core box)
 
 
 def learning_rate(cfg: TrainConfig, epoch: int, iteration: int, warmup_iterations: int) -> float:
@@ -53,7 +54,7 @@ class TensorData:
         f32 = lambda a: torch.as_tensor(np.asarray(a, dtype=np.float32))  # noqa: E731
         self.n = len(ds)
         self.electrodes = f32(ds.tared[:, ELECTRODES])
-        self.pdc = f32(ds.tared[:, PDC:PDC + 1])
+        self.pdc = f32(ds.tared[:, PDC : PDC + 1])
         self.contact_point = f32(s_c)
         self.contact_cell = torch.as_tensor(_cell_index(s_c), dtype=torch.long)
         self.surface_normal = f32(s_n)
@@ -107,7 +108,9 @@ def _batch_loss(model: torch.nn.Module, data: TensorData, idx: torch.Tensor, bet
 
 
 @torch.no_grad()
-def predict_data(model: torch.nn.Module, data: TensorData, batch_size: int = 2048) -> tuple[np.ndarray, np.ndarray | None]:
+def predict_data(
+    model: torch.nn.Module, data: TensorData, batch_size: int = 2048
+) -> tuple[np.ndarray, np.ndarray | None]:
     """f_sensor (n, 3) and, for the dropout model, the per-axis variance over the heads."""
     model.eval()
     means, variances = [], []
@@ -169,7 +172,7 @@ def train(
         perm = torch.randperm(tr.n, generator=gen)
         total = 0.0
         for start in range(0, tr.n, cfg.batch_size):
-            idx = perm[start:start + cfg.batch_size]
+            idx = perm[start : start + cfg.batch_size]
             lr = learning_rate(cfg, epoch, iteration, warmup_iterations)
             for group in opt.param_groups:
                 group["lr"] = lr
@@ -188,8 +191,10 @@ def train(
             best = (val_loss, epoch, {k: v.detach().clone() for k, v in model.state_dict().items()})
         history.append({"epoch": epoch + 1, "train_loss": train_loss, "val_loss": val_loss, "lr": lr, "seconds": dt})
         if progress:
-            progress(f"[{cfg.arch}{'' if cfg.beta is None else f' alpha b={cfg.beta:g}'}] epoch {epoch + 1:3d}/{cfg.epochs}"
-                     f"  train {train_loss:.4f}  val {val_loss:.4f}  lr {lr:.2e}  {dt:.1f} s{'  *' if improved else ''}")
+            progress(
+                f"[{cfg.arch}{'' if cfg.beta is None else f' alpha b={cfg.beta:g}'}] epoch {epoch + 1:3d}/{cfg.epochs}"
+                f"  train {train_loss:.4f}  val {val_loss:.4f}  lr {lr:.2e}  {dt:.1f} s{'  *' if improved else ''}"
+            )
         if cfg.patience is not None and epoch - best[1] >= cfg.patience:
             break
     assert best[2] is not None
@@ -201,22 +206,25 @@ def train(
 def save_checkpoint(path: str, result: TrainResult, extra: dict[str, Any] | None = None) -> None:
     from grasp_ctrl.safe_write import output_file
 
-    with output_file(path) as tmp:   # a symlink at ``path`` is replaced, never written through
+    with output_file(path) as tmp:  # a symlink at ``path`` is replaced, never written through
         _save(tmp, result, extra)
 
 
 def _save(path: Any, result: TrainResult, extra: dict[str, Any] | None) -> None:
-    torch.save({
-        "format": CHECKPOINT_FORMAT,
-        "arch": result.config.arch,
-        "config": asdict(result.config),
-        "state_dict": result.model.state_dict(),
-        "best_epoch": result.best_epoch,
-        "best_val_loss": result.best_val_loss,
-        "seconds_per_epoch": result.seconds_per_epoch,
-        "history": result.history,
-        **(extra or {}),
-    }, path)
+    torch.save(
+        {
+            "format": CHECKPOINT_FORMAT,
+            "arch": result.config.arch,
+            "config": asdict(result.config),
+            "state_dict": result.model.state_dict(),
+            "best_epoch": result.best_epoch,
+            "best_val_loss": result.best_val_loss,
+            "seconds_per_epoch": result.seconds_per_epoch,
+            "history": result.history,
+            **(extra or {}),
+        },
+        path,
+    )
 
 
 def load_checkpoint(path: str) -> dict[str, Any]:
@@ -224,7 +232,9 @@ def load_checkpoint(path: str) -> dict[str, Any]:
     try:
         ckpt = torch.load(path, map_location="cpu", weights_only=True)
     except (pickle.UnpicklingError, RuntimeError, EOFError, OSError) as exc:
-        raise ValueError(f"{path}: not a loadable weights-only checkpoint ({str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__})") from None
+        raise ValueError(
+            f"{path}: not a loadable weights-only checkpoint ({str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__})"
+        ) from None
     if not isinstance(ckpt, dict) or ckpt.get("format") != CHECKPOINT_FORMAT:
         raise ValueError(f"{path}: not a grasp_ctrl force checkpoint")
     return ckpt

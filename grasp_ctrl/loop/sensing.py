@@ -10,11 +10,11 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.errors import FrameError, SensorStaleError
 from grasp_ctrl.estimators.base import ForceEstimator
+from grasp_ctrl.estimators.pipeline import TactilePipeline
 from grasp_ctrl.finite import all_finite
 from grasp_ctrl.hardware.base import JointState, SensorBackend, TactileFrame
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.pad_ik import shared_pad_ik
-from grasp_ctrl.estimators.pipeline import TactilePipeline
 from grasp_ctrl.loop.tick_kernels import place_forces, sense_forces, sense_inputs
 
 _FLOAT64 = np.dtype(np.float64)
@@ -24,8 +24,8 @@ class SensingPipeline:
     def __init__(self, hand: HandConfig, kin: HandKinematics, estimator: ForceEstimator) -> None:
         self.hand = hand
         self.kin = kin
-        self.fast_kin = shared_pad_ik(kin)   # sensor rotations, compiled with the sim extra
-        self._compiled = self.fast_kin.compiled   # the compiled halves of a snapshot (loop/tick_kernels.py)
+        self.fast_kin = shared_pad_ik(kin)  # sensor rotations, compiled with the sim extra
+        self._compiled = self.fast_kin.compiled  # the compiled halves of a snapshot (loop/tick_kernels.py)
         self._geometry, self._layout = self.fast_kin.geometry, self.fast_kin.layout
         self.estimator = estimator
         self.names = [f.name for f in hand.fingers]
@@ -33,7 +33,7 @@ class SensingPipeline:
         n = len(self.names)
         self.tactile = TactilePipeline.from_hand(hand, estimator)
         self._tare_window: list[np.ndarray] = []
-        self.frame_len = hand.tactile.layout.frame_len   # values per frame of this sensor type
+        self.frame_len = hand.tactile.layout.frame_len  # values per frame of this sensor type
         self._frame_shape = (n, self.frame_len)
         self._stale_after_s = hand.tactile.stale_after_s
         self.raw = np.zeros(self._frame_shape)
@@ -42,7 +42,7 @@ class SensingPipeline:
         # the last finite joint angles and palm position (used when a reading is not finite)
         self._last_q = np.array([j.open_rad for j in hand.joints])
         self._last_palm = np.zeros(3)
-        self._tips: dict[int, tuple[np.ndarray, tuple[str, ...]]] = {}   # contact bits -> (rows, finger names)
+        self._tips: dict[int, tuple[np.ndarray, tuple[str, ...]]] = {}  # contact bits -> (rows, finger names)
 
     def read_frames(self, sensors: SensorBackend, now: float) -> np.ndarray:
         """(n_tips, 44) raw counts in finger order from ``sensors``: ``frames_matrix`` of
@@ -52,7 +52,7 @@ class SensingPipeline:
         if latest_matrix is not None:
             got = latest_matrix(self.sensor_ids)
             if got is not None and now - got[1] <= self._stale_after_s:
-                return got[0]   # (a stale one goes the long way, which names the fingertip)
+                return got[0]  # (a stale one goes the long way, which names the fingertip)
         return self.frames_matrix(sensors.read_latest(), now)
 
     def frames_matrix(self, frames: dict[int, TactileFrame], now: float) -> np.ndarray:
@@ -104,22 +104,50 @@ class SensingPipeline:
         tactile = self.tactile
         gated = None
         nd = np.ndarray
-        if (self._compiled and not collecting_tare and tactile.tare.ready and tactile.validate
-                and q.shape == self._last_q.shape and p_palm_world.shape == (3,) and type(raw) is nd
-                and raw.dtype is _FLOAT64 and raw.shape == self._frame_shape and raw.flags.c_contiguous):
+        if (
+            self._compiled
+            and not collecting_tare
+            and tactile.tare.ready
+            and tactile.validate
+            and q.shape == self._last_q.shape
+            and p_palm_world.shape == (3,)
+            and type(raw) is nd
+            and raw.dtype is _FLOAT64
+            and raw.shape == self._frame_shape
+            and raw.flags.c_contiguous
+        ):
             # The usual tick in one compiled call: inputs finite, frames tared and gated.
             tared, in_contact = np.empty(self._frame_shape), np.empty(n, dtype=bool)
             touching = np.empty(self._frame_shape)
-            bits = sense_inputs(q, p_palm_world, raw, tactile.tare.baseline, tactile.gate.count,
-                                tactile.gate.threshold, tactile.gate.frames, tared, in_contact, touching)
+            bits = sense_inputs(
+                q,
+                p_palm_world,
+                raw,
+                tactile.tare.baseline,
+                tactile.gate.count,
+                tactile.gate.threshold,
+                tactile.gate.frames,
+                tared,
+                in_contact,
+                touching,
+            )
             if bits >= 0:
                 gated = tared, in_contact, bits, touching
-        if gated is None:   # the long way, which also names what is wrong
+        if gated is None:  # the long way, which also names what is wrong
             q, p_palm_world, fault, fault_detail = self._checked_pose(q, p_palm_world, fault, fault_detail)
         return self._snapshot(raw, q, p_palm_world, joints.t, gated, collecting_tare, fault, fault_detail)
 
-    def snapshot_gated(self, raw: np.ndarray, q: np.ndarray, p_palm_world: np.ndarray, t: float, tared: np.ndarray,
-                       in_contact: np.ndarray, bits: int, touching: np.ndarray) -> Snapshot:
+    def snapshot_gated(
+        self,
+        raw: np.ndarray,
+        q: np.ndarray,
+        p_palm_world: np.ndarray,
+        t: float,
+        tared: np.ndarray,
+        in_contact: np.ndarray,
+        bits: int,
+        touching: np.ndarray,
+    ) -> Snapshot:
         """``snapshot`` after its first compiled half (``sense_inputs``, made by the caller:
         finite float64 angles and palm position, frames tared and gated into ``tared``,
         ``in_contact``, ``bits`` >= 0 and ``touching``), for the mock trial's fused inputs
@@ -131,14 +159,23 @@ class SensingPipeline:
         # _snapshot's usual course without its branches: fingertips in contact, a policy without variance
         self.raw, self._last_q, self._last_palm = raw, q, p_palm_world
         f_sensor, f_hand, grip = self._estimate_and_turn(estimator, q, tared, touching, bits)
-        if f_hand is None:   # an odd or non-finite estimate: the rest of _snapshot (not estimating again)
+        if f_hand is None:  # an odd or non-finite estimate: the rest of _snapshot (not estimating again)
             return self._snapshot(raw, q, p_palm_world, t, gated, False, None, None, f_sensor)
         self.tared = tared
         return Snapshot(t, q, p_palm_world, True, in_contact, f_sensor, f_hand, f_hand, grip, None, None, None)
 
-    def _snapshot(self, raw: np.ndarray, q: np.ndarray, p_palm_world: np.ndarray, t: float,
-                  gated: tuple[np.ndarray, np.ndarray, int, np.ndarray] | None, collecting_tare: bool,
-                  fault: str | None, fault_detail: str | None, estimated: np.ndarray | None = None) -> Snapshot:
+    def _snapshot(
+        self,
+        raw: np.ndarray,
+        q: np.ndarray,
+        p_palm_world: np.ndarray,
+        t: float,
+        gated: tuple[np.ndarray, np.ndarray, int, np.ndarray] | None,
+        collecting_tare: bool,
+        fault: str | None,
+        fault_detail: str | None,
+        estimated: np.ndarray | None = None,
+    ) -> Snapshot:
         """``snapshot``'s second half; ``estimated``: the forces of the fingertips in contact
         (gated) already estimated and placed (``_estimate_and_turn``)."""
         n = len(self.names)
@@ -148,7 +185,7 @@ class SensingPipeline:
         self._last_q = q
         self._last_palm = p_palm_world
         variance = None
-        no_force = False   # f_sensor is our own zeros (no fingertip in contact, or no tare yet)
+        no_force = False  # f_sensor is our own zeros (no fingertip in contact, or no tare yet)
         f_hand = None
         if gated is not None:
             tared, in_contact, bits, touching = gated
@@ -170,7 +207,7 @@ class SensingPipeline:
                 tare_ready = False
                 if fault is None:
                     fault, fault_detail = "sensor_invalid", str(exc)
-            if not tare_ready:   # before the baseline, or a frame that failed: no contact, no force
+            if not tare_ready:  # before the baseline, or a frame that failed: no contact, no force
                 tare_ready = tactile.tare.ready
                 tared = np.zeros_like(raw, dtype=float)
                 in_contact = np.zeros(n, dtype=bool)
@@ -181,27 +218,36 @@ class SensingPipeline:
         # Grip = the squeeze: the force across the lift direction (world z). Along z
         # the fingertips also carry the object's weight, which must not count as grip.
         if f_hand is not None:
-            pass   # estimated and turned in one go (_estimate_and_turn)
+            pass  # estimated and turned in one go (_estimate_and_turn)
         elif self._compiled and no_force and variance is None:
             # Zero forces (+0.0) turned by the sensor rotations, finite at finite angles, sum
             # to +0.0 in every term the kernel adds (+0.0 + -0.0 is +0.0): all zeros, as
             # sense_forces would compute them.
             f_hand, grip = np.zeros((n, 3)), np.zeros(n)
-        elif (self._compiled and variance is None and type(f_sensor) is nd and f_sensor.dtype is _FLOAT64
-                and f_sensor.shape == (n, 3) and f_sensor.flags.c_contiguous and q.flags.c_contiguous):
+        elif (
+            self._compiled
+            and variance is None
+            and type(f_sensor) is nd
+            and f_sensor.dtype is _FLOAT64
+            and f_sensor.shape == (n, 3)
+            and f_sensor.flags.c_contiguous
+            and q.flags.c_contiguous
+        ):
             f_hand, grip = np.empty((n, 3)), np.empty(n)
             if not sense_forces(q, f_sensor, self._geometry, self._layout, f_hand, grip):
-                f_hand = None   # a force is not finite: the long way
-        if f_hand is None:   # the long way, which also names a non-finite estimate
+                f_hand = None  # a force is not finite: the long way
+        if f_hand is None:  # the long way, which also names a non-finite estimate
             f_sensor, variance, fault, fault_detail = self._checked_estimate(f_sensor, variance, fault, fault_detail)
             f_hand, grip = self.fast_kin.sensor_forces(q, f_sensor)
         f_world = f_hand  # the arm translates the hand: hand axes = world axes
         # positional (Snapshot's field order): a third of the keyword call's cost, every tick
-        return Snapshot(t, q, p_palm_world, tare_ready, in_contact, f_sensor, f_hand, f_world, grip, variance, fault,
-                        fault_detail)
+        return Snapshot(
+            t, q, p_palm_world, tare_ready, in_contact, f_sensor, f_hand, f_world, grip, variance, fault, fault_detail
+        )
 
-    def estimate_contacts(self, estimator: ForceEstimator, tared: np.ndarray, touching: np.ndarray,
-                          bits: int) -> tuple[np.ndarray, np.ndarray]:
+    def estimate_contacts(
+        self, estimator: ForceEstimator, tared: np.ndarray, touching: np.ndarray, bits: int
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The policy's call ``TactilePipeline.forces`` makes for the fingertips in contact
         (``bits``, their tared rows first in ``touching``): ``(its f_sensor rows, their
         fingertips' indices)``."""
@@ -209,8 +255,10 @@ class SensingPipeline:
         if got is None:
             n = len(self.names)
             idx = np.array([i for i in range(n) if bits >> i & 1], dtype=np.intp)
-            got = self._tips[bits] = (idx, self.tactile.fingers if idx.size == n else
-                                      tuple(self.tactile.fingers[i] for i in idx.tolist()))
+            got = self._tips[bits] = (
+                idx,
+                self.tactile.fingers if idx.size == n else tuple(self.tactile.fingers[i] for i in idx.tolist()),
+            )
         idx, names = got
         k = idx.size
         # the same call TactilePipeline.forces makes: every tared row, or those in contact
@@ -229,8 +277,9 @@ class SensingPipeline:
             f_sensor[idx] = rows
         return f_sensor
 
-    def _estimate_and_turn(self, estimator: ForceEstimator, q: np.ndarray, tared: np.ndarray, touching: np.ndarray,
-                           bits: int) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    def _estimate_and_turn(
+        self, estimator: ForceEstimator, q: np.ndarray, tared: np.ndarray, touching: np.ndarray, bits: int
+    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
         """``TactilePipeline.forces`` for a policy without variance and the fingertips in
         contact (``bits``, their tared rows first in ``touching``), then the forces into the
         hand frame, the rows placed and turned in one compiled call (``place_forces``):
@@ -238,8 +287,12 @@ class SensingPipeline:
         (or the rows have an odd type or shape), for the long way to name it."""
         n = len(self.names)
         rows, idx = self.estimate_contacts(estimator, tared, touching, bits)
-        if (type(rows) is np.ndarray and rows.dtype is _FLOAT64 and rows.shape == (idx.size, 3)
-                and rows.flags.c_contiguous):
+        if (
+            type(rows) is np.ndarray
+            and rows.dtype is _FLOAT64
+            and rows.shape == (idx.size, 3)
+            and rows.flags.c_contiguous
+        ):
             f_sensor = np.empty((n, 3))
             f_hand, grip = np.empty((n, 3)), np.empty(n)
             if place_forces(rows, bits, q, self._geometry, self._layout, f_sensor, f_hand, grip):
@@ -247,12 +300,21 @@ class SensingPipeline:
             return f_sensor, None, None
         return self.placed_rows(rows, idx), None, None
 
-    def _checked_pose(self, q: np.ndarray, p_palm_world: np.ndarray, fault: str | None, detail: str | None,
-                      ) -> tuple[np.ndarray, np.ndarray, str | None, str | None]:
+    def _checked_pose(
+        self,
+        q: np.ndarray,
+        p_palm_world: np.ndarray,
+        fault: str | None,
+        detail: str | None,
+    ) -> tuple[np.ndarray, np.ndarray, str | None, str | None]:
         """Joint angles and palm position, each replaced by the last good one (and the
         fault noted, unless one is already) when it is not finite or has the wrong shape."""
         if q.shape != self._last_q.shape or not all_finite(q):
-            bad = [j for j, v in zip(self.joint_names, np.ravel(q)) if not np.isfinite(v)] if q.shape == self._last_q.shape else []
+            bad = (
+                [j for j, v in zip(self.joint_names, np.ravel(q)) if not np.isfinite(v)]
+                if q.shape == self._last_q.shape
+                else []
+            )
             if fault is None:
                 fault, detail = "sensor_invalid", f"joint angles not finite ({', '.join(bad) or f'shape {q.shape}'})"
             q = self._last_q.copy()
@@ -262,8 +324,9 @@ class SensingPipeline:
             p_palm_world = self._last_palm.copy()
         return q, p_palm_world, fault, detail
 
-    def _checked_estimate(self, f_sensor: np.ndarray, variance: np.ndarray | None, fault: str | None,
-                          detail: str | None) -> tuple[np.ndarray, np.ndarray | None, str | None, str | None]:
+    def _checked_estimate(
+        self, f_sensor: np.ndarray, variance: np.ndarray | None, fault: str | None, detail: str | None
+    ) -> tuple[np.ndarray, np.ndarray | None, str | None, str | None]:
         """The policy's forces (and variances) with non-finite values replaced by 0, the
         fault noted (unless one is already) naming the fingertips."""
         n = len(self.names)
@@ -276,8 +339,10 @@ class SensingPipeline:
                 what = "force" if bad_f.any() else "variance"
                 if fault is None:
                     fault = "estimate_invalid"
-                    detail = (f"policy {getattr(self.estimator, 'name', '?')!r} returned a non-finite "
-                              f"{what} for fingertip(s) {', '.join(tips_bad)}")
+                    detail = (
+                        f"policy {getattr(self.estimator, 'name', '?')!r} returned a non-finite "
+                        f"{what} for fingertip(s) {', '.join(tips_bad)}"
+                    )
                 f_sensor = np.where(np.isfinite(f_sensor), f_sensor, 0.0)
                 if variance is not None:
                     variance = np.where(np.isfinite(variance), variance, 0.0)

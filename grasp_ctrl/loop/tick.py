@@ -32,12 +32,12 @@ def control_tick(
     try:
         hand.check_health()
         check_stale = getattr(sensors, "check_stale", None)
-        if check_stale is not None:   # the serial backend can also tell an unplugged port
+        if check_stale is not None:  # the serial backend can also tell an unplugged port
             check_stale(now)
         raw = pipeline.read_frames(sensors, now)
     except HardwareError as exc:
         if fault is None:
-            fault, detail = exc.reason, str(exc)   # the record names what failed
+            fault, detail = exc.reason, str(exc)  # the record names what failed
     except FrameError as exc:
         if fault is None:
             fault, detail = "sensor_invalid", str(exc)

@@ -20,8 +20,18 @@ from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate_bits
 
 
 @njit
-def sense_inputs(q: np.ndarray, palm: np.ndarray, raw: np.ndarray, baseline: np.ndarray, count: np.ndarray,
-                 threshold: float, frames: int, tared: np.ndarray, contact: np.ndarray, touching: np.ndarray) -> int:
+def sense_inputs(
+    q: np.ndarray,
+    palm: np.ndarray,
+    raw: np.ndarray,
+    baseline: np.ndarray,
+    count: np.ndarray,
+    threshold: float,
+    frames: int,
+    tared: np.ndarray,
+    contact: np.ndarray,
+    touching: np.ndarray,
+) -> int:
     """The first half of a snapshot: check the joint angles and the palm position, then
     tare and gate the frames (``tare.tare_and_gate_bits``: the contact bits, or -1 for
     a frame that is not a finite count in range) and copy the tared rows of the
@@ -45,8 +55,9 @@ def sense_inputs(q: np.ndarray, palm: np.ndarray, raw: np.ndarray, baseline: np.
 
 
 @njit
-def sense_forces(q: np.ndarray, f_sensor: np.ndarray, geometry: np.ndarray, layout: np.ndarray, f_hand: np.ndarray,
-                 grip: np.ndarray) -> bool:
+def sense_forces(
+    q: np.ndarray, f_sensor: np.ndarray, geometry: np.ndarray, layout: np.ndarray, f_hand: np.ndarray, grip: np.ndarray
+) -> bool:
     """The second half: the estimated forces (F, 3) into the hand frame and their grip
     (``pad_ik.sensor_forces_kernel``; ``geometry``, ``layout``: the hand's ``PadIK``), when
     every one is finite; False (nothing written) when one is not."""
@@ -59,8 +70,16 @@ def sense_forces(q: np.ndarray, f_sensor: np.ndarray, geometry: np.ndarray, layo
 
 
 @njit
-def place_forces(rows: np.ndarray, bits: int, q: np.ndarray, geometry: np.ndarray, layout: np.ndarray,
-                 f_sensor: np.ndarray, f_hand: np.ndarray, grip: np.ndarray) -> bool:
+def place_forces(
+    rows: np.ndarray,
+    bits: int,
+    q: np.ndarray,
+    geometry: np.ndarray,
+    layout: np.ndarray,
+    f_sensor: np.ndarray,
+    f_hand: np.ndarray,
+    grip: np.ndarray,
+) -> bool:
     """The policy's rows (one per fingertip in contact, ``bits``) into ``f_sensor`` (F, 3),
     zero for the others (``tare.scatter_rows``), then ``sense_forces``: False, f_hand and
     grip unset, when a force is not finite."""
@@ -72,8 +91,14 @@ def place_forces(rows: np.ndarray, bits: int, q: np.ndarray, geometry: np.ndarra
 
 
 @njit
-def track_peaks(f_sensor: np.ndarray, grip: np.ndarray, true_normal: np.ndarray, force_sq_peak: np.ndarray,
-                grip_peak: np.ndarray, true_peak: np.ndarray) -> None:
+def track_peaks(
+    f_sensor: np.ndarray,
+    grip: np.ndarray,
+    true_normal: np.ndarray,
+    force_sq_peak: np.ndarray,
+    grip_peak: np.ndarray,
+    true_peak: np.ndarray,
+) -> None:
     """Per fingertip, in place: the peak of |f_sensor|^2, of the grip and of the true
     normal force. The same as ``np.maximum(peak, np.add.reduce(f * f, axis=1), out=peak)``
     (which sums a row's squares left to right) and ``np.maximum(peak, x, out=peak)``."""
@@ -96,19 +121,43 @@ def _put(row: np.ndarray, at: int, values: np.ndarray) -> int:
 
 
 @njit
-def log_row(block: np.ndarray, i: int, t: float, palm: np.ndarray, palm_target: np.ndarray, grip_target: float,
-            raw: np.ndarray, contact: np.ndarray, tared: np.ndarray, grip: np.ndarray, f_sensor: np.ndarray,
-            f_world: np.ndarray, q: np.ndarray, q_goal: np.ndarray, true_f: np.ndarray, object_z: float,
-            table_force: float) -> bool:
+def log_row(
+    block: np.ndarray,
+    i: int,
+    t: float,
+    palm: np.ndarray,
+    palm_target: np.ndarray,
+    grip_target: float,
+    raw: np.ndarray,
+    contact: np.ndarray,
+    tared: np.ndarray,
+    grip: np.ndarray,
+    f_sensor: np.ndarray,
+    f_world: np.ndarray,
+    q: np.ndarray,
+    q_goal: np.ndarray,
+    true_f: np.ndarray,
+    object_z: float,
+    table_force: float,
+) -> bool:
     """Row ``i`` of the tick log's block with truth columns (``ticklog.layout`` order):
     what ``TickLog.append`` stores, in one pass (values as numpy's assignment casts
     them). False, with nothing written, when a size does not fit (the caller's numpy
     path then names it)."""
     F, J = grip.size, q.size
-    if not (palm.size == 3 and palm_target.size == 3 and raw.size == F * FRAME_LEN and contact.size == F
-            and tared.size == F * FRAME_LEN and f_sensor.size == 3 * F and f_world.size == 3 * F
-            and q_goal.size == J and true_f.size == 3 * F
-            and block.shape[1] == 6 + F * (FRAME_LEN + 12) + 2 * J + 2 and 0 <= i < block.shape[0]):
+    if not (
+        palm.size == 3
+        and palm_target.size == 3
+        and raw.size == F * FRAME_LEN
+        and contact.size == F
+        and tared.size == F * FRAME_LEN
+        and f_sensor.size == 3 * F
+        and f_world.size == 3 * F
+        and q_goal.size == J
+        and true_f.size == 3 * F
+        and block.shape[1] == 6 + F * (FRAME_LEN + 12) + 2 * J + 2
+        and 0 <= i < block.shape[0]
+    ):
         return False
     row = block[i]
     row[0] = t

@@ -25,17 +25,17 @@ import numpy as np
 from grasp_ctrl import jit
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PAC, PDC, TDC
-from grasp_ctrl.storage import atomic_writer
 from grasp_ctrl.loop.tick_kernels import log_row
+from grasp_ctrl.storage import atomic_writer
+from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PAC, PDC, TDC
 
 # Per-fingertip raw-signal summary columns (raw counts, before tare).
 RAW_COLUMNS = ("raw_pdc", "raw_tdc", "raw_pac_std", "raw_e_mean")
 TICKS_SUFFIX = "_ticks.parquet"
 LEGACY_TICKS_SUFFIX = "_ticks.csv"
 _COMPRESSION = "zstd"
-_CHUNK = 2048   # ticks per buffer growth (20 s at 100 Hz)
-MANTISSA_BITS = 15   # rounding error <= 2^-16 = 1.5e-5 relative
+_CHUNK = 2048  # ticks per buffer growth (20 s at 100 Hz)
+MANTISSA_BITS = 15  # rounding error <= 2^-16 = 1.5e-5 relative
 
 
 def rounded_float32(values: np.ndarray, bits: int = MANTISSA_BITS) -> np.ndarray:
@@ -50,8 +50,9 @@ def rounded_float32(values: np.ndarray, bits: int = MANTISSA_BITS) -> np.ndarray
 def raw_summary(raw: np.ndarray) -> np.ndarray:
     """(..., n_tips, 44) raw counts -> (..., n_tips, 4): pdc, tdc, spread of the 22 pac
     samples (vibration), mean of the 19 electrodes."""
-    return np.stack([raw[..., PDC], raw[..., TDC], raw[..., PAC].std(axis=-1), raw[..., ELECTRODES].mean(axis=-1)],
-                    axis=-1)
+    return np.stack(
+        [raw[..., PDC], raw[..., TDC], raw[..., PAC].std(axis=-1), raw[..., ELECTRODES].mean(axis=-1)], axis=-1
+    )
 
 
 def tick_columns(fingers: list[str], n_joints: int, truth: bool) -> list[str]:
@@ -81,27 +82,38 @@ class TickLog:
         F = len(self.fingers)
         # One float64 block, a row per tick: each field's values (C order) in its columns, in this order.
         shapes: dict[str, tuple[int, ...]] = {
-            "t": (), "palm": (3,), "palm_target_z": (), "grip_target": (), "raw": (F, FRAME_LEN),
-            "contact": (F,), "pdc_tared": (F,), "grip": (F,), "f_sensor": (F, 3), "f_world": (F, 3),
-            "q": (n_joints,), "q_goal": (n_joints,),
+            "t": (),
+            "palm": (3,),
+            "palm_target_z": (),
+            "grip_target": (),
+            "raw": (F, FRAME_LEN),
+            "contact": (F,),
+            "pdc_tared": (F,),
+            "grip": (F,),
+            "f_sensor": (F, 3),
+            "f_world": (F, 3),
+            "q": (n_joints,),
+            "q_goal": (n_joints,),
         }
         if truth:
             shapes.update({"true_f": (F, 3), "object_z": (), "table_force": ()})
         self._shapes = shapes
-        self._fields: dict[str, tuple[int, int]] = {}   # name -> (first column, width)
+        self._fields: dict[str, tuple[int, int]] = {}  # name -> (first column, width)
         width = 0
         for name, shape in shapes.items():
             size = int(np.prod(shape, dtype=np.int64))
             self._fields[name] = (width, size)
             width += size
-        self._block = np.empty((_CHUNK, width))   # every field of a row is written when it is appended
+        self._block = np.empty((_CHUNK, width))  # every field of a row is written when it is appended
         self._buf = self._views(self._block)
         self._compiled = jit.JIT and truth
 
     def _views(self, rows: np.ndarray) -> dict[str, np.ndarray]:
         """Each field of ``rows`` (a block's rows) as an (n, *shape) view."""
-        return {name: rows[:, c0:c0 + size].reshape(len(rows), *self._shapes[name])
-                for name, (c0, size) in self._fields.items()}
+        return {
+            name: rows[:, c0 : c0 + size].reshape(len(rows), *self._shapes[name])
+            for name, (c0, size) in self._fields.items()
+        }
 
     def _grow(self) -> None:
         self._block = np.concatenate([self._block, np.empty((_CHUNK, self._block.shape[1]))])
@@ -123,13 +135,39 @@ class TickLog:
         if i == len(self._block):
             self._grow()
         nd = np.ndarray
-        if (self._compiled and type(raw) is nd and type(true_f_sensor) is nd and type(tared) is nd
-                and type(snap.p_palm_world) is nd and type(cmd.p_palm_world) is nd and type(snap.in_contact) is nd
-                and type(snap.grip_n) is nd and type(snap.f_sensor) is nd and type(snap.f_world) is nd
-                and type(snap.q) is nd and type(cmd.q_goal) is nd
-                and log_row(self._block, i, snap.t, snap.p_palm_world, cmd.p_palm_world, grip_target_n, raw,
-                            snap.in_contact, tared, snap.grip_n, snap.f_sensor, snap.f_world, snap.q, cmd.q_goal,
-                            true_f_sensor, object_z, table_force)):
+        if (
+            self._compiled
+            and type(raw) is nd
+            and type(true_f_sensor) is nd
+            and type(tared) is nd
+            and type(snap.p_palm_world) is nd
+            and type(cmd.p_palm_world) is nd
+            and type(snap.in_contact) is nd
+            and type(snap.grip_n) is nd
+            and type(snap.f_sensor) is nd
+            and type(snap.f_world) is nd
+            and type(snap.q) is nd
+            and type(cmd.q_goal) is nd
+            and log_row(
+                self._block,
+                i,
+                snap.t,
+                snap.p_palm_world,
+                cmd.p_palm_world,
+                grip_target_n,
+                raw,
+                snap.in_contact,
+                tared,
+                snap.grip_n,
+                snap.f_sensor,
+                snap.f_world,
+                snap.q,
+                cmd.q_goal,
+                true_f_sensor,
+                object_z,
+                table_force,
+            )
+        ):
             self._states.append(state)
             self._n = i + 1
             return
@@ -162,8 +200,13 @@ class TickLog:
         summary = raw_summary(b["raw"])
         # Every float32 column in file order, rounded in one pass over a (columns, ticks) block.
         f32_names: list[str] = ["palm_x_world", "palm_y_world", "palm_z_world", "palm_target_z_world", "grip_target_n"]
-        f32_values: list[np.ndarray] = [b["palm"][:, 0], b["palm"][:, 1], b["palm"][:, 2], b["palm_target_z"],
-                                        b["grip_target"]]
+        f32_values: list[np.ndarray] = [
+            b["palm"][:, 0],
+            b["palm"][:, 1],
+            b["palm"][:, 2],
+            b["palm_target_z"],
+            b["grip_target"],
+        ]
         for i, f in enumerate(self.fingers):
             for k, c in enumerate(RAW_COLUMNS):
                 f32_names.append(f"{f}_{c}")
@@ -171,7 +214,8 @@ class TickLog:
             f32_names += [f"{f}_pdc_tared", f"{f}_grip_n"]
             f32_values += [b["pdc_tared"][:, i], b["grip"][:, i]]
             for key, label in (("f_sensor", "_f{}_sensor"), ("f_world", "_f{}_world")) + (
-                    (("true_f", "_true_f{}_sensor"),) if self.truth else ()):
+                (("true_f", "_true_f{}_sensor"),) if self.truth else ()
+            ):
                 for a, axis in enumerate("xyz"):
                     f32_names.append(f + label.format(axis))
                     f32_values.append(b[key][:, i, a])
@@ -194,10 +238,10 @@ class TickLog:
             elif name == "state":
                 data[name] = pa.array(self._states, type=pa.string()).dictionary_encode()
             elif name.endswith("_contact"):
-                data[name] = pa.array(b["contact"][:, self.fingers.index(name[:-len("_contact")])] > 0.5)
+                data[name] = pa.array(b["contact"][:, self.fingers.index(name[: -len("_contact")])] > 0.5)
             else:
                 data[name] = pa.array(f32.pop(name))
-        assert not f32, sorted(f32)   # every rounded column has its place in the file
+        assert not f32, sorted(f32)  # every rounded column has its place in the file
         return pa.table(data)
 
     def close(self) -> None:
@@ -216,8 +260,14 @@ class TickLog:
         with atomic_writer(self.path, "wb", sync_dir=False) as fh:
             # Byte-stream split makes float32 signals compress several times better.
             # (no column statistics: nothing reads them, and they cost a tenth of the write)
-            pq.write_table(table, fh, compression=_COMPRESSION, use_dictionary=["state"], write_statistics=False,
-                           column_encoding={c: "BYTE_STREAM_SPLIT" for c in float_cols})
+            pq.write_table(
+                table,
+                fh,
+                compression=_COMPRESSION,
+                use_dictionary=["state"],
+                write_statistics=False,
+                column_encoding={c: "BYTE_STREAM_SPLIT" for c in float_cols},
+            )
 
 
 def read_tick_log(path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
@@ -234,7 +284,7 @@ def read_tick_log(path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
             table = pq.read_table(path)
         except OSError as exc:
             raise UsageError(f"{path}: cannot read ({exc})") from None
-        except Exception as exc:   # pyarrow's ArrowInvalid: not a Parquet file
+        except Exception as exc:  # pyarrow's ArrowInvalid: not a Parquet file
             raise UsageError(f"{path}: not a tick log ({exc})") from None
         header = table.column_names
         cols = {}

@@ -13,9 +13,9 @@ STANDARD_GRAVITY = 9.81
 @dataclass(frozen=True)
 class PushedBox:
     mass_kg: float
-    size_m: tuple[float, float]     # footprint (lx along the object x axis, ly)
-    mu: float                       # object-support friction coefficient
-    izz_kgm2: float | None = None   # about the vertical axis through the centre of mass
+    size_m: tuple[float, float]  # footprint (lx along the object x axis, ly)
+    mu: float  # object-support friction coefficient
+    izz_kgm2: float | None = None  # about the vertical axis through the centre of mass
     gravity: float = STANDARD_GRAVITY
 
     @property
@@ -38,7 +38,7 @@ def load_box(path: str | Path) -> PushedBox:
     return PushedBox(
         mass_kg=t.float("mass_kg", lo=1e-4, hi=1e4),
         size_m=(size[0], size[1]),
-        mu=t.float("mu", lo=0.0, hi=10.0, lo_open=True),   # no friction: no force to estimate
+        mu=t.float("mu", lo=0.0, hi=10.0, lo_open=True),  # no friction: no force to estimate
         izz_kgm2=izz,
         gravity=t.float("gravity", STANDARD_GRAVITY, lo=0.0, hi=100.0, lo_open=True),
     )

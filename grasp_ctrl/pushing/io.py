@@ -13,16 +13,23 @@ import numpy as np
 
 from grasp_ctrl.csv_rows import Column, read_rows
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.safe_write import write_output
-from grasp_ctrl.pushing.solver import PushForces
 from grasp_ctrl.pushing.simulate import SimulatedPush
+from grasp_ctrl.pushing.solver import PushForces
+from grasp_ctrl.safe_write import write_output
 
 PUSH_COLUMNS = ("t", "x", "y", "theta", "contact_x", "contact_y", "in_contact")
 FORCE_COLUMNS = ("t", "fx_world", "fy_world", "fx_object", "fy_object", "moving")
 
 
-PUSH_RANGES = {"t": 1e7, "x": 100.0, "y": 100.0, "theta": 1e4, "contact_x": 100.0, "contact_y": 100.0,
-               "in_contact": 1.0}   # |value| at most: s, m, rad (unwrapped), m
+PUSH_RANGES = {
+    "t": 1e7,
+    "x": 100.0,
+    "y": 100.0,
+    "theta": 1e4,
+    "contact_x": 100.0,
+    "contact_y": 100.0,
+    "in_contact": 1.0,
+}  # |value| at most: s, m, rad (unwrapped), m
 
 
 def _contact_flag(values: np.ndarray) -> str | None:
@@ -40,8 +47,9 @@ def read_push_csv(path: str | Path, skip_bad_rows: bool = False) -> dict[str, np
     t = rows.values[:, 0]
     back = np.flatnonzero(np.diff(t) <= 0)
     if back.size:
-        raise UsageError(f"{p}: line {rows.lines[back[0] + 1]}: t: increasing times (got {t[back[0] + 1]:g} "
-                         f"after {t[back[0]]:g})")
+        raise UsageError(
+            f"{p}: line {rows.lines[back[0] + 1]}: t: increasing times (got {t[back[0] + 1]:g} after {t[back[0]]:g})"
+        )
     return {c: rows.values[:, j] for j, c in enumerate(PUSH_COLUMNS)}
 
 
@@ -58,9 +66,17 @@ def write_push_csv(path: str | Path, push: SimulatedPush) -> None:
         w = csv.writer(fh)
         w.writerow(PUSH_COLUMNS)
         for i in range(len(push.t)):
-            w.writerow([f"{push.t[i]:.6f}", f"{push.x[i]:.9g}", f"{push.y[i]:.9g}", f"{push.theta[i]:.9g}",
-                        f"{push.contact_object[i, 0]:.9g}", f"{push.contact_object[i, 1]:.9g}",
-                        int(push.in_contact[i])])
+            w.writerow(
+                [
+                    f"{push.t[i]:.6f}",
+                    f"{push.x[i]:.9g}",
+                    f"{push.y[i]:.9g}",
+                    f"{push.theta[i]:.9g}",
+                    f"{push.contact_object[i, 0]:.9g}",
+                    f"{push.contact_object[i, 1]:.9g}",
+                    int(push.in_contact[i]),
+                ]
+            )
 
 
 def write_forces_csv(path: str | Path, forces: PushForces) -> None:
@@ -71,5 +87,13 @@ def write_forces_csv(path: str | Path, forces: PushForces) -> None:
         w = csv.writer(fh)
         w.writerow(FORCE_COLUMNS)
         for i in range(len(forces.t)):
-            w.writerow([f"{forces.t[i]:.6f}", fmt(forces.f_world[i, 0]), fmt(forces.f_world[i, 1]),
-                        fmt(forces.f_object[i, 0]), fmt(forces.f_object[i, 1]), int(forces.moving[i])])
+            w.writerow(
+                [
+                    f"{forces.t[i]:.6f}",
+                    fmt(forces.f_world[i, 0]),
+                    fmt(forces.f_world[i, 1]),
+                    fmt(forces.f_object[i, 0]),
+                    fmt(forces.f_object[i, 1]),
+                    int(forces.moving[i]),
+                ]
+            )

@@ -12,12 +12,12 @@ from scipy.signal import savgol_filter
 class PlanarMotion:
     """Smoothed planar motion of the object's centre of mass, world plane."""
 
-    t: np.ndarray        # (s,) s
-    theta: np.ndarray    # (s,) rad, unwrapped and smoothed
-    v: np.ndarray        # (s, 2) m/s
-    a: np.ndarray        # (s, 2) m/s^2
-    omega: np.ndarray    # (s,) rad/s
-    alpha: np.ndarray    # (s,) rad/s^2
+    t: np.ndarray  # (s,) s
+    theta: np.ndarray  # (s,) rad, unwrapped and smoothed
+    v: np.ndarray  # (s, 2) m/s
+    a: np.ndarray  # (s, 2) m/s^2
+    omega: np.ndarray  # (s,) rad/s
+    alpha: np.ndarray  # (s,) rad/s^2
 
 
 def sample_period(t: np.ndarray, tolerance: float = 0.05) -> float:
@@ -27,8 +27,9 @@ def sample_period(t: np.ndarray, tolerance: float = 0.05) -> float:
         raise ValueError("t must be strictly increasing with at least two samples")
     step = float(np.median(dt))
     if np.max(np.abs(dt - step)) > tolerance * step:
-        raise ValueError(f"t must be uniformly sampled (median step {step:.6g} s, worst deviation "
-                         f"{np.max(np.abs(dt - step)):.3g} s)")
+        raise ValueError(
+            f"t must be uniformly sampled (median step {step:.6g} s, worst deviation {np.max(np.abs(dt - step)):.3g} s)"
+        )
     return step
 
 
@@ -38,7 +39,7 @@ def planar_motion(
     """Differentiate tracked poses (paper: Savitzky-Golay) into v, a, omega, alpha."""
     dt = sample_period(t)
     n = len(t)
-    window = int(round(window_s / dt)) | 1          # odd number of samples
+    window = int(round(window_s / dt)) | 1  # odd number of samples
     window = min(window, n if n % 2 else n - 1)
     if window <= polyorder:
         raise ValueError(f"trajectory too short for a Savitzky-Golay window ({n} samples)")

@@ -23,15 +23,15 @@ PAPER_BOX = PushedBox(mass_kg=0.65, size_m=(0.12, 0.16), mu=0.1)
 
 @dataclass(frozen=True)
 class SimulatedPush:
-    t: np.ndarray               # (s,) s
-    x: np.ndarray               # (s,) m, true CM
+    t: np.ndarray  # (s,) s
+    x: np.ndarray  # (s,) m, true CM
     y: np.ndarray
-    theta: np.ndarray           # (s,) rad
+    theta: np.ndarray  # (s,) rad
     contact_object: np.ndarray  # (s, 2) m, contact point relative to the CM, object frame
-    in_contact: np.ndarray      # (s,) bool
-    f_world_true: np.ndarray    # (s, 2) N, pusher force on the object (0 when not in contact)
+    in_contact: np.ndarray  # (s,) bool
+    f_world_true: np.ndarray  # (s, 2) N, pusher force on the object (0 when not in contact)
 
-    def tracked(self, rng: np.random.Generator, pos_noise_m: float, yaw_noise_rad: float) -> "SimulatedPush":
+    def tracked(self, rng: np.random.Generator, pos_noise_m: float, yaw_noise_rad: float) -> SimulatedPush:
         """The same push as a tracker would report it (Gaussian pose noise)."""
         s = len(self.t)
         return SimulatedPush(
@@ -73,8 +73,8 @@ def _try_push(rng: np.random.Generator, box: PushedBox, rate_hz: float, true_par
     t_rest0, t_rest1 = rng.uniform(0.2, 0.5), rng.uniform(0.2, 0.5)
     t_acc, t_cruise, t_dec = rng.uniform(0.3, 0.8), rng.uniform(0.0, 1.0), rng.uniform(0.5, 1.0)
     v_max = rng.uniform(0.03, 0.25)
-    dtheta = rng.uniform(-0.25, 0.25)       # yaw change over the whole push
-    phi = rng.uniform(-0.1, 0.1)            # heading offset from the object x axis
+    dtheta = rng.uniform(-0.25, 0.25)  # yaw change over the whole push
+    phi = rng.uniform(-0.1, 0.1)  # heading offset from the object x axis
     theta0 = rng.uniform(-np.pi, np.pi)
     total = t_rest0 + t_acc + t_cruise + t_dec + t_rest1
 
@@ -109,17 +109,22 @@ def _try_push(rng: np.random.Generator, box: PushedBox, rate_hz: float, true_par
     c[:, 0] = -lx / 2
     m = moving
     if np.any(f_obj[m, 0] <= 1e-3):
-        return None                          # would need to pull the box
+        return None  # would need to pull the box
     # c x f = c_x f_y - c_y f_x = moment  ->  c_y
     c[m, 1] = (c[m, 0] * f_obj[m, 1] - moment[m]) / f_obj[m, 0]
     if np.any(np.abs(c[m, 1]) > 0.4 * ly):
-        return None                          # contact would leave the face
+        return None  # contact would leave the face
     # at rest the pusher keeps the point where motion starts/ends
     first, last = np.argmax(m), len(m) - 1 - np.argmax(m[::-1])
     c[:first, 1] = c[first, 1]
-    c[last + 1:, 1] = c[last, 1]
+    c[last + 1 :, 1] = c[last, 1]
     assert np.allclose(cross2(rotate2(theta[idx][m], c[m]), f_world[m]), moment[m], atol=1e-9)
     return SimulatedPush(
-        t=tf[idx], x=pos[idx, 0], y=pos[idx, 1], theta=theta[idx], contact_object=c,
-        in_contact=moving.copy(), f_world_true=f_world,
+        t=tf[idx],
+        x=pos[idx, 0],
+        y=pos[idx, 1],
+        theta=theta[idx],
+        contact_object=c,
+        in_contact=moving.copy(),
+        f_world_true=f_world,
     )

@@ -25,18 +25,18 @@ METHODS = ("closed-form", "slsqp")
 @dataclass(frozen=True)
 class PushForces:
     t: np.ndarray
-    f_world: np.ndarray     # (s, 2) N, NaN where undefined
-    f_object: np.ndarray    # (s, 2) N, object frame
-    moving: np.ndarray      # (s,) bool
+    f_world: np.ndarray  # (s, 2) N, NaN where undefined
+    f_object: np.ndarray  # (s, 2) N, object frame
+    moving: np.ndarray  # (s,) bool
 
 
 @dataclass(frozen=True)
 class Problem:
     """Per-sample data of the least-squares problem (world plane)."""
 
-    b_lin: np.ndarray       # (s, 2) m a - f_f
-    b_rot: np.ndarray       # (s,)   I alpha - n_f
-    c_perp: np.ndarray      # (s, 2) [-c_y, c_x]
+    b_lin: np.ndarray  # (s, 2) m a - f_f
+    b_rot: np.ndarray  # (s,)   I alpha - n_f
+    c_perp: np.ndarray  # (s, 2) [-c_y, c_x]
     k: float
 
 
@@ -62,7 +62,7 @@ def solve_closed_form(p: Problem) -> np.ndarray:
     a12 = c[:, 0] * c[:, 1]
     r1 = p.k * p.b_lin[:, 0] + c[:, 0] * p.b_rot
     r2 = p.k * p.b_lin[:, 1] + c[:, 1] * p.b_rot
-    det = a11 * a22 - a12 * a12          # >= k^2 > 0
+    det = a11 * a22 - a12 * a12  # >= k^2 > 0
     return np.column_stack([(a22 * r1 - a12 * r2) / det, (a11 * r2 - a12 * r1) / det])
 
 
@@ -124,5 +124,5 @@ def plane_force_to_sensor(f_plane_world: np.ndarray, r_world_sensor: np.ndarray)
     f3[..., :2] = -f_plane_world
     r = np.asarray(r_world_sensor, dtype=float)
     if r.ndim == 2:
-        return f3 @ r           # (R^T f)^T = f^T R
+        return f3 @ r  # (R^T f)^T = f^T R
     return np.einsum("sji,sj->si", r, f3)

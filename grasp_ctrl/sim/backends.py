@@ -19,8 +19,17 @@ _FLOAT64 = np.dtype(np.float64)
 
 
 @njit
-def joint_state_kernel(q: np.ndarray, q_prev: np.ndarray, q_servo: np.ndarray, dt: float, stiffness: float,
-                       torque_per_amp: float, q_out: np.ndarray, dq_out: np.ndarray, current_out: np.ndarray) -> None:
+def joint_state_kernel(
+    q: np.ndarray,
+    q_prev: np.ndarray,
+    q_servo: np.ndarray,
+    dt: float,
+    stiffness: float,
+    torque_per_amp: float,
+    q_out: np.ndarray,
+    dq_out: np.ndarray,
+    current_out: np.ndarray,
+) -> None:
     """``MockHand.read``'s arithmetic in one pass (the same operations per element as
     its numpy code, so the same bits); ``q_prev`` becomes ``q``."""
     for j in range(q.shape[0]):
@@ -31,8 +40,9 @@ def joint_state_kernel(q: np.ndarray, q_prev: np.ndarray, q_servo: np.ndarray, d
 
 
 @njit
-def checked_limit_goal(goal: np.ndarray, prev: np.ndarray, max_step: float, lower: np.ndarray, upper: np.ndarray,
-                       out: np.ndarray) -> bool:
+def checked_limit_goal(
+    goal: np.ndarray, prev: np.ndarray, max_step: float, lower: np.ndarray, upper: np.ndarray, out: np.ndarray
+) -> bool:
     """``limits.limit_goal`` into ``out`` when every goal is finite; False (``out``
     unset) when one is not."""
     for j in range(goal.shape[0]):
@@ -72,8 +82,8 @@ class MockHand:
         self.upper = np.array([j.upper_rad for j in hand.joints])
         self.max_step = hand.safety.max_joint_step_rad
         self.connected = False
-        self.fault: str | None = None   # tests inject e.g. "overload"
-        self._q_prev = world.q.copy()   # for the velocity estimate of read()
+        self.fault: str | None = None  # tests inject e.g. "overload"
+        self._q_prev = world.q.copy()  # for the velocity estimate of read()
         # The mock world's servo model (MuJoCoHand, a subclass, reads its state from MuJoCo instead).
         p = world.params
         self._stiffness = getattr(p, "servo_stiffness_nm_per_rad", float("nan"))
@@ -89,7 +99,9 @@ class MockHand:
         if jit.JIT:
             n = self._n_joints
             q, dq, current = np.empty(n), np.empty(n), np.empty(n)
-            joint_state_kernel(w.q, self._q_prev, w.q_servo, w.dt, self._stiffness, self._torque_per_amp, q, dq, current)
+            joint_state_kernel(
+                w.q, self._q_prev, w.q_servo, w.dt, self._stiffness, self._torque_per_amp, q, dq, current
+            )
             return JointState(q, dq, current, w.t)
         dq = (w.q - self._q_prev) / w.dt
         self._q_prev = w.q.copy()
@@ -100,7 +112,7 @@ class MockHand:
     def write_goals(self, q_goal: np.ndarray) -> None:
         q_goal = np.asarray(q_goal, dtype=float)
         if jit.JIT and q_goal.shape == self.lower.shape:
-            if self._write_limited is not None:   # the mock world's own one-pass write
+            if self._write_limited is not None:  # the mock world's own one-pass write
                 if self._write_limited(q_goal, self.max_step, self.lower, self.upper):
                     return
                 raise HardwareError(f"bad goal vector of shape {q_goal.shape}")
@@ -111,7 +123,7 @@ class MockHand:
         if q_goal.shape != self.lower.shape or not all_finite(q_goal):
             raise HardwareError(f"bad goal vector of shape {q_goal.shape}")
         prev = self.world.q_goal
-        q = np.minimum(np.maximum(q_goal, prev - self.max_step), prev + self.max_step)   # = np.clip, cheaper
+        q = np.minimum(np.maximum(q_goal, prev - self.max_step), prev + self.max_step)  # = np.clip, cheaper
         self.world.q_goal = np.minimum(np.maximum(q, self.lower), self.upper)
 
     def set_torque(self, enabled: bool) -> None:
@@ -138,7 +150,7 @@ class MockArm:
 
     def command(self, p_world: np.ndarray) -> None:
         if jit.JIT and type(p_world) is np.ndarray and p_world.dtype is _FLOAT64 and p_world.shape == (3,):
-            if self._set_clamped is not None:   # the mock world's own one-pass command
+            if self._set_clamped is not None:  # the mock world's own one-pass command
                 if self._set_clamped(p_world, self._z_min, self._z_max):
                     return
             else:
@@ -190,7 +202,7 @@ class MockSensors:
     def _refresh(self) -> None:
         w = self.world
         raw, seq, t, paused, latest = w.raw, w.seq, w.t, self.paused, self._latest
-        if self._delivered is not None:   # what latest_matrix delivered, before this refresh
+        if self._delivered is not None:  # what latest_matrix delivered, before this refresh
             last_raw, last_seq, last_t = self._delivered
             for sid, values in zip(w.sensor_ids, last_raw):
                 latest[sid] = TactileFrame(sensor_id=sid, seq=last_seq, t_recv=last_t, values=values)

@@ -51,31 +51,31 @@ class BioTacParams:
     tdc_baseline_range: tuple[float, float] = (2300.0, 2700.0)
     tac_baseline: float = 2000.0
     # pdc: rise = pdc_max_rise * tanh(pdc_gain * load^pdc_exponent / pdc_max_rise)
-    pdc_gain: float = 257.0           # counts per N^pdc_exponent
+    pdc_gain: float = 257.0  # counts per N^pdc_exponent
     pdc_exponent: float = 1.1
     pdc_max_rise: float = 3000.0
-    shear_load: float = 0.0           # tangential force's share of the load that pressurises the fluid
+    shear_load: float = 0.0  # tangential force's share of the load that pressurises the fluid
     # local drop under the contact: peak = e_drop_gain * F_n^e_drop_exponent, saturating
-    e_drop_gain: float = 600.0        # counts per N^e_drop_exponent
+    e_drop_gain: float = 600.0  # counts per N^e_drop_exponent
     e_drop_exponent: float = 0.871
     e_drop_max: float = 1200.0
-    footprint_m: float = 2.58e-3       # footprint width of a light touch
-    contact_radius_m_per_n3: float = 0.99e-3   # Hertz-like contact radius at 1 N (grows as F^1/3)
-    tip_sensitivity: float = 0.7      # local drop factor on the tip cap (x > 0)
-    side_sensitivity: float = 1.41     # local drop factor on the sides of the cylinder
+    footprint_m: float = 2.58e-3  # footprint width of a light touch
+    contact_radius_m_per_n3: float = 0.99e-3  # Hertz-like contact radius at 1 N (grows as F^1/3)
+    tip_sensitivity: float = 0.7  # local drop factor on the tip cap (x > 0)
+    side_sensitivity: float = 1.41  # local drop factor on the sides of the cylinder
     # bulge of the free skin: rise = bulge_per_pdc * pdc_rise * side weight * distance weight
     bulge_per_pdc: float = 0.2
-    bulge_side_weight: float = 2.52    # upper-side electrodes (|n_y| ~ 1) rise this much more than pad ones
+    bulge_side_weight: float = 2.52  # upper-side electrodes (|n_y| ~ 1) rise this much more than pad ones
     bulge_distance_m: float = 4.0e-3  # the bulge grows over this distance from the contact
-    bulge_max: float = 67.0          # the skin stiffens as it inflates: rises saturate (counts)
+    bulge_max: float = 67.0  # the skin stiffens as it inflates: rises saturate (counts)
     # per-electrode rise weights (19, e1..e19) replacing the side weight; None = the side weight
     rise_weights: tuple[float, ...] | None = None
     # shear: global skin stretch (counts per N) fading over shear_range_m, and a local footprint skew
     e_shear_global: float = 15.3
     shear_range_m: float = 6.0e-3
-    e_shear_local: float = 34.6       # counts per N at one footprint width
+    e_shear_local: float = 34.6  # counts per N at one footprint width
     # shear: fluid dragged along with the skin piles up ahead of the contact and thins behind it
-    e_shear_drag: float = 100.0       # counts per N at one drag range ahead of the contact
+    e_shear_drag: float = 100.0  # counts per N at one drag range ahead of the contact
     drag_range_m: float = 8.0e-3
     # hysteresis: a slow share of the load (time constants up / down), left over after release
     hysteresis_share: float = 0.02
@@ -83,19 +83,19 @@ class BioTacParams:
     hysteresis_down_s: float = 30.0
     # pac
     pac_onset_amp: float = 300.0
-    pac_slip_amp: float = 150.0       # per m/s of slip speed, capped below
+    pac_slip_amp: float = 150.0  # per m/s of slip speed, capped below
     pac_decay_s: float = 0.03
     # temperature: tdc warms up, baselines follow it
     tdc_drift_per_s: float = 0.2
     pdc_per_tdc: float = 0.05
     e_per_tdc: float = -0.02
     # noise at rest (counts, sd) and spreads between sensors / electrodes
-    noise_e: float = 0.36             # with the rounding to counts: 0.46 sd, as measured at rest
+    noise_e: float = 0.36  # with the rounding to counts: 0.46 sd, as measured at rest
     noise_pdc: float = 0.36
     noise_pac: float = 6.0
     noise_t: float = 1.0
-    gain_spread: float = 0.1          # relative sd of a sensor's overall gain
-    electrode_gain_spread: float = 0.05   # relative sd of each electrode's gain
+    gain_spread: float = 0.1  # relative sd of a sensor's overall gain
+    electrode_gain_spread: float = 0.05  # relative sd of each electrode's gain
 
 
 DEFAULT_PARAMS = BioTacParams()
@@ -177,24 +177,87 @@ class BioTacSensorModel:
     ) -> np.ndarray:
         """Advance by ``dt`` and return (n, 44) raw frames as integer counts."""
         return frames_kernel(
-            self.advance(dt), np.ascontiguousarray(p_contact_sensor, dtype=float),
-            np.ascontiguousarray(f_sensor, dtype=float), np.ascontiguousarray(n_out_sensor, dtype=float),
-            np.ascontiguousarray(in_contact, dtype=np.bool_), np.ascontiguousarray(slip_speed_m_s, dtype=float),
-            self.state, self.gain, self.consts, self.t, dt,
+            self.advance(dt),
+            np.ascontiguousarray(p_contact_sensor, dtype=float),
+            np.ascontiguousarray(f_sensor, dtype=float),
+            np.ascontiguousarray(n_out_sensor, dtype=float),
+            np.ascontiguousarray(in_contact, dtype=np.bool_),
+            np.ascontiguousarray(slip_speed_m_s, dtype=float),
+            self.state,
+            self.gain,
+            self.consts,
+            self.t,
+            dt,
         )
 
 
 # Constants of the kernels, packed in this order for the compiled code.
 _PACKED = (
-    "pdc_gain", "pdc_exponent", "pdc_max_rise", "shear_load", "e_drop_gain", "e_drop_exponent", "e_drop_max",
-    "footprint_m", "contact_radius_m_per_n3", "tip_sensitivity", "side_sensitivity", "bulge_per_pdc",
-    "bulge_side_weight", "bulge_distance_m", "bulge_max", "e_shear_global", "shear_range_m", "e_shear_local", "e_shear_drag", "drag_range_m",
-    "hysteresis_share", "hysteresis_up_s", "hysteresis_down_s", "pac_onset_amp", "pac_slip_amp", "pac_decay_s",
-    "tdc_drift_per_s", "pdc_per_tdc", "e_per_tdc", "pac_baseline", "noise_pac",
+    "pdc_gain",
+    "pdc_exponent",
+    "pdc_max_rise",
+    "shear_load",
+    "e_drop_gain",
+    "e_drop_exponent",
+    "e_drop_max",
+    "footprint_m",
+    "contact_radius_m_per_n3",
+    "tip_sensitivity",
+    "side_sensitivity",
+    "bulge_per_pdc",
+    "bulge_side_weight",
+    "bulge_distance_m",
+    "bulge_max",
+    "e_shear_global",
+    "shear_range_m",
+    "e_shear_local",
+    "e_shear_drag",
+    "drag_range_m",
+    "hysteresis_share",
+    "hysteresis_up_s",
+    "hysteresis_down_s",
+    "pac_onset_amp",
+    "pac_slip_amp",
+    "pac_decay_s",
+    "tdc_drift_per_s",
+    "pdc_per_tdc",
+    "e_per_tdc",
+    "pac_baseline",
+    "noise_pac",
 )
-(PDC_GAIN, PDC_EXP, PDC_MAX, SHEAR_LOAD, DROP_GAIN, DROP_EXP, DROP_MAX, FOOTPRINT, RADIUS_1N, TIP_SENS, SIDE_SENS,
- BULGE, BULGE_SIDE, BULGE_DIST, BULGE_MAX, SHEAR_GLOBAL, SHEAR_RANGE, SHEAR_LOCAL, SHEAR_DRAG, DRAG_RANGE, HYST_SHARE, HYST_UP, HYST_DOWN,
- PAC_ONSET, PAC_SLIP, PAC_DECAY_S, TDC_DRIFT, PDC_PER_TDC, E_PER_TDC, PAC_BASELINE, NOISE_PAC) = range(len(_PACKED))
+(
+    PDC_GAIN,
+    PDC_EXP,
+    PDC_MAX,
+    SHEAR_LOAD,
+    DROP_GAIN,
+    DROP_EXP,
+    DROP_MAX,
+    FOOTPRINT,
+    RADIUS_1N,
+    TIP_SENS,
+    SIDE_SENS,
+    BULGE,
+    BULGE_SIDE,
+    BULGE_DIST,
+    BULGE_MAX,
+    SHEAR_GLOBAL,
+    SHEAR_RANGE,
+    SHEAR_LOCAL,
+    SHEAR_DRAG,
+    DRAG_RANGE,
+    HYST_SHARE,
+    HYST_UP,
+    HYST_DOWN,
+    PAC_ONSET,
+    PAC_SLIP,
+    PAC_DECAY_S,
+    TDC_DRIFT,
+    PDC_PER_TDC,
+    E_PER_TDC,
+    PAC_BASELINE,
+    NOISE_PAC,
+) = range(len(_PACKED))
 
 _ELECTRODES_XYZ = np.ascontiguousarray(ELECTRODE_POSITIONS_SENSOR, dtype=float)
 _ELECTRODES_NORMAL = np.ascontiguousarray(ELECTRODE_NORMALS_SENSOR, dtype=float)
@@ -244,8 +307,15 @@ def contact_load(f: np.ndarray, n_out: np.ndarray, c: np.ndarray) -> float:
 
 
 @njit
-def contact_response(p: np.ndarray, n_out: np.ndarray, f: np.ndarray, slow_load: float, gain: np.ndarray,
-                     c: np.ndarray, e_out: np.ndarray) -> float:
+def contact_response(
+    p: np.ndarray,
+    n_out: np.ndarray,
+    f: np.ndarray,
+    slow_load: float,
+    gain: np.ndarray,
+    c: np.ndarray,
+    e_out: np.ndarray,
+) -> float:
     """Electrode changes ``e_out`` (19, counts) and the pdc rise (returned) of one
     contact at ``p`` (sensor frame, outward skin normal ``n_out``) under the force
     ``f`` on the skin, with ``slow_load`` the hysteretic part of the load (N)."""
@@ -269,7 +339,7 @@ def contact_response(p: np.ndarray, n_out: np.ndarray, f: np.ndarray, slow_load:
         dz = _ELECTRODES_XYZ[e, 2] - p[2]
         d2 = dx * dx + dy * dy + dz * dz
         w = math.exp(-d2 / (2.0 * width2))
-        along = dx * ft0 + dy * ft1 + dz * ft2      # how far ahead of the contact, along f_t
+        along = dx * ft0 + dy * ft1 + dz * ft2  # how far ahead of the contact, along f_t
         # local drop (skewed toward where the tangential force drags the skin)
         skew = c[SHEAR_LOCAL] * w * along / width
         drop = peak * w + skew
@@ -307,9 +377,17 @@ def static_frames(p: np.ndarray, n_out: np.ndarray, f: np.ndarray, gain: np.ndar
 
 @njit
 def frames_kernel(
-    out: np.ndarray, p_contact: np.ndarray, f_sensor: np.ndarray, n_out: np.ndarray,
-    in_contact: np.ndarray, slip: np.ndarray, state: np.ndarray, gain: np.ndarray,
-    c: np.ndarray, t: float, dt: float,
+    out: np.ndarray,
+    p_contact: np.ndarray,
+    f_sensor: np.ndarray,
+    n_out: np.ndarray,
+    in_contact: np.ndarray,
+    slip: np.ndarray,
+    state: np.ndarray,
+    gain: np.ndarray,
+    c: np.ndarray,
+    t: float,
+    dt: float,
 ) -> np.ndarray:
     """One frame per sensor (n, 44 counts) from its noisy baseline ``out`` (modified
     in place); updates the sensors' state (pac burst, slow load, contact flag).
@@ -352,6 +430,6 @@ def frames_kernel(
         for k in range(19):
             out[i, k] += c[E_PER_TDC] * tdc_rise
         for k in range(FRAME_LEN):
-            v = np.rint(out[i, k])      # half to even, like numpy elsewhere
+            v = np.rint(out[i, k])  # half to even, like numpy elsewhere
             frame[i, k] = 0 if v < 0.0 else (COUNT_MAX if v > COUNT_MAX else int(v))
     return frame

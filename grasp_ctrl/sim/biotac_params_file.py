@@ -12,14 +12,15 @@ from pathlib import Path
 from grasp_ctrl.config.toml_reader import finite_number
 from grasp_ctrl.sim.biotac_model import DEFAULT_PARAMS, BioTacParams, rise_weights_of
 
-
-MAX_MAGNITUDE = 1e9   # no parameter of the model (m, N/m, counts, ratios) comes near it
+MAX_MAGNITUDE = 1e9  # no parameter of the model (m, N/m, counts, ratios) comes near it
 
 
 def _number(path: Path, name: str, value: object) -> float:
     if not finite_number(value) or abs(float(value)) > MAX_MAGNITUDE:  # type: ignore[arg-type]
         shown = repr(value) if len(repr(value)) <= 40 else f"{repr(value)[:20]}..."
-        raise ValueError(f"{path}: {name}: need a finite number from {-MAX_MAGNITUDE:g} to {MAX_MAGNITUDE:g}, got {shown}")
+        raise ValueError(
+            f"{path}: {name}: need a finite number from {-MAX_MAGNITUDE:g} to {MAX_MAGNITUDE:g}, got {shown}"
+        )
     return float(value)  # type: ignore[arg-type]
 
 

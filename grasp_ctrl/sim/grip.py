@@ -19,7 +19,6 @@ import numpy as np
 
 from grasp_ctrl.jit import njit
 
-
 # A surface facing down steeply enough wedges the fingertip (no friction limit
 # upward); the finger's own limits then bound the force, so cap the factor.
 _MIN_CONE_DENOMINATOR = 0.05
@@ -50,8 +49,7 @@ def _clip(f: float, up: float, down: float) -> float:
 
 
 @njit
-def _net_up(anchors: np.ndarray, cap_up: np.ndarray, cap_down: np.ndarray, kt: float, load_n: float,
-            z: float) -> float:
+def _net_up(anchors: np.ndarray, cap_up: np.ndarray, cap_down: np.ndarray, kt: float, load_n: float, z: float) -> float:
     total = -load_n
     for i in range(anchors.shape[0]):
         total += _clip(kt * (anchors[i] - z), cap_up[i], cap_down[i])
@@ -59,8 +57,9 @@ def _net_up(anchors: np.ndarray, cap_up: np.ndarray, cap_down: np.ndarray, kt: f
 
 
 @njit
-def solve_object_height(anchors: np.ndarray, cap_up: np.ndarray, cap_down: np.ndarray, kt: float,
-                        load_n: float) -> tuple[float, float]:
+def solve_object_height(
+    anchors: np.ndarray, cap_up: np.ndarray, cap_down: np.ndarray, kt: float, load_n: float
+) -> tuple[float, float]:
     """Equilibrium height z >= 0 of the object base and the table's normal force.
 
     ``anchors``: per contact, the object height at which that contact's spring is
@@ -90,12 +89,13 @@ def solve_object_height(anchors: np.ndarray, cap_up: np.ndarray, cap_down: np.nd
         if g <= 0.0:
             return z_lo + (z - z_lo) * g_lo / (g_lo - g), 0.0
         z_lo, g_lo = z, g
-    return z_lo, 0.0   # still pushing up past every kink: cannot happen with a positive load
+    return z_lo, 0.0  # still pushing up past every kink: cannot happen with a positive load
 
 
 @njit
-def tangential_forces(anchors: np.ndarray, cap_up: np.ndarray, cap_down: np.ndarray, kt: float,
-                      z: float) -> tuple[np.ndarray, np.ndarray]:
+def tangential_forces(
+    anchors: np.ndarray, cap_up: np.ndarray, cap_down: np.ndarray, kt: float, z: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Upward force of each finger on the object at height z, and the slip flags."""
     n = anchors.shape[0]
     forces = np.empty(n)

@@ -17,7 +17,7 @@ __all__ = ["MuJoCoHand", "MuJoCoSensors", "MockArm", "mujoco_backends"]
 class MuJoCoHand(MockHand):
     """Goals clamped like the real backend (MockHand); state read from MuJoCo."""
 
-    world: MuJoCoWorld   # type: ignore[assignment]
+    world: MuJoCoWorld  # type: ignore[assignment]
 
     def read(self) -> JointState:
         w = self.world
@@ -47,4 +47,3 @@ def is_available() -> bool:
     except ImportError:
         return False
     return True
-

@@ -19,18 +19,20 @@ from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M
 class TipContacts:
     """Per fingertip, this step: force ON the skin (world), normal force from the object,
     the force-weighted contact point (world) and whether anything touches it."""
-    f_world: np.ndarray          # (F, 3)
-    normal_from_object_n: np.ndarray   # (F,)
-    point_world: np.ndarray      # (F, 3)
-    touching: np.ndarray         # (F,) bool
+
+    f_world: np.ndarray  # (F, 3)
+    normal_from_object_n: np.ndarray  # (F,)
+    point_world: np.ndarray  # (F, 3)
+    touching: np.ndarray  # (F,) bool
     touching_object: np.ndarray  # (F,) bool
     table_normal_on_object_n: float
     object_on_table: bool
-    other_hand_on_object_n: float      # normal force of hand links (not the fingertips) on the object
+    other_hand_on_object_n: float  # normal force of hand links (not the fingertips) on the object
 
 
-def read_contacts(model, data, tip_geom_of: list[int], object_geom: list[bool], table_geom: int,
-                  n_tips: int) -> TipContacts:
+def read_contacts(
+    model, data, tip_geom_of: list[int], object_geom: list[bool], table_geom: int, n_tips: int
+) -> TipContacts:
     """``tip_geom_of[g]``: fingertip index of geom g or -1; ``object_geom[g]``: whether geom g
     is the object's; ``table_geom``: the table's geom id. A few contacts per step: plain
     Python floats are faster here than numpy on tiny arrays."""
@@ -53,7 +55,7 @@ def read_contacts(model, data, tip_geom_of: list[int], object_geom: list[bool], 
             a = adrs[i]
             if a < 0:
                 continue
-            fn, t1, t2 = efc[a:a + 3].tolist()
+            fn, t1, t2 = efc[a : a + 3].tolist()
             fr = frames[i]
             # Force on geom2 in the world: frame^T (fn, t1, t2); on geom1 the opposite.
             fx = fr[0] * fn + fr[3] * t1 + fr[6] * t2
@@ -87,10 +89,10 @@ def read_contacts(model, data, tip_geom_of: list[int], object_geom: list[bool], 
                     on_table = on_table or fn > 1e-9
                 elif tip_geom_of[partner] < 0 and not object_geom[partner]:
                     other += fn
-    point = np.array([[c / weight[k] for c in psum[k]] if weight[k] > 0 else [0.0, 0.0, 0.0]
-                      for k in range(n_tips)])
-    return TipContacts(np.array(f), np.array(normal), point, np.array(touching), np.array(touching_obj),
-                       table_n, on_table, other)
+    point = np.array([[c / weight[k] for c in psum[k]] if weight[k] > 0 else [0.0, 0.0, 0.0] for k in range(n_tips)])
+    return TipContacts(
+        np.array(f), np.array(normal), point, np.array(touching), np.array(touching_obj), table_n, on_table, other
+    )
 
 
 def skin_point_and_normal(p_sensor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

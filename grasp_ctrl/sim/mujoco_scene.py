@@ -29,12 +29,16 @@ import numpy as np
 
 from grasp_ctrl.config.hand import FingerConfig, HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
-from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M
-from grasp_ctrl.kinematics.transforms import rpy_matrix
+
 # The servos' PD gains in SI (XC330-M288-T), shared with the controller's stiffness-aware squeeze.
 from grasp_ctrl.controller.joint_stiffness import (
-    NO_LOAD_SPEED_RAD_S, STALL_TORQUE_NM, servo_kp_nm_per_rad, servo_kv_nm_s_per_rad,
+    NO_LOAD_SPEED_RAD_S,
+    STALL_TORQUE_NM,
+    servo_kp_nm_per_rad,
+    servo_kv_nm_s_per_rad,
 )
+from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M
+from grasp_ctrl.kinematics.transforms import rpy_matrix
 
 
 @dataclass(frozen=True)
@@ -46,30 +50,31 @@ class SceneParams:
     # does not change which objects are lifted (docs/mujoco.md).
     impratio: float = 10.0
     noslip_iterations: int = 0
-    torque_per_amp_nm: float = 0.5           # as the mock world (XC330: 0.93 N m / 1.8 A)
+    torque_per_amp_nm: float = 0.5  # as the mock world (XC330: 0.93 N m / 1.8 A)
     # The gears' reflected rotor inertia (estimate: ~5e-8 kg m^2 rotor x 288^2) and the motor's
     # back-EMF damping under voltage (PWM) drive: stall torque / no-load speed.
     armature_kg_m2: float = 0.004
     joint_damping_nm_s_per_rad: float = STALL_TORQUE_NM / NO_LOAD_SPEED_RAD_S
-    joint_frictionloss_nm: float = 0.001     # Menagerie's LEAP value
-    default_p_gain: float = 600.0            # when the hand file keeps the servos' own gains
+    joint_frictionloss_nm: float = 0.001  # Menagerie's LEAP value
+    default_p_gain: float = 600.0  # when the hand file keeps the servos' own gains
     default_d_gain: float = 200.0
     table_mu: float = 0.5
     # Contact softness: MuJoCo's time constant for the stiffest object (lego, 4000 N/m);
     # softer objects get sqrt(4000 / stiffness) times it (a spring-mass time constant).
     contact_timeconst_s: float = 0.004
     reference_stiffness_n_per_m: float = 4000.0
-    torsion_radius_m: float = 0.003          # torsional friction = mu x this (pad contact patch)
+    torsion_radius_m: float = 0.003  # torsional friction = mu x this (pad contact patch)
     hand_root_mass_kg: float = 0.05
-    palm_mass_kg: float = 0.237              # Menagerie's LEAP palm
-    link_mass_kg: float = 0.035              # per finger link (Menagerie: 0.003 to 0.049)
+    palm_mass_kg: float = 0.237  # Menagerie's LEAP palm
+    link_mass_kg: float = 0.035  # per finger link (Menagerie: 0.003 to 0.049)
     biotac_mass_kg: float = 0.02
-    weld_timeconst_s: float = 0.01           # the arm's grip on the wrist
+    weld_timeconst_s: float = 0.01  # the arm's grip on the wrist
 
 
 @dataclass(frozen=True)
 class PlacedObject:
     """The object as this trial draws it (randomised around the profile)."""
+
     profile: ObjectProfile
     xy_m: tuple[float, float]
     mass_kg: float
@@ -88,7 +93,7 @@ class Scene:
     object_body: str = "object"
     hand_body: str = "hand"
     mocap_body: str = "wrist"
-    upper_link_bodies: list[str] = field(default_factory=list)   # palm and first links (clear the object's top)
+    upper_link_bodies: list[str] = field(default_factory=list)  # palm and first links (clear the object's top)
 
 
 # LEAP Hand collision boxes (half sizes, centre, optional quaternion w x y z), in the URDF's
@@ -109,34 +114,56 @@ LEAP_PALM_BOXES: list[Box] = [
     ((0.022, 0.028, 0.002), (-0.078, -0.003, 0.01), None),
 ]
 LEAP_FINGER_LINK_BOXES: list[list[Box]] = [
-    [((0.01, 0.003, 0.017), (0.0, 0.018, 0.0147), None), ((0.014, 0.02, 0.01), (-0.027, 0.042, 0.015), None),
-     ((0.017, 0.003, 0.01), (-0.0262, 0.02, 0.0146), None), ((0.01, 0.012, 0.004), (-0.0295, 0.035, 0.029), None),
-     ((0.007, 0.01, 0.002), (0.0, 0.005, 0.03), None), ((0.007, 0.01, 0.002), (0.0, 0.005, -0.001), None)],
+    [
+        ((0.01, 0.003, 0.017), (0.0, 0.018, 0.0147), None),
+        ((0.014, 0.02, 0.01), (-0.027, 0.042, 0.015), None),
+        ((0.017, 0.003, 0.01), (-0.0262, 0.02, 0.0146), None),
+        ((0.01, 0.012, 0.004), (-0.0295, 0.035, 0.029), None),
+        ((0.007, 0.01, 0.002), (0.0, 0.005, 0.03), None),
+        ((0.007, 0.01, 0.002), (0.0, 0.005, -0.001), None),
+    ],
     [((0.017, 0.013, 0.011), (0.0075, -0.0002, -0.011), None)],
-    [((0.008, 0.003, 0.013), (0.0, -0.02, 0.015), None), ((0.01, 0.002, 0.017), (0.0, -0.016, 0.015), None),
-     ((0.007, 0.01, 0.002), (0.0, -0.0045, 0.03), None), ((0.007, 0.01, 0.002), (0.0, -0.0045, 0.0), None),
-     ((0.017, 0.011, 0.013), (0.0075, -0.035, 0.015), None)],
-    [((0.01, 0.003, 0.015), (0.0, -0.017, 0.015), None), ((0.007, 0.011, 0.002), (0.0, -0.006, 0.03), None),
-     ((0.007, 0.011, 0.002), (0.0, -0.006, -0.001), None)],
+    [
+        ((0.008, 0.003, 0.013), (0.0, -0.02, 0.015), None),
+        ((0.01, 0.002, 0.017), (0.0, -0.016, 0.015), None),
+        ((0.007, 0.01, 0.002), (0.0, -0.0045, 0.03), None),
+        ((0.007, 0.01, 0.002), (0.0, -0.0045, 0.0), None),
+        ((0.017, 0.011, 0.013), (0.0075, -0.035, 0.015), None),
+    ],
+    [
+        ((0.01, 0.003, 0.015), (0.0, -0.017, 0.015), None),
+        ((0.007, 0.011, 0.002), (0.0, -0.006, 0.03), None),
+        ((0.007, 0.011, 0.002), (0.0, -0.006, -0.001), None),
+    ],
 ]
 LEAP_THUMB_LINK_BOXES: list[list[Box]] = [
     [((0.017, 0.013, 0.011), (-0.0075, -0.0002, -0.011), None)],
-    [((0.009, 0.0165, 0.002), (0.0, 0.0, -0.0015), None), ((0.007, 0.002, 0.01), (0.0, -0.015, -0.013), None),
-     ((0.007, 0.002, 0.01), (0.0, 0.015, -0.013), None)],
-    [((0.01, 0.02, 0.012), (0.0, 0.0105, -0.014), None), ((0.01, 0.002, 0.016), (0.0, 0.031, -0.015), None),
-     ((0.007, 0.01, 0.002), (0.0, 0.042, 0.001), None), ((0.007, 0.01, 0.002), (0.0, 0.042, -0.029), None),
-     ((0.005, 0.012, 0.009), (-0.0135, 0.0175, -0.011656), None)],
-    [((0.01, 0.018, 0.012), (0.0, -0.0085, -0.015), None), ((0.01, 0.002, 0.015), (0.0, -0.029, -0.014), None),
-     ((0.004, 0.012, 0.009), (0.015, -0.0175, -0.0115), None)],
+    [
+        ((0.009, 0.0165, 0.002), (0.0, 0.0, -0.0015), None),
+        ((0.007, 0.002, 0.01), (0.0, -0.015, -0.013), None),
+        ((0.007, 0.002, 0.01), (0.0, 0.015, -0.013), None),
+    ],
+    [
+        ((0.01, 0.02, 0.012), (0.0, 0.0105, -0.014), None),
+        ((0.01, 0.002, 0.016), (0.0, 0.031, -0.015), None),
+        ((0.007, 0.01, 0.002), (0.0, 0.042, 0.001), None),
+        ((0.007, 0.01, 0.002), (0.0, 0.042, -0.029), None),
+        ((0.005, 0.012, 0.009), (-0.0135, 0.0175, -0.011656), None),
+    ],
+    [
+        ((0.01, 0.018, 0.012), (0.0, -0.0085, -0.015), None),
+        ((0.01, 0.002, 0.015), (0.0, -0.029, -0.014), None),
+        ((0.004, 0.012, 0.009), (0.015, -0.0175, -0.0115), None),
+    ],
 ]
-LINK_CAPSULE_RADIUS_M = 0.008     # links of a hand that is not the LEAP's 4 x 4 chains
+LINK_CAPSULE_RADIUS_M = 0.008  # links of a hand that is not the LEAP's 4 x 4 chains
 
 # The hand: collides with the object and table, not with itself.
 HAND_COLLISION = 'contype="2" conaffinity="1"'
 WORLD_COLLISION = 'contype="1" conaffinity="3"'
 
 
-def _f(values: "tuple[float, ...] | list[float] | np.ndarray") -> str:
+def _f(values: tuple[float, ...] | list[float] | np.ndarray) -> str:
     return " ".join(f"{float(v):.9g}" for v in values)
 
 
@@ -149,7 +176,7 @@ def quat_of_matrix(R: np.ndarray) -> np.ndarray:
     return q
 
 
-def quat_of_rpy(rpy: "tuple[float, float, float]") -> np.ndarray:
+def quat_of_rpy(rpy: tuple[float, float, float]) -> np.ndarray:
     return quat_of_matrix(rpy_matrix(rpy))
 
 
@@ -175,8 +202,7 @@ def _link_geoms(finger: FingerConfig, k: int, leap: bool, thumb: bool, extra: st
     end = finger.joints[k + 1].origin_xyz if k + 1 < len(finger.joints) else finger.tip_xyz
     if np.linalg.norm(end) < 1e-6:
         return []
-    return [f'<geom name="{name}" type="capsule" size="{LINK_CAPSULE_RADIUS_M}" '
-            f'fromto="0 0 0 {_f(end)}" {extra}/>']
+    return [f'<geom name="{name}" type="capsule" size="{LINK_CAPSULE_RADIUS_M}" fromto="0 0 0 {_f(end)}" {extra}/>']
 
 
 def _biotac(finger: FingerConfig, p: SceneParams) -> tuple[str, str, str]:
@@ -184,7 +210,7 @@ def _biotac(finger: FingerConfig, p: SceneParams) -> tuple[str, str, str]:
     its mount to the tip's cap centred on the sensor origin) and the sensor-frame site."""
     geom = f"{finger.name}_biotac"
     site = f"{finger.name}_sensor"
-    back = PAD_X_MIN_M - SKIN_RADIUS_M   # the skin cylinder runs back past the pad's far edge to the mount
+    back = PAD_X_MIN_M - SKIN_RADIUS_M  # the skin cylinder runs back past the pad's far edge to the mount
     xml = (
         f'<body name="{finger.name}_tip" pos="{_f(finger.tip_xyz)}" quat="{_f(quat_of_rpy(finger.tip_rpy))}">'
         f'<inertial pos="{_f((0.5 * back, 0.0, 0.0))}" mass="{p.biotac_mass_kg}" diaginertia="1e-6 2e-6 2e-6"/>'
@@ -196,7 +222,9 @@ def _biotac(finger: FingerConfig, p: SceneParams) -> tuple[str, str, str]:
     return xml, geom, site
 
 
-def _finger(finger: FingerConfig, hand: HandConfig, p: SceneParams, leap: bool, thumb: bool) -> tuple[str, str, str, str]:
+def _finger(
+    finger: FingerConfig, hand: HandConfig, p: SceneParams, leap: bool, thumb: bool
+) -> tuple[str, str, str, str]:
     """Nested bodies of one chain, the BioTac at its end; returns (xml, biotac geom, site, first body)."""
     extra = f'{HAND_COLLISION} rgba="0.25 0.25 0.25 1"'
     opened, closes = [], []
@@ -206,8 +234,7 @@ def _finger(finger: FingerConfig, hand: HandConfig, p: SceneParams, leap: bool, 
             f'<inertial pos="0 0 0" mass="{p.link_mass_kg}" diaginertia="5e-6 5e-6 5e-6"/>'
             f'<joint name="{j.name}" type="hinge" axis="{_f(j.axis)}" range="{j.lower_rad:.9g} {j.upper_rad:.9g}" '
             f'limited="true" armature="{p.armature_kg_m2}" damping="{p.joint_damping_nm_s_per_rad:.6g}" '
-            f'frictionloss="{p.joint_frictionloss_nm}"/>'
-            + "".join(_link_geoms(finger, k, leap, thumb, extra))
+            f'frictionloss="{p.joint_frictionloss_nm}"/>' + "".join(_link_geoms(finger, k, leap, thumb, extra))
         )
         closes.append("</body>")
     tip_xml, geom, site = _biotac(finger, p)
@@ -239,14 +266,15 @@ def object_contact_attrs(mu: float, stiffness_n_per_m: float, p: SceneParams) ->
     """The object geoms' contact attributes: its friction wins over the fingertip's (priority),
     torsional friction over the pad's patch, the softness of its stiffness."""
     tc = contact_timeconst(stiffness_n_per_m, p)
-    return (f'priority="1" condim="4" friction="{mu:.6g} {mu * p.torsion_radius_m:.6g} 0" '
-            f'solref="{tc:.6g} 1"')
+    return f'priority="1" condim="4" friction="{mu:.6g} {mu * p.torsion_radius_m:.6g} 0" solref="{tc:.6g} 1"'
 
 
 def option_xml(p: SceneParams) -> str:
     """MuJoCo's solver options of the scene (also the friction test's, tests/test_mujoco_friction.py)."""
-    return (f'<option timestep="{p.timestep_s}" integrator="implicitfast" cone="elliptic" '
-            f'impratio="{p.impratio:g}" noslip_iterations="{p.noslip_iterations}" gravity="0 0 -9.81"/>')
+    return (
+        f'<option timestep="{p.timestep_s}" integrator="implicitfast" cone="elliptic" '
+        f'impratio="{p.impratio:g}" noslip_iterations="{p.noslip_iterations}" gravity="0 0 -9.81"/>'
+    )
 
 
 def _object(obj: PlacedObject, p: SceneParams) -> tuple[str, list[str]]:
@@ -271,18 +299,21 @@ def _object(obj: PlacedObject, p: SceneParams) -> tuple[str, list[str]]:
         R = (r * r + ch * ch) / (2.0 * ch)
         cz = h + ch - R
         ox, oy = prof.cap.offset_m
-        geoms.append(f'<geom name="object_cap" type="sphere" size="{R:.9g}" pos="{ox:.9g} {oy:.9g} {cz:.9g}" {common}/>')
+        geoms.append(
+            f'<geom name="object_cap" type="sphere" size="{R:.9g}" pos="{ox:.9g} {oy:.9g} {cz:.9g}" {common}/>'
+        )
         names.append("object_cap")
     xml = (
         f'<body name="object" pos="{obj.xy_m[0]:.9g} {obj.xy_m[1]:.9g} 0">'
         f'<freejoint name="object_free"/>'
-        f'<inertial pos="0 0 {0.5 * h:.9g}" mass="{m:.9g}" diaginertia="{_f(inertia)}"/>'
-        + "".join(geoms) + "</body>"
+        f'<inertial pos="0 0 {0.5 * h:.9g}" mass="{m:.9g}" diaginertia="{_f(inertia)}"/>' + "".join(geoms) + "</body>"
     )
     return xml, names
 
 
-def build_scene(hand: HandConfig, obj: PlacedObject, palm_start_world: np.ndarray, p: SceneParams | None = None) -> Scene:
+def build_scene(
+    hand: HandConfig, obj: PlacedObject, palm_start_world: np.ndarray, p: SceneParams | None = None
+) -> Scene:
     """The MJCF text of one trial's scene, the hand at ``palm_start_world``."""
     p = p or SceneParams()
     leap = is_leap_like(hand)
@@ -308,7 +339,8 @@ def build_scene(hand: HandConfig, obj: PlacedObject, palm_start_world: np.ndarra
         hand_parts.append(
             f'<body name="palm{b}" pos="{_f(xyz)}" quat="{_f(quat_of_rpy(rpy))}">'
             f'<inertial pos="-0.05 -0.04 -0.01" mass="{mass}" diaginertia="4e-4 3e-4 2e-4"/>'
-            + "".join(inner) + "</body>"
+            + "".join(inner)
+            + "</body>"
         )
         upper.append(f"palm{b}")
     obj_xml, obj_geoms = _object(obj, p)

@@ -28,9 +28,9 @@ from grasp_ctrl.sim.mujoco_contacts import read_contacts, skin_point_and_normal
 from grasp_ctrl.sim.mujoco_scene import PlacedObject, SceneParams, build_scene
 from grasp_ctrl.sim.world import GRAVITY, NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
 
-FALL_SPEED_M_S = 0.1      # landing on the table faster than this is a drop (placing is slower)
-AIRBORNE_M = 0.002        # above this the object has left the table
-TIPPED_RAD = math.radians(30.0)   # tipped over while handled
+FALL_SPEED_M_S = 0.1  # landing on the table faster than this is a drop (placing is slower)
+AIRBORNE_M = 0.002  # above this the object has left the table
+TIPPED_RAD = math.radians(30.0)  # tipped over while handled
 UPRIGHT_RAD = math.radians(10.0)  # standing upright at the end of the trial
 
 
@@ -55,10 +55,10 @@ class MuJoCoParams:
     mass_jitter: float = 0.03
     friction_jitter: float = 0.03
     stiffness_jitter: float = 0.05
-    start_clearance_m: float = 0.05      # the wrist starts this far above the reach pose
-    top_clearance_m: float = 0.005       # the hand above the object's top when reaching
-    footprint_margin_m: float = 0.008    # hand parts this close to the footprint count as above it
-    settle_s: float = 0.2                # the scene settles (object on the table, fingers sag) before t = 0
+    start_clearance_m: float = 0.05  # the wrist starts this far above the reach pose
+    top_clearance_m: float = 0.005  # the hand above the object's top when reaching
+    footprint_margin_m: float = 0.008  # hand parts this close to the footprint count as above it
+    settle_s: float = 0.2  # the scene settles (object on the table, fingers sag) before t = 0
     biotac: BioTacParams = field(default_factory=BioTacParams)
 
 
@@ -71,7 +71,7 @@ def _mujoco():
         raise UsageError("the MuJoCo world needs mujoco>=3.1, a dependency of grasp-ctrl: pip install -e .") from None
     from grasp_ctrl.sim.mujoco_log import install
 
-    install(mujoco)   # its warnings: the run directory or nowhere, never ./MUJOCO_LOG.TXT
+    install(mujoco)  # its warnings: the run directory or nowhere, never ./MUJOCO_LOG.TXT
     return mujoco
 
 
@@ -97,7 +97,7 @@ class MuJoCoWorld:
         self.fingers = [f.name for f in hand.fingers]
         self.sensor_ids = [f.sensor_id for f in hand.fingers]
         n = len(self.fingers)
-        self.grasp_height_m = obj.grasp_height_m          # set by _fit_grasp_height
+        self.grasp_height_m = obj.grasp_height_m  # set by _fit_grasp_height
         scene = build_scene(hand, placed, np.zeros(3), p.scene)
         self.scene = scene
         self.model = m = mujoco.MjModel.from_xml_string(scene.xml)
@@ -181,8 +181,8 @@ class MuJoCoWorld:
         low = 0.0
         for blend in np.linspace(0.0, 1.0, 6):
             d.qpos[self._qadr] = (1.0 - blend) * pre + blend * opened
-            d.qpos[self._hand_qadr:self._hand_qadr + 3] = 0.0
-            d.qpos[self._hand_qadr + 3:self._hand_qadr + 7] = (1.0, 0.0, 0.0, 0.0)
+            d.qpos[self._hand_qadr : self._hand_qadr + 3] = 0.0
+            d.qpos[self._hand_qadr + 3 : self._hand_qadr + 7] = (1.0, 0.0, 0.0, 0.0)
             mj.mj_kinematics(m, d)
             for g in hand_geoms:
                 R = d.geom_xmat[g].reshape(3, 3)
@@ -205,8 +205,8 @@ class MuJoCoWorld:
     def _place_hand(self, palm: np.ndarray) -> None:
         mj, m, d = self._mj, self.model, self.data
         d.qpos[self._qadr] = self._q_goal
-        d.qpos[self._hand_qadr:self._hand_qadr + 3] = palm
-        d.qpos[self._hand_qadr + 3:self._hand_qadr + 7] = (1.0, 0.0, 0.0, 0.0)
+        d.qpos[self._hand_qadr : self._hand_qadr + 3] = palm
+        d.qpos[self._hand_qadr + 3 : self._hand_qadr + 7] = (1.0, 0.0, 0.0, 0.0)
         d.mocap_pos[self._mocap] = palm
         d.ctrl[self._act] = self._q_goal
         mj.mj_forward(m, d)
@@ -319,7 +319,7 @@ class MuJoCoWorld:
         self._new_contacts = self._touch_obj & ~was
         R_all = self.data.site_xmat[self._sites].reshape(-1, 3, 3)
         o_all = self.data.site_xpos[self._sites]
-        np.einsum("nji,nj->ni", R_all, c.f_world, out=self._f_sensor)   # R^T f per fingertip
+        np.einsum("nji,nj->ni", R_all, c.f_world, out=self._f_sensor)  # R^T f per fingertip
         for i in np.flatnonzero(c.touching):
             R, o = R_all[i], o_all[i]
             p_s, n_s = skin_point_and_normal(R.T @ (c.point_world[i] - o))
@@ -351,8 +351,9 @@ class MuJoCoWorld:
 
     def _frames(self) -> np.ndarray:
         self.seq = (self.seq + 1) & 0xFFFF
-        return self.sensors.frames(self._contact_sensor, self._f_sensor, self._skin_normal_sensor,
-                                   self._in_contact, self._slip_speed, self.dt)
+        return self.sensors.frames(
+            self._contact_sensor, self._f_sensor, self._skin_normal_sensor, self._in_contact, self._slip_speed, self.dt
+        )
 
     def _record(self) -> None:
         """Events and outcome flags from MuJoCo's state."""
@@ -368,7 +369,9 @@ class MuJoCoWorld:
             # Back on the table: a drop if it came down faster than any placing does.
             self._airborne = False
             if self._descent_speed > FALL_SPEED_M_S:
-                self.events.append(WorldEvent(self.t, "fell", f"landed at {self._descent_speed:.2f} m/s while {self.phase}"))
+                self.events.append(
+                    WorldEvent(self.t, "fell", f"landed at {self._descent_speed:.2f} m/s while {self.phase}")
+                )
         obj = self.obj
         worst = float(self._normal_n.max(initial=0.0))
         if obj.deformable and not self.crushed and worst > obj.crush_force_n:  # type: ignore[operator]
@@ -378,7 +381,9 @@ class MuJoCoWorld:
         # proxy is not needed); placed upright is checked again at the end (``knocked_over``).
         if not self._tipped and self.obj_tilt_rad > TIPPED_RAD:
             self._tipped = True
-            self.events.append(WorldEvent(self.t, "knocked_over", f"tilted {math.degrees(self.obj_tilt_rad):.0f} degrees"))
+            self.events.append(
+                WorldEvent(self.t, "knocked_over", f"tilted {math.degrees(self.obj_tilt_rad):.0f} degrees")
+            )
 
     @property
     def knocked_over(self) -> bool:

@@ -31,8 +31,9 @@ def pad_presses(n: int, seed: int, params: BioTacParams | None = None) -> tuple[
     return _tared_presses(points, f, normals, rng, params), f
 
 
-def _tared_presses(points: np.ndarray, f: np.ndarray, normals: np.ndarray, rng: np.random.Generator,
-                   params: BioTacParams | None) -> np.ndarray:
+def _tared_presses(
+    points: np.ndarray, f: np.ndarray, normals: np.ndarray, rng: np.random.Generator, params: BioTacParams | None
+) -> np.ndarray:
     """Tared frames (n, 44) of steady presses, in batches of 256 on freshly drawn sensors."""
     n = len(f)
     tared = np.empty((n, 44))
@@ -41,14 +42,16 @@ def _tared_presses(points: np.ndarray, f: np.ndarray, normals: np.ndarray, rng: 
         stop = min(n, start + batch)
         m = stop - start
         model = BioTacSensorModel(m, rng, params or BioTacParams())
-        raw = model.frames(points[start:stop], f[start:stop], normals[start:stop], np.ones(m, dtype=bool),
-                           np.zeros(m), 0.01)
+        raw = model.frames(
+            points[start:stop], f[start:stop], normals[start:stop], np.ones(m, dtype=bool), np.zeros(m), 0.01
+        )
         tared[start:stop] = raw - model.baseline
     return tared
 
 
-def random_skin_points(n: int, rng: np.random.Generator, max_angle_deg: float = 60.0,
-                       cap_share: float = 0.2) -> tuple[np.ndarray, np.ndarray]:
+def random_skin_points(
+    n: int, rng: np.random.Generator, max_angle_deg: float = 60.0, cap_share: float = 0.2
+) -> tuple[np.ndarray, np.ndarray]:
     """Contact points where a grasp's contacts land (sensor frame) and the outward skin
     normals there: along the whole pad (PAD_X_MIN_M <= x <= 0) up to ``max_angle_deg``
     from its centre line toward either side, and on the lower part of the tip cap."""
@@ -67,8 +70,9 @@ def random_skin_points(n: int, rng: np.random.Generator, max_angle_deg: float = 
     return points, normals
 
 
-def skin_presses(n: int, seed: int, max_shear_ratio: float = 1.0,
-                 params: BioTacParams | None = None) -> tuple[np.ndarray, np.ndarray]:
+def skin_presses(
+    n: int, seed: int, max_shear_ratio: float = 1.0, params: BioTacParams | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """(tared frames (n, 44), f_sensor labels (n, 3)) for presses anywhere a grasp's
     contact lands (``random_skin_points``), each pressing into the skin along its normal
     with a shear of up to ``max_shear_ratio`` times the normal force in a random
@@ -82,8 +86,9 @@ def skin_presses(n: int, seed: int, max_shear_ratio: float = 1.0,
     return _tared_presses(points, f, normals, rng, params), f
 
 
-def sheared_forces(normals: np.ndarray, normal_n: np.ndarray, shear_ratio: np.ndarray,
-                   rng: np.random.Generator) -> np.ndarray:
+def sheared_forces(
+    normals: np.ndarray, normal_n: np.ndarray, shear_ratio: np.ndarray, rng: np.random.Generator
+) -> np.ndarray:
     """Forces on the skin (n, 3): ``normal_n`` pressing in along each outward normal plus
     ``shear_ratio`` times that in a random tangent direction."""
     # A tangent direction: a random vector with its normal part removed.

@@ -7,8 +7,9 @@ imported only when its entry is used.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
@@ -23,8 +24,8 @@ BackendFactory = Callable[[Any, HandConfig], tuple[Any, Any]]
 class SimulatedBackend:
     name: str
     description: str
-    make_world: WorldFactory          # (hand, object, seed, params or None) -> World
-    make_backends: BackendFactory     # (world, hand) -> (hand backend, sensor backend)
+    make_world: WorldFactory  # (hand, object, seed, params or None) -> World
+    make_backends: BackendFactory  # (world, hand) -> (hand backend, sensor backend)
 
 
 def _mock() -> SimulatedBackend:
@@ -34,8 +35,9 @@ def _mock() -> SimulatedBackend:
     def backends(world: Any, hand: HandConfig) -> tuple[Any, Any]:
         return MockHand(world, hand), MockSensors(world)
 
-    return SimulatedBackend("mock", "the hand-written test world (fast; holds the object still sideways)",
-                            MockWorld, backends)
+    return SimulatedBackend(
+        "mock", "the hand-written test world (fast; holds the object still sideways)", MockWorld, backends
+    )
 
 
 def _mujoco() -> SimulatedBackend:

@@ -30,7 +30,7 @@ def shape_params(obj: ObjectProfile) -> np.ndarray:
     if obj.cap is not None:
         r, h = 0.5 * obj.cap.diameter_m, obj.cap.height_m
         s[HAS_CAP] = 1.0
-        s[CAP_R] = (r * r + h * h) / (2.0 * h)              # radius of the dome's sphere
+        s[CAP_R] = (r * r + h * h) / (2.0 * h)  # radius of the dome's sphere
         s[CAP_CZ] = obj.height_m + h - s[CAP_R]
         s[CAP_DX], s[CAP_DY] = obj.cap.offset_m
         s[TOP] = obj.height_m + h

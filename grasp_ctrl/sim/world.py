@@ -50,8 +50,8 @@ from grasp_ctrl.sim.biotac_model import BioTacParams, BioTacSensorModel
 from grasp_ctrl.sim.shapes import shape_params
 
 GRAVITY = 9.81
-NEAR_M = 0.01   # fingertips further than this from the object cannot touch it this step
-NOISE_BLOCK = 128   # sensor noise is drawn for this many steps at a time
+NEAR_M = 0.01  # fingertips further than this from the object cannot touch it this step
+NOISE_BLOCK = 128  # sensor noise is drawn for this many steps at a time
 _FLOAT64 = np.dtype(np.float64)
 
 
@@ -66,7 +66,7 @@ class WorldParams:
     mass_jitter: float = 0.03
     friction_jitter: float = 0.03
     stiffness_jitter: float = 0.05
-    start_clearance_m: float = 0.05      # palm starts this far above the reach pose
+    start_clearance_m: float = 0.05  # palm starts this far above the reach pose
     # Contact on the skin point facing the object (cap or pad), as on a real fingertip
     # and in MuJoCo; False puts it at the pad centre whatever the tilt (the old model,
     # whose force can leave the friction cone of the skin there: docs/mock_world.md).
@@ -77,7 +77,7 @@ class WorldParams:
 @dataclass
 class WorldEvent:
     t: float
-    kind: str     # crushed | knocked_over | fell | lifted | contact | released
+    kind: str  # crushed | knocked_over | fell | lifted | contact | released
     detail: str = ""
 
 
@@ -120,8 +120,16 @@ def _clip_into(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, out: np.ndar
 
 
 @njit
-def _limited_goal(goal: np.ndarray, prev: np.ndarray, max_step: float, lower: np.ndarray, upper: np.ndarray,
-                  joint_lower: np.ndarray, joint_upper: np.ndarray, out: np.ndarray) -> bool:
+def _limited_goal(
+    goal: np.ndarray,
+    prev: np.ndarray,
+    max_step: float,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    joint_lower: np.ndarray,
+    joint_upper: np.ndarray,
+    out: np.ndarray,
+) -> bool:
     """``out`` = ``goal`` within ``max_step`` of ``prev``, then within [lower, upper], then
     within [joint_lower, joint_upper] (``limits.limit_goal`` then ``_clip_into``), when
     every goal is finite; False (``out`` unset) when one is not."""
@@ -129,8 +137,11 @@ def _limited_goal(goal: np.ndarray, prev: np.ndarray, max_step: float, lower: np
         if not math.isfinite(goal[j]):
             return False
     for j in range(goal.shape[0]):
-        out[j] = clamp(clamp(clamp(goal[j], prev[j] - max_step, prev[j] + max_step), lower[j], upper[j]),
-                       joint_lower[j], joint_upper[j])
+        out[j] = clamp(
+            clamp(clamp(goal[j], prev[j] - max_step, prev[j] + max_step), lower[j], upper[j]),
+            joint_lower[j],
+            joint_upper[j],
+        )
     return True
 
 
@@ -151,9 +162,32 @@ def _clamped_target(p: np.ndarray, z_min: float, z_max: float, out: np.ndarray) 
 
 #: The world's own float arrays packed into one buffer (MockWorld._pack_state), in world_step's order,
 #: then the step's watch levels.
-PACKED = ("_q_servo", "_q", "lower", "upper", "_reach", "tau_max", "_palm", "_pad_local", "_contact_sensor",
-          "_skin_normal_sensor", "_shape", "_obj", "_normal_n", "_stick_offset", "_slip_speed", "_n_out_world",
-          "_contact_z", "_omega", "_tangential_up_n", "_f_world", "_f_sensor", "_rows", "_consts", "_watch")
+PACKED = (
+    "_q_servo",
+    "_q",
+    "lower",
+    "upper",
+    "_reach",
+    "tau_max",
+    "_palm",
+    "_pad_local",
+    "_contact_sensor",
+    "_skin_normal_sensor",
+    "_shape",
+    "_obj",
+    "_normal_n",
+    "_stick_offset",
+    "_slip_speed",
+    "_n_out_world",
+    "_contact_z",
+    "_omega",
+    "_tangential_up_n",
+    "_f_world",
+    "_f_sensor",
+    "_rows",
+    "_consts",
+    "_watch",
+)
 #: ``_watch``: the highest object height, the height before the last step, the grip that
 #: may crush the object (inf: it cannot be crushed), the table force that may knock it over.
 MAX_Z, PREV_Z, CRUSH_N, TIP_N = range(4)
@@ -162,21 +196,35 @@ MAX_Z, PREV_Z, CRUSH_N, TIP_N = range(4)
 @njit
 def _part(state: np.ndarray, layout: np.ndarray, k: int) -> np.ndarray:
     """Array ``k`` of a packed state: a one-dimensional view."""
-    return state[layout[k, 0]:layout[k, 0] + layout[k, 1]]
+    return state[layout[k, 0] : layout[k, 0] + layout[k, 1]]
 
 
 @njit
 def _part2(state: np.ndarray, layout: np.ndarray, k: int) -> np.ndarray:
     """Array ``k`` of a packed state: a (rows, columns) view."""
     start, rows, cols = layout[k, 0], layout[k, 1], layout[k, 2]
-    return state[start:start + rows * cols].reshape((rows, cols))
+    return state[start : start + rows * cols].reshape((rows, cols))
 
 
 @njit
-def step_packed(torque_on: float, q_goal: np.ndarray, palm_target: np.ndarray, frame_base: np.ndarray,
-                sensor_t: float, frame_out: np.ndarray, state: np.ndarray, layout: np.ndarray, take: np.ndarray,
-                W: np.ndarray, starts: np.ndarray, counts: np.ndarray, touch: np.ndarray, sensor_state: np.ndarray,
-                sensor_gain: np.ndarray, sensor_consts: np.ndarray) -> bool:
+def step_packed(
+    torque_on: float,
+    q_goal: np.ndarray,
+    palm_target: np.ndarray,
+    frame_base: np.ndarray,
+    sensor_t: float,
+    frame_out: np.ndarray,
+    state: np.ndarray,
+    layout: np.ndarray,
+    take: np.ndarray,
+    W: np.ndarray,
+    starts: np.ndarray,
+    counts: np.ndarray,
+    touch: np.ndarray,
+    sensor_state: np.ndarray,
+    sensor_gain: np.ndarray,
+    sensor_consts: np.ndarray,
+) -> bool:
     """``MockWorld.step``'s arithmetic on a world whose float arrays are views of ``state``
     (``PACKED``, ``layout``: start, rows, columns of each): the torque flag into the
     constants, the object height before (``_watch[PREV_Z]``), ``world_step``, then the
@@ -189,20 +237,53 @@ def step_packed(torque_on: float, q_goal: np.ndarray, palm_target: np.ndarray, f
     c[ws.TORQUE_ON] = torque_on
     prev_z = obj[ws.OZ]
     watch[PREV_Z] = prev_z
-    ws.world_step(q_goal, palm_target, frame_base, sensor_t, frame_out,
-                  _part(state, layout, 0), _part(state, layout, 1), _part(state, layout, 2), _part(state, layout, 3),
-                  _part(state, layout, 4), _part(state, layout, 5), starts, counts, _part(state, layout, 6), take, W,
-                  _part(state, layout, 7), _part2(state, layout, 8), _part2(state, layout, 9),
-                  _part(state, layout, 10), _part(state, layout, 11), _part(state, layout, 12), touch,
-                  _part(state, layout, 13), _part(state, layout, 14), _part2(state, layout, 15),
-                  _part(state, layout, 16), _part2(state, layout, 17), _part(state, layout, 18),
-                  _part2(state, layout, 19), _part2(state, layout, 20), _part2(state, layout, 21),
-                  _part(state, layout, 22), sensor_state, sensor_gain, sensor_consts)
+    ws.world_step(
+        q_goal,
+        palm_target,
+        frame_base,
+        sensor_t,
+        frame_out,
+        _part(state, layout, 0),
+        _part(state, layout, 1),
+        _part(state, layout, 2),
+        _part(state, layout, 3),
+        _part(state, layout, 4),
+        _part(state, layout, 5),
+        starts,
+        counts,
+        _part(state, layout, 6),
+        take,
+        W,
+        _part(state, layout, 7),
+        _part2(state, layout, 8),
+        _part2(state, layout, 9),
+        _part(state, layout, 10),
+        _part(state, layout, 11),
+        _part(state, layout, 12),
+        touch,
+        _part(state, layout, 13),
+        _part(state, layout, 14),
+        _part2(state, layout, 15),
+        _part(state, layout, 16),
+        _part2(state, layout, 17),
+        _part(state, layout, 18),
+        _part2(state, layout, 19),
+        _part2(state, layout, 20),
+        _part2(state, layout, 21),
+        _part(state, layout, 22),
+        sensor_state,
+        sensor_gain,
+        sensor_consts,
+    )
     z = obj[ws.OZ]
     if z > watch[MAX_Z]:
         watch[MAX_Z] = z
-    return (obj[ws.NEW_CONTACTS] != 0.0 or (prev_z > 0.002 and z == 0.0) or obj[ws.MAX_NORMAL] > watch[CRUSH_N]
-            or obj[ws.TABLE_N] - c[ws.WEIGHT] > watch[TIP_N])
+    return (
+        obj[ws.NEW_CONTACTS] != 0.0
+        or (prev_z > 0.002 and z == 0.0)
+        or obj[ws.MAX_NORMAL] > watch[CRUSH_N]
+        or obj[ws.TABLE_N] - c[ws.WEIGHT] > watch[TIP_N]
+    )
 
 
 def checked_palm_target(p: np.ndarray) -> np.ndarray:
@@ -254,8 +335,8 @@ class MockWorld:
         self.lower = np.array([j.lower_rad for j in joints])
         self.upper = np.array([j.upper_rad for j in joints])
         self._q_goal = np.array([j.open_rad for j in joints])
-        self._q_servo = self._q_goal.copy()          # the servo's internal (lagged) position
-        self._q = self._q_goal.copy()                # actual, after contact deflection
+        self._q_servo = self._q_goal.copy()  # the servo's internal (lagged) position
+        self._q = self._q_goal.copy()  # actual, after contact deflection
         self.torque_on = True
         self.tau_max = np.array([j.current_limit_a for j in joints]) * p.torque_per_amp_nm
         self._reach = self.tau_max / p.servo_stiffness_nm_per_rad
@@ -271,19 +352,19 @@ class MockWorld:
         self._counts = np.array([sl.stop - sl.start for sl in slices], dtype=np.int64)
         n = len(self.fingers)
         self._normal_n = np.zeros(n)
-        self._tangential_up_n = np.zeros(n)   # upward force of each finger on the object
+        self._tangential_up_n = np.zeros(n)  # upward force of each finger on the object
         self._in_contact = np.zeros(n, dtype=bool)
-        self._stick_offset = np.zeros(n)       # contact height minus object height at stick
+        self._stick_offset = np.zeros(n)  # contact height minus object height at stick
         self._slip_speed = np.zeros(n)
-        self._f_world = np.zeros((n, 3))       # force ON each sensor skin, world frame
+        self._f_world = np.zeros((n, 3))  # force ON each sensor skin, world frame
         self._f_sensor = np.zeros((n, 3))
-        self._n_out_world = np.zeros((n, 3))   # object's outward surface normal at each contact
-        self._contact_z = np.zeros(n)         # contact height (world) after deflection
-        self._omega = np.zeros((n, 3))        # rotation of each sensor frame by the deflection
+        self._n_out_world = np.zeros((n, 3))  # object's outward surface normal at each contact
+        self._contact_z = np.zeros(n)  # contact height (world) after deflection
+        self._omega = np.zeros((n, 3))  # rotation of each sensor frame by the deflection
         self._rows = np.zeros((n, self._W.shape[2]))
         self.sensors = BioTacSensorModel(n, self.rng, p.biotac, noise_block=NOISE_BLOCK)
         self.seq = 0
-        self._contact_sensor = np.tile(PAD_POINT_SENSOR, (n, 1))       # where each fingertip touches
+        self._contact_sensor = np.tile(PAD_POINT_SENSOR, (n, 1))  # where each fingertip touches
         self._skin_normal_sensor = np.tile(PAD_NORMAL_SENSOR, (n, 1))  # outward skin normal there
         self._pad_local = np.array(PAD_POINT_SENSOR)
         self._consts = np.zeros(ws.N_CONSTS)
@@ -300,15 +381,49 @@ class MockWorld:
         self._pack_state()
         # The world's own arrays, bound once: the kernel updates them in place.
         self._arrays = (
-            self._q_servo, self._q, self.lower, self.upper, self._reach, self.tau_max, self._starts, self._counts,
-            self._palm, self._take, self._W, self._pad_local, self._contact_sensor, self._skin_normal_sensor,
-            self._shape, self._obj, self._normal_n, self._in_contact, self._stick_offset, self._slip_speed,
-            self._n_out_world, self._contact_z, self._omega, self._tangential_up_n, self._f_world, self._f_sensor,
-            self._rows, self._consts, sens.state, sens.gain, sens.consts,
+            self._q_servo,
+            self._q,
+            self.lower,
+            self.upper,
+            self._reach,
+            self.tau_max,
+            self._starts,
+            self._counts,
+            self._palm,
+            self._take,
+            self._W,
+            self._pad_local,
+            self._contact_sensor,
+            self._skin_normal_sensor,
+            self._shape,
+            self._obj,
+            self._normal_n,
+            self._in_contact,
+            self._stick_offset,
+            self._slip_speed,
+            self._n_out_world,
+            self._contact_z,
+            self._omega,
+            self._tangential_up_n,
+            self._f_world,
+            self._f_sensor,
+            self._rows,
+            self._consts,
+            sens.state,
+            sens.gain,
+            sens.consts,
         )
         # What the packed step (step_packed) takes besides the state buffer and its layout.
-        self._packed_args = (self._take, self._W, self._starts, self._counts, self._in_contact, sens.state, sens.gain,
-                             sens.consts)
+        self._packed_args = (
+            self._take,
+            self._W,
+            self._starts,
+            self._counts,
+            self._in_contact,
+            sens.state,
+            sens.gain,
+            sens.consts,
+        )
 
         self.events: list[WorldEvent] = []
         self.crushed = False
@@ -320,14 +435,14 @@ class MockWorld:
         compiled step then takes one array for 23 (``step_packed``), and a compiled
         call's cost grows with the arrays it is handed."""
         arrays = [getattr(self, name) for name in PACKED]
-        layout = np.zeros((len(arrays), 3), dtype=np.int64)   # start, rows, columns (0: one-dimensional)
+        layout = np.zeros((len(arrays), 3), dtype=np.int64)  # start, rows, columns (0: one-dimensional)
         at = 0
         for k, a in enumerate(arrays):
             layout[k] = at, a.shape[0], a.shape[1] if a.ndim == 2 else 0
             at += a.size
         state = np.empty(at)
         for k, (name, a) in enumerate(zip(PACKED, arrays)):
-            view = state[layout[k, 0]:layout[k, 0] + a.size].reshape(a.shape)
+            view = state[layout[k, 0] : layout[k, 0] + a.size].reshape(a.shape)
             view[...] = a
             setattr(self, name, view)
         self._state, self._layout = state, layout
@@ -345,7 +460,7 @@ class MockWorld:
             _clip_into(q, self.lower, self.upper, goal)
             self._q_goal = goal
             return
-        self._q_goal = np.minimum(np.maximum(np.asarray(q, dtype=float), self.lower), self.upper)   # = np.clip, cheaper
+        self._q_goal = np.minimum(np.maximum(np.asarray(q, dtype=float), self.lower), self.upper)  # = np.clip, cheaper
 
     # Updated in place by the step kernel, so read-only here.
     def write_limited_goal(self, goal: np.ndarray, max_step: float, lower: np.ndarray, upper: np.ndarray) -> bool:
@@ -429,7 +544,7 @@ class MockWorld:
 
     # ----- stepping -------------------------------------------------------
     def step(self) -> None:
-        if jit.JIT:   # the same kernel on the same arrays, handed over as one buffer (compiled: cheaper to call)
+        if jit.JIT:  # the same kernel on the same arrays, handed over as one buffer (compiled: cheaper to call)
             args = self.begin_packed_step()
             self.end_packed_step(args[5], step_packed(*args))
             return
@@ -454,8 +569,16 @@ class MockWorld:
         sens = self.sensors
         frame_base = sens.advance(self.dt)
         raw = np.empty(self.raw.shape, dtype=self.raw.dtype)
-        return (1.0 if self.torque_on else 0.0, self._q_goal, self._palm_target, frame_base, sens.t, raw, self._state,
-                self._layout) + self._packed_args
+        return (
+            1.0 if self.torque_on else 0.0,
+            self._q_goal,
+            self._palm_target,
+            frame_base,
+            sens.t,
+            raw,
+            self._state,
+            self._layout,
+        ) + self._packed_args
 
     def end_packed_step(self, raw: np.ndarray, events: bool) -> None:
         """``step``'s compiled path after its kernel: the new frames (``raw``) and their
@@ -477,12 +600,13 @@ class MockWorld:
     def _sense(self) -> np.ndarray:
         """Frames of the current contact state (at start-up; ``step`` makes its own)."""
         self.seq = (self.seq + 1) & 0xFFFF
-        return self.sensors.frames(self._contact_sensor, self._f_sensor, self._skin_normal_sensor,
-                                   self._in_contact, self._slip_speed, self.dt)
+        return self.sensors.frames(
+            self._contact_sensor, self._f_sensor, self._skin_normal_sensor, self._in_contact, self._slip_speed, self.dt
+        )
 
     def _record(self, prev_z: float) -> None:
         """Events and outcome flags from the step's truth."""
-        z, table_n, worst, new_contacts = self._obj[ws.OZ:].tolist()
+        z, table_n, worst, new_contacts = self._obj[ws.OZ :].tolist()
         if z > self.max_obj_z:
             self.max_obj_z = z
         if new_contacts:
@@ -497,7 +621,9 @@ class MockWorld:
             self.events.append(WorldEvent(self.t, "crushed", f"grip {worst:.2f} N > {obj.crush_force_n} N"))
         if not self.knocked_over and table_n - self._weight > obj.tip_force_n:
             self.knocked_over = True
-            self.events.append(WorldEvent(self.t, "knocked_over", f"pushed {table_n - self._weight:.2f} N into the table"))
+            self.events.append(
+                WorldEvent(self.t, "knocked_over", f"pushed {table_n - self._weight:.2f} N into the table")
+            )
 
     # ----- helpers for backends and outcome --------------------------------
     def set_phase(self, phase: str) -> None:

@@ -19,7 +19,7 @@ class World(Protocol):
     """A simulated hand, arm, object, table and fingertip sensors, stepped one control period at a time."""
 
     # clock
-    t: float                       # simulated time (s)
+    t: float  # simulated time (s)
 
     def step(self) -> None:
         """Advance one control period (the hand file's dt)."""
@@ -31,24 +31,24 @@ class World(Protocol):
         """End of the trial (e.g. finish a video); idempotent."""
 
     # what the backends read and write (sim/backends.py)
-    q: np.ndarray                  # joint angles (rad)
-    q_goal: np.ndarray             # joint goals the hand backend writes (rad)
+    q: np.ndarray  # joint angles (rad)
+    q_goal: np.ndarray  # joint goals the hand backend writes (rad)
     torque_on: bool
-    palm_target: np.ndarray        # the arm's target (m, world frame)
-    palm_world: np.ndarray         # the palm's position (m, world frame)
-    raw: np.ndarray                # (n_tips, 44) raw tactile frames (counts)
-    seq: np.ndarray                # per-fingertip frame counters
+    palm_target: np.ndarray  # the arm's target (m, world frame)
+    palm_world: np.ndarray  # the palm's position (m, world frame)
+    raw: np.ndarray  # (n_tips, 44) raw tactile frames (counts)
+    seq: np.ndarray  # per-fingertip frame counters
     sensor_ids: list[str]
 
     # ground truth: the judge, the oracle and the tick log
-    f_sensor: np.ndarray           # (n_tips, 3) true force on each skin (N, sensor frame)
-    normal_n: np.ndarray           # (n_tips,) true normal force (N)
-    obj_z: float                   # object height (m)
-    max_obj_z: float               # highest object height so far (m)
-    table_n: float                 # the table's force on the object (N)
+    f_sensor: np.ndarray  # (n_tips, 3) true force on each skin (N, sensor frame)
+    normal_n: np.ndarray  # (n_tips,) true normal force (N)
+    obj_z: float  # object height (m)
+    max_obj_z: float  # highest object height so far (m)
+    table_n: float  # the table's force on the object (N)
     crushed: bool
     knocked_over: bool
-    events: list[Any]              # world events of the trial (contacts, crushing, falls)
+    events: list[Any]  # world events of the trial (contacts, crushing, falls)
 
     def reach_pose_world(self) -> np.ndarray:
         """The palm's pre-grasp position (m, world frame)."""

@@ -70,15 +70,42 @@ def _move_servos(q_goal: np.ndarray, q_servo: np.ndarray, q: np.ndarray, reach: 
 
 @njit
 def world_step(
-    q_goal: np.ndarray, palm_target: np.ndarray, frame_base: np.ndarray, sensor_t: float, frame_out: np.ndarray,
-    q_servo: np.ndarray, q: np.ndarray, lower: np.ndarray, upper: np.ndarray,
-    reach: np.ndarray, tau_max: np.ndarray, starts: np.ndarray, counts: np.ndarray,
-    palm: np.ndarray, take: np.ndarray, W: np.ndarray, pad_local: np.ndarray,
-    contact_local: np.ndarray, skin_normal: np.ndarray, shape: np.ndarray, obj: np.ndarray,
-    normal: np.ndarray, touch: np.ndarray, stick: np.ndarray, slip: np.ndarray, n_out: np.ndarray,
-    contact_z: np.ndarray, omega: np.ndarray, t_up: np.ndarray, f_world: np.ndarray, f_sensor: np.ndarray,
-    rows: np.ndarray, c: np.ndarray,
-    sensor_state: np.ndarray, gain: np.ndarray, sensor_consts: np.ndarray,
+    q_goal: np.ndarray,
+    palm_target: np.ndarray,
+    frame_base: np.ndarray,
+    sensor_t: float,
+    frame_out: np.ndarray,
+    q_servo: np.ndarray,
+    q: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    reach: np.ndarray,
+    tau_max: np.ndarray,
+    starts: np.ndarray,
+    counts: np.ndarray,
+    palm: np.ndarray,
+    take: np.ndarray,
+    W: np.ndarray,
+    pad_local: np.ndarray,
+    contact_local: np.ndarray,
+    skin_normal: np.ndarray,
+    shape: np.ndarray,
+    obj: np.ndarray,
+    normal: np.ndarray,
+    touch: np.ndarray,
+    stick: np.ndarray,
+    slip: np.ndarray,
+    n_out: np.ndarray,
+    contact_z: np.ndarray,
+    omega: np.ndarray,
+    t_up: np.ndarray,
+    f_world: np.ndarray,
+    f_sensor: np.ndarray,
+    rows: np.ndarray,
+    c: np.ndarray,
+    sensor_state: np.ndarray,
+    gain: np.ndarray,
+    sensor_consts: np.ndarray,
 ) -> None:
     """Advance the world by one control period; the fingertips' raw frames
     (sim/biotac_model.py, built on ``frame_base``) into ``frame_out`` (a new array
@@ -89,12 +116,44 @@ def world_step(
     _move_arm(palm, palm_target, c[ARM_SPEED] * c[DT])
     _move_servos(q_goal, q_servo, q, reach, c)
     contract(q_servo, take, W, rows)
-    _contacts(q_servo, q, lower, upper, tau_max, starts, counts, palm, pad_local, contact_local, skin_normal,
-              shape, obj, normal, touch, stick, n_out, contact_z, omega, rows, c)
+    _contacts(
+        q_servo,
+        q,
+        lower,
+        upper,
+        tau_max,
+        starts,
+        counts,
+        palm,
+        pad_local,
+        contact_local,
+        skin_normal,
+        shape,
+        obj,
+        normal,
+        touch,
+        stick,
+        n_out,
+        contact_z,
+        omega,
+        rows,
+        c,
+    )
     _object(obj, normal, touch, stick, slip, n_out, contact_z, t_up, c)
     _forces(normal, touch, n_out, t_up, omega, rows, f_world, f_sensor)
-    frame = frames_kernel(frame_base, contact_local, f_sensor, skin_normal, touch, slip,
-                          sensor_state, gain, sensor_consts, sensor_t, c[DT])
+    frame = frames_kernel(
+        frame_base,
+        contact_local,
+        f_sensor,
+        skin_normal,
+        touch,
+        slip,
+        sensor_state,
+        gain,
+        sensor_consts,
+        sensor_t,
+        c[DT],
+    )
     for i in range(frame.shape[0]):
         for k in range(frame.shape[1]):
             frame_out[i, k] = frame[i, k]
@@ -113,18 +172,34 @@ def _skin_facing(row: np.ndarray, nx: float, ny: float, nz: float) -> tuple[floa
 
 @njit
 def _contacts(
-    q_servo: np.ndarray, q: np.ndarray, lower: np.ndarray, upper: np.ndarray, tau_max: np.ndarray,
-    starts: np.ndarray, counts: np.ndarray, palm: np.ndarray, pad_local: np.ndarray,
-    contact_local: np.ndarray, skin_normal: np.ndarray, shape: np.ndarray, obj: np.ndarray,
-    normal: np.ndarray, touch: np.ndarray, stick: np.ndarray, n_out: np.ndarray, contact_z: np.ndarray,
-    omega: np.ndarray, rows: np.ndarray, c: np.ndarray,
+    q_servo: np.ndarray,
+    q: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    tau_max: np.ndarray,
+    starts: np.ndarray,
+    counts: np.ndarray,
+    palm: np.ndarray,
+    pad_local: np.ndarray,
+    contact_local: np.ndarray,
+    skin_normal: np.ndarray,
+    shape: np.ndarray,
+    obj: np.ndarray,
+    normal: np.ndarray,
+    touch: np.ndarray,
+    stick: np.ndarray,
+    n_out: np.ndarray,
+    contact_z: np.ndarray,
+    omega: np.ndarray,
+    rows: np.ndarray,
+    c: np.ndarray,
 ) -> None:
     """Normal force per fingertip: the servo spring in series with the contact
     springs, solved in closed form; the deflected joint angles go to ``q``."""
     kp, kt, k = c[KP], c[KT], c[K_CONTACT]
     obj[NEW_CONTACTS] = 0.0
-    a = np.empty(8)      # d(penetration)/dq per joint of one finger
-    b = np.empty(8)      # d(contact height)/dq
+    a = np.empty(8)  # d(penetration)/dq per joint of one finger
+    b = np.empty(8)  # d(contact height)/dq
     dq = np.empty(8)
     for j in range(q.shape[0]):
         q[j] = q_servo[j]
@@ -221,7 +296,7 @@ def _contacts(
             over = 0.0
             for j in range(n):
                 over = max(over, f_n * abs(a[j]) / max(tau_max[start + j], 1e-9))
-            if over > 1.0:           # current limit: the servo yields
+            if over > 1.0:  # current limit: the servo yields
                 f_n /= over
                 _retract(a, n, g11, d0 - f_n / k, dq)
         # The deflection moves the contact and turns the sensor frame, to first order.
@@ -251,8 +326,15 @@ def _retract(a: np.ndarray, n: int, a2: float, depth: float, dq: np.ndarray) -> 
 
 @njit
 def _object(
-    obj: np.ndarray, normal: np.ndarray, touch: np.ndarray, stick: np.ndarray, slip: np.ndarray,
-    n_out: np.ndarray, contact_z: np.ndarray, t_up: np.ndarray, c: np.ndarray,
+    obj: np.ndarray,
+    normal: np.ndarray,
+    touch: np.ndarray,
+    stick: np.ndarray,
+    slip: np.ndarray,
+    n_out: np.ndarray,
+    contact_z: np.ndarray,
+    t_up: np.ndarray,
+    c: np.ndarray,
 ) -> None:
     """The object's height: friction of the contacts against its weight and the table."""
     F = normal.shape[0]
@@ -288,8 +370,14 @@ def _object(
 
 @njit
 def _forces(
-    normal: np.ndarray, touch: np.ndarray, n_out: np.ndarray, t_up: np.ndarray, omega: np.ndarray,
-    rows: np.ndarray, f_world: np.ndarray, f_sensor: np.ndarray,
+    normal: np.ndarray,
+    touch: np.ndarray,
+    n_out: np.ndarray,
+    t_up: np.ndarray,
+    omega: np.ndarray,
+    rows: np.ndarray,
+    f_world: np.ndarray,
+    f_sensor: np.ndarray,
 ) -> None:
     """Force ON each fingertip skin: the object pushes the pad outward and drags it
     opposite to the finger's upward force on the object; world and sensor frames."""

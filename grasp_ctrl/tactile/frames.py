@@ -8,7 +8,7 @@ the estimators as a plausible-looking force.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 

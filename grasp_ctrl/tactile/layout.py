@@ -21,11 +21,11 @@ class SensorLayout:
 
     name: str
     channel_names: tuple[str, ...]
-    electrodes: slice          # the impedance electrodes
-    pdc: int                   # static pressure
-    pac: slice                 # dynamic pressure samples
-    tdc: int                   # static temperature
-    tac: int                   # dynamic temperature
+    electrodes: slice  # the impedance electrodes
+    pdc: int  # static pressure
+    pac: slice  # dynamic pressure samples
+    tdc: int  # static temperature
+    tac: int  # dynamic temperature
     count_min: int
     count_max: int
 
@@ -40,7 +40,9 @@ class SensorLayout:
 
 BIOTAC = SensorLayout(
     name="biotac",
-    channel_names=tuple(f"e{i}" for i in range(1, 20)) + ("pdc",) + tuple(f"pac{i}" for i in range(1, 23))
+    channel_names=tuple(f"e{i}" for i in range(1, 20))
+    + ("pdc",)
+    + tuple(f"pac{i}" for i in range(1, 23))
     + ("tdc", "tac"),
     electrodes=slice(0, 19),
     pdc=19,
@@ -48,7 +50,7 @@ BIOTAC = SensorLayout(
     tdc=42,
     tac=43,
     count_min=0,
-    count_max=4095,   # 12-bit ADC counts on the real sensor
+    count_max=4095,  # 12-bit ADC counts on the real sensor
 )
 
 #: Every known sensor type, by the name the hand file and policy metadata use.

@@ -50,13 +50,20 @@ class ContactGate:
     def update(self, tared: np.ndarray) -> np.ndarray:
         """Feed one tared frame per fingertip; returns the (n_tips,) contact flags."""
         above = np.asarray(tared)[:, PDC] > self.threshold
-        self.count = (self.count + 1) * above   # = np.where(above, count + 1, 0), in two cheap calls
+        self.count = (self.count + 1) * above  # = np.where(above, count + 1, 0), in two cheap calls
         return self.count >= self.frames
 
 
 @njit
-def tare_and_gate(raw: np.ndarray, baseline: np.ndarray, count: np.ndarray, threshold: float, frames: int,
-                  tared: np.ndarray, contact: np.ndarray) -> int:
+def tare_and_gate(
+    raw: np.ndarray,
+    baseline: np.ndarray,
+    count: np.ndarray,
+    threshold: float,
+    frames: int,
+    tared: np.ndarray,
+    contact: np.ndarray,
+) -> int:
     """One tick of validation, ``Tare.apply`` and ``ContactGate.update`` over (n, 44)
     float frames in one compiled pass: ``tared`` = raw - baseline, ``count`` and
     ``contact`` updated in place; returns how many fingertips are in contact. -1,
@@ -66,7 +73,7 @@ def tare_and_gate(raw: np.ndarray, baseline: np.ndarray, count: np.ndarray, thre
     for i in range(n):
         for k in range(m):
             v = raw[i, k]
-            if not (v >= COUNT_MIN and v <= COUNT_MAX):   # NaN fails both
+            if not (v >= COUNT_MIN and v <= COUNT_MAX):  # NaN fails both
                 return -1
     touching = 0
     for i in range(n):
@@ -79,8 +86,15 @@ def tare_and_gate(raw: np.ndarray, baseline: np.ndarray, count: np.ndarray, thre
 
 
 @njit
-def tare_and_gate_bits(raw: np.ndarray, baseline: np.ndarray, count: np.ndarray, threshold: float, frames: int,
-                       tared: np.ndarray, contact: np.ndarray) -> int:
+def tare_and_gate_bits(
+    raw: np.ndarray,
+    baseline: np.ndarray,
+    count: np.ndarray,
+    threshold: float,
+    frames: int,
+    tared: np.ndarray,
+    contact: np.ndarray,
+) -> int:
     """``tare_and_gate``, returning which fingertips are in contact as bits (bit i:
     fingertip i; at most 62 fingertips) instead of how many; -1 likewise."""
     if tare_and_gate(raw, baseline, count, threshold, frames, tared, contact) < 0:

@@ -19,8 +19,8 @@ import numpy as np
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import HardwareError, SensorStaleError
 from grasp_ctrl.estimators.base import Estimate, ForceEstimator
-from grasp_ctrl.tactile.layout import PDC
 from grasp_ctrl.estimators.pipeline import TactilePipeline
+from grasp_ctrl.tactile.layout import PDC
 from grasp_ctrl.tactile_link.recorder import FrameRecorder
 from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 
@@ -52,10 +52,10 @@ class Monitor:
     sensors: SerialSensors
     estimator: ForceEstimator | None = None
     recorder: FrameRecorder | None = None
-    out: TextIO | None = None                # default: sys.stdout at the time of printing
+    out: TextIO | None = None  # default: sys.stdout at the time of printing
     refresh_s: float = 0.5
-    redraw: bool = False                     # clear the terminal between tables (interactive use)
-    fault: str = ""                          # the current stale/disconnect message, if any
+    redraw: bool = False  # clear the terminal between tables (interactive use)
+    fault: str = ""  # the current stale/disconnect message, if any
     faults_seen: int = 0
     tips: list[TipView] = field(default_factory=list)
     stop: threading.Event = field(default_factory=threading.Event)  # set by Ctrl-C: finish cleanly
@@ -78,11 +78,15 @@ class Monitor:
             for f in self._drain():
                 per_tip[f.sensor_id].append(np.asarray(f.values, dtype=float))
             if time.monotonic() > deadline:
-                short = ", ".join(f"{t.name} ({len(per_tip[t.sensor_id])}/{need})" for t in self.tips
-                                  if len(per_tip[t.sensor_id]) < need)
+                short = ", ".join(
+                    f"{t.name} ({len(per_tip[t.sensor_id])}/{need})"
+                    for t in self.tips
+                    if len(per_tip[t.sensor_id]) < need
+                )
                 down = self.sensors.disconnect_message()
-                raise SensorStaleError(f"taring: too few tactile frames within {timeout_s:g} s: {short}"
-                                       + (f"; {down}" if down else ""))
+                raise SensorStaleError(
+                    f"taring: too few tactile frames within {timeout_s:g} s: {short}" + (f"; {down}" if down else "")
+                )
             self.stop.wait(0.005)
         window = np.stack([np.stack(per_tip[t.sensor_id][-need:]) for t in self.tips], axis=1)
         self.pipeline.set_baseline(window)
@@ -162,8 +166,10 @@ class Monitor:
             head += f"  {'fx N':>7s} {'fy N':>7s} {'fz N':>7s} {'|f| N':>7s}"
         lines.append(head)
         for tip in self.tips:
-            row = (f"  {tip.name:8s} {tip.sensor_id:3d} {'yes' if tip.contact else 'no':>7s} "
-                   f"{tip.pdc_tared:8.1f} {tip.age_s * 1e3:7.1f} {tip.rate_hz:6.1f}")
+            row = (
+                f"  {tip.name:8s} {tip.sensor_id:3d} {'yes' if tip.contact else 'no':>7s} "
+                f"{tip.pdc_tared:8.1f} {tip.age_s * 1e3:7.1f} {tip.rate_hz:6.1f}"
+            )
             if self.estimator is not None:
                 if tip.f_sensor is not None:
                     f = tip.f_sensor
@@ -179,7 +185,9 @@ class Monitor:
 
     def stats_line(self) -> str:
         s = self.sensors.stats()
-        return (f"frames {s['frames']}  crc_err {s['crc_errors']}  len_err {s['length_errors']}  "
-                f"range_err {s['range_errors']}  fmt_err {s['format_errors']}  resyncs {s['resyncs']}  "
-                f"seq_gaps {s['seq_gaps']} (lost {s['seq_lost']})  disconnects {s['disconnects']}  "
-                f"reconnects {s['reconnects']}")
+        return (
+            f"frames {s['frames']}  crc_err {s['crc_errors']}  len_err {s['length_errors']}  "
+            f"range_err {s['range_errors']}  fmt_err {s['format_errors']}  resyncs {s['resyncs']}  "
+            f"seq_gaps {s['seq_gaps']} (lost {s['seq_lost']})  disconnects {s['disconnects']}  "
+            f"reconnects {s['reconnects']}"
+        )

@@ -13,22 +13,22 @@ from __future__ import annotations
 
 import binascii
 import struct
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from grasp_ctrl.tactile.layout import COUNT_MAX, COUNT_MIN, FRAME_LEN
 
-SYNC = b"\xAA\x55"
-N_VALUES = FRAME_LEN                       # 44, the only length protocol v1 accepts
-HEADER_LEN = len(SYNC) + 1 + 2 + 1         # sync, finger, seq, n
+SYNC = b"\xaa\x55"
+N_VALUES = FRAME_LEN  # 44, the only length protocol v1 accepts
+HEADER_LEN = len(SYNC) + 1 + 2 + 1  # sync, finger, seq, n
 FRAME_BYTES = HEADER_LEN + 2 * N_VALUES + 2  # 96
 SEQ_MODULO = 1 << 16
 MAX_FINGER = 255
 VALUE_MIN = COUNT_MIN
-VALUE_MAX = COUNT_MAX                      # 12-bit ADC counts
-CRC_CHECK_VALUE = 0x29B1                   # CRC-16/CCITT-FALSE of b"123456789"
-MAX_TEXT_LINE = 512                        # longer "lines" are garbage (a valid one is < 256 bytes)
+VALUE_MAX = COUNT_MAX  # 12-bit ADC counts
+CRC_CHECK_VALUE = 0x29B1  # CRC-16/CCITT-FALSE of b"123456789"
+MAX_TEXT_LINE = 512  # longer "lines" are garbage (a valid one is < 256 bytes)
 
 _HEADER = struct.Struct("<2sBHB")
 _CRC = struct.Struct("<H")
@@ -74,7 +74,7 @@ def encode_binary(finger: int, seq: int, values: Sequence[int] | np.ndarray, *, 
     the decoder must reject for their range.
     """
     v = _check_fields(finger, seq, values, check_range)
-    body = _HEADER.pack(SYNC, finger, seq, N_VALUES)[len(SYNC):] + v.astype("<u2").tobytes()
+    body = _HEADER.pack(SYNC, finger, seq, N_VALUES)[len(SYNC) :] + v.astype("<u2").tobytes()
     return SYNC + body + _CRC.pack(crc16_ccitt_false(body))
 
 

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import csv
 import os
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Iterable
 
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.hardware.base import TactileFrame
@@ -23,7 +23,7 @@ class FrameRecorder:
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
         try:
-            if self.path.is_symlink():   # a new file replaces the link; its target is never written
+            if self.path.is_symlink():  # a new file replaces the link; its target is never written
                 self.path.unlink()
             fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | getattr(os, "O_NOFOLLOW", 0), 0o666)
             self._fh = os.fdopen(fd, "w", newline="", encoding="utf-8")
@@ -49,7 +49,7 @@ class FrameRecorder:
             self._fh.flush()
             self._fh.close()
 
-    def __enter__(self) -> "FrameRecorder":
+    def __enter__(self) -> FrameRecorder:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -18,8 +18,9 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import serial
@@ -49,7 +50,7 @@ class _PortState:
     decoder: Any
     ser: Any = None
     connected: bool = False
-    error: str | None = None        # why the port is down, while it is
+    error: str | None = None  # why the port is down, while it is
     reopen_error: str | None = None  # why the last reconnect attempt failed
     disconnects: int = 0
     reconnects: int = 0
@@ -111,7 +112,7 @@ class SerialSensors:
     # ------------------------------------------------------------------ construction
 
     @classmethod
-    def from_hand(cls, hand: HandConfig, port: str | None = None, **kwargs: Any) -> "SerialSensors":
+    def from_hand(cls, hand: HandConfig, port: str | None = None, **kwargs: Any) -> SerialSensors:
         """Ports, mode, baud and stale limit from the hand file's ``[tactile]`` table.
 
         ``port`` (e.g. ``--port``) puts every fingertip on that one port.
@@ -181,7 +182,7 @@ class SerialSensors:
             self._close_port(ps)
             ps.connected = False
 
-    def __enter__(self) -> "SerialSensors":
+    def __enter__(self) -> SerialSensors:
         self.start()
         return self
 
@@ -207,7 +208,11 @@ class SerialSensors:
                 frame = self._latest.get(sid)
                 age = now - (frame.t_recv if frame is not None else self._t_start)
                 if age > self.stale_after_s:
-                    what = f"no valid frame for {age * 1e3:.0f} ms" if frame else f"no valid frame since start ({age * 1e3:.0f} ms)"
+                    what = (
+                        f"no valid frame for {age * 1e3:.0f} ms"
+                        if frame
+                        else f"no valid frame since start ({age * 1e3:.0f} ms)"
+                    )
                     stale.append(f"{self.names[sid]} (sensor {sid} on {self._port_of(sid)}): {what}")
         if stale:
             raise SensorStaleError(
@@ -262,9 +267,13 @@ class SerialSensors:
                 return
             if time.monotonic() >= deadline:
                 down = self.disconnect_message()
-                names = ", ".join(f"{self.names[s]} (sensor {s} on {self._port_of(s)}, {counts[s]} frames)" for s in missing)
-                raise SensorStaleError(f"tactile fingertips sent too few valid frames within {timeout_s:g} s: {names}"
-                                       + (f"; {down}" if down else ""))
+                names = ", ".join(
+                    f"{self.names[s]} (sensor {s} on {self._port_of(s)}, {counts[s]} frames)" for s in missing
+                )
+                raise SensorStaleError(
+                    f"tactile fingertips sent too few valid frames within {timeout_s:g} s: {names}"
+                    + (f"; {down}" if down else "")
+                )
             time.sleep(0.005)
 
     # ------------------------------------------------------------------ reader thread

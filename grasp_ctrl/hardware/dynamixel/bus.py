@@ -99,10 +99,13 @@ class DynamixelBus:
         try:
             ok = self.port.openPort() and self.port.setBaudRate(self.baud)
         except Exception as exc:  # pyserial raises SerialException / OSError
-            raise HardwareError(f"cannot open Dynamixel port {self.port_name}: {_open_failure(exc)}; "
-                                f"{serial_ports_found()}") from None
+            raise HardwareError(
+                f"cannot open Dynamixel port {self.port_name}: {_open_failure(exc)}; {serial_ports_found()}"
+            ) from None
         if not ok:
-            raise HardwareError(f"cannot open Dynamixel port {self.port_name} at {self.baud} baud; {serial_ports_found()}")
+            raise HardwareError(
+                f"cannot open Dynamixel port {self.port_name} at {self.baud} baud; {serial_ports_found()}"
+            )
 
     def close(self) -> None:
         if self.port.is_open:
@@ -148,7 +151,9 @@ class DynamixelBus:
             if result == COMM_SUCCESS and len(data) == size:
                 self._note_alert(dxl_id, error)
                 if error & 0x7F:
-                    raise HardwareError(f"reading address {address} of {self.label(dxl_id)}: {status_error_name(error)}")
+                    raise HardwareError(
+                        f"reading address {address} of {self.label(dxl_id)}: {status_error_name(error)}"
+                    )
                 return int.from_bytes(bytes(data), "little", signed=signed)
             self._comm_failed(result)
             if attempt < self.retries:
@@ -175,7 +180,7 @@ class DynamixelBus:
 
     def reboot(self, dxl_id: int) -> None:
         result = -1
-        for attempt in range(self.retries + 1):
+        for _attempt in range(self.retries + 1):
             self.stats.transactions += 1
             result, error = self.ph.reboot(self.port, dxl_id)
             if result == COMM_SUCCESS:
@@ -190,7 +195,7 @@ class DynamixelBus:
         for dxl_id, v in values.items():
             group.addParam(dxl_id, list(int(v).to_bytes(size, "little", signed=v < 0)))
         result = -1
-        for attempt in range(self.retries + 1):
+        for _attempt in range(self.retries + 1):
             self.stats.transactions += 1
             result = group.txPacket()
             if result == COMM_SUCCESS:

@@ -24,7 +24,7 @@ class Calibration:
     upper_rad: np.ndarray
 
     @classmethod
-    def from_joints(cls, joints: tuple[JointConfig, ...] | list[JointConfig]) -> "Calibration":
+    def from_joints(cls, joints: tuple[JointConfig, ...] | list[JointConfig]) -> Calibration:
         return cls(
             offset_rad=np.array([j.offset_rad for j in joints], dtype=float),
             sign=np.array([j.sign for j in joints], dtype=float),
@@ -55,4 +55,3 @@ class Calibration:
         lo, hi = self.limit_counts()
         c = np.rint(self.to_counts_float(q_rad)).astype(np.int64)
         return np.clip(c, lo, hi)
-

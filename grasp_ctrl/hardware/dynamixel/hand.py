@@ -301,7 +301,7 @@ class DynamixelHand:
             self.bus.close()
         self.connected = False
 
-    def __enter__(self) -> "DynamixelHand":
+    def __enter__(self) -> DynamixelHand:
         self.connect()
         return self
 

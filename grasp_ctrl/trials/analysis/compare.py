@@ -7,12 +7,14 @@ succeeded where the other failed.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any, Iterable, Mapping
+from typing import Any
 
 
-def ordered_names(summary: Mapping[str, Any], policies: list[str] | None = None,
-                  objects: list[str] | None = None) -> tuple[list[str], list[str]]:
+def ordered_names(
+    summary: Mapping[str, Any], policies: list[str] | None = None, objects: list[str] | None = None
+) -> tuple[list[str], list[str]]:
     pols = [p for p in (policies or []) if p in summary["policies"]]
     pols += [p for p in summary["policies"] if p not in pols]
     objs = [o for o in (objects or [])]
@@ -37,8 +39,7 @@ def success_matrix(summary: Mapping[str, Any], pols: list[str], objs: list[str])
     return rows
 
 
-def fig6_table(summary: Mapping[str, Any], policies: list[str] | None = None,
-               objects: list[str] | None = None) -> str:
+def fig6_table(summary: Mapping[str, Any], policies: list[str] | None = None, objects: list[str] | None = None) -> str:
     """Success rate per object per policy, plus ``all`` (the paper's Fig. 6 as text)."""
     pols, objs = ordered_names(summary, policies, objects)
     width = max([len(o) for o in objs] + [len("success rate")])
@@ -82,5 +83,7 @@ def paired_counts(records: Iterable[Mapping[str, Any]], a: str, b: str) -> Paire
 
 
 def format_paired(p: Paired) -> str:
-    return (f"{p.a} vs {p.b} over {p.pairs} paired trials: both succeeded {p.both_ok}, "
-            f"only {p.a} {p.only_a}, only {p.b} {p.only_b}, both failed {p.both_failed}")
+    return (
+        f"{p.a} vs {p.b} over {p.pairs} paired trials: both succeeded {p.both_ok}, "
+        f"only {p.a} {p.only_a}, only {p.b} {p.only_b}, both failed {p.both_failed}"
+    )

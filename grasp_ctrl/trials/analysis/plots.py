@@ -6,25 +6,39 @@ non-interactive Agg backend, so the rest of the program runs without it.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.loop.ticklog import read_tick_log
 from grasp_ctrl.plotting import pyplot
 from grasp_ctrl.safe_write import save_figure
 from grasp_ctrl.trials.analysis.compare import ordered_names, success_matrix
-from grasp_ctrl.loop.ticklog import read_tick_log
 
 # One colour per controller state, for the shaded bands behind force traces.
 STATE_COLOURS = {
-    "tare": "#eeeeee", "reach": "#dde8f5", "close": "#fdebd0", "ramp": "#fad7a0", "lift": "#d5f5e3",
-    "hold": "#abebc6", "lower": "#d6eaf8", "release": "#e8daef", "retreat": "#f2f3f4", "done": "#ffffff",
+    "tare": "#eeeeee",
+    "reach": "#dde8f5",
+    "close": "#fdebd0",
+    "ramp": "#fad7a0",
+    "lift": "#d5f5e3",
+    "hold": "#abebc6",
+    "lower": "#d6eaf8",
+    "release": "#e8daef",
+    "retreat": "#f2f3f4",
+    "done": "#ffffff",
     "fault": "#f5b7b1",
 }
 
 
-def comparison_chart(summary: Mapping[str, Any], path: Path, policies: list[str] | None = None,
-                     objects: list[str] | None = None, title: str | None = None) -> Path:
+def comparison_chart(
+    summary: Mapping[str, Any],
+    path: Path,
+    policies: list[str] | None = None,
+    objects: list[str] | None = None,
+    title: str | None = None,
+) -> Path:
     """Grouped bars: success rate per object (and ``all``), one bar per policy."""
     plt = pyplot()
     pols, objs = ordered_names(summary, policies, objects)
@@ -47,7 +61,7 @@ def comparison_chart(summary: Mapping[str, Any], path: Path, policies: list[str]
     ax.set_title(title or f"lift-and-place success ({summary.get('backend', '')}, seed {summary.get('seed', '')})")
     fig.tight_layout()
     try:
-        save_figure(fig, path)   # format from the extension; a symlink there is replaced, not followed
+        save_figure(fig, path)  # format from the extension; a symlink there is replaced, not followed
     finally:
         plt.close(fig)
     return path
@@ -93,7 +107,9 @@ def force_traces(ticks_file: Path, path: Path, frame: str = "sensor", title: str
     top = axes[0, 0]
     for a, b, s in spans:
         if b - a > 0.04 * (t[-1] - t[0] or 1.0):
-            top.annotate(s, ((a + b) / 2, 1.0), xycoords=("data", "axes fraction"), ha="center", va="bottom", fontsize=7)
+            top.annotate(
+                s, ((a + b) / 2, 1.0), xycoords=("data", "axes fraction"), ha="center", va="bottom", fontsize=7
+            )
     handles, labels = top.get_legend_handles_labels()
     if any(f"_true_fx_{frame}" in c for c in header):
         from matplotlib.lines import Line2D
@@ -105,7 +121,7 @@ def force_traces(ticks_file: Path, path: Path, frame: str = "sensor", title: str
     fig.suptitle(title or ticks_file.name, y=0.995, fontsize=10)
     fig.tight_layout(rect=(0, 0.05, 1, 0.97))
     try:
-        save_figure(fig, path)   # format from the extension; a symlink there is replaced, not followed
+        save_figure(fig, path)  # format from the extension; a symlink there is replaced, not followed
     finally:
         plt.close(fig)
     return path

@@ -19,14 +19,14 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.safe_write import output_file
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.plotting import pyplot
+from grasp_ctrl.safe_write import output_file
 from grasp_ctrl.trials.analysis.trial_view import TrialView
 
 ARROW_MM_PER_N = 15.0
 MAX_FRAMES = 100
-VIEWS = (("side (x-z)", 0), ("front (y-z)", 1))   # title, horizontal world axis
+VIEWS = (("side (x-z)", 0), ("front (y-z)", 1))  # title, horizontal world axis
 
 
 def _frames(view: TrialView, hand: HandConfig, stride: int) -> dict[str, np.ndarray]:
@@ -48,7 +48,7 @@ def _frames(view: TrialView, hand: HandConfig, stride: int) -> dict[str, np.ndar
             pts = np.vstack([chain._p_base, ps, p_s]) + palm[k]
             chains[k, f, : len(pts)] = pts
             # Chains shorter than the longest repeat their tip, so every polyline has one length.
-            chains[k, f, len(pts):] = pts[-1]
+            chains[k, f, len(pts) :] = pts[-1]
             tips[k, f] = p_s + palm[k]
             rots[k, f] = R_s
     return {"idx": idx, "chains": 1000 * chains, "tips": 1000 * tips, "rots": rots, "palm": 1000 * palm}
@@ -101,22 +101,45 @@ def animate(view: TrialView, hand: HandConfig, path: Path, fps: float = 12.0, ma
         ax.set_aspect("equal")
         ax.set_xlabel(f"{'xy'[h]} (mm)")
         ax.set_ylabel("z (mm)")
-        ax.axhline(0.0, color="#8d6e63", lw=2.0)          # the table
+        ax.axhline(0.0, color="#8d6e63", lw=2.0)  # the table
         body = Rectangle((-size_mm[h] / 2, obj_z[0]), size_mm[h], height_mm, fc="#d7ccc8", ec="#6d4c41", lw=1.0)
         ax.add_patch(body)
-        fingers = [ax.plot([], [], "-o", color=c, lw=2.0, ms=3, label=name)[0]
-                   for c, name in zip(colours, view.fingers)]
+        fingers = [
+            ax.plot([], [], "-o", color=c, lw=2.0, ms=3, label=name)[0] for c, name in zip(colours, view.fingers)
+        ]
         palm_dot = ax.plot([], [], "s", color="black", ms=6)[0]
-        q_est = ax.quiver(fr["tips"][0, :, h], fr["tips"][0, :, 2], est[0, :, h], est[0, :, 2], color=colours,
-                          angles="xy", scale_units="xy", scale=1.0 / ARROW_MM_PER_N, width=0.006)
+        q_est = ax.quiver(
+            fr["tips"][0, :, h],
+            fr["tips"][0, :, 2],
+            est[0, :, h],
+            est[0, :, 2],
+            color=colours,
+            angles="xy",
+            scale_units="xy",
+            scale=1.0 / ARROW_MM_PER_N,
+            width=0.006,
+        )
         q_true = None
         if true is not None:
-            q_true = ax.quiver(fr["tips"][0, :, h], fr["tips"][0, :, 2], true[0, :, h], true[0, :, 2],
-                               angles="xy", scale_units="xy", scale=1.0 / ARROW_MM_PER_N, width=0.003,
-                               facecolor="none", edgecolor="black", linewidth=0.8, linestyle="--")
+            q_true = ax.quiver(
+                fr["tips"][0, :, h],
+                fr["tips"][0, :, 2],
+                true[0, :, h],
+                true[0, :, 2],
+                angles="xy",
+                scale_units="xy",
+                scale=1.0 / ARROW_MM_PER_N,
+                width=0.003,
+                facecolor="none",
+                edgecolor="black",
+                linewidth=0.8,
+                linestyle="--",
+            )
         artists.append((h, body, fingers, palm_dot, q_est, q_true))
     axes[0].legend(loc="upper left", fontsize=7, frameon=False)
-    note = f"arrows: force on each fingertip, {ARROW_MM_PER_N:g} mm/N" + (" (outline: true)" if true is not None else "")
+    note = f"arrows: force on each fingertip, {ARROW_MM_PER_N:g} mm/N" + (
+        " (outline: true)" if true is not None else ""
+    )
     fig.text(0.5, 0.02, note, ha="center", fontsize=8)
     heading = fig.suptitle("", fontsize=10)
 
@@ -141,7 +164,7 @@ def animate(view: TrialView, hand: HandConfig, path: Path, fps: float = 12.0, ma
 
     anim = FuncAnimation(fig, draw, frames=len(fr["idx"]), blit=False)
     try:
-        with output_file(path) as tmp:   # a symlink at ``path`` is replaced, not followed
+        with output_file(path) as tmp:  # a symlink at ``path`` is replaced, not followed
             anim.save(str(tmp), writer=PillowWriter(fps=fps))
     finally:
         plt.close(fig)

@@ -94,30 +94,50 @@ def write_recording(view: TrialView, hand: HandConfig, path: Path, *, follow: bo
     frames = _hand_frames(view, hand)
 
     rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-    rec.log("world/table", rr.Boxes3D(centers=[[0.0, 0.0, -TABLE_HALF_M[2]]], half_sizes=[TABLE_HALF_M],
-                                      colors=[(141, 110, 99)], fill_mode="solid"), static=True)
+    rec.log(
+        "world/table",
+        rr.Boxes3D(
+            centers=[[0.0, 0.0, -TABLE_HALF_M[2]]],
+            half_sizes=[TABLE_HALF_M],
+            colors=[(141, 110, 99)],
+            fill_mode="solid",
+        ),
+        static=True,
+    )
     _log_object(rr, rec, view, times)
-    rec.send_columns("world/hand/palm", indexes=times,
-                     columns=rr.Points3D.columns(positions=frames["palm"], radii=np.full(len(t), 0.006)))
+    rec.send_columns(
+        "world/hand/palm",
+        indexes=times,
+        columns=rr.Points3D.columns(positions=frames["palm"], radii=np.full(len(t), 0.006)),
+    )
     for f, name in enumerate(view.fingers):
         colour = COLOURS[f % len(COLOURS)]
         rec.log(f"world/hand/{name}", rr.LineStrips3D.from_fields(colors=[colour], radii=[0.003]), static=True)
-        rec.send_columns(f"world/hand/{name}", indexes=times,
-                         columns=rr.LineStrips3D.columns(strips=list(frames[f"{name}/lines"])))
+        rec.send_columns(
+            f"world/hand/{name}", indexes=times, columns=rr.LineStrips3D.columns(strips=list(frames[f"{name}/lines"]))
+        )
         tips = frames[f"{name}/tip"]
         est = _vec(view, name, "")
         if est is not None:
-            rec.log(f"world/forces/{name}/estimated", rr.Arrows3D.from_fields(colors=[colour], radii=[0.0025]),
-                    static=True)
-            rec.send_columns(f"world/forces/{name}/estimated", indexes=times,
-                             columns=rr.Arrows3D.columns(vectors=ARROW_M_PER_N * est, origins=tips))
+            rec.log(
+                f"world/forces/{name}/estimated", rr.Arrows3D.from_fields(colors=[colour], radii=[0.0025]), static=True
+            )
+            rec.send_columns(
+                f"world/forces/{name}/estimated",
+                indexes=times,
+                columns=rr.Arrows3D.columns(vectors=ARROW_M_PER_N * est, origins=tips),
+            )
         true_sensor = _vec(view, name, "true_")
         if true_sensor is not None:
             true_world = np.einsum("kij,kj->ki", frames[f"{name}/rot"], true_sensor)
-            rec.log(f"world/forces/{name}/true", rr.Arrows3D.from_fields(colors=[(60, 60, 60)], radii=[0.0008]),
-                    static=True)
-            rec.send_columns(f"world/forces/{name}/true", indexes=times,
-                             columns=rr.Arrows3D.columns(vectors=ARROW_M_PER_N * true_world, origins=tips))
+            rec.log(
+                f"world/forces/{name}/true", rr.Arrows3D.from_fields(colors=[(60, 60, 60)], radii=[0.0008]), static=True
+            )
+            rec.send_columns(
+                f"world/forces/{name}/true",
+                indexes=times,
+                columns=rr.Arrows3D.columns(vectors=ARROW_M_PER_N * true_world, origins=tips),
+            )
     _log_signals(rr, rec, view, times)
     _log_states(rr, rec, view)
     rec.flush()
@@ -131,12 +151,16 @@ def _blueprint(view: TrialView, follow: bool = False) -> Any:
     import rerun.blueprint as rrb
 
     views = rrb.Horizontal(
-        rrb.Spatial3DView(origin="world", name="hand, object, forces",
-                          eye_controls=rrb.EyeControls3D(position=[0.36, -0.34, 0.32], look_target=[0.0, 0.0, 0.12])),
+        rrb.Spatial3DView(
+            origin="world",
+            name="hand, object, forces",
+            eye_controls=rrb.EyeControls3D(position=[0.36, -0.34, 0.32], look_target=[0.0, 0.0, 0.12]),
+        ),
         rrb.Vertical(
             rrb.TimeSeriesView(origin="signals", contents=["$origin/grip/**", "$origin/tau"], name="grip and tau (N)"),
-            rrb.TimeSeriesView(origin="signals", contents=["$origin/release", "$origin/release_threshold"],
-                               name="release signal (N)"),
+            rrb.TimeSeriesView(
+                origin="signals", contents=["$origin/release", "$origin/release_threshold"], name="release signal (N)"
+            ),
             rrb.TextLogView(origin="controller", name="controller"),
         ),
         column_shares=[3, 2],
@@ -150,8 +174,11 @@ def _blueprint(view: TrialView, follow: bool = False) -> Any:
 
         start = entered["lift"]
         end = entered.get("lower", start + 2.0)
-        panel.update(time_selection=rr.encodings.AbsoluteTimeRange(int(start * 1e9), int(end * 1e9)),
-                     loop_mode="selection", play_state="playing")
+        panel.update(
+            time_selection=rr.encodings.AbsoluteTimeRange(int(start * 1e9), int(end * 1e9)),
+            loop_mode="selection",
+            play_state="playing",
+        )
     return rrb.Blueprint(views, rrb.TimePanel(**panel), collapse_panels=True)
 
 
@@ -205,12 +232,16 @@ def _log_states(rr: Any, rec: Any, view: TrialView) -> None:
         rec.log("controller/state", rr.TextLog(text, level=level))
     for event in rec_meta.get("events", []):
         rec.set_time(TIMELINE, duration=float(event.get("t", 0.0)))
-        rec.log("controller/events", rr.TextLog(f"{event.get('kind')}: {event.get('detail', '')}",
-                                                level=rr.TextLogLevel.WARN))
+        rec.log(
+            "controller/events",
+            rr.TextLog(f"{event.get('kind')}: {event.get('detail', '')}", level=rr.TextLogLevel.WARN),
+        )
     if rec_meta:
         rec.set_time(TIMELINE, duration=float(t[-1]))
-        rec.log("controller/outcome", rr.TextLog(view.title(), level=rr.TextLogLevel.INFO if rec_meta.get("success")
-                                                 else rr.TextLogLevel.ERROR))
+        rec.log(
+            "controller/outcome",
+            rr.TextLog(view.title(), level=rr.TextLogLevel.INFO if rec_meta.get("success") else rr.TextLogLevel.ERROR),
+        )
 
 
 def record_run(run_dir: Path, out_dir: Path) -> list[Path]:

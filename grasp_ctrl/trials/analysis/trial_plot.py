@@ -66,8 +66,9 @@ def trial_figure(view: TrialView, path: Path) -> Path:
     rel_ax = axes[-2]
     rel = view.release_finger()
     if view.has(f"{rel}_fz_world"):
-        rel_ax.plot(t, -view.cols[f"{rel}_fz_world"], color="tab:purple", lw=1.1,
-                    label=f"{rel} force on object along +z")
+        rel_ax.plot(
+            t, -view.cols[f"{rel}_fz_world"], color="tab:purple", lw=1.1, label=f"{rel} force on object along +z"
+        )
     threshold = view.setting("release_threshold_n")
     if threshold is not None:
         rel_ax.axhline(-threshold, color="tab:red", lw=0.9, ls="--", label=f"-release threshold ({threshold:g} N)")
@@ -86,20 +87,36 @@ def trial_figure(view: TrialView, path: Path) -> Path:
     top = axes[0]
     for a, b, s in spans:
         if b - a > 0.035 * (t[-1] - t[0] or 1.0):
-            top.annotate(s, ((a + b) / 2, 1.0), xycoords=("data", "axes fraction"), ha="center", va="bottom",
-                         fontsize=7)
+            top.annotate(
+                s, ((a + b) / 2, 1.0), xycoords=("data", "axes fraction"), ha="center", va="bottom", fontsize=7
+            )
     end = view.end_event()
     if end is not None:
         colour = "tab:green" if end[1] == "done" else "tab:red"
         for ax in axes:
             ax.axvline(end[0], color=colour, lw=1.4)
-        h_ax.annotate(end[1], (end[0], 0.95), xycoords=("data", "axes fraction"), ha="right", va="top",
-                      fontsize=8, color=colour, fontweight="bold")
+        h_ax.annotate(
+            end[1],
+            (end[0], 0.95),
+            xycoords=("data", "axes fraction"),
+            ha="right",
+            va="top",
+            fontsize=8,
+            color=colour,
+            fontweight="bold",
+        )
     for ev in (view.record or {}).get("events", []):
         if ev.get("kind") in WORLD_EVENTS:
             h_ax.axvline(ev["t"], color="tab:red", lw=0.9, ls="-.")
-            h_ax.annotate(ev["kind"].replace("_", " "), (ev["t"], 0.05), xycoords=("data", "axes fraction"),
-                          ha="left", va="bottom", fontsize=7, color="tab:red")
+            h_ax.annotate(
+                ev["kind"].replace("_", " "),
+                (ev["t"], 0.05),
+                xycoords=("data", "axes fraction"),
+                ha="left",
+                va="bottom",
+                fontsize=7,
+                color="tab:red",
+            )
     handles, labels = [], []
     for ax in (axes[0], rel_ax, h_ax):
         for hd, lb in zip(*ax.get_legend_handles_labels()):
@@ -111,7 +128,7 @@ def trial_figure(view: TrialView, path: Path) -> Path:
     legend_rows = (len(labels) + 3) // 4
     fig.tight_layout(rect=(0, 0.018 * legend_rows + 0.02, 1, 0.975))
     try:
-        save_figure(fig, path)   # format from the extension; a symlink there is replaced, not followed
+        save_figure(fig, path)  # format from the extension; a symlink there is replaced, not followed
     finally:
         plt.close(fig)
     return path

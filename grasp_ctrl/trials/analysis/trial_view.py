@@ -28,7 +28,7 @@ class TrialView:
     record: dict[str, Any] | None = None
     hand: HandConfig | None = None
     obj: ObjectProfile | None = None
-    notes: list[str] = field(default_factory=list)   # what could not be loaded, and why
+    notes: list[str] = field(default_factory=list)  # what could not be loaded, and why
 
     @property
     def t(self) -> np.ndarray:
@@ -67,7 +67,9 @@ class TrialView:
         if not rec:
             return self.ticks_path.name
         outcome = "success" if rec.get("success") else f"failed: {rec.get('reason')}"
-        return f"{rec.get('policy')} / {rec.get('object')} / trial {rec.get('trial')} (seed {rec.get('seed')}): {outcome}"
+        return (
+            f"{rec.get('policy')} / {rec.get('object')} / trial {rec.get('trial')} (seed {rec.get('seed')}): {outcome}"
+        )
 
     def end_event(self) -> tuple[float, str] | None:
         """(time, label) of the controller reaching done or fault."""
@@ -114,7 +116,7 @@ def load_trial(trial: Path) -> TrialView:
         if rec is None:
             view.notes.append(f"{record_file}: {why}")
         view.record = rec
-    run_dir = ticks.parent.parent.parent.parent   # RUN_DIR/trials/POLICY/OBJECT/trial_NNN...
+    run_dir = ticks.parent.parent.parent.parent  # RUN_DIR/trials/POLICY/OBJECT/trial_NNN...
     try:
         manifest = read_manifest(run_dir)
     except UsageError as exc:
@@ -126,7 +128,7 @@ def load_trial(trial: Path) -> TrialView:
         if manifest.hand_file and Path(manifest.hand_file).is_file():
             try:
                 view.hand = load_hand(Path(manifest.hand_file))
-            except Exception as exc:   # a hand file edited since: plot without it
+            except Exception as exc:  # a hand file edited since: plot without it
                 view.notes.append(f"{manifest.hand_file}: {exc}")
     return view
 
@@ -139,10 +141,14 @@ def hand_for_replay(view: TrialView, hand_file: Path | None) -> HandConfig:
     hand = load_hand(hand_file) if hand_file else (view.hand or load_hand(default_hand_file()))
     n_logged = sum(1 for c in view.columns if c.startswith("q") and c[1:].isdigit())
     if len(hand.joints) != n_logged:
-        raise UsageError(f"{view.ticks_path}: logged {n_logged} joints, hand {hand.name!r} has "
-                         f"{len(hand.joints)}; give the trial's hand with --hand")
+        raise UsageError(
+            f"{view.ticks_path}: logged {n_logged} joints, hand {hand.name!r} has "
+            f"{len(hand.joints)}; give the trial's hand with --hand"
+        )
     missing = [f for f in view.fingers if f not in {g.name for g in hand.fingers}]
     if missing:
-        raise UsageError(f"{view.ticks_path}: fingertip {missing[0]!r} is not in hand {hand.name!r}; "
-                         f"give the trial's hand with --hand")
+        raise UsageError(
+            f"{view.ticks_path}: fingertip {missing[0]!r} is not in hand {hand.name!r}; "
+            f"give the trial's hand with --hand"
+        )
     return hand

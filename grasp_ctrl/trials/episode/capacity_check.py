@@ -19,10 +19,10 @@ import numpy as np
 from grasp_ctrl.config.checks import check_objects_for_hand
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.controller.grasp_capacity import GRAVITY_M_S2, object_capacity
 from grasp_ctrl.controller.grip_targets import grip_targets
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import GraspCtrlError
-from grasp_ctrl.controller.grasp_capacity import GRAVITY_M_S2, object_capacity
 
 #: A joint at this share of its torque limit, or a pad at this share of its target, binds.
 BINDING_SHARE = 0.999
@@ -33,8 +33,8 @@ class CapacityVerdict:
     """What the statics say about one object at the configured currents and grip targets."""
 
     object: str
-    ratio: float            # the liftable weight over the object's weight (0: no grasp)
-    binding: str            # what limits it: joint names (with current), grip targets, or why no grasp
+    ratio: float  # the liftable weight over the object's weight (0: no grasp)
+    binding: str  # what limits it: joint names (with current), grip targets, or why no grasp
     targets_n: dict[str, float]
 
     @property
@@ -45,16 +45,27 @@ class CapacityVerdict:
         return f"{self.object}: the grasp carries {self.ratio:.2f}x its weight (binding: {self.binding})"
 
     def to_json(self) -> dict[str, object]:
-        return {"object": self.object, "ratio": round(self.ratio, 4), "binding": self.binding,
-                "grip_targets_n": {k: round(v, 4) for k, v in self.targets_n.items()}}
+        return {
+            "object": self.object,
+            "ratio": round(self.ratio, 4),
+            "binding": self.binding,
+            "grip_targets_n": {k: round(v, 4) for k, v in self.targets_n.items()},
+        }
 
 
 def object_targets(hand: HandConfig, obj: ObjectProfile, settings: ControllerSettings) -> dict[str, float]:
     """Each grasping finger's grip target (N), as the controller computes it for ``obj``."""
     vectors = np.array([f.task_vector_hand for f in hand.fingers], dtype=float)
     mask = np.array([f.grasp for f in hand.fingers])
-    t = grip_targets(vectors, mask, obj.tau_n, obj.grip_targets or settings.grip_targets,
-                     obj.mass_kg, obj.mu, settings.grip_weight_margin)
+    t = grip_targets(
+        vectors,
+        mask,
+        obj.tau_n,
+        obj.grip_targets or settings.grip_targets,
+        obj.mass_kg,
+        obj.mu,
+        settings.grip_weight_margin,
+    )
     return {f.name: float(t[i]) for i, f in enumerate(hand.fingers) if f.grasp}
 
 
@@ -62,24 +73,27 @@ def check_object(hand: HandConfig, obj: ObjectProfile, settings: ControllerSetti
     targets = object_targets(hand, obj, settings or ControllerSettings())
     try:
         cap, _, _ = object_capacity(hand, obj, normal_max_n=targets)
-    except ValueError as exc:   # a posture the hand cannot take (a cap out of reach, ...)
+    except ValueError as exc:  # a posture the hand cannot take (a cap out of reach, ...)
         return CapacityVerdict(obj.name, 0.0, f"no grasp: {exc}", targets)
     if not cap.loads:
         return CapacityVerdict(obj.name, 0.0, "no grasp: the pads do not reach the object", targets)
     currents = {j.name: j.current_limit_a for j in hand.joints}
     binds = [f"{ld.joint} at {currents[ld.joint]:g} A" for ld in cap.loads if ld.torque_share >= BINDING_SHARE]
-    binds += [f"{ld.finger}'s grip target {targets[ld.finger]:.2f} N" for ld in cap.loads
-              if ld.normal_n >= BINDING_SHARE * targets[ld.finger]]
+    binds += [
+        f"{ld.finger}'s grip target {targets[ld.finger]:.2f} N"
+        for ld in cap.loads
+        if ld.normal_n >= BINDING_SHARE * targets[ld.finger]
+    ]
     top = max(cap.loads, key=lambda ld: ld.torque_share)
-    if top.torque_share < BINDING_SHARE:   # name the joint closest to its limit as well
-        binds.append(f"most loaded joint {top.joint} at {100 * top.torque_share:.0f} % of "
-                     f"{currents[top.joint]:g} A")
+    if top.torque_share < BINDING_SHARE:  # name the joint closest to its limit as well
+        binds.append(f"most loaded joint {top.joint} at {100 * top.torque_share:.0f} % of {currents[top.joint]:g} A")
     ratio = cap.weight_n / (obj.mass_kg * GRAVITY_M_S2)
     return CapacityVerdict(obj.name, ratio, ", ".join(binds), targets)
 
 
-def check_objects(hand: HandConfig, objects: list[ObjectProfile],
-                  settings: ControllerSettings | None = None) -> list[CapacityVerdict]:
+def check_objects(
+    hand: HandConfig, objects: list[ObjectProfile], settings: ControllerSettings | None = None
+) -> list[CapacityVerdict]:
     return [check_object(hand, o, settings) for o in objects]
 
 
@@ -89,9 +103,15 @@ class CapacityRefused(GraspCtrlError):
     exit_status = 2
 
 
-def preflight_capacity(hand: HandConfig, objects: list[ObjectProfile], settings: ControllerSettings | None,
-                       on_hand: bool, force: bool, say: Callable[[str], None],
-                       source: str = "the object file") -> list[CapacityVerdict]:
+def preflight_capacity(
+    hand: HandConfig,
+    objects: list[ObjectProfile],
+    settings: ControllerSettings | None,
+    on_hand: bool,
+    force: bool,
+    say: Callable[[str], None],
+    source: str = "the object file",
+) -> list[CapacityVerdict]:
     """The objects the grasp cannot carry, each named through ``say``. On a (real or emulated)
     Dynamixel hand they are refused (CapacityRefused) unless ``force``; in simulation they run.
     The objects are first checked against the hand (ConfigError naming ``source``'s key)."""
@@ -101,9 +121,10 @@ def preflight_capacity(hand: HandConfig, objects: list[ObjectProfile], settings:
         return []
     names = "; ".join(v.line() for v in short)
     if on_hand and not force:
-        raise CapacityRefused(f"capacity: {names}; raise the current limits or tau_n (lift-capacity), "
-                              "leave the object out, or pass --force")
+        raise CapacityRefused(
+            f"capacity: {names}; raise the current limits or tau_n (lift-capacity), "
+            "leave the object out, or pass --force"
+        )
     for v in short:
         say(f"capacity: {v.line()}; its trials will likely fail" + (" (--force)" if on_hand else ""))
     return short
-

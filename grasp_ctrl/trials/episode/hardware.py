@@ -16,8 +16,9 @@ the series stops and can be resumed.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -28,16 +29,16 @@ from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
-from grasp_ctrl.trials.episode.rig import HardwareRig, open_rig
 from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.sim.oracle import is_oracle
 from grasp_ctrl.loop.sensing import SensingPipeline
-from grasp_ctrl.trials.episode.runner import MAX_TRIAL_S, SETTLE_S, controller_view, state_timings, trial_settings
 from grasp_ctrl.loop.tick import control_tick
 from grasp_ctrl.loop.ticklog import TickLog
+from grasp_ctrl.sim.oracle import is_oracle
+from grasp_ctrl.trials.episode.rig import HardwareRig, open_rig
+from grasp_ctrl.trials.episode.runner import MAX_TRIAL_S, SETTLE_S, controller_view, state_timings, trial_settings
 
 RigOpener = Callable[[HandConfig], HardwareRig]
-_sleep = time.sleep   # the tick pacing; tests replace it to inject an operator's Ctrl-C
+_sleep = time.sleep  # the tick pacing; tests replace it to inject an operator's Ctrl-C
 SENSOR_WAIT_S = 2.0
 
 
@@ -95,7 +96,7 @@ def run_hardware_trial(
                     sleep(delay)
                 else:
                     overruns += 1
-                    next_tick = rig.clock.now()   # do not try to catch up with a burst
+                    next_tick = rig.clock.now()  # do not try to catch up with a burst
             except KeyboardInterrupt as exc:
                 # Operator abort: let the state machine take the safe action, then stop.
                 if interrupted is not None:

@@ -11,15 +11,26 @@ from __future__ import annotations
 
 import re
 import sys
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any, Callable, Mapping, TextIO
+from typing import Any, TextIO
 
 from grasp_ctrl.errors import GraspCtrlError
 
 # Offered by number at the prompt; any other snake_case word is accepted too.
 FAILURE_REASONS = (
-    "slipped", "dropped_early", "crushed", "knocked_over", "no_contact", "ramp_timeout",
-    "no_release", "not_released", "overforce", "sensor_stale", "hardware_error", "aborted",
+    "slipped",
+    "dropped_early",
+    "crushed",
+    "knocked_over",
+    "no_contact",
+    "ramp_timeout",
+    "no_release",
+    "not_released",
+    "overforce",
+    "sensor_stale",
+    "hardware_error",
+    "aborted",
 )
 _WORD = re.compile(r"^[a-z][a-z0-9_]*$")
 
@@ -47,7 +58,9 @@ class OperatorLabeller:
         self.stdout.flush()
         line = self.stdin.readline()
         if not line:
-            raise OperatorQuit("operator input ended; the trials labelled so far are saved (continue with run --resume)")
+            raise OperatorQuit(
+                "operator input ended; the trials labelled so far are saved (continue with run --resume)"
+            )
         return line.strip()
 
     def describe(self, title: str, observed: Mapping[str, Any]) -> None:
@@ -68,7 +81,9 @@ class OperatorLabeller:
             if ans == "":
                 ans = "s" if default_ok else "f"
             if ans in ("q", "quit"):
-                raise OperatorQuit("stopped by the operator; the trials labelled so far are saved (continue with run --resume)")
+                raise OperatorQuit(
+                    "stopped by the operator; the trials labelled so far are saved (continue with run --resume)"
+                )
             if ans in ("s", "success", "f", "failure", "fail"):
                 break
             self.stdout.write("please answer s, f or q\n")

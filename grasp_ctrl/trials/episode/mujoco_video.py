@@ -11,16 +11,17 @@ from __future__ import annotations
 
 import os
 import sys
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.settings import ControllerSettings
-from grasp_ctrl.storage import safe_name
 from grasp_ctrl.sim.mujoco_world import MuJoCoParams, MuJoCoWorld
+from grasp_ctrl.storage import safe_name
 
 FPS = 15
 WIDTH, HEIGHT = 320, 240
@@ -40,8 +41,10 @@ def open_renderer(model: Any, width: int = WIDTH, height: int = HEIGHT) -> tuple
         return mujoco.Renderer(model, height, width), None
     except Exception as exc:  # noqa: BLE001 - every GL failure means the same to the user
         gl = os.environ.get("MUJOCO_GL", "default (GLFW, needs a display)")
-        return None, (f"no OpenGL backend for offscreen rendering (MUJOCO_GL={gl}: {type(exc).__name__}: {exc}); "
-                      "install EGL (libegl1) or OSMesa (libosmesa6) and set MUJOCO_GL=egl or MUJOCO_GL=osmesa")
+        return None, (
+            f"no OpenGL backend for offscreen rendering (MUJOCO_GL={gl}: {type(exc).__name__}: {exc}); "
+            "install EGL (libegl1) or OSMesa (libosmesa6) and set MUJOCO_GL=egl or MUJOCO_GL=osmesa"
+        )
 
 
 def scene_camera(world: MuJoCoWorld) -> Any:
@@ -80,8 +83,9 @@ class RecordingWorld(MuJoCoWorld):
 
     _warned = False
 
-    def __init__(self, hand: HandConfig, obj: ObjectProfile, seed: int, params: MuJoCoParams | None,
-                 path: Path) -> None:
+    def __init__(
+        self, hand: HandConfig, obj: ObjectProfile, seed: int, params: MuJoCoParams | None, path: Path
+    ) -> None:
         super().__init__(hand, obj, seed, params)
         self.video_path = path
         self.frames: list[np.ndarray] = []
@@ -108,8 +112,9 @@ class RecordingWorld(MuJoCoWorld):
         return write_video(self.frames, self.video_path) if self.frames else None
 
 
-def video_trial_fn(hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None, threads: int,
-                   video_dir: Path) -> Any:
+def video_trial_fn(
+    hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None, threads: int, video_dir: Path
+) -> Any:
     """The mujoco trial runner with each trial recorded to VIDEO_DIR/POLICY-OBJECT-TRIAL.(mp4|gif)."""
     choose_gl_backend()
     from grasp_ctrl.sim.mujoco_backends import mujoco_backends
@@ -120,8 +125,9 @@ def video_trial_fn(hand: HandConfig, policies: Sequence[str], settings: Controll
     def make_world(hand: HandConfig, obj: ObjectProfile, seed: int, params: Any) -> RecordingWorld:
         return RecordingWorld(hand, obj, seed, params, current["path"])
 
-    inner = sim_trial_fn(hand, policies, settings, threads, make_backends=mujoco_backends, backend="mujoco",
-                          make_world=make_world)
+    inner = sim_trial_fn(
+        hand, policies, settings, threads, make_backends=mujoco_backends, backend="mujoco", make_world=make_world
+    )
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
         current["path"] = video_dir / f"{safe_name(policy)}-{obj.name}-{trial}"

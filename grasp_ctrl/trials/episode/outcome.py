@@ -5,7 +5,7 @@ from __future__ import annotations
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.sim.world_api import World
 
-LIFTED_FRACTION = 0.8     # of the commanded lift height
+LIFTED_FRACTION = 0.8  # of the commanded lift height
 RESTING_Z_M = 0.001
 
 

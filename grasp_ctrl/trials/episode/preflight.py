@@ -13,8 +13,9 @@ confirm the arm's start pose (``--yes`` answers for scripted use).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -32,12 +33,14 @@ class NotConfirmed(GraspCtrlError):
 
 @dataclass(frozen=True)
 class PreflightReport:
-    servos: list[str]        # "name (id N)"
-    fingertips: list[str]    # "name (sensor N): pdc within +-X"
+    servos: list[str]  # "name (id N)"
+    fingertips: list[str]  # "name (sensor N): pdc within +-X"
 
     def summary(self) -> str:
-        return (f"pre-flight: {len(self.servos)} servos answered, no hardware errors; "
-                f"{len(self.fingertips)} fingertips streaming and tareable ({'; '.join(self.fingertips)})")
+        return (
+            f"pre-flight: {len(self.servos)} servos answered, no hardware errors; "
+            f"{len(self.fingertips)} fingertips streaming and tareable ({'; '.join(self.fingertips)})"
+        )
 
 
 def check_servos(dxl: Any) -> list[str]:
@@ -45,13 +48,15 @@ def check_servos(dxl: Any) -> list[str]:
     dxl.check_servos()
     errors = dxl.read_hardware_errors()
     if errors:
-        raise HardwareError(f"pre-flight: servo hardware error: {dxl._describe(errors)}; "
-                            "power-cycle or run `hand-check --recover`")
+        raise HardwareError(
+            f"pre-flight: servo hardware error: {dxl._describe(errors)}; power-cycle or run `hand-check --recover`"
+        )
     return [f"{j.name} (id {j.servo_id})" for j in dxl.joints]
 
 
-def check_fingertips(sensors: Any, hand: HandConfig, next_sample: Callable[[], None],
-                     timeout_s: float = FRAME_TIMEOUT_S) -> list[str]:
+def check_fingertips(
+    sensors: Any, hand: HandConfig, next_sample: Callable[[], None], timeout_s: float = FRAME_TIMEOUT_S
+) -> list[str]:
     """Frames from every fingertip (``wait_for_frames`` names a silent one), then one tare
     window of ``tactile.tare_frames`` samples (``next_sample`` waits for the next)."""
     sensors.wait_for_frames(timeout_s, min_frames=1)
@@ -61,7 +66,7 @@ def check_fingertips(sensors: Any, hand: HandConfig, next_sample: Callable[[], N
         next_sample()
         latest = sensors.read_latest()
         window.append([latest[sid].values for sid in ids])
-    frames = np.asarray(window, dtype=float)          # (k, n_tips, 44)
+    frames = np.asarray(window, dtype=float)  # (k, n_tips, 44)
     limit = hand.tactile.contact_pdc_threshold
     out = []
     for i, f in enumerate(hand.fingers):
@@ -73,8 +78,10 @@ def check_fingertips(sensors: Any, hand: HandConfig, next_sample: Callable[[], N
         pdc = frames[:, i, PDC]
         moves = float(np.max(np.abs(pdc - pdc.mean())))
         if moves > limit:
-            raise HardwareError(f"pre-flight: {who} cannot be tared: its pdc moves {moves:.0f} counts from its mean "
-                                f"over {len(frames)} frames (contact threshold {limit:g}); is it touching something?")
+            raise HardwareError(
+                f"pre-flight: {who} cannot be tared: its pdc moves {moves:.0f} counts from its mean "
+                f"over {len(frames)} frames (contact threshold {limit:g}); is it touching something?"
+            )
         out.append(f"{f.name} (sensor {f.sensor_id}): pdc within +-{moves:.0f}")
     return out
 
@@ -114,6 +121,7 @@ def preflight_emulated(hand: HandConfig, obj: Any, seed: int) -> PreflightReport
 
         def next_sample() -> None:
             world.step()
+
         tips = check_fingertips(sensors, hand, next_sample)
     finally:
         try:

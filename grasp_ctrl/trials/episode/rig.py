@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import UsageError
@@ -42,9 +42,7 @@ def open_rig(
     from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 
     if hand.arm.kind == "mock":
-        raise UsageError(
-            f"{hand.path}: arm.kind: 'external' or 'dynamixel' for a real hand ('mock' moves nothing)"
-        )
+        raise UsageError(f"{hand.path}: arm.kind: 'external' or 'dynamixel' for a real hand ('mock' moves nothing)")
     clock = MonotonicClock()
     opened: list[object] = []
     try:

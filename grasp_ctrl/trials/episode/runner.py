@@ -20,9 +20,10 @@ import shutil
 import sys
 import time
 import zlib
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterator, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -37,29 +38,37 @@ from grasp_ctrl.errors import ConfigError, GraspCtrlError, UsageError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.loop.sensing import SensingPipeline
+from grasp_ctrl.loop.tick import control_tick
+from grasp_ctrl.loop.tick_kernels import track_peaks
+from grasp_ctrl.loop.ticklog import TickLog
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
 from grasp_ctrl.sim.mujoco_log import set_log_dir as set_engine_log_dir
 from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
+from grasp_ctrl.sim.registry import BackendFactory, WorldFactory, simulated_backend
 from grasp_ctrl.sim.world import MockWorld, WorldParams
 from grasp_ctrl.sim.world_api import World
-from grasp_ctrl.trials.runs.fingerprint import stamp, sync_manifest
+from grasp_ctrl.storage import (
+    RUN_FILE,
+    SUMMARY_FILE,
+    check_object_name,
+    commit_temp,
+    is_temp_file,
+    record_path,
+    safe_name,
+    temp_path,
+    ticks_path,
+    write_json,
+)
 from grasp_ctrl.trials.episode.mock_tick import MockTick
-from grasp_ctrl.trials.runs.manifest import RunManifest, read_manifest
 from grasp_ctrl.trials.episode.outcome import judge
-from grasp_ctrl.loop.sensing import SensingPipeline
+from grasp_ctrl.trials.runs.fingerprint import stamp, sync_manifest
+from grasp_ctrl.trials.runs.manifest import RunManifest, read_manifest
 from grasp_ctrl.trials.runs.planned import why_unplanned
-from grasp_ctrl.loop.tick import control_tick
 from grasp_ctrl.trials.runs.progress import Progress
 from grasp_ctrl.trials.runs.records import canonical_order, load_records, record_files
 from grasp_ctrl.trials.runs.runlock import RunLock
-from grasp_ctrl.storage import (
-    RUN_FILE, SUMMARY_FILE, check_object_name, commit_temp, is_temp_file, record_path, safe_name, temp_path,
-    ticks_path, write_json,
-)
 from grasp_ctrl.trials.runs.summary import summarize
-from grasp_ctrl.loop.tick_kernels import track_peaks
-from grasp_ctrl.loop.ticklog import TickLog
-from grasp_ctrl.sim.registry import BackendFactory, WorldFactory, simulated_backend
 from grasp_ctrl.trials.runs.workers import ignore_interrupts, interrupts_deferred, worker_context
 
 MAX_TRIAL_S = 60.0
@@ -85,12 +94,12 @@ class TrialResult:
     events: list[dict[str, Any]] = field(default_factory=list)
     settings: dict[str, Any] = field(default_factory=dict)
     backend: str = "mock"
-    judged_by: str = "world"            # world (mock ground truth) | operator (label at the prompt)
-    note: str = ""                      # the operator's note
-    controller: dict[str, Any] = field(default_factory=dict)    # the controller's own view
+    judged_by: str = "world"  # world (mock ground truth) | operator (label at the prompt)
+    note: str = ""  # the operator's note
+    controller: dict[str, Any] = field(default_factory=dict)  # the controller's own view
     timings: dict[str, Any] = field(default_factory=dict)
     peak_forces: dict[str, dict[str, float]] = field(default_factory=dict)
-    fault_detail: str | None = None     # the controller's fault, in words (None without a fault)
+    fault_detail: str | None = None  # the controller's fault, in words (None without a fault)
     format: int = RECORD_FORMAT
 
     def to_json(self) -> dict[str, Any]:
@@ -150,7 +159,7 @@ def controller_view(ctrl: GraspController) -> dict[str, Any]:
         "final_state": ctrl.state,
         "success": ctrl.state == "done",
         "reason": ctrl.failure_reason,
-        "detail": ctrl.failure_detail,   # what failed (servo id and error bits, port, fingertip)
+        "detail": ctrl.failure_detail,  # what failed (servo id and error bits, port, fingertip)
     }
 
 
@@ -209,12 +218,15 @@ def run_sim_trial(
     # the peak of |f_sensor|^2 (its root at the end is the peak of |f_sensor|), of the grip and the true force
     tip_force_sq, tip_grip, tip_true = peaks
     # On the mock world's own backends the tick's input and output halves run fused (mock_tick.py).
-    fast = (MockTick(world, hand_backend, sensors, arm, pipeline, log, peaks)
-            if MockTick.usable(world, hand_backend, sensors, arm, pipeline, log) else None)
+    fast = (
+        MockTick(world, hand_backend, sensors, arm, pipeline, log, peaks)
+        if MockTick.usable(world, hand_backend, sensors, arm, pipeline, log)
+        else None
+    )
     settle_ticks = int(round(SETTLE_S / hand.dt))
     try:
         while world.t < MAX_TRIAL_S:
-            if fast is not None:   # the same step and tick, peaks and log row
+            if fast is not None:  # the same step and tick, peaks and log row
                 fast.tick(ctrl)
             else:
                 world.step()
@@ -228,8 +240,17 @@ def run_sim_trial(
                     np.maximum(tip_grip, snap.grip_n, out=tip_grip)
                     np.maximum(tip_true, world.normal_n, out=tip_true)
                 if log:
-                    log.append(ctrl.state, snap, cmd, pipeline.tared, world.f_sensor, world.obj_z, world.table_n,
-                               raw=raw, grip_target_n=ctrl.tau)
+                    log.append(
+                        ctrl.state,
+                        snap,
+                        cmd,
+                        pipeline.tared,
+                        world.f_sensor,
+                        world.obj_z,
+                        world.table_n,
+                        raw=raw,
+                        grip_target_n=ctrl.tau,
+                    )
             if on_tick:
                 on_tick(world, ctrl)
             if ctrl.terminal:
@@ -245,7 +266,7 @@ def run_sim_trial(
         # A close error must not hide the error that ended the trial.
         _close_all(hand_backend, arm, sensors, raise_error=sys.exc_info()[0] is None)
     # The peaks over the grasping fingers follow from the per-fingertip peaks.
-    tip_force = np.sqrt(tip_force_sq)   # = np.linalg.norm(f, axis=1), at its peak
+    tip_force = np.sqrt(tip_force_sq)  # = np.linalg.norm(f, axis=1), at its peak
     peak_est = max(0.0, float(np.max(tip_grip[grasp], initial=0.0)))
     peak_true = max(0.0, float(np.max(tip_true[grasp], initial=0.0)))
     success, reason = judge(world, ctrl)
@@ -272,8 +293,11 @@ def run_sim_trial(
         fault_detail=ctrl.failure_detail,
         timings=timings,
         peak_forces={
-            name: {"force_est_n": round(float(tip_force[i]), 4), "grip_est_n": round(float(tip_grip[i]), 4),
-                   "normal_true_n": round(float(tip_true[i]), 4)}
+            name: {
+                "force_est_n": round(float(tip_force[i]), 4),
+                "grip_est_n": round(float(tip_grip[i]), 4),
+                "normal_true_n": round(float(tip_true[i]), 4),
+            }
             for i, name in enumerate(names)
         },
     )
@@ -296,8 +320,13 @@ TrialFn = Callable[[str, ObjectProfile, int, int, "Path | None"], dict[str, Any]
 
 
 def sim_trial_fn(
-    hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None = None, threads: int = 1,
-    make_backends: BackendFactory | None = None, backend: str = "mock", make_world: WorldFactory | None = None,
+    hand: HandConfig,
+    policies: Sequence[str],
+    settings: ControllerSettings | None = None,
+    threads: int = 1,
+    make_backends: BackendFactory | None = None,
+    backend: str = "mock",
+    make_world: WorldFactory | None = None,
 ) -> TrialFn:
     """Policies are loaded up front, so a bad one fails before the first trial."""
     factories = {p: estimator_factory(p, hand, threads) for p in policies}
@@ -307,8 +336,20 @@ def sim_trial_fn(
         make_world = make_world or default_world
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
-        return run_sim_trial(hand, obj, factories[policy], seed, policy, trial, settings, log_path=log_path, kin=kin,
-                              make_backends=make_backends, backend=backend, make_world=make_world).to_json()
+        return run_sim_trial(
+            hand,
+            obj,
+            factories[policy],
+            seed,
+            policy,
+            trial,
+            settings,
+            log_path=log_path,
+            kin=kin,
+            make_backends=make_backends,
+            backend=backend,
+            make_world=make_world,
+        ).to_json()
 
     return run
 
@@ -317,8 +358,9 @@ def sim_trial_fn(
 _WORKER_TRIAL_FN: TrialFn | None = None
 
 
-def _init_worker(hand: HandConfig, policies: list[str], settings: ControllerSettings, threads: int,
-                 backend: str = "mock") -> None:
+def _init_worker(
+    hand: HandConfig, policies: list[str], settings: ControllerSettings, threads: int, backend: str = "mock"
+) -> None:
     global _WORKER_TRIAL_FN
     ignore_interrupts()
     _WORKER_TRIAL_FN = sim_trial_fn(hand, policies, settings, threads, backend=backend)
@@ -329,26 +371,35 @@ def _worker_trial(policy: str, obj: ObjectProfile, trial: int, seed: int, log_pa
     return _WORKER_TRIAL_FN(policy, obj, trial, seed, log_path)
 
 
-TrialTask = tuple[str, ObjectProfile, int, int, "Path | None"]   # policy, object, trial, seed, tick log
+TrialTask = tuple[str, ObjectProfile, int, int, "Path | None"]  # policy, object, trial, seed, tick log
 
 
 def parallel_trials(
-    jobs: int, hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None,
-    threads: int, tasks: Sequence[TrialTask], backend: str = "mock",
+    jobs: int,
+    hand: HandConfig,
+    policies: Sequence[str],
+    settings: ControllerSettings | None,
+    threads: int,
+    tasks: Sequence[TrialTask],
+    backend: str = "mock",
 ) -> Iterator[tuple[int, dict[str, Any]]]:
     """Simulated trials in ``jobs`` processes: yields (task index, record) as each finishes."""
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
     ctx = worker_context()
-    pool = ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_init_worker,
-                               initargs=(hand, list(policies), settings or ControllerSettings(), threads, backend))
+    pool = ProcessPoolExecutor(
+        jobs,
+        mp_context=ctx,
+        initializer=_init_worker,
+        initargs=(hand, list(policies), settings or ControllerSettings(), threads, backend),
+    )
     finished_cleanly = False
     try:
         todo = iter(enumerate(tasks))
         running: dict[Any, int] = {}
-        for i, task in itertools.islice(todo, 2 * jobs):   # a short queue: Ctrl-C loses little
-            with interrupts_deferred():   # a submit may start a worker: never half-way
+        for i, task in itertools.islice(todo, 2 * jobs):  # a short queue: Ctrl-C loses little
+            with interrupts_deferred():  # a submit may start a worker: never half-way
                 running[pool.submit(_worker_trial, *task)] = i
         while running:
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
@@ -439,8 +490,14 @@ def run_series(
     if executor != "local" and trial_fn is not None:
         raise UsageError("--executor: trials on real hardware run here, one at a time")
     plan = manifest or RunManifest(
-        backend=backend, hand=hand.name, seed=seed, trials=trials, policies=list(policies),
-        objects=list(objects), tick_logs=tick_logs, settings=settings or ControllerSettings(),
+        backend=backend,
+        hand=hand.name,
+        seed=seed,
+        trials=trials,
+        policies=list(policies),
+        objects=list(objects),
+        tick_logs=tick_logs,
+        settings=settings or ControllerSettings(),
     )
     # Everything that can be checked is checked before the first file is touched.
     for obj in plan.objects:
@@ -449,13 +506,15 @@ def run_series(
     source = str(run_dir / RUN_FILE) if resume or not plan.object_file else plan.object_file
     check_objects_for_hand(plan.objects, hand, source)
     kin = HandKinematics(hand)
-    for obj in plan.objects:   # the reach postures (preshape, a cap the finger must reach) fit this hand
+    for obj in plan.objects:  # the reach postures (preshape, a cap the finger must reach) fit this hand
         try:
             GraspController(hand, obj, np.zeros(3), plan.settings, kin)
         except ConfigError as exc:
             raise ConfigError(source, f"object {obj.name!r}: {exc.key}", exc.expected) from None
-    other_world = {} if plan.backend == "mock" else {"backend": plan.backend}   # e.g. mujoco
-    run_trial = trial_fn or sim_trial_fn(hand, policies, plan.settings, threads, **other_world)  # bad policies fail here
+    other_world = {} if plan.backend == "mock" else {"backend": plan.backend}  # e.g. mujoco
+    run_trial = trial_fn or sim_trial_fn(
+        hand, policies, plan.settings, threads, **other_world
+    )  # bad policies fail here
 
     created = not run_dir.exists()
     if run_dir.exists() and not run_dir.is_dir():
@@ -466,19 +525,38 @@ def run_series(
         with RunLock(run_dir, warn):
             existing = read_manifest(run_dir)
             if existing is not None and not resume:
-                raise UsageError(f"{run_dir} already holds a run; continue it with 'run --resume {run_dir}' or choose another --out")
+                raise UsageError(
+                    f"{run_dir} already holds a run; continue it with 'run --resume {run_dir}' or choose another --out"
+                )
             if existing is None and record_files(run_dir):
                 raise UsageError(f"{run_dir} holds trial records but no run.json; choose another --out")
             if existing is not None and not existing.same_plan(plan):
-                raise UsageError(f"{run_dir}/run.json describes other trials than these parameters; resume with its own parameters")
-            for tmp in stale_temp_files(run_dir):   # left by a writer that died; we hold the lock
+                raise UsageError(
+                    f"{run_dir}/run.json describes other trials than these parameters; resume with its own parameters"
+                )
+            for tmp in stale_temp_files(run_dir):  # left by a writer that died; we hold the lock
                 tmp.unlink(missing_ok=True)
-            sync_manifest(run_dir, plan, existing)   # new run, or a resume that recorded --force
+            sync_manifest(run_dir, plan, existing)  # new run, or a resume that recorded --force
             started = True
-            return _run_locked(hand, plan, policies, trials, seed, run_dir, progress, resume, run_trial,
-                               after_trial, warn, jobs, threads, executor, address)
+            return _run_locked(
+                hand,
+                plan,
+                policies,
+                trials,
+                seed,
+                run_dir,
+                progress,
+                resume,
+                run_trial,
+                after_trial,
+                warn,
+                jobs,
+                threads,
+                executor,
+                address,
+            )
     except BaseException:
-        if created and not started:   # a failed start leaves nothing that blocks the retry
+        if created and not started:  # a failed start leaves nothing that blocks the retry
             shutil.rmtree(run_dir, ignore_errors=True)
         raise
 
@@ -489,10 +567,21 @@ def stale_temp_files(run_dir: Path) -> list[Path]:
 
 
 def _run_locked(
-    hand: HandConfig, plan: RunManifest, policies: Sequence[str], trials: int, seed: int, run_dir: Path,
-    progress: bool | Progress, resume: bool, run_trial: TrialFn,
-    after_trial: Callable[[dict[str, Any]], None] | None, warn: Callable[[str], None], jobs: int, threads: int,
-    executor: str = "local", address: str | None = None,
+    hand: HandConfig,
+    plan: RunManifest,
+    policies: Sequence[str],
+    trials: int,
+    seed: int,
+    run_dir: Path,
+    progress: bool | Progress,
+    resume: bool,
+    run_trial: TrialFn,
+    after_trial: Callable[[dict[str, Any]], None] | None,
+    warn: Callable[[str], None],
+    jobs: int,
+    threads: int,
+    executor: str = "local",
+    address: str | None = None,
 ) -> dict[str, Any]:
     done: dict[tuple[str, str, int], dict[str, Any]] = {}
     if resume:
@@ -510,7 +599,7 @@ def _run_locked(
     reporter = progress if isinstance(progress, Progress) else Progress(plan.total, enabled=bool(progress))
     reporter.resumed(canonical_order(list(done.values()), list(policies), plan.object_names))
     pending = []
-    tick_logs: dict[tuple[str, str, int], tuple[Path, Path]] = {}   # key -> (temporary, final) tick log
+    tick_logs: dict[tuple[str, str, int], tuple[Path, Path]] = {}  # key -> (temporary, final) tick log
     for policy in policies:
         for obj in plan.objects:
             for k in range(trials):
@@ -519,7 +608,7 @@ def _run_locked(
                     log = None
                     if plan.tick_logs:
                         final = ticks_path(run_dir, policy, obj.name, k)
-                        log = temp_path(final)   # renamed onto ``final`` just before the record is written
+                        log = temp_path(final)  # renamed onto ``final`` just before the record is written
                         tick_logs[(policy, obj.name, k)] = (log, final)
                     pending.append((policy, obj, k, trial_seed(seed, obj.name, k), log))
 
@@ -533,32 +622,38 @@ def _run_locked(
         if after_trial:
             after_trial(rec)
 
-    set_engine_log_dir(run_dir)   # MuJoCo's warnings of in-process trials: the run directory, not ./
+    set_engine_log_dir(run_dir)  # MuJoCo's warnings of in-process trials: the run directory, not ./
     try:
         if executor == "ray" and pending:
             from grasp_ctrl.trials.runs.ray_executor import ray_trials
 
-            with contextlib.closing(ray_trials(address, jobs, hand, policies, plan.settings, threads,
-                                               pending, plan.backend)) as results:
+            with contextlib.closing(
+                ray_trials(address, jobs, hand, policies, plan.settings, threads, pending, plan.backend)
+            ) as results:
                 for _, rec in results:
                     finish(rec)
         elif jobs > 1 and len(pending) > 1:
             try:
                 # closing: the workers are stopped at once on Ctrl-C or an error, not when collected.
-                with contextlib.closing(parallel_trials(min(jobs, len(pending)), hand, policies, plan.settings,
-                                                        threads, pending, plan.backend)) as results:
+                with contextlib.closing(
+                    parallel_trials(
+                        min(jobs, len(pending)), hand, policies, plan.settings, threads, pending, plan.backend
+                    )
+                ) as results:
                     for _, rec in results:
                         finish(rec)
             except WorkerError as exc:
-                raise WorkerError(f"{exc}; {len(done)} of {plan.total} trials are recorded in {run_dir}; "
-                                  f"continue with: grasp-ctrl run --resume {run_dir}") from None
+                raise WorkerError(
+                    f"{exc}; {len(done)} of {plan.total} trials are recorded in {run_dir}; "
+                    f"continue with: grasp-ctrl run --resume {run_dir}"
+                ) from None
         else:
             for args in pending:
                 finish(run_trial(*args))
     finally:
         set_engine_log_dir(None)
         reporter.close()
-        for tmp, _final in tick_logs.values():   # the trial in progress when interrupted
+        for tmp, _final in tick_logs.values():  # the trial in progress when interrupted
             tmp.unlink(missing_ok=True)
     records = canonical_order(list(done.values()), list(policies), plan.object_names)
     summary = summarize(records, str(run_dir), plan.backend, plan.hand, plan.seed)

@@ -23,8 +23,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from grasp_ctrl.storage import file_sha256
 from grasp_ctrl.errors import GraspCtrlError, UsageError
+from grasp_ctrl.storage import file_sha256
 
 PLAN_KEYS = ("backend", "hand", "seed", "trials", "policies", "tick_logs", "settings")
 RECORD_KEY = "fingerprint"
@@ -58,7 +58,7 @@ def _entry(path: Path) -> dict[str, Any]:
     try:
         digest: str | None = file_sha256(p)
     except OSError:
-        digest = None   # gone or unreadable: differs from any recorded hash
+        digest = None  # gone or unreadable: differs from any recorded hash
     return {"path": str(p.resolve()), "sha256": digest}
 
 
@@ -96,11 +96,20 @@ def check_shape(doc: Any, where: str) -> dict[str, Any] | None:
     """run.json's ``fingerprint`` checked for shape (None when the run has none)."""
     if doc is None:
         return None
-    ok = isinstance(doc, dict) and isinstance(doc.get("sha256"), str) \
-        and isinstance(doc.get("files"), dict) and isinstance(doc.get("settings"), dict) \
-        and all(isinstance(v, dict) and isinstance(v.get("path"), str) and "sha256" in v
-                and isinstance(v["sha256"], (str, type(None))) for v in doc["files"].values()) \
+    ok = (
+        isinstance(doc, dict)
+        and isinstance(doc.get("sha256"), str)
+        and isinstance(doc.get("files"), dict)
+        and isinstance(doc.get("settings"), dict)
+        and all(
+            isinstance(v, dict)
+            and isinstance(v.get("path"), str)
+            and "sha256" in v
+            and isinstance(v["sha256"], (str, type(None)))
+            for v in doc["files"].values()
+        )
         and all(isinstance(v, str) for v in doc["settings"].values())
+    )
     if not ok:
         raise UsageError(f"{where}: fingerprint: a table of sha256, files and settings (as 'run' writes it)")
     return doc
@@ -134,26 +143,37 @@ def check_resume(manifest: Any, run_file: Path, force: bool) -> bool:
     none, or ``--force`` recorded) and run.json must be written again."""
     now = compute(manifest)
     old = manifest.fingerprint
-    if old is None:   # a run from before fingerprints (or one whose was deleted): its records tell
+    if old is None:  # a run from before fingerprints (or one whose was deleted): its records tell
         others = sorted(record_fingerprints(run_file.parent) - {now["sha256"]})
         if others and not force:
-            raise UsageError(f"--resume: {run_file} has no fingerprint and {len(others)} fingerprint(s) of its "
-                             "records differ from its files now (a policy, hand or object file or a setting "
-                             "changed); start a new run, or add --force to continue anyway (recorded in run.json)")
+            raise UsageError(
+                f"--resume: {run_file} has no fingerprint and {len(others)} fingerprint(s) of its "
+                "records differ from its files now (a policy, hand or object file or a setting "
+                "changed); start a new run, or add --force to continue anyway (recorded in run.json)"
+            )
         if others:
-            manifest.forced.append({"at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "changed": ["run.json fingerprint"],
-                                    "from": others[0], "to": now["sha256"]})
+            manifest.forced.append(
+                {
+                    "at": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                    "changed": ["run.json fingerprint"],
+                    "from": others[0],
+                    "to": now["sha256"],
+                }
+            )
         manifest.fingerprint = now
         return True
     changed = differences(old, now)
     if not changed:
         return False
     if not force:
-        raise UsageError(f"--resume: {'; '.join(changed)} since the run started ({run_file}); the rest of the run "
-                         "would mix two experiments. Start a new run, or add --force to continue anyway "
-                         "(recorded in run.json)")
-    manifest.forced.append({"at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "changed": changed,
-                            "from": old["sha256"], "to": now["sha256"]})
+        raise UsageError(
+            f"--resume: {'; '.join(changed)} since the run started ({run_file}); the rest of the run "
+            "would mix two experiments. Start a new run, or add --force to continue anyway "
+            "(recorded in run.json)"
+        )
+    manifest.forced.append(
+        {"at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "changed": changed, "from": old["sha256"], "to": now["sha256"]}
+    )
     manifest.fingerprint = now
     return True
 

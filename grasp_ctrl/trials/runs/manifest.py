@@ -13,29 +13,32 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from grasp_ctrl.storage import file_sha256  # noqa: F401  (run's plan hashes its files with it)
 from grasp_ctrl.config.objects import ObjectProfile, profile_from_json
 from grasp_ctrl.config.toml_reader import finite_number
 from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import ConfigError, UsageError
 from grasp_ctrl.json_limits import JsonFileError, read_json
-from grasp_ctrl.storage import RUN_FILE, write_json
+from grasp_ctrl.storage import (
+    RUN_FILE,
+    file_sha256,  # noqa: F401  (run's plan hashes its files with it)
+    write_json,
+)
 
 FORMAT = 1
-EMULATED_BACKEND = "dynamixel-emulated"   # run --backend dynamixel --emulate (pty emulators, mock world)
+EMULATED_BACKEND = "dynamixel-emulated"  # run --backend dynamixel --emulate (pty emulators, mock world)
 BACKENDS = ("mock", "mujoco", "dynamixel", EMULATED_BACKEND)
 MAX_TRIALS = 100_000
 # settings that may be zero (no slow zone, no overshoot, no retreat)
-SETTING_CHOICES = {"grip_targets": GRIP_TARGET_MODES}   # the text settings and their values
-MAX_SETTING = 1e6   # no controller setting (seconds, metres, newtons, ratios) comes near it
+SETTING_CHOICES = {"grip_targets": GRIP_TARGET_MODES}  # the text settings and their values
+MAX_SETTING = 1e6  # no controller setting (seconds, metres, newtons, ratios) comes near it
 ZERO_ALLOWED = ("lower_overshoot_m", "lower_slow_zone_m", "retreat_m", "grip_weight_margin")
 
 
 @dataclass
 class RunManifest:
     backend: str
-    hand: str                       # the hand's name (summary "hand")
+    hand: str  # the hand's name (summary "hand")
     seed: int
     trials: int
     policies: list[str]
@@ -46,8 +49,8 @@ class RunManifest:
     object_file: str | None = None
     preset: str | None = None
     settings: ControllerSettings = field(default_factory=ControllerSettings)
-    fingerprint: dict[str, Any] | None = None     # trials/runs/fingerprint.py
-    forced: list[dict[str, Any]] = field(default_factory=list)   # resumes with --force despite changes
+    fingerprint: dict[str, Any] | None = None  # trials/runs/fingerprint.py
+    forced: list[dict[str, Any]] = field(default_factory=list)  # resumes with --force despite changes
 
     @property
     def object_names(self) -> list[str]:
@@ -77,9 +80,10 @@ class RunManifest:
         }
 
     @classmethod
-    def from_json(cls, doc: Any, where: str) -> "RunManifest":
+    def from_json(cls, doc: Any, where: str) -> RunManifest:
         """Every field checked as on a new run: a hand-edited or corrupt run.json
         gives one line naming the file and the field, never a bad trial."""
+
         def bad(key: str, what: str) -> UsageError:
             return UsageError(f"{where}: {key}: {what}")
 
@@ -107,7 +111,7 @@ class RunManifest:
         if not isinstance(raw_objects, list) or not raw_objects:
             raise bad("objects", "a non-empty list of object profiles")
         objects = []
-        for i, o in enumerate(raw_objects):
+        for o in raw_objects:
             name = o.get("name") if isinstance(o, dict) else None
             try:
                 objects.append(profile_from_json(name, o, where, "objects."))
@@ -130,13 +134,23 @@ class RunManifest:
         if not isinstance(forced, list) or not all(isinstance(f, dict) for f in forced):
             raise bad("forced", "a list of tables (resumes with --force)")
         return cls(
-            backend=backend, hand=hand, seed=seed, trials=trials, policies=list(policies), objects=objects,
-            tick_logs=tick_logs, hand_file=doc.get("hand_file"), hand_sha256=doc.get("hand_sha256"),
-            object_file=doc.get("object_file"), preset=doc.get("preset"), settings=settings,
-            fingerprint=fingerprint, forced=forced,
+            backend=backend,
+            hand=hand,
+            seed=seed,
+            trials=trials,
+            policies=list(policies),
+            objects=objects,
+            tick_logs=tick_logs,
+            hand_file=doc.get("hand_file"),
+            hand_sha256=doc.get("hand_sha256"),
+            object_file=doc.get("object_file"),
+            preset=doc.get("preset"),
+            settings=settings,
+            fingerprint=fingerprint,
+            forced=forced,
         )
 
-    def same_plan(self, other: "RunManifest") -> bool:
+    def same_plan(self, other: RunManifest) -> bool:
         """Would both produce the same trials? (paths and presets may differ)"""
         a, b = self.to_json(), other.to_json()
         keys = ("backend", "hand", "seed", "trials", "policies", "objects", "tick_logs", "settings")

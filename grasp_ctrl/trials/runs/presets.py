@@ -33,7 +33,9 @@ PRESETS: dict[str, Preset] = {
         "paper",
         "the paper's lift-and-place protocol (Fig. 6): 6 objects x 5 trials x Su et al., the voxel network "
         "and the authors' network fine-tuned on the simulated sensor",
-        PAPER_OBJECTS, 5, PAPER_POLICIES,
+        PAPER_OBJECTS,
+        5,
+        PAPER_POLICIES,
     ),
 }
 

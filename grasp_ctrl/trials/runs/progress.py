@@ -7,7 +7,8 @@ from __future__ import annotations
 import sys
 import time
 from collections import defaultdict
-from typing import Any, Callable, TextIO
+from collections.abc import Callable
+from typing import Any, TextIO
 
 from grasp_ctrl.progress_bar import progress_bar
 

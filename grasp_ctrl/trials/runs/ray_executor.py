@@ -16,12 +16,13 @@ import contextlib
 import logging
 import os
 import uuid
-from typing import Any, Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
 
 from grasp_ctrl.errors import UsageError
 
 EXECUTORS = ("local", "ray")
-_CACHE: dict[Any, Any] = {}   # per Ray worker process: trial functions, built once
+_CACHE: dict[Any, Any] = {}  # per Ray worker process: trial functions, built once
 
 
 def require_ray() -> Any:
@@ -55,8 +56,11 @@ def ray_session(address: str | None, cpus: int | None) -> Iterator[Any]:
         try:
             ray.init(**kwargs)
         except (ConnectionError, RuntimeError, ValueError) as exc:
-            raise UsageError(f"--address {address}: cannot connect to Ray ({exc})" if address
-                             else f"cannot start a local Ray instance ({exc})") from None
+            raise UsageError(
+                f"--address {address}: cannot connect to Ray ({exc})"
+                if address
+                else f"cannot start a local Ray instance ({exc})"
+            ) from None
     try:
         yield ray
     finally:
@@ -64,15 +68,16 @@ def ray_session(address: str | None, cpus: int | None) -> Iterator[Any]:
             ray.shutdown()
 
 
-def _trial_in_worker(token: str, hand: Any, policies: list[str], settings: Any, threads: int, backend: str,
-                     task: tuple) -> dict[str, Any]:
+def _trial_in_worker(
+    token: str, hand: Any, policies: list[str], settings: Any, threads: int, backend: str, task: tuple
+) -> dict[str, Any]:
     """One trial on the simulated ``backend`` in a Ray worker; its policies are loaded once per
     worker and sweep (``token``)."""
     from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
     key = ("trial", token)
     if key not in _CACHE:
-        _CACHE.clear()   # a worker of a long-lived cluster keeps only the current sweep's
+        _CACHE.clear()  # a worker of a long-lived cluster keeps only the current sweep's
         _CACHE[key] = sim_trial_fn(hand, policies, settings, threads, backend=backend)
     return _CACHE[key](*task)
 
@@ -106,8 +111,14 @@ def _fan_out(ray: Any, remote_fn: Any, args_list: Sequence[tuple], in_flight: in
 
 
 def ray_trials(
-    address: str | None, jobs: int | None, hand: Any, policies: Sequence[str], settings: Any, threads: int,
-    tasks: Sequence[tuple], backend: str = "mock",
+    address: str | None,
+    jobs: int | None,
+    hand: Any,
+    policies: Sequence[str],
+    settings: Any,
+    threads: int,
+    tasks: Sequence[tuple],
+    backend: str = "mock",
 ) -> Iterator[tuple[int, dict[str, Any]]]:
     """Trials on a simulated ``backend`` as Ray tasks: yields (task index, record) as each finishes."""
     with ray_session(address, jobs) as ray:
@@ -117,13 +128,18 @@ def ray_trials(
         yield from _fan_out(ray, remote, [(*shared, task) for task in tasks], 2 * max(parallel, 1))
 
 
-def ray_map(address: str | None, jobs: int | None, fn: Callable[..., Any], args_list: Sequence[tuple],
-            shared: tuple = (), cpus_per_task: int = 1) -> Iterator[tuple[int, Any]]:
+def ray_map(
+    address: str | None,
+    jobs: int | None,
+    fn: Callable[..., Any],
+    args_list: Sequence[tuple],
+    shared: tuple = (),
+    cpus_per_task: int = 1,
+) -> Iterator[tuple[int, Any]]:
     """``fn(*shared, *args)`` for every args as Ray tasks: yields (index, result) as each
     finishes. ``shared`` (e.g. a dataset) goes to the object store once."""
     with ray_session(address, jobs) as ray:
         remote = ray.remote(num_cpus=cpus_per_task)(fn)
         refs = tuple(ray.put(x) for x in shared)
         parallel = jobs or int(ray.cluster_resources().get("CPU", 1))
-        yield from _fan_out(ray, remote, [(*refs, *args) for args in args_list],
-                            2 * max(parallel // cpus_per_task, 1))
+        yield from _fan_out(ray, remote, [(*refs, *args) for args in args_list], 2 * max(parallel // cpus_per_task, 1))

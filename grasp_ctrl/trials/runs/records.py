@@ -24,7 +24,7 @@ REASON_WORD = re.compile(r"^[a-z][a-z0-9_]*$")
 @dataclass
 class LoadedRecords:
     records: list[dict[str, Any]] = field(default_factory=list)
-    problems: list[tuple[Path, str]] = field(default_factory=list)   # (file, why it was skipped)
+    problems: list[tuple[Path, str]] = field(default_factory=list)  # (file, why it was skipped)
 
     def key(self, rec: dict[str, Any]) -> tuple[str, str, int]:
         return (rec["policy"], rec["object"], rec["trial"])
@@ -100,5 +100,11 @@ def canonical_order(
     obj = {o: i for i, o in enumerate(objects or [])}
     return sorted(
         records,
-        key=lambda r: (pol.get(r["policy"], len(pol)), r["policy"], obj.get(r["object"], len(obj)), r["object"], r["trial"]),
+        key=lambda r: (
+            pol.get(r["policy"], len(pol)),
+            r["policy"],
+            obj.get(r["object"], len(obj)),
+            r["object"],
+            r["trial"],
+        ),
     )

@@ -13,16 +13,15 @@ import json
 import os
 import socket
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.json_limits import JsonFileError, read_json
 from grasp_ctrl.storage import LOCK_FILE
 
-
 MAX_LOCK_BYTES = 64 * 1024
-MAX_PID = 2**31 - 1   # pid_t
+MAX_PID = 2**31 - 1  # pid_t
 
 
 def pid_alive(pid: int) -> bool:
@@ -32,7 +31,7 @@ def pid_alive(pid: int) -> bool:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
-    except PermissionError:   # exists, owned by someone else
+    except PermissionError:  # exists, owned by someone else
         return True
     except OSError:
         return False
@@ -59,7 +58,7 @@ class RunLock:
             return None
         return doc
 
-    def acquire(self) -> "RunLock":
+    def acquire(self) -> RunLock:
         me = {"pid": os.getpid(), "host": socket.gethostname(), "started": time.strftime("%Y-%m-%dT%H:%M:%S")}
         for _ in range(3):
             try:
@@ -75,7 +74,7 @@ class RunLock:
                     pid = owner.get("pid") if owner else None
                     host = owner.get("host") if owner else None
                 if isinstance(pid, int) and host == me["host"] and pid == os.getpid():
-                    raise UsageError(f"{self.path.parent}: this process already writes this run")
+                    raise UsageError(f"{self.path.parent}: this process already writes this run") from None
                 if isinstance(pid, int) and host == me["host"] and not pid_alive(pid):
                     self.warn(f"{self.path}: stale lock of process {pid} (no longer running); taking it over")
                     self.path.unlink(missing_ok=True)
@@ -88,7 +87,7 @@ class RunLock:
                 raise UsageError(
                     f"{self.path.parent} is in use by {where} (since {owner.get('started', '?')}); "
                     f"wait for it to finish, or delete {self.path} if that process is gone"
-                )
+                ) from None
             with os.fdopen(fd, "w", encoding="utf-8") as fh:
                 json.dump(me, fh)
                 fh.flush()
@@ -105,7 +104,7 @@ class RunLock:
             self.path.unlink(missing_ok=True)
         self.held = False
 
-    def __enter__(self) -> "RunLock":
+    def __enter__(self) -> RunLock:
         return self.acquire()
 
     def __exit__(self, *exc: object) -> None:

@@ -9,9 +9,9 @@ from typing import Any, TextIO
 
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.json_limits import JsonFileError, read_json
+from grasp_ctrl.storage import SUMMARY_FILE
 from grasp_ctrl.trials.runs.manifest import RunManifest, read_manifest
 from grasp_ctrl.trials.runs.records import LoadedRecords, canonical_order, load_records
-from grasp_ctrl.storage import SUMMARY_FILE
 from grasp_ctrl.trials.runs.summary import summarize
 from grasp_ctrl.trials.runs.summary_flags import rescored_flags
 
@@ -23,7 +23,7 @@ class Scored:
     records: list[dict[str, Any]]
     problems: list[tuple[Path, str]] = field(default_factory=list)
     manifest: RunManifest | None = None
-    live: dict[str, Any] | None = None     # summary.json as the run wrote it, if readable
+    live: dict[str, Any] | None = None  # summary.json as the run wrote it, if readable
 
     @property
     def policies(self) -> list[str] | None:
@@ -63,16 +63,17 @@ def score_run(run_dir: Path) -> Scored:
     if not loaded.records:
         where = f" ({len(loaded.problems)} unusable)" if loaded.problems else ""
         raise UsageError(f"{run_dir}: no usable trial records{where}")
-    records = canonical_order(loaded.records, manifest.policies if manifest else None,
-                              manifest.object_names if manifest else None)
+    records = canonical_order(
+        loaded.records, manifest.policies if manifest else None, manifest.object_names if manifest else None
+    )
     summary = rescored_flags(summarize(records, str(run_dir), backend, hand, seed), live)
     return Scored(run_dir, summary, records, loaded.problems, manifest, live)
 
 
 def only_planned(loaded: LoadedRecords, manifest: RunManifest, run_dir: Path) -> LoadedRecords:
     """The records of the run's plan; the others move to ``problems`` with the reason."""
-    from grasp_ctrl.trials.runs.planned import run_fingerprints, why_unplanned
     from grasp_ctrl.storage import TRIALS_DIR, safe_name
+    from grasp_ctrl.trials.runs.planned import run_fingerprints, why_unplanned
 
     known = run_fingerprints(manifest)
     out = LoadedRecords(problems=list(loaded.problems))
@@ -93,11 +94,17 @@ def report_problems(scored: Scored, stream: TextIO | None = None) -> None:
         print(f"skipped {path}: {why}", file=err)
     n = len(scored.records)
     if scored.expected is not None and n < scored.expected:
-        print(f"note: {n} of {scored.expected} trials have usable records "
-              f"(finish with: grasp-ctrl run --resume {scored.run_dir})", file=err)
+        print(
+            f"note: {n} of {scored.expected} trials have usable records "
+            f"(finish with: grasp-ctrl run --resume {scored.run_dir})",
+            file=err,
+        )
     if scored.live is not None and _comparable(scored.live) != _comparable(scored.summary):
-        print(f"note: differs from the run's own {scored.run_dir / SUMMARY_FILE} "
-              "(records changed, were skipped, or the run did not finish)", file=err)
+        print(
+            f"note: differs from the run's own {scored.run_dir / SUMMARY_FILE} "
+            "(records changed, were skipped, or the run did not finish)",
+            file=err,
+        )
 
 
 def _comparable(summary: dict[str, Any]) -> dict[str, Any]:

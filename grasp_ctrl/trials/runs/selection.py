@@ -24,4 +24,3 @@ def select_objects(objects_file: str | Path, spec: str | None, flag: str = "--ob
         if unknown:
             raise UsageError(f"{flag}: unknown object {unknown[0]!r} (known: {', '.join(profiles)})")
     return [profiles[n] for n in names]
-

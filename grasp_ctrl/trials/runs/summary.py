@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 from collections import Counter, defaultdict
-from typing import Any, Iterable, Mapping
+from collections.abc import Iterable, Mapping
+from typing import Any
 
 
-def summarize(
-    records: Iterable[Mapping[str, Any]], run_dir: str, backend: str, hand: str, seed: int
-) -> dict[str, Any]:
+def summarize(records: Iterable[Mapping[str, Any]], run_dir: str, backend: str, hand: str, seed: int) -> dict[str, Any]:
     """``records``: dicts with at least ``policy``, ``object``, ``success``, ``reason``."""
     per: dict[str, dict[str, list[Mapping[str, Any]]]] = defaultdict(lambda: defaultdict(list))
     for r in records:
@@ -51,7 +50,11 @@ def format_table(summary: Mapping[str, Any]) -> str:
         cells = []
         for p, c in zip(policies, cols):
             e = summary["policies"][p]["objects"].get(o)
-            cells.append(f"{'-':>{c}s}" if e is None else f"{e['successes']}/{e['trials']} {100 * e['success_rate']:5.1f}%".rjust(c))
+            cells.append(
+                f"{'-':>{c}s}"
+                if e is None
+                else f"{e['successes']}/{e['trials']} {100 * e['success_rate']:5.1f}%".rjust(c)
+            )
         lines.append(f"{o:{width}s}  " + "  ".join(cells))
     cells = []
     for p, c in zip(policies, cols):

@@ -13,8 +13,10 @@ from typing import Any
 
 from grasp_ctrl.trials.episode.capacity_check import CapacityVerdict
 
-MOCK_NOTE = ("the mock world is a test double (it holds the object still sideways): its success rates "
-             "are not results; run on --backend mujoco (the default) for those (docs/results.md)")
+MOCK_NOTE = (
+    "the mock world is a test double (it holds the object still sideways): its success rates "
+    "are not results; run on --backend mujoco (the default) for those (docs/results.md)"
+)
 
 
 def flag_summary(summary: dict[str, Any], short: list[CapacityVerdict]) -> dict[str, Any]:

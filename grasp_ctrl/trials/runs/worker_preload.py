@@ -11,8 +11,8 @@ policy is loaded, so no inference session or thread is shared by the forked work
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
@@ -36,20 +36,20 @@ def warm_kernels() -> None:
     from grasp_ctrl.finite import all_finite
     from grasp_ctrl.kinematics.chain import HandKinematics
     from grasp_ctrl.limits import limit_goal
+    from grasp_ctrl.loop.sensing import SensingPipeline
+    from grasp_ctrl.loop.tick import control_tick
+    from grasp_ctrl.loop.tick_kernels import track_peaks
+    from grasp_ctrl.loop.ticklog import TickLog
     from grasp_ctrl.paths import default_hand_file, default_objects_file
     from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
     from grasp_ctrl.sim.world import MockWorld
     from grasp_ctrl.tactile.layout import FRAME_LEN
     from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate
-    from grasp_ctrl.loop.sensing import SensingPipeline
-    from grasp_ctrl.loop.tick import control_tick
-    from grasp_ctrl.loop.tick_kernels import track_peaks
-    from grasp_ctrl.loop.ticklog import TickLog
 
     hand = load_hand(default_hand_file())
     objects = load_objects(default_objects_file())
     obj = next(iter(objects.values()))
-    for capped in objects.values():   # the reach postures of capped objects: a scipy fit each, kept per hand
+    for capped in objects.values():  # the reach postures of capped objects: a scipy fit each, kept per hand
         if capped.cap is not None:
             raised_reach_posture(hand, capped.cap.finger, capped.cap.contact_height_m - capped.grasp_height_m)
     kin = HandKinematics(hand)
@@ -59,14 +59,23 @@ def warm_kernels() -> None:
     pipeline = SensingPipeline(hand, kin, _NoForce())
     ctrl = GraspController(hand, obj, world.reach_pose_world(), kin=kin)
     n = len(hand.fingers)
-    log = TickLog(Path("unwritten_ticks.parquet"), pipeline.names, len(hand.joints), truth=True)   # never closed
+    log = TickLog(Path("unwritten_ticks.parquet"), pipeline.names, len(hand.joints), truth=True)  # never closed
     peaks = np.zeros((3, n))
-    for _ in range(hand.tactile.tare_frames + 3):   # past the tare: the tick's compiled halves
+    for _ in range(hand.tactile.tare_frames + 3):  # past the tare: the tick's compiled halves
         world.step()
         snap, cmd, raw = control_tick(hand_backend, arm, sensors, pipeline, ctrl, world.t)
         track_peaks(snap.f_sensor, snap.grip_n, world.normal_n, peaks[0], peaks[1], peaks[2])
-        log.append(ctrl.state, snap, cmd, pipeline.tared, world.f_sensor, world.obj_z, world.table_n, raw=raw,
-                   grip_target_n=ctrl.tau)
+        log.append(
+            ctrl.state,
+            snap,
+            cmd,
+            pipeline.tared,
+            world.f_sensor,
+            world.obj_z,
+            world.table_n,
+            raw=raw,
+            grip_target_n=ctrl.tau,
+        )
     motion = FingertipMotion(hand, kin)
     motion.advance_all(np.full(n, 1e-4))
     FingertipMotion(hand, kin, stiffness_aware=True).squeeze_all(np.full(n, 1e-4), motion.q_goal.copy(), 1e-4)
@@ -74,11 +83,19 @@ def warm_kernels() -> None:
     motion.ik.sensor_forces(motion.q_goal, np.zeros((n, 3)))
     limit_goal(motion.q_goal, motion.q_goal, 0.1, motion.lower, motion.upper, np.empty_like(motion.q_goal))
     all_finite(motion.q_goal)
-    tare_and_gate(np.zeros((n, FRAME_LEN)), np.zeros((n, FRAME_LEN)), np.zeros(n, dtype=np.int64), 10.0, 10,
-                  np.empty((n, FRAME_LEN)), np.empty(n, dtype=bool))
-    scatter_rows(np.zeros((1, 3)), 1, np.zeros((n, 3)))   # some fingertips in contact
+    tare_and_gate(
+        np.zeros((n, FRAME_LEN)),
+        np.zeros((n, FRAME_LEN)),
+        np.zeros(n, dtype=np.int64),
+        10.0,
+        10,
+        np.empty((n, FRAME_LEN)),
+        np.empty(n, dtype=bool),
+    )
+    scatter_rows(np.zeros((1, 3)), 1, np.zeros((n, 3)))  # some fingertips in contact
+
 
 try:
     warm_kernels()
-except Exception:   # a missing default file, say: the workers then load the kernels themselves
+except Exception:  # a missing default file, say: the workers then load the kernels themselves
     pass

@@ -24,7 +24,8 @@ import signal
 import sys
 import tempfile
 import threading
-from typing import Any, Iterator
+from collections.abc import Iterator
+from typing import Any
 
 PRELOAD = ["grasp_ctrl.trials.runs.worker_preload"]
 
@@ -59,7 +60,7 @@ def _start_forkserver_without_sigint() -> None:
     with open(launcher, "w", encoding="utf-8") as fh:
         fh.write(f"#!{shell}\ntrap '' INT\nexec {shlex.quote(python)} \"$@\"\n")
     os.chmod(launcher, 0o700)
-    if not _runs(launcher):   # a temporary folder mounted noexec, say
+    if not _runs(launcher):  # a temporary folder mounted noexec, say
         forkserver.ensure_running()
         return
     spawn.set_executable(launcher)

@@ -81,7 +81,7 @@ def parse_space(spec: str) -> Param:
     parts = values.split(":") if ":" in values else values.split(",")
     for part in parts:
         if part.strip().lower() != "log" and part.strip():
-            _number(part, spec)   # every bound and value finite, before anything else
+            _number(part, spec)  # every bound and value finite, before anything else
     if ":" in values:
         log = len(parts) == 3 and parts[2].strip().lower() == "log"
         if len(parts) == 2 or log:

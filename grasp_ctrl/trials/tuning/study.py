@@ -41,9 +41,11 @@ from grasp_ctrl.trials.tuning.study_defaults import DEFAULT_BUDGET  # noqa: F401
 from grasp_ctrl.trials.tuning.tune import SweepRow, apply_setting
 from grasp_ctrl.trials.tuning.tune_executors import TrialExecutor
 
-OBJECTIVE = ("success rate over the seeded trials, ties broken by the mean peak true grip force "
-             "(gentler wins): value = (successes - 0.5*g/(1+g)) / K, g the mean peak true grip in N")
-MAX_DUPLICATES = 50   # settings sampled again in a row: the space is exhausted
+OBJECTIVE = (
+    "success rate over the seeded trials, ties broken by the mean peak true grip force "
+    "(gentler wins): value = (successes - 0.5*g/(1+g)) / K, g the mean peak true grip in N"
+)
+MAX_DUPLICATES = 50  # settings sampled again in a row: the space is exhausted
 FINISHED = (TrialState.COMPLETE, TrialState.PRUNED)
 
 optuna.logging.set_verbosity(optuna.logging.WARNING)
@@ -60,11 +62,11 @@ def objective_value(successes: int, trials: int, mean_peak_grip_n: float) -> flo
 class StudyPlan:
     obj: ObjectProfile
     params: list[Param]
-    trials: int                 # seeded trials per setting
+    trials: int  # seeded trials per setting
     seed: int
     policy: str
     backend: str
-    budget: int                 # settings in the whole study
+    budget: int  # settings in the whole study
     storage: str | None = None
     name: str | None = None
     prune: bool = True
@@ -79,8 +81,14 @@ class StudyPlan:
 
     def identity(self) -> dict[str, Any]:
         """What makes two studies the same study (kept in the storage, checked on resume)."""
-        return {"object": self.obj.name, "policy": self.policy, "backend": self.backend, "seed": self.seed,
-                "trials": self.trials, "params": [p.spec() for p in self.params]}
+        return {
+            "object": self.obj.name,
+            "policy": self.policy,
+            "backend": self.backend,
+            "seed": self.seed,
+            "trials": self.trials,
+            "params": [p.spec() for p in self.params],
+        }
 
     def study_name(self) -> str:
         if self.name:
@@ -101,8 +109,10 @@ class CannotWinPruner(BasePruner):
         if step is None or step + 1 >= self.trials:
             return False
         reachable = trial.intermediate_values[step]
-        best = max((t.user_attrs.get("successes", 0) for t in study.get_trials(deepcopy=False,
-                    states=(TrialState.COMPLETE,))), default=None)
+        best = max(
+            (t.user_attrs.get("successes", 0) for t in study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,))),
+            default=None,
+        )
         return best is not None and reachable < best / self.trials - 1e-12
 
 
@@ -111,13 +121,17 @@ class StudyGridSampler(GridSampler):
     no ``study.stop()`` after a trial, and a point whose setting was dropped unfinished
     (Ctrl-C) is not visited, so a rerun samples it again."""
 
-    def after_trial(self, study: optuna.Study, trial: FrozenTrial, state: TrialState,
-                    values: Sequence[float] | None) -> None:
+    def after_trial(
+        self, study: optuna.Study, trial: FrozenTrial, state: TrialState, values: Sequence[float] | None
+    ) -> None:
         return None
 
     def _get_unvisited_grid_ids(self, study: optuna.Study) -> list[int]:
-        taken = {t.system_attrs.get("grid_id") for t in study._storage.get_all_trials(study._study_id, deepcopy=False)
-                 if t.state in (*FINISHED, TrialState.RUNNING)}
+        taken = {
+            t.system_attrs.get("grid_id")
+            for t in study._storage.get_all_trials(study._study_id, deepcopy=False)
+            if t.state in (*FINISHED, TrialState.RUNNING)
+        }
         return [i for i in range(len(self._all_grids)) if i not in taken]
 
 
@@ -152,14 +166,22 @@ def open_study(plan: StudyPlan) -> optuna.Study:
         except KeyError:
             existing = 0
     pruner = CannotWinPruner(plan.trials) if plan.prune else optuna.pruners.NopPruner()
-    study = optuna.create_study(storage=storage, study_name=name, direction="maximize",
-                                sampler=_sampler(plan, existing), pruner=pruner, load_if_exists=True)
+    study = optuna.create_study(
+        storage=storage,
+        study_name=name,
+        direction="maximize",
+        sampler=_sampler(plan, existing),
+        pruner=pruner,
+        load_if_exists=True,
+    )
     identity = plan.identity()
     stored = study.user_attrs.get("identity")
     if stored is None:
         study.set_user_attr("identity", identity)
     elif stored != identity:
-        diff = ", ".join(f"{k} {stored.get(k)!r} (now {identity[k]!r})" for k in identity if stored.get(k) != identity[k])
+        diff = ", ".join(
+            f"{k} {stored.get(k)!r} (now {identity[k]!r})" for k in identity if stored.get(k) != identity[k]
+        )
         raise UsageError(f"--study-name {name}: the stored study was made with {diff}")
     _recover(study, plan)
     return study
@@ -175,8 +197,10 @@ def _recover(study: optuna.Study, plan: StudyPlan) -> None:
     if plan.all_grid:
         return
     done = set(finished_settings(study))
-    queued = {setting_key(t.system_attrs.get("fixed_params", {}))
-              for t in study.get_trials(deepcopy=False, states=(TrialState.WAITING,))}
+    queued = {
+        setting_key(t.system_attrs.get("fixed_params", {}))
+        for t in study.get_trials(deepcopy=False, states=(TrialState.WAITING,))
+    }
     for t in study.get_trials(deepcopy=False, states=(TrialState.FAIL,)):
         key = setting_key(t.params)
         if t.user_attrs.get("interrupted") and t.params and key not in done and key not in queued:
@@ -202,9 +226,14 @@ class _Active:
 
 
 def _short(rec: dict[str, Any], k: int, seed: int) -> dict[str, Any]:
-    return {"trial": k, "seed": seed, "success": bool(rec["success"]), "reason": rec.get("reason"),
-            "peak_grip_true_n": float(rec.get("peak_grip_true_n", math.nan)),
-            "peak_grip_est_n": float(rec.get("peak_grip_est_n", math.nan))}
+    return {
+        "trial": k,
+        "seed": seed,
+        "success": bool(rec["success"]),
+        "reason": rec.get("reason"),
+        "peak_grip_true_n": float(rec.get("peak_grip_true_n", math.nan)),
+        "peak_grip_est_n": float(rec.get("peak_grip_est_n", math.nan)),
+    }
 
 
 def remaining(study: optuna.Study, plan: StudyPlan) -> int:
@@ -294,8 +323,11 @@ def _grip(row: SweepRow) -> float:
     return g if math.isfinite(g) else row.mean_peak_est_n
 
 
-def rows_of(record_lists: Sequence[Sequence[dict[str, Any]]], settings: Sequence[dict[str, Value]] | None = None,
-            pruned: Sequence[bool] | None = None) -> list[SweepRow]:
+def rows_of(
+    record_lists: Sequence[Sequence[dict[str, Any]]],
+    settings: Sequence[dict[str, Value]] | None = None,
+    pruned: Sequence[bool] | None = None,
+) -> list[SweepRow]:
     rows = []
     for i, recs in enumerate(record_lists):
         row = SweepRow(dict(settings[i]) if settings else {}, pruned=bool(pruned[i]) if pruned else False)

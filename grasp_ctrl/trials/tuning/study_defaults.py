@@ -6,7 +6,7 @@ from pathlib import Path
 
 from grasp_ctrl.errors import UsageError
 
-DEFAULT_BUDGET = 20   # settings in a study with a continuous range, unless --budget says otherwise
+DEFAULT_BUDGET = 20  # settings in a study with a continuous range, unless --budget says otherwise
 
 
 def require_optuna() -> None:
@@ -21,7 +21,7 @@ def check_storage(url: str) -> None:
     if "://" not in url:
         raise UsageError(f"--storage {url}: a database URL, e.g. sqlite:///study.db")
     if url.startswith("sqlite:///"):
-        name = url[len("sqlite:///"):]
+        name = url[len("sqlite:///") :]
         path = Path(name)
         if not name.strip() or "\x00" in name:
             raise UsageError(f"--storage {url}: no file named")

@@ -30,7 +30,7 @@ def write_study_plots(study: optuna.Study, out_dir: Path, name: str) -> list[str
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 ax = draw(study)
-        except (ValueError, RuntimeError) as exc:   # e.g. every setting scored the same
+        except (ValueError, RuntimeError) as exc:  # e.g. every setting scored the same
             lines.append(f"{kind}: not drawn ({str(exc).splitlines()[0]})")
             continue
         fig = ax.figure if hasattr(ax, "figure") else ax[0].figure

@@ -19,17 +19,35 @@ def report(study: optuna.Study, plan: StudyPlan, ran_here: int) -> tuple[str, di
     current = {n: getattr(plan.obj, n) for n in names}
     sampler = "grid" if plan.all_grid else "TPE"
     pruned = sum(r.pruned for r in rows)
-    head = (f"{plan.obj.name}, policy {plan.policy}, backend {plan.backend}, {plan.trials} trials per setting, "
-            f"seed {plan.seed}; study {plan.study_name()} ({sampler}): {len(rows)} settings finished "
-            f"({ran_here} now, {pruned} pruned) (* = current)")
+    head = (
+        f"{plan.obj.name}, policy {plan.policy}, backend {plan.backend}, {plan.trials} trials per setting, "
+        f"seed {plan.seed}; study {plan.study_name()} ({sampler}): {len(rows)} settings finished "
+        f"({ran_here} now, {pruned} pruned) (* = current)"
+    )
     lines = [head, f"objective: {OBJECTIVE}"]
     doc: dict[str, Any] = {
-        "object": plan.obj.name, "policy": plan.policy, "backend": plan.backend, "seed": plan.seed,
-        "trials": plan.trials, "seeds": plan.seeds, "budget": plan.budget, "sampler": sampler,
-        "study": plan.study_name(), "storage": plan.storage, "objective": OBJECTIVE,
-        "params": [p.spec() for p in plan.params], "current": current, "best": None,
-        "ranked": [dict(r.to_json(), study_trial=by_row[id(r)].number,
-                        value=by_row[id(r)].value if by_row[id(r)].value is not None else None) for r in rows],
+        "object": plan.obj.name,
+        "policy": plan.policy,
+        "backend": plan.backend,
+        "seed": plan.seed,
+        "trials": plan.trials,
+        "seeds": plan.seeds,
+        "budget": plan.budget,
+        "sampler": sampler,
+        "study": plan.study_name(),
+        "storage": plan.storage,
+        "objective": OBJECTIVE,
+        "params": [p.spec() for p in plan.params],
+        "current": current,
+        "best": None,
+        "ranked": [
+            dict(
+                r.to_json(),
+                study_trial=by_row[id(r)].number,
+                value=by_row[id(r)].value if by_row[id(r)].value is not None else None,
+            )
+            for r in rows
+        ],
     }
     if not rows:
         lines.append("no finished setting yet")
@@ -38,8 +56,10 @@ def report(study: optuna.Study, plan: StudyPlan, ran_here: int) -> tuple[str, di
     best = rows[0]
     lo, hi = wilson_interval(best.successes, best.trials)
     setting = ", ".join(f"{k}={v:g}" for k, v in best.setting.items())
-    lines.append(f"best: {setting}: {best.successes}/{best.trials} succeeded "
-                 f"({100 * best.success_rate:.0f} %, 95 % Wilson interval {100 * lo:.0f}-{100 * hi:.0f} %), "
-                 f"mean peak true grip {best.mean_peak_true_n:.2f} N")
+    lines.append(
+        f"best: {setting}: {best.successes}/{best.trials} succeeded "
+        f"({100 * best.success_rate:.0f} %, 95 % Wilson interval {100 * lo:.0f}-{100 * hi:.0f} %), "
+        f"mean peak true grip {best.mean_peak_true_n:.2f} N"
+    )
     doc["best"] = dict(best.to_json(), wilson_95=[round(lo, 4), round(hi, 4)])
     return "\n".join(lines), doc

@@ -52,7 +52,7 @@ def set_object_value(text: str, obj: str, key: str, value: float | int) -> str:
             continue
         last_key = i
         if m.group(2) == key:
-            nl = lines[i][len(lines[i].rstrip("\r\n")):]
+            nl = lines[i][len(lines[i].rstrip("\r\n")) :]
             lines[i] = f"{m.group(1)}{key}{m.group(3)}{toml_value(value)}{m.group(5)}{nl}"
             return "".join(lines)
     nl = "\n"
@@ -84,9 +84,15 @@ def update_objects_file(path: Path, values: dict[str, dict[str, float | int]]) -
     if new == old:
         return ""
     _check_loads(new, path, values)
-    replace_in_place(path, new)   # follows a symlink; keeps the target's mode and owner (safe_write.py)
-    return "".join(difflib.unified_diff(old.splitlines(keepends=True), new.splitlines(keepends=True),
-                                        fromfile=f"{path} (before)", tofile=f"{path} (after)"))
+    replace_in_place(path, new)  # follows a symlink; keeps the target's mode and owner (safe_write.py)
+    return "".join(
+        difflib.unified_diff(
+            old.splitlines(keepends=True),
+            new.splitlines(keepends=True),
+            fromfile=f"{path} (before)",
+            tofile=f"{path} (after)",
+        )
+    )
 
 
 def _check_loads(text: str, path: Path, values: dict[str, dict[str, float | int]]) -> None:

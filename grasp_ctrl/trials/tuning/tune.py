@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any
 
 from grasp_ctrl.config.objects import TUNABLE, ObjectProfile
 from grasp_ctrl.errors import UsageError
@@ -89,7 +90,7 @@ class SweepRow:
     failures: dict[str, int] = field(default_factory=dict)
     peak_true_n: list[float] = field(default_factory=list)
     peak_est_n: list[float] = field(default_factory=list)
-    pruned: bool = False        # stopped early by the study: it could no longer win
+    pruned: bool = False  # stopped early by the study: it could no longer win
 
     @property
     def success_rate(self) -> float:
@@ -113,15 +114,22 @@ class SweepRow:
         self.peak_est_n.append(float(rec.get("peak_grip_est_n", math.nan)))
 
     def to_json(self) -> dict[str, Any]:
-        return {"setting": self.setting, "trials": self.trials, "successes": self.successes,
-                "success_rate": self.success_rate, "failures": dict(sorted(self.failures.items())),
-                "mean_peak_grip_true_n": round(self.mean_peak_true_n, 4),
-                "mean_peak_grip_est_n": round(self.mean_peak_est_n, 4), "pruned": self.pruned}
+        return {
+            "setting": self.setting,
+            "trials": self.trials,
+            "successes": self.successes,
+            "success_rate": self.success_rate,
+            "failures": dict(sorted(self.failures.items())),
+            "mean_peak_grip_true_n": round(self.mean_peak_true_n, 4),
+            "mean_peak_grip_est_n": round(self.mean_peak_est_n, 4),
+            "pruned": self.pruned,
+        }
 
 
 def rank(rows: Sequence[SweepRow]) -> list[SweepRow]:
     """Success rate first, then the lower mean peak force; ties keep the sweep order.
     Settings pruned before their last trial come after every finished one."""
+
     def force(r: SweepRow) -> float:
         f = r.mean_peak_true_n
         return f if math.isfinite(f) else r.mean_peak_est_n if math.isfinite(r.mean_peak_est_n) else math.inf
@@ -129,7 +137,7 @@ def rank(rows: Sequence[SweepRow]) -> list[SweepRow]:
     return sorted(rows, key=lambda r: (r.pruned, -r.success_rate, force(r)))
 
 
-SweepTask = tuple[int, ObjectProfile, int]   # setting index, tuned profile, trial index
+SweepTask = tuple[int, ObjectProfile, int]  # setting index, tuned profile, trial index
 
 
 def run_sweep(
@@ -143,7 +151,7 @@ def run_sweep(
     """``run_trial(profile, k)`` runs trial k (its seed fixed by k) and returns the record;
     ``run_many(tasks)`` may run the tasks elsewhere (in parallel), yielding
     (task index, record) in any order. Rows do not depend on the order."""
-    tuned = [apply_setting(obj, s) for s in grid]   # refuse a bad value before any trial
+    tuned = [apply_setting(obj, s) for s in grid]  # refuse a bad value before any trial
     tasks = [(i, tuned[i], k) for i in range(len(grid)) for k in range(trials)]
     results = run_many(tasks) if run_many else ((n, run_trial(p, k)) for n, (_, p, k) in enumerate(tasks))
     got: dict[int, dict[str, Any]] = {}
@@ -171,12 +179,23 @@ def format_sweep(rows: Sequence[SweepRow], current: dict[str, float | int] | Non
         fails = ", ".join(f"{k} x{v}" for k, v in sorted(r.failures.items())) or "-"
         if r.pruned:
             fails = f"pruned; {fails}"
-        body.append([f"{i}{mark}"] + [_fmt(r.setting[n]) for n in names] + [
-            f"{100 * r.success_rate:.0f}% ({r.successes}/{r.trials})",
-            f"{r.mean_peak_true_n:.2f} N", f"{r.mean_peak_est_n:.2f} N", fails])
+        body.append(
+            [f"{i}{mark}"]
+            + [_fmt(r.setting[n]) for n in names]
+            + [
+                f"{100 * r.success_rate:.0f}% ({r.successes}/{r.trials})",
+                f"{r.mean_peak_true_n:.2f} N",
+                f"{r.mean_peak_est_n:.2f} N",
+                fails,
+            ]
+        )
     widths = [max(len(str(x)) for x in col) for col in zip(head, *body)]
-    fmt = lambda cells: "  ".join(str(c).ljust(w) if j == len(cells) - 1 else str(c).rjust(w)  # noqa: E731
-                                  for j, (c, w) in enumerate(zip(cells, widths)))
+
+    def fmt(cells: list) -> str:
+        return "  ".join(
+            str(c).ljust(w) if j == len(cells) - 1 else str(c).rjust(w) for j, (c, w) in enumerate(zip(cells, widths))
+        )
+
     return "\n".join(fmt(cells).rstrip() for cells in [head, *body])
 
 

@@ -16,7 +16,7 @@ from typing import Any, Protocol
 
 from grasp_ctrl.trials.episode.runner import TrialTask
 
-_CACHE: dict[Any, Any] = {}   # per Ray worker: the trial function of the current study
+_CACHE: dict[Any, Any] = {}  # per Ray worker: the trial function of the current study
 
 
 class TrialExecutor(Protocol):
@@ -53,8 +53,12 @@ class ProcessExecutor:
         from grasp_ctrl.trials.episode.runner import _init_worker
         from grasp_ctrl.trials.runs.workers import worker_context
 
-        self.pool = ProcessPoolExecutor(jobs, mp_context=worker_context(), initializer=_init_worker,
-                                        initargs=(hand, [policy], ControllerSettings(), 1, backend))
+        self.pool = ProcessPoolExecutor(
+            jobs,
+            mp_context=worker_context(),
+            initializer=_init_worker,
+            initargs=(hand, [policy], ControllerSettings(), 1, backend),
+        )
         self.running: dict[Any, Hashable] = {}
 
     def submit(self, key: Hashable, task: TrialTask) -> None:
