@@ -10,6 +10,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from grasp_ctrl.sim.registry import SIMULATED
+
 NAME = "run"
 HELP = "run lift-and-place trials and score them (the main job)"
 DESCRIPTION = (
@@ -28,8 +30,10 @@ MAX_AUTO_JOBS = 8
 
 
 def auto_jobs(backend: str, trials: int, cpus: int | None = None) -> int:
-    """The default --jobs: mock trials spread over the CPU cores when there are enough."""
-    if backend not in ("mock", "mujoco"):
+    """The default --jobs: simulated trials spread over the CPU cores when there are enough."""
+    from grasp_ctrl.sim.registry import is_simulated
+
+    if not is_simulated(backend):
         return 1
     cpus = cpus or os.cpu_count() or 1
     return max(1, min(cpus, MAX_AUTO_JOBS, trials // MIN_TRIALS_PER_JOB))
@@ -65,7 +69,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--backend",
-        choices=("mock", "mujoco", "dynamixel"),
+        choices=(*SIMULATED, "dynamixel"),
         default=None,
         help="mujoco (default): the reference world, a MuJoCo scene built from the hand and "
         "object files (docs/mujoco.md); mock: the hand-written world, a fast test double whose "

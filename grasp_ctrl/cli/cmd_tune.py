@@ -8,6 +8,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from grasp_ctrl.sim.registry import SIMULATED
+
 NAME = "tune"
 HELP = "tune an object's thresholds (tau, release threshold, ...) with an Optuna study and rank the settings"
 DESCRIPTION = (
@@ -71,9 +73,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--object-file", default=str(default_objects_file()), metavar="FILE", help="object profiles TOML")
     p.add_argument(
         "--backend",
-        choices=("mujoco", "mock", "dynamixel"),
+        choices=(*SIMULATED, "dynamixel"),
         default="mujoco",
-        help="mujoco: the reference world (default; the sim extra); mock: the fast mock world; "
+        help="mujoco: the reference world (default); mock: the fast test-double world; "
         "dynamixel: the real hand, each trial labelled by the operator",
     )
     p.add_argument("--port", default=None, metavar="PORT", help="dynamixel: the servo bus port")

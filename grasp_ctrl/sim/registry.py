@@ -48,12 +48,19 @@ def _mujoco() -> SimulatedBackend:
 
 _ENTRIES: dict[str, Callable[[], SimulatedBackend]] = {"mujoco": _mujoco, "mock": _mock}
 
-#: The simulated backends' names.
+#: The simulated backends' names, the reference world first.
 SIMULATED = tuple(_ENTRIES)
+
+#: Worlds for tests and quick checks whose success rates are not results (decision record 0001).
+TEST_DOUBLES = frozenset({"mock"})
 
 
 def is_simulated(name: str) -> bool:
     return name in _ENTRIES
+
+
+def is_test_double(name: object) -> bool:
+    return name in TEST_DOUBLES
 
 
 def simulated_backend(name: str) -> SimulatedBackend:

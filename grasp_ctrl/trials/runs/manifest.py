@@ -19,6 +19,7 @@ from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import ConfigError, UsageError
 from grasp_ctrl.json_limits import JsonFileError, read_json
+from grasp_ctrl.sim.registry import SIMULATED
 from grasp_ctrl.storage import (
     RUN_FILE,
     file_sha256,  # noqa: F401  (run's plan hashes its files with it)
@@ -26,8 +27,8 @@ from grasp_ctrl.storage import (
 )
 
 FORMAT = 1
-EMULATED_BACKEND = "dynamixel-emulated"  # run --backend dynamixel --emulate (pty emulators, mock world)
-BACKENDS = ("mock", "mujoco", "dynamixel", EMULATED_BACKEND)
+EMULATED_BACKEND = "dynamixel-emulated"  # run --backend dynamixel --emulate (pty emulators, MuJoCo world)
+BACKENDS = (*SIMULATED, "dynamixel", EMULATED_BACKEND)
 MAX_TRIALS = 100_000
 # settings that may be zero (no slow zone, no overshoot, no retreat)
 SETTING_CHOICES = {"grip_targets": GRIP_TARGET_MODES}  # the text settings and their values

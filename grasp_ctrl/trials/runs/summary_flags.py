@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from grasp_ctrl.sim.registry import is_test_double
 from grasp_ctrl.trials.episode.capacity_check import CapacityVerdict
 
 MOCK_NOTE = (
@@ -25,7 +26,7 @@ def flag_summary(summary: dict[str, Any], short: list[CapacityVerdict]) -> dict[
     out = dict(summary)
     if short:
         out["capacity_short"] = [v.to_json() for v in short]
-    if summary.get("backend") == "mock":
+    if is_test_double(summary.get("backend")):
         out["test_double"] = True
     return out
 
@@ -37,6 +38,6 @@ def rescored_flags(summary: dict[str, Any], previous: dict[str, Any] | None) -> 
     if previous is not None:
         if isinstance(previous.get("capacity_short"), list):
             out["capacity_short"] = previous["capacity_short"]
-        if previous.get("test_double") is True and summary.get("backend") == "mock":
+        if previous.get("test_double") is True and is_test_double(summary.get("backend")):
             out["test_double"] = True
     return out
