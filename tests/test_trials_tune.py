@@ -47,6 +47,8 @@ def test_parse_ranges_lists_and_aliases():
         "tau_n=1:2",
         "tau_n=nan",
         "tau_n=0:1000:0.001",
+        "tau_n=1:20:1e-320",  # a step so small that the count overflows: one line, not OverflowError
+        "tau_n=1:20:1e-300",
     ],
 )
 def test_bad_params_are_usage_errors(spec):

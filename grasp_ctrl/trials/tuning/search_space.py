@@ -15,9 +15,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from grasp_ctrl.config.objects import TUNABLE
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.trials.tuning.tune import ALIASES, INTEGER, MAX_SETTINGS, parse_param
+from grasp_ctrl.trials.tuning.tune import INTEGER, MAX_SETTINGS, parse_param, split_param
 
 Value = float | int
 
@@ -72,12 +71,7 @@ def _number(text: str, spec: str) -> float:
 
 def parse_space(spec: str) -> Param:
     """``NAME=LOW:HIGH[:log]`` (a range), or a grid as ``tune.parse_param`` reads it."""
-    name, sep, values = spec.partition("=")
-    name = ALIASES.get(name.strip(), name.strip())
-    if not sep or not values.strip():
-        raise UsageError(f"--param {spec!r}: expected NAME=LOW:HIGH, NAME=START:STOP:STEP, NAME=A,B,C or NAME=VALUE")
-    if name not in TUNABLE:
-        raise UsageError(f"--param {spec!r}: {name!r} is not tunable (tunable: {', '.join(TUNABLE)})")
+    name, values = split_param(spec, "NAME=LOW:HIGH, NAME=START:STOP:STEP, NAME=A,B,C or NAME=VALUE")
     parts = values.split(":") if ":" in values else values.split(",")
     for part in parts:
         if part.strip().lower() != "log" and part.strip():

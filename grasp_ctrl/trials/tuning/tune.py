@@ -23,14 +23,20 @@ ALIASES = {"tau": "tau_n", "release_threshold": "release_threshold_n", "lift_hei
 INTEGER = {"release_debounce"}
 
 
-def parse_param(spec: str) -> tuple[str, list[float | int]]:
-    """``NAME=VALUES`` -> (profile field, values)."""
+def split_param(spec: str, forms: str = "NAME=START:STOP:STEP, NAME=A,B,C or NAME=VALUE") -> tuple[str, str]:
+    """``NAME=VALUES`` -> (the profile field NAME stands for, VALUES), or a one-line error."""
     name, sep, values = spec.partition("=")
     name = ALIASES.get(name.strip(), name.strip())
     if not sep or not values.strip():
-        raise UsageError(f"--param {spec!r}: expected NAME=START:STOP:STEP, NAME=A,B,C or NAME=VALUE")
+        raise UsageError(f"--param {spec!r}: expected {forms}")
     if name not in TUNABLE:
         raise UsageError(f"--param {spec!r}: {name!r} is not tunable (tunable: {', '.join(TUNABLE)})")
+    return name, values
+
+
+def parse_param(spec: str) -> tuple[str, list[float | int]]:
+    """``NAME=VALUES`` -> (profile field, values)."""
+    name, values = split_param(spec)
     try:
         if ":" in values:
             parts = [float(v) for v in values.split(":")]
@@ -41,7 +47,10 @@ def parse_param(spec: str) -> tuple[str, list[float | int]]:
             start, stop, step = parts
             if step <= 0 or stop < start:
                 raise UsageError(f"--param {spec!r}: need START <= STOP and STEP > 0")
-            count = int(math.floor((stop - start) / step + 1e-9)) + 1
+            span = (stop - start) / step  # huge or inf for a tiny STEP: checked before it is counted
+            if not span < MAX_SETTINGS:
+                raise UsageError(f"--param {spec!r}: more than {MAX_SETTINGS} values")
+            count = int(math.floor(span + 1e-9)) + 1
             if count > MAX_SETTINGS:
                 raise UsageError(f"--param {spec!r}: {count} values, at most {MAX_SETTINGS}")
             out = [round(start + i * step, 10) for i in range(count)]
