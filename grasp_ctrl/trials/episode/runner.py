@@ -42,11 +42,11 @@ from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.tick import control_tick
 from grasp_ctrl.loop.tick_kernels import track_peaks
 from grasp_ctrl.loop.ticklog import TickLog
-from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
+from grasp_ctrl.sim.backends import MockArm
 from grasp_ctrl.sim.mujoco_log import set_log_dir as set_engine_log_dir
 from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
 from grasp_ctrl.sim.registry import BackendFactory, WorldFactory, simulated_backend
-from grasp_ctrl.sim.world import MockWorld, WorldParams
+from grasp_ctrl.sim.world import WorldParams
 from grasp_ctrl.sim.world_api import World
 from grasp_ctrl.storage import (
     RUN_FILE,
@@ -118,14 +118,15 @@ EstimatorFactory = Callable[[World], ForceEstimator]
 # The world of a trial: the mock world, or MuJoCo's (``run --backend mujoco``, sim/mujoco_world.py).
 
 
-def world_for_backend(backend: str) -> tuple[WorldFactory, BackendFactory]:
-    """The world and the hand/sensor backends behind a simulated ``backend`` (sim/registry.py)."""
-    entry = simulated_backend(backend)
-    return entry.make_world, entry.make_backends
-
-
-def mock_backends(world: MockWorld, hand: HandConfig) -> tuple[MockHand, MockSensors]:
-    return MockHand(world, hand), MockSensors(world)
+def world_for_backend(
+    backend: str, make_world: WorldFactory | None = None, make_backends: BackendFactory | None = None
+) -> tuple[WorldFactory, BackendFactory]:
+    """A trial's world and hand/sensor backends: those given, the rest from the simulated backend
+    ``backend`` names (sim/registry.py; a one-line error when it names none)."""
+    if make_world is None or make_backends is None:
+        entry = simulated_backend(backend)
+        make_world, make_backends = make_world or entry.make_world, make_backends or entry.make_backends
+    return make_world, make_backends
 
 
 def estimator_factory(spec: str, hand: HandConfig, threads: int = 1) -> EstimatorFactory:
@@ -195,10 +196,9 @@ def run_sim_trial(
 ) -> TrialResult:
     wall0 = time.perf_counter()
     kin = kin or HandKinematics(hand)
-    if make_world is None and make_backends is None:
-        make_world, make_backends = world_for_backend(backend)
-    world = (make_world or MockWorld)(hand, obj, seed, world_params)
-    hand_backend, sensors = (make_backends or mock_backends)(world, hand)
+    make_world, make_backends = world_for_backend(backend, make_world, make_backends)
+    world = make_world(hand, obj, seed, world_params)
+    hand_backend, sensors = make_backends(world, hand)
     arm = MockArm(world, hand)
     try:
         hand_backend.connect()
@@ -331,9 +331,7 @@ def sim_trial_fn(
     """Policies are loaded up front, so a bad one fails before the first trial."""
     factories = {p: estimator_factory(p, hand, threads) for p in policies}
     kin = HandKinematics(hand)
-    if make_backends is None:
-        default_world, make_backends = world_for_backend(backend)
-        make_world = make_world or default_world
+    make_world, make_backends = world_for_backend(backend, make_world, make_backends)
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
         return run_sim_trial(
