@@ -18,13 +18,13 @@ from __future__ import annotations
 import contextlib
 import os
 import re
-import secrets
 import stat
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.storage import fsync_dir, temp_path
 
 RUN_FILE = "run.json"  # = trials.storage.RUN_FILE (no import: storage is heavier and imports us)
 MANAGED_TOP = ("run.json", "summary.json", "run.lock")
@@ -81,18 +81,10 @@ def check_output(
 
 
 def temp_beside(path: Path, keep_suffix: bool = False) -> Path:
-    """A fresh name in ``path``'s folder for the writer of ``path`` (``.NAME.PID.RANDOM.tmp``)."""
-    tail = path.suffix if keep_suffix else ""
-    return path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp{tail}")
-
-
-def _fsync_dir(folder: Path) -> None:
-    with contextlib.suppress(OSError):
-        fd = os.open(folder, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
+    """``storage.temp_path`` (``.NAME.PID.RANDOM.tmp``), with ``path``'s own suffix appended when
+    ``keep_suffix`` (a writer such as matplotlib reads the format from the name)."""
+    tmp = temp_path(path)
+    return tmp.with_name(tmp.name + path.suffix) if keep_suffix else tmp
 
 
 @contextlib.contextmanager
@@ -110,7 +102,7 @@ def output_file(path: str | Path, keep_suffix: bool = True) -> Iterator[Path]:
             os.fsync(fh.fileno())
         _keep_mode_and_owner(path, tmp)
         os.replace(tmp, path)
-        _fsync_dir(path.parent)
+        fsync_dir(path.parent)
     except BaseException:
         with contextlib.suppress(OSError):
             tmp.unlink()
@@ -196,7 +188,7 @@ def replace_in_place(path: str | Path, data: str | bytes) -> Path:
                     os.fsync(fh.fileno())
                 return target
         os.replace(tmp, target)
-        _fsync_dir(target.parent)
+        fsync_dir(target.parent)
     except BaseException:
         with contextlib.suppress(OSError):
             tmp.unlink()
