@@ -19,6 +19,12 @@ def add_data_arguments(p: argparse.ArgumentParser) -> None:
         default=0,
         help="generate N force samples per source with the mock world's BioTac model",
     )
+    g.add_argument(
+        "--grasp-contacts",
+        metavar="FILE",
+        help="with --synthetic: half of the ball-ft presses at these recorded grasp contacts (a "
+        "grasp-contacts CSV: where the hand's grasps load a fingertip in MuJoCo)",
+    )
     p.add_argument("--seed", type=int, default=0, help="data generation, split and initialisation seed")
     p.add_argument(
         "--tare-frames",
@@ -40,12 +46,15 @@ def data_spec(args: argparse.Namespace):
         raise UsageError("give either --data FILE ... or --synthetic N")
     if args.synthetic < 0:
         raise UsageError(f"--synthetic: a positive number of samples (got {args.synthetic})")
+    if args.grasp_contacts and not args.synthetic:
+        raise UsageError("--grasp-contacts goes with --synthetic N (recorded data files already hold their presses)")
     return DataSpec(
         files=args.data,
         synthetic_per_source=args.synthetic,
         seed=args.seed,
         tare_frames=args.tare_frames,
         skip_bad=args.skip_bad_rows,
+        grasp_contacts=args.grasp_contacts,
     )
 
 

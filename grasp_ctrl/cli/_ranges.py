@@ -59,6 +59,7 @@ RANGES: dict[str, dict[str, tuple]] = {
     "lift-capacity": {"--min-margin": (0.0, 1000.0, True)},
     "biotac-anchors": {"--n": (1, 10_000_000), "--seed": SEED},
     "fit-mock-policies": {"--samples": (1, 100_000_000), "--seed": SEED},
+    "grasp-contacts": {"--trials": (1, 100_000), "--seed": SEED, "--every": (1, 1_000_000)},
     "convert-icra19": {"--tol": (0.0, 1.0, True), "--seed": SEED},
     "view": {"--seed": SEED},
     "evaluate": {

@@ -5,8 +5,10 @@ The analytic and linear ones are fitted on pad-centre presses (the shipped files
 ``--linear-presses mixed`` fits the linear policy on those and as many presses again
 anywhere a grasp's contact lands (``sim/presses.skin_presses``: the whole pad, its sides
 and the tip cap, shear up to the normal force). ``mlp_mock`` (the default policy) is
-fitted on the pad-centre presses and twice as many skin presses; it needs torch (the
-``train`` extra) and is left as it is, with a note, without it.
+fitted on the pad-centre presses and twice as many skin presses, and with
+``--grasp-contacts FILE`` (the ``grasp-contacts`` command) twice as many again at the
+contacts the hand's grasps make in MuJoCo; it needs torch (the ``train`` extra) and is
+left as it is, with a note, without it.
 """
 
 from __future__ import annotations
@@ -36,6 +38,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default="pad",
         help="linear policy's training presses: pad (pad centre, the shipped fit) or mixed "
         "(as many again anywhere on the skin where grasp contacts land; docs/mujoco.md)",
+    )
+    p.add_argument(
+        "--grasp-contacts",
+        metavar="FILE",
+        help="mlp_mock: also fit presses at these recorded grasp contacts (a grasp-contacts CSV), twice "
+        "--samples of them, each contact's force scaled by 0.25-1.75",
     )
     p.add_argument(
         "--out-dir",
@@ -87,6 +95,11 @@ def run(args: argparse.Namespace) -> int:
     out_dir = Path(args.out_dir)
     if not out_dir.is_dir():
         raise UsageError(f"--out-dir: {out_dir} is not a directory")
+    contacts = None
+    if args.grasp_contacts:
+        from grasp_ctrl.sim.grasp_contacts import read_csv
+
+        contacts = read_csv(args.grasp_contacts)
     tared, f = pad_presses(args.samples, args.seed)
     n_test = max(50, args.samples // 5)
     train, test = slice(n_test, None), slice(0, n_test)
@@ -130,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
         )
 
     metas = [analytic, linear]
-    mlp = _fit_mlp(tared[train], f[train], args.samples, args.seed, n_train, n_test)
+    mlp = _fit_mlp(tared[train], f[train], args.samples, args.seed, n_train, n_test, contacts, args.grasp_contacts)
     if mlp is not None:
         metas.append(mlp)
     for meta in metas:
@@ -148,10 +161,17 @@ MLP_CHANNELS = list(range(20))  # the 19 tared electrodes and the tared pdc (tac
 
 
 def _fit_mlp(
-    pad_tared: np.ndarray, pad_f: np.ndarray, samples: int, seed: int, n_train: int, n_test: int
+    pad_tared: np.ndarray,
+    pad_f: np.ndarray,
+    samples: int,
+    seed: int,
+    n_train: int,
+    n_test: int,
+    contacts: Any = None,
+    contacts_file: str | None = None,
 ) -> dict[str, Any] | None:
     """``mlp_mock``, or None (with a note) where torch is not installed. The first ``n_test``
-    skin presses are held out, as many as the pad presses' test split."""
+    skin presses (and grasp-contact presses) are held out, as many as the pad presses' test split."""
     import sys
 
     from grasp_ctrl.estimators.mlp import MlpEstimator
@@ -163,8 +183,17 @@ def _fit_mlp(
         print("mlp_mock: not refitted (needs torch: pip install -e '.[train]')", file=sys.stderr)
         return None
     skin_tared, skin_f = skin_presses(2 * samples, seed + 2)
-    x = np.vstack([pad_tared, skin_tared[n_test:]])[:, MLP_CHANNELS]
-    labels = np.vstack([pad_f, skin_f[n_test:]])
+    parts_x, parts_f = [pad_tared, skin_tared[n_test:]], [pad_f, skin_f[n_test:]]
+    if contacts is not None:
+        from grasp_ctrl.sim.presses import contact_presses
+
+        grasp_tared, grasp_f = contact_presses(
+            contacts.p_sensor, contacts.n_sensor, contacts.f_sensor, 2 * samples, seed + 3
+        )
+        parts_x.append(grasp_tared[n_test:])
+        parts_f.append(grasp_f[n_test:])
+    x = np.vstack(parts_x)[:, MLP_CHANNELS]
+    labels = np.vstack(parts_f)
     meta = _common(
         "mlp_mock", "mlp", "a small MLP (20-64-64-3, tanh) on the 19 tared electrodes and the tared pdc", n_train, seed
     )
@@ -173,9 +202,23 @@ def _fit_mlp(
         f"grasp's contact lands (pad, sides, tip cap; shear up to the normal force) from the mock "
         f"BioTac model (seeds {seed}, {seed + 2})"
     )
+    if contacts is not None:
+        meta["training_data"] += (
+            f", and {2 * samples - n_test} presses at contacts of oracle grasps in MuJoCo "
+            f"({contacts.summary()}; forces x 0.25-1.75, seed {seed + 3})"
+        )
+        meta["provenance"] = (
+            "recorded by `python launch.py grasp-contacts --out FILE`, fitted by "
+            "`python launch.py fit-mock-policies --grasp-contacts FILE`"
+        )
     meta["input_channels"] = MLP_CHANNELS
     meta.update(fit_mlp(x, labels, seed=seed))
     est = MlpEstimator(MLP_CHANNELS, meta["input_mean"], meta["input_scale"], meta["layers"])
     meta["metrics"] = _metrics(est.estimate(skin_tared[:n_test], []).f_sensor, skin_f[:n_test])
     meta["metrics"]["test_presses"] = "skin presses (pad, sides, tip cap)"
+    if contacts is not None:
+        meta["metrics_grasp_contacts"] = _metrics(est.estimate(grasp_tared[:n_test], []).f_sensor, grasp_f[:n_test])
+        meta["metrics_grasp_contacts"]["test_presses"] = (
+            f"presses at recorded grasp contacts ({Path(contacts_file or '').name})"
+        )
     return meta

@@ -36,6 +36,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="raw signals with each trial's tare rows and whole stream instead of tared samples",
     )
+    p.add_argument(
+        "--grasp-contacts",
+        metavar="FILE",
+        help="half of the ball-ft presses at these recorded grasp contacts (a grasp-contacts CSV)",
+    )
     p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
 
 
@@ -55,7 +60,12 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--out: {out} exists (use --force to overwrite)")
     if not out.parent.is_dir():
         raise UsageError(f"--out: {out.parent}: no such folder")
-    trials = generate_trials(args.n, seed=args.seed, sources=sources)
+    contacts = None
+    if args.grasp_contacts:
+        from grasp_ctrl.sim.grasp_contacts import read_csv
+
+        contacts = read_csv(args.grasp_contacts)
+    trials = generate_trials(args.n, seed=args.seed, sources=sources, contacts=contacts)
     samples = Dataset.concat([tr.dataset() for tr in trials if tr.keep.any()])
     try:
         if args.raw:

@@ -42,6 +42,7 @@ class DataSpec:
     seed: int = 0
     tare_frames: int = 10
     skip_bad: bool = False
+    grasp_contacts: str | None = None  # a grasp-contacts CSV for the synthetic ball-ft source
 
 
 def load_data(spec: DataSpec, report: Callable[[str], None] = print) -> tuple[Dataset, dict[str, Any]]:
@@ -52,17 +53,25 @@ def load_data(spec: DataSpec, report: Callable[[str], None] = print) -> tuple[Da
         return ds, {"files": [str(f) for f in spec.files], "skipped_rows": len(notes)}
     from grasp_ctrl.learning.synthetic import generate
 
+    contacts = None
+    if spec.grasp_contacts:
+        from grasp_ctrl.sim.grasp_contacts import read_csv
+
+        contacts = read_csv(spec.grasp_contacts, skip_bad_rows=spec.skip_bad)
     t0 = time.perf_counter()
-    ds = generate(spec.synthetic_per_source, seed=spec.seed)
+    ds = generate(spec.synthetic_per_source, seed=spec.seed, contacts=contacts)
     report(
         f"synthetic data: {len(ds)} force samples ({spec.synthetic_per_source}+ per source, seed {spec.seed}) "
         f"in {time.perf_counter() - t0:.1f} s"
     )
-    return ds, {
+    info: dict[str, Any] = {
         "synthetic_per_source": spec.synthetic_per_source,
         "seed": spec.seed,
         "forward_model": "grasp_ctrl.sim.biotac_model (mock world)",
     }
+    if contacts is not None:
+        info["ball_ft_grasp_contacts"] = {"file": Path(spec.grasp_contacts).name, "contacts": contacts.summary()}
+    return ds, info
 
 
 def source_mask(ds: Dataset, sources: Sequence[str]) -> np.ndarray:

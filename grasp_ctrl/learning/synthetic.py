@@ -9,7 +9,10 @@ Character of each source (paper II-B, III-A):
   plus force/torque-sensor noise with a per-trial standard deviation of 0.01-0.1 N;
 - ball-ft: contacts all over the sensor (random sensor orientations relative to the ball), large
   tangential parts; labels are rotated by a small per-trial orientation error (tracking) plus F/T
-  noise;
+  noise. Given recorded grasp contacts (``sim/grasp_contacts.py``: where the LEAP Hand's grasps
+  load a fingertip in MuJoCo), half of the ball-ft trials press at one of those contacts along its
+  force's direction instead: the paper's robot pressed the ball with its own hand, so its contacts
+  were the hand's;
 - planar-pushing: a 0.65 kg box with mu = 0.1 pushed by the fingertip (0.1-2 N); the label is the
   pusher force recovered by the planar-pushing solver from noisy tracked poses, rotated into the
   sensor frame, projected (the fingertip also feels an unmodelled vertical force).
@@ -33,6 +36,7 @@ from grasp_ctrl.learning.gate import GateRule, contact_gate
 from grasp_ctrl.pushing.kinematics import planar_motion
 from grasp_ctrl.pushing.simulate import PAPER_BOX, simulate_push
 from grasp_ctrl.pushing.solver import plane_force_to_sensor, pusher_forces
+from grasp_ctrl.sim.grasp_contacts import GraspContacts
 from grasp_ctrl.tactile.geometry import SURFACE_RADIUS_M
 from grasp_ctrl.tactile.layout import PDC
 
@@ -165,10 +169,22 @@ def _random_rotation(rng: np.random.Generator, sigma_rad: float) -> np.ndarray:
     return np.eye(3) + np.sin(th) * kx + (1 - np.cos(th)) * kx @ kx
 
 
-def _ft_trial(forward: ForwardModel, rng: np.random.Generator, source: str, rule: GateRule):
+#: Share of the ball-ft trials that press at a recorded grasp contact (when contacts are given).
+GRASP_SHARE = 0.5
+
+
+def _ft_trial(
+    forward: ForwardModel,
+    rng: np.random.Generator,
+    source: str,
+    rule: GateRule,
+    contacts: GraspContacts | None = None,
+):
     mags_peak = rng.uniform(1.0, 12.0) if source == "rigid-ft" else rng.uniform(0.5, 8.0)
     mags = _press_profile(rng, mags_peak)
     n = len(mags)
+    if source == "ball-ft" and contacts is not None and rng.uniform() < GRASP_SHARE:
+        return _grasp_contact_trial(forward, rng, rule, contacts, mags)
     if source == "rigid-ft":
         # a human presses objects on the pad: the contact wanders a little, mostly normal force
         ends = [_pad_point(rng, (-0.012, 0.002), np.deg2rad(35)) for _ in range(2)]
@@ -189,6 +205,33 @@ def _ft_trial(forward: ForwardModel, rng: np.random.Generator, source: str, rule
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
     f_true = mags[:, None] * direction
     raw, gate = _sensor_trial(forward, points, f_true, rng, rule)
+    sigma = rng.uniform(0.01, 0.1)
+    label = f_true @ label_rotation.T + sigma * rng.standard_normal(f_true.shape)
+    return (
+        raw,
+        label,
+        gate & (np.linalg.norm(label, axis=1) > 0),
+        np.zeros(n, bool),
+        np.repeat(np.eye(3)[None], n, axis=0),
+    )
+
+
+def _grasp_contact_trial(
+    forward: ForwardModel, rng: np.random.Generator, rule: GateRule, contacts: GraspContacts, mags: np.ndarray
+):
+    """A ball-ft press at a recorded grasp contact: the contact point wanders up to a
+    millimetre or so, the force keeps the recorded direction (tilted by up to a few degrees)."""
+    n = len(mags)
+    k = int(contacts.sample(1, rng)[0])
+    p0 = contacts.p_sensor[k]
+    ends = [p0, p0 + rng.normal(0.0, 1.0e-3, 3)]
+    u = np.linspace(0.0, 1.0, n)[:, None]
+    points, _ = surface_point_and_normal((1 - u) * ends[0] + u * ends[1])
+    f_dir = contacts.f_sensor[k] / np.linalg.norm(contacts.f_sensor[k])
+    f_dir = _random_rotation(rng, np.deg2rad(3.0)) @ f_dir
+    f_true = mags[:, None] * f_dir[None, :]
+    raw, gate = _sensor_trial(forward, points, f_true, rng, rule)
+    label_rotation = _random_rotation(rng, np.deg2rad(3.0))  # tracked sensor orientation error
     sigma = rng.uniform(0.01, 0.1)
     label = f_true @ label_rotation.T + sigma * rng.standard_normal(f_true.shape)
     return (
@@ -251,9 +294,11 @@ def simulate_trials(
     rng: np.random.Generator,
     rule: GateRule = GateRule(),
     trial_prefix: str = "",
+    contacts: GraspContacts | None = None,
 ) -> list[SimTrial]:
     """Trials of one source until at least ``n_samples`` force samples are collected (trials
-    without any force sample included: their stream is still recorded)."""
+    without any force sample included: their stream is still recorded). ``contacts``: recorded
+    grasp contacts for the ball-ft source (module doc)."""
     if source not in SOURCES:
         raise ValueError(f"source must be one of {', '.join(SOURCES)}")
     trials: list[SimTrial] = []
@@ -263,7 +308,7 @@ def simulate_trials(
         if source == "planar-pushing":
             raw, label, keep, proj, rot = _push_trial(forward, rng, rule)
         else:
-            raw, label, keep, proj, rot = _ft_trial(forward, rng, source, rule)
+            raw, label, keep, proj, rot = _ft_trial(forward, rng, source, rule, contacts)
         trials.append(SimTrial(f"{trial_prefix}{source}-{k:04d}", source, raw, label, keep, proj, rot))
         count += int(keep.sum())
         k += 1
@@ -284,16 +329,24 @@ def generate_source(
 
 
 def generate_trials(
-    n_per_source: int, seed: int = 0, forward: ForwardModel | None = None, sources: tuple[str, ...] = SOURCES
+    n_per_source: int,
+    seed: int = 0,
+    forward: ForwardModel | None = None,
+    sources: tuple[str, ...] = SOURCES,
+    contacts: GraspContacts | None = None,
 ) -> list[SimTrial]:
     """The trials behind ``generate`` (same seed, same draws), with their whole raw streams."""
     rng = np.random.default_rng(seed)
     fwd = forward or mock_biotac_forward()
-    return [tr for s in sources for tr in simulate_trials(s, n_per_source, fwd, rng)]
+    return [tr for s in sources for tr in simulate_trials(s, n_per_source, fwd, rng, contacts=contacts)]
 
 
 def generate(
-    n_per_source: int, seed: int = 0, forward: ForwardModel | None = None, sources: tuple[str, ...] = SOURCES
+    n_per_source: int,
+    seed: int = 0,
+    forward: ForwardModel | None = None,
+    sources: tuple[str, ...] = SOURCES,
+    contacts: GraspContacts | None = None,
 ) -> Dataset:
-    trials = generate_trials(n_per_source, seed, forward, sources)
+    trials = generate_trials(n_per_source, seed, forward, sources, contacts)
     return Dataset.concat([tr.dataset() for tr in trials if tr.keep.any()])

@@ -400,3 +400,14 @@ class MuJoCoWorld:
 
     def true_f_sensor(self, finger: str) -> np.ndarray:
         return self._f_sensor[self.fingers.index(finger)].copy()
+
+    def skin_contacts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """What the BioTac model was given this step, per fingertip (copies, sensor frame):
+        contact point on the skin (m), the skin's outward normal there, the force ON the
+        skin (N) and whether the fingertip touches the object."""
+        return (
+            self._contact_sensor.copy(),
+            self._skin_normal_sensor.copy(),
+            self._f_sensor.copy(),
+            self._touch_obj.copy(),
+        )

@@ -96,3 +96,22 @@ def sheared_forces(
     t -= np.sum(t * normals, axis=1, keepdims=True) * normals
     t /= np.linalg.norm(t, axis=1, keepdims=True)
     return normal_n[:, None] * (-normals + shear_ratio[:, None] * t)
+
+
+def contact_presses(
+    p_sensor: np.ndarray,
+    n_sensor: np.ndarray,
+    f_sensor: np.ndarray,
+    n: int,
+    seed: int,
+    scale_range: tuple[float, float] = (0.25, 1.75),
+    params: BioTacParams | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(tared frames (n, 44), f_sensor labels (n, 3)) for presses at recorded contacts
+    (``sim/grasp_contacts.py``): each a contact drawn at random, its force scaled by a
+    factor from ``scale_range`` (the recording's forces are those of one grip law; a
+    policy's grip may be lighter or harder), on a freshly drawn simulated sensor."""
+    rng = np.random.default_rng(seed)
+    pick = rng.integers(0, len(f_sensor), n)
+    f = f_sensor[pick] * rng.uniform(*scale_range, n)[:, None]
+    return _tared_presses(p_sensor[pick], f, n_sensor[pick], rng, params), f
