@@ -19,7 +19,7 @@ from grasp_ctrl.errors import UsageError
 from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M
 from grasp_ctrl.paths import default_hand_file, default_objects_file
 from grasp_ctrl.sim.grasp_contacts import NUMERIC_COLUMNS, TEXT_COLUMNS, GraspContacts, csv_text, read_csv
-from grasp_ctrl.sim.presses import contact_presses
+from grasp_ctrl.sim.presses import contact_presses, reverse_shear
 
 pytest.importorskip("mujoco")
 
@@ -112,12 +112,24 @@ def test_contact_presses_keep_each_contacts_direction() -> None:
     tared, labels = contact_presses(p, n, f, 200, seed=4)
     assert tared.shape == (200, 44) and labels.shape == (200, 3)
     unit = labels / np.linalg.norm(labels, axis=1, keepdims=True)
-    f_unit = f / np.linalg.norm(f, axis=1, keepdims=True)
-    assert np.all(np.max(unit @ f_unit.T, axis=1) > 1 - 1e-12)
+    both = np.vstack([f, reverse_shear(f, n, np.ones(2, dtype=bool))])
+    cos = unit @ (both / np.linalg.norm(both, axis=1, keepdims=True)).T
+    assert np.all(np.max(cos, axis=1) > 1 - 1e-12)
+    reversed_share = float(np.mean(np.max(cos[:, 2:], axis=1) > 1 - 1e-12))
+    assert 0.3 < reversed_share < 0.7
     ratio = np.linalg.norm(labels, axis=1) / np.min(np.linalg.norm(f, axis=1))
     assert ratio.min() >= 0.25 - 1e-12
     # pressed electrodes read negative, the pdc positive (tactile/layout.py)
     assert np.all(tared[:, 19] > 0)
+
+
+def test_reverse_shear_keeps_the_normal_part() -> None:
+    n = np.array([[0.0, 0.0, -1.0], [0.0, 0.6, -0.8]])
+    f = np.array([[0.4, -0.2, 2.0], [1.0, 0.5, 1.5]])
+    back = reverse_shear(f, n, np.array([True, False]))
+    np.testing.assert_allclose(np.sum(back * n, axis=1), np.sum(f * n, axis=1))
+    np.testing.assert_allclose(back[0], [-0.4, 0.2, 2.0])
+    np.testing.assert_array_equal(back[1], f[1])
 
 
 def test_ball_ft_presses_at_the_contacts_and_the_other_sources_are_unchanged() -> None:
@@ -148,7 +160,8 @@ def test_ball_ft_presses_at_the_contacts_and_the_other_sources_are_unchanged() -
     )
     ball = with_contact.source == "ball-ft"
     unit = with_contact.f_sensor[ball] / np.linalg.norm(with_contact.f_sensor[ball], axis=1, keepdims=True)
-    along = unit @ (f0 / np.linalg.norm(f0))
+    f_back = reverse_shear(f0[None], (p0 / SKIN_RADIUS_M)[None], np.ones(1, dtype=bool))[0]
+    along = np.maximum(unit @ (f0 / np.linalg.norm(f0)), unit @ (f_back / np.linalg.norm(f_back)))
     share = float(np.mean(along > np.cos(np.radians(15))))
     assert 0.2 < share < 0.8  # about half of the ball-ft presses follow the recorded contact
     near = [np.linalg.norm(p - p0) < 0.004 for p in first_points]

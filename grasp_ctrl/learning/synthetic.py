@@ -11,8 +11,8 @@ Character of each source (paper II-B, III-A):
   tangential parts; labels are rotated by a small per-trial orientation error (tracking) plus F/T
   noise. Given recorded grasp contacts (``sim/grasp_contacts.py``: where the LEAP Hand's grasps
   load a fingertip in MuJoCo), half of the ball-ft trials press at one of those contacts along its
-  force's direction instead: the paper's robot pressed the ball with its own hand, so its contacts
-  were the hand's;
+  force's direction (or with its shear reversed) instead: the paper's robot pressed the ball with
+  its own hand, so its contacts were the hand's;
 - planar-pushing: a 0.65 kg box with mu = 0.1 pushed by the fingertip (0.1-2 N); the label is the
   pusher force recovered by the planar-pushing solver from noisy tracked poses, rotated into the
   sensor frame, projected (the fingertip also feels an unmodelled vertical force).
@@ -37,6 +37,7 @@ from grasp_ctrl.pushing.kinematics import planar_motion
 from grasp_ctrl.pushing.simulate import PAPER_BOX, simulate_push
 from grasp_ctrl.pushing.solver import plane_force_to_sensor, pusher_forces
 from grasp_ctrl.sim.grasp_contacts import GraspContacts
+from grasp_ctrl.sim.presses import reverse_shear
 from grasp_ctrl.tactile.geometry import SURFACE_RADIUS_M
 from grasp_ctrl.tactile.layout import PDC
 
@@ -220,15 +221,16 @@ def _grasp_contact_trial(
     forward: ForwardModel, rng: np.random.Generator, rule: GateRule, contacts: GraspContacts, mags: np.ndarray
 ):
     """A ball-ft press at a recorded grasp contact: the contact point wanders up to a
-    millimetre or so, the force keeps the recorded direction (tilted by up to a few degrees)."""
+    millimetre or so, the force keeps the recorded direction (tilted by up to a few degrees),
+    for half of them with the shear reversed (``sim/presses.reverse_shear``)."""
     n = len(mags)
     k = int(contacts.sample(1, rng)[0])
     p0 = contacts.p_sensor[k]
     ends = [p0, p0 + rng.normal(0.0, 1.0e-3, 3)]
     u = np.linspace(0.0, 1.0, n)[:, None]
     points, _ = surface_point_and_normal((1 - u) * ends[0] + u * ends[1])
-    f_dir = contacts.f_sensor[k] / np.linalg.norm(contacts.f_sensor[k])
-    f_dir = _random_rotation(rng, np.deg2rad(3.0)) @ f_dir
+    f_rec = reverse_shear(contacts.f_sensor[k : k + 1], contacts.n_sensor[k : k + 1], rng.uniform(size=1) < 0.5)[0]
+    f_dir = _random_rotation(rng, np.deg2rad(3.0)) @ (f_rec / np.linalg.norm(f_rec))
     f_true = mags[:, None] * f_dir[None, :]
     raw, gate = _sensor_trial(forward, points, f_true, rng, rule)
     label_rotation = _random_rotation(rng, np.deg2rad(3.0))  # tracked sensor orientation error

@@ -110,8 +110,20 @@ def contact_presses(
     """(tared frames (n, 44), f_sensor labels (n, 3)) for presses at recorded contacts
     (``sim/grasp_contacts.py``): each a contact drawn at random, its force scaled by a
     factor from ``scale_range`` (the recording's forces are those of one grip law; a
-    policy's grip may be lighter or harder), on a freshly drawn simulated sensor."""
+    policy's grip may be lighter or harder) and, for half of them, its shear reversed
+    (``reverse_shear``), on a freshly drawn simulated sensor."""
     rng = np.random.default_rng(seed)
     pick = rng.integers(0, len(f_sensor), n)
-    f = f_sensor[pick] * rng.uniform(*scale_range, n)[:, None]
+    f = reverse_shear(f_sensor[pick], n_sensor[pick], rng.uniform(0.0, 1.0, n) < 0.5)
+    f *= rng.uniform(*scale_range, n)[:, None]
     return _tared_presses(p_sensor[pick], f, n_sensor[pick], rng, params), f
+
+
+def reverse_shear(f_sensor: np.ndarray, n_sensor: np.ndarray, which: np.ndarray) -> np.ndarray:
+    """The forces (n, 3) with the part along the skin reversed where ``which``. A grasp's
+    shear points one way while the pads carry the object up and the other way once the
+    table pushes it back into them: the release rule reads that sign, and a recording of
+    grasps that release at once holds little of the second kind."""
+    normal_part = np.sum(f_sensor * n_sensor, axis=1, keepdims=True) * n_sensor
+    shear = f_sensor - normal_part
+    return normal_part + np.where(which[:, None], -shear, shear)
