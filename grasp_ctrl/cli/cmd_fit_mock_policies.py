@@ -43,7 +43,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--grasp-contacts",
         metavar="FILE",
         help="mlp_mock: also fit presses at these recorded grasp contacts (a grasp-contacts CSV), twice "
-        "--samples of them, each contact's force scaled by 0.25-1.75",
+        "--samples of them, each contact's force scaled by 0.25-1.75, half with the shear reversed",
     )
     p.add_argument(
         "--out-dir",
@@ -205,7 +205,7 @@ def _fit_mlp(
     if contacts is not None:
         meta["training_data"] += (
             f", and {2 * samples - n_test} presses at contacts of oracle grasps in MuJoCo "
-            f"({contacts.summary()}; forces x 0.25-1.75, seed {seed + 3})"
+            f"({contacts.summary()}; forces x 0.25-1.75, half with the shear reversed, seed {seed + 3})"
         )
         meta["provenance"] = (
             "recorded by `python launch.py grasp-contacts --out FILE`, fitted by "
