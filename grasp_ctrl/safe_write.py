@@ -80,6 +80,15 @@ def check_output(
     return p
 
 
+def check_new_file(path: Path, flag: str, force: bool) -> None:
+    """An output file that an existing one may be replaced by only with ``--force``, in a folder
+    that exists; ``flag``: the option named in errors."""
+    if path.exists() and not force:
+        raise UsageError(f"{flag}: {path} exists (use --force to overwrite)")
+    if not path.parent.is_dir():
+        raise UsageError(f"{flag}: {path.parent}: no such folder")
+
+
 def temp_beside(path: Path, keep_suffix: bool = False) -> Path:
     """``storage.temp_path`` (``.NAME.PID.RANDOM.tmp``), with ``path``'s own suffix appended when
     ``keep_suffix`` (a writer such as matplotlib reads the format from the name)."""

@@ -104,12 +104,18 @@ def test_any_row_is_read_or_refused_in_one_line(tmp_path: Path, fields: list[str
         assert np.all(np.isfinite(back.p_sensor)) and np.all(np.abs(back.f_sensor) <= 100.0)
 
 
+def _contacts(p: np.ndarray, n: np.ndarray, f: np.ndarray) -> GraspContacts:
+    """Recorded contacts made up from arrays (one object, the index)."""
+    k = len(p)
+    return GraspContacts(np.full(k, "box", dtype=object), np.full(k, "index", dtype=object), np.zeros(k), p, n, f)
+
+
 def test_contact_presses_keep_each_contacts_direction() -> None:
     p = np.array([[-0.007, 0.0, -SKIN_RADIUS_M], [0.002, 0.0, -np.sqrt(SKIN_RADIUS_M**2 - 0.002**2)]])
     n = p / np.array([[SKIN_RADIUS_M], [SKIN_RADIUS_M]])
     n[0] = (0.0, 0.0, -1.0)
     f = np.array([[0.5, 0.0, 2.0], [-1.5, 0.3, 1.5]])
-    tared, labels = contact_presses(p, n, f, 200, seed=4)
+    tared, labels = contact_presses(_contacts(p, n, f), 200, seed=4)
     assert tared.shape == (200, 44) and labels.shape == (200, 3)
     unit = labels / np.linalg.norm(labels, axis=1, keepdims=True)
     both = np.vstack([f, reverse_shear(f, n, np.ones(2, dtype=bool))])
@@ -138,14 +144,7 @@ def test_ball_ft_presses_at_the_contacts_and_the_other_sources_are_unchanged() -
     # one distinctive contact: on the tip cap's side, pushed along the finger and sideways
     p0 = SKIN_RADIUS_M * np.array([0.6, 0.8, 0.0])
     f0 = np.array([-1.0, -2.0, 0.5])
-    one = GraspContacts(
-        np.array(["cap"], dtype=object),
-        np.array(["index"], dtype=object),
-        np.zeros(1),
-        p0[None],
-        (p0 / SKIN_RADIUS_M)[None],
-        f0[None],
-    )
+    one = _contacts(p0[None], (p0 / SKIN_RADIUS_M)[None], f0[None])
     first_points: list[np.ndarray] = []
     base = mock_biotac_forward()
 

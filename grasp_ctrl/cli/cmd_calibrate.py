@@ -92,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.evaluation.calibration_checks import fit_problems
     from grasp_ctrl.evaluation.direction import policy_directions
     from grasp_ctrl.paths import policies_dir
-    from grasp_ctrl.safe_write import check_output, write_output
+    from grasp_ctrl.safe_write import check_new_file, check_output, write_output
 
     if args.ridge < 0 or args.threads < 1 or (args.tare_frames is not None and args.tare_frames < 1):
         raise UsageError("--ridge must be >= 0, --threads and --tare-frames >= 1")
@@ -110,10 +110,7 @@ def run(args: argparse.Namespace) -> int:
     check_output(out, "--out")
     if out.resolve() == base_json.resolve():
         raise UsageError("--out: that is the base policy itself; choose a new name")
-    if out.exists() and not args.force:
-        raise UsageError(f"--out: {out} exists (use --force to overwrite)")
-    if not out.parent.is_dir():
-        raise UsageError(f"--out: {out.parent}: no such folder")
+    check_new_file(out, "--out", args.force)
     base = load_policy(str(base_json), None, args.threads)
 
     data = load_data(data_path, args.tare_frames, args.min_pdc, skip_bad_rows=args.skip_bad_rows)

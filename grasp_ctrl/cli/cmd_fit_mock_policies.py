@@ -16,11 +16,14 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
+
+if TYPE_CHECKING:
+    from grasp_ctrl.sim.grasp_contacts import GraspContacts
 
 NAME = "fit-mock-policies"
 HELP = "fit the analytic, linear and MLP policies on simulated presses and write their JSON into policies/"
@@ -95,11 +98,9 @@ def run(args: argparse.Namespace) -> int:
     out_dir = Path(args.out_dir)
     if not out_dir.is_dir():
         raise UsageError(f"--out-dir: {out_dir} is not a directory")
-    contacts = None
-    if args.grasp_contacts:
-        from grasp_ctrl.sim.grasp_contacts import read_csv
+    from grasp_ctrl.sim.grasp_contacts import load_contacts
 
-        contacts = read_csv(args.grasp_contacts)
+    contacts = load_contacts(args.grasp_contacts)
     tared, f = pad_presses(args.samples, args.seed)
     n_test = max(50, args.samples // 5)
     train, test = slice(n_test, None), slice(0, n_test)
@@ -167,7 +168,7 @@ def _fit_mlp(
     seed: int,
     n_train: int,
     n_test: int,
-    contacts: Any = None,
+    contacts: GraspContacts | None = None,
     contacts_file: str | None = None,
 ) -> dict[str, Any] | None:
     """``mlp_mock``, or None (with a note) where torch is not installed. The first ``n_test``
@@ -187,9 +188,7 @@ def _fit_mlp(
     if contacts is not None:
         from grasp_ctrl.sim.presses import contact_presses
 
-        grasp_tared, grasp_f = contact_presses(
-            contacts.p_sensor, contacts.n_sensor, contacts.f_sensor, 2 * samples, seed + 3
-        )
+        grasp_tared, grasp_f = contact_presses(contacts, 2 * samples, seed + 3)
         parts_x.append(grasp_tared[n_test:])
         parts_f.append(grasp_f[n_test:])
     x = np.vstack(parts_x)[:, MLP_CHANNELS]

@@ -24,7 +24,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", required=True, metavar="FILE.csv", help="contacts CSV to write")
     p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE", help="hand config TOML")
     p.add_argument("--objects-file", default=str(default_objects_file()), metavar="FILE", help="object profiles TOML")
-    p.add_argument("--objects", nargs="+", metavar="NAME", help="objects to grasp (default: the file's default_set)")
+    p.add_argument(
+        "--objects",
+        metavar="a,b|all",
+        help="objects to grasp, comma-separated, or all (default: the file's default_set)",
+    )
     p.add_argument("--trials", type=int, default=5, help="oracle trials per object (default 5)")
     p.add_argument("--seed", type=int, default=DEFAULT_SEED, help=f"base seed of the trials (default {DEFAULT_SEED})")
     p.add_argument(
@@ -40,27 +44,20 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from grasp_ctrl.config.hand import load_hand
-    from grasp_ctrl.config.objects import default_set, load_objects
     from grasp_ctrl.errors import UsageError
-    from grasp_ctrl.safe_write import check_output, write_output
+    from grasp_ctrl.safe_write import check_new_file, check_output, write_output
     from grasp_ctrl.sim.grasp_contacts import csv_text
     from grasp_ctrl.trials.episode.contact_recorder import record_grasp_contacts
+    from grasp_ctrl.trials.runs.selection import select_objects
 
     out = check_output(args.out, "--out", formats=("csv",))
     assert out is not None
-    if out.exists() and not args.force:
-        raise UsageError(f"--out: {out} exists (use --force to overwrite)")
-    if not out.parent.is_dir():
-        raise UsageError(f"--out: {out.parent}: no such folder")
+    check_new_file(out, "--out", args.force)
     hand = load_hand(args.hand)
-    profiles = load_objects(args.objects_file)
-    names = args.objects or default_set(args.objects_file)
-    unknown = [n for n in names if n not in profiles]
-    if unknown:
-        raise UsageError(f"--objects: unknown object(s) {', '.join(unknown)} (known: {', '.join(profiles)})")
+    objects = select_objects(args.objects_file, args.objects)
     gc = record_grasp_contacts(
         hand,
-        [profiles[n] for n in names],
+        objects,
         args.trials,
         args.seed,
         args.every,

@@ -48,6 +48,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.cli._learning_args import parse_sources
     from grasp_ctrl.learning.dataset import SOURCES, Dataset, write_csv, write_raw_csv
     from grasp_ctrl.learning.synthetic import generate_trials
+    from grasp_ctrl.safe_write import check_new_file
 
     chosen = set(parse_sources(args.sources))
     sources = tuple(s for s in SOURCES if s in chosen)
@@ -56,16 +57,10 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.suffix.lower() != ".csv":
         raise UsageError(f"--out: {out}: a .csv file name expected")
-    if out.exists() and not args.force:
-        raise UsageError(f"--out: {out} exists (use --force to overwrite)")
-    if not out.parent.is_dir():
-        raise UsageError(f"--out: {out.parent}: no such folder")
-    contacts = None
-    if args.grasp_contacts:
-        from grasp_ctrl.sim.grasp_contacts import read_csv
+    check_new_file(out, "--out", args.force)
+    from grasp_ctrl.sim.grasp_contacts import load_contacts
 
-        contacts = read_csv(args.grasp_contacts)
-    trials = generate_trials(args.n, seed=args.seed, sources=sources, contacts=contacts)
+    trials = generate_trials(args.n, seed=args.seed, sources=sources, contacts=load_contacts(args.grasp_contacts))
     samples = Dataset.concat([tr.dataset() for tr in trials if tr.keep.any()])
     try:
         if args.raw:

@@ -52,12 +52,9 @@ def load_data(spec: DataSpec, report: Callable[[str], None] = print) -> tuple[Da
             report(f"skipped bad row: {note}")
         return ds, {"files": [str(f) for f in spec.files], "skipped_rows": len(notes)}
     from grasp_ctrl.learning.synthetic import generate
+    from grasp_ctrl.sim.grasp_contacts import load_contacts
 
-    contacts = None
-    if spec.grasp_contacts:
-        from grasp_ctrl.sim.grasp_contacts import read_csv
-
-        contacts = read_csv(spec.grasp_contacts, skip_bad_rows=spec.skip_bad)
+    contacts = load_contacts(spec.grasp_contacts, skip_bad_rows=spec.skip_bad)
     t0 = time.perf_counter()
     ds = generate(spec.synthetic_per_source, seed=spec.seed, contacts=contacts)
     report(

@@ -82,6 +82,11 @@ def _row_check(values: np.ndarray) -> str | None:
     return None
 
 
+def load_contacts(path: str | Path | None, skip_bad_rows: bool = False) -> GraspContacts | None:
+    """``read_csv(path)``, or None where no file is given (an optional ``--grasp-contacts``)."""
+    return read_csv(path, skip_bad_rows) if path else None
+
+
 def read_csv(path: str | Path, skip_bad_rows: bool = False) -> GraspContacts:
     """A file of ``csv_text`` (the ``grasp-contacts`` command); a bad row is reported by its line."""
     from grasp_ctrl.csv_rows import Column, read_rows

@@ -10,6 +10,7 @@ import numpy as np
 
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.sim.biotac_model import BioTacParams, BioTacSensorModel
+from grasp_ctrl.sim.grasp_contacts import GraspContacts
 
 
 def random_pad_forces(n: int, rng: np.random.Generator, max_force_n: float = 6.0, cone_deg: float = 45.0) -> np.ndarray:
@@ -99,9 +100,7 @@ def sheared_forces(
 
 
 def contact_presses(
-    p_sensor: np.ndarray,
-    n_sensor: np.ndarray,
-    f_sensor: np.ndarray,
+    contacts: GraspContacts,
     n: int,
     seed: int,
     scale_range: tuple[float, float] = (0.25, 1.75),
@@ -113,10 +112,11 @@ def contact_presses(
     policy's grip may be lighter or harder) and, for half of them, its shear reversed
     (``reverse_shear``), on a freshly drawn simulated sensor."""
     rng = np.random.default_rng(seed)
-    pick = rng.integers(0, len(f_sensor), n)
-    f = reverse_shear(f_sensor[pick], n_sensor[pick], rng.uniform(0.0, 1.0, n) < 0.5)
+    pick = contacts.sample(n, rng)
+    normals = contacts.n_sensor[pick]
+    f = reverse_shear(contacts.f_sensor[pick], normals, rng.uniform(0.0, 1.0, n) < 0.5)
     f *= rng.uniform(*scale_range, n)[:, None]
-    return _tared_presses(p_sensor[pick], f, n_sensor[pick], rng, params), f
+    return _tared_presses(contacts.p_sensor[pick], f, normals, rng, params), f
 
 
 def reverse_shear(f_sensor: np.ndarray, n_sensor: np.ndarray, which: np.ndarray) -> np.ndarray:
