@@ -88,6 +88,11 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.learning.pipeline import load_data
     from grasp_ctrl.learning.splits import split_by_trials
 
+    check_output(args.json, "--json")
+    if args.plot:
+        from grasp_ctrl.safe_write import IMAGE_FORMATS
+
+        check_output(args.plot, "--plot", formats=IMAGE_FORMATS)
     ds, _ = load_data(data_spec(args), report=print)
     if args.split == "test":
         ds = ds.subset(split_by_trials(ds, seed=args.seed, test_per_source=args.test_per_source).test)

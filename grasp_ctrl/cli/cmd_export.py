@@ -29,8 +29,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.paths import policies_dir
+    from grasp_ctrl.safe_write import check_output_dir
 
-    out_dir = Path(args.out_dir) if args.out_dir else policies_dir()
+    out_dir = check_output_dir(args.out_dir, "--out-dir") if args.out_dir is not None else policies_dir()
     if not args.name.replace("_", "").replace("-", "").isalnum():
         raise UsageError(f"--name: letters, digits, '_' and '-' only (got {args.name!r})")
     json_path = out_dir / f"{args.name}.json"

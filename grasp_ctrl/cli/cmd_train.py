@@ -116,6 +116,10 @@ def run(args: argparse.Namespace) -> int:
     spec = data_spec(args)
     if args.epochs < 1 or args.batch_size < 1 or args.threads < 1:
         raise UsageError("--epochs, --batch-size and --threads must be positive")
+    if args.experiment:
+        from grasp_ctrl.safe_write import check_output_dir
+
+        check_output_dir(args.out_dir, "--out-dir")
     from grasp_ctrl.trials.runs.ray_executor import check_executor
 
     check_executor(args.executor, args.address)

@@ -179,7 +179,10 @@ def draw(path: Path, settings: ControllerSettings | None = None) -> Path:
     )
     ax.set_title("grasp_ctrl lift-and-place controller", fontsize=12)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
+    from grasp_ctrl.safe_write import save_figure
+
+    try:
+        save_figure(fig, path)  # a symlink there is replaced, a stream gets the bytes
+    finally:
+        plt.close(fig)
     return path

@@ -8,12 +8,13 @@ Rows are flushed after every batch so a crash or Ctrl-C loses nothing written.
 from __future__ import annotations
 
 import csv
-import os
+import io
 from collections.abc import Iterable
 from pathlib import Path
 
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.hardware.base import TactileFrame
+from grasp_ctrl.safe_write import open_output
 from grasp_ctrl.tactile.layout import CHANNEL_NAMES
 
 HEADER: tuple[str, ...] = ("t_recv", "finger", "seq") + CHANNEL_NAMES
@@ -23,10 +24,8 @@ class FrameRecorder:
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
         try:
-            if self.path.is_symlink():  # a new file replaces the link; its target is never written
-                self.path.unlink()
-            fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | getattr(os, "O_NOFOLLOW", 0), 0o666)
-            self._fh = os.fdopen(fd, "w", newline="", encoding="utf-8")
+            # a stream (-, /dev/stdout, a FIFO) is written as such; a symlink is replaced (safe_write)
+            self._fh = io.TextIOWrapper(open_output(self.path, "--record"), newline="", encoding="utf-8")
         except OSError as exc:
             raise UsageError(f"--record {self.path}: cannot write ({exc.strerror})") from None
         self._writer = csv.writer(self._fh)

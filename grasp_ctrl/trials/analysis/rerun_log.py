@@ -32,6 +32,7 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.safe_write import check_output_dir, destination, output_file
 from grasp_ctrl.trials.analysis.trial_view import TrialView
 
 ARROW_M_PER_N = 0.015
@@ -82,12 +83,17 @@ def write_recording(view: TrialView, hand: HandConfig, path: Path, *, follow: bo
     """The trial's recording at ``path`` (a .rrd file). ``follow``: the viewer opens at the last
     tick (else it plays the lift and hold in a loop)."""
     rr = require_rerun()
-    if path.suffix.lower() != ".rrd":
+    if path.suffix.lower() != ".rrd" and not destination(path, "--rrd").is_stream:
         raise UsageError(f"--rrd {path}: a Rerun recording is written as a .rrd file")
+    with output_file(path) as tmp:  # a symlink at ``path`` is replaced, not followed; a stream gets the bytes
+        _record(rr, view, hand, tmp, follow)
+    return path
+
+
+def _record(rr: Any, view: TrialView, hand: HandConfig, path: Path, follow: bool) -> None:
     rec_meta = view.record or {}
     app = "grasp_ctrl"
     rec = rr.RecordingStream(app, recording_id=f"{rec_meta.get('policy', '')}-{view.ticks_path.stem}")
-    path.parent.mkdir(parents=True, exist_ok=True)
     rec.save(str(path), default_blueprint=_blueprint(view, follow))
     t = view.t.astype(float)
     times = [rr.TimeColumn(TIMELINE, duration=t)]
@@ -142,7 +148,6 @@ def write_recording(view: TrialView, hand: HandConfig, path: Path, *, follow: bo
     _log_states(rr, rec, view)
     rec.flush()
     rec.disconnect()
-    return path
 
 
 def _blueprint(view: TrialView, follow: bool = False) -> Any:
@@ -262,8 +267,7 @@ def record_run(run_dir: Path, out_dir: Path) -> list[Path]:
 def check_run_rrd(out_dir: str, tick_logs: bool) -> None:
     """``run --rrd DIR`` before any trial: the extra is there and the trials keep tick logs."""
     require_rerun()
-    if not out_dir.strip():
-        raise UsageError("--rrd: an empty path")
+    check_output_dir(out_dir, "--rrd")
     if not tick_logs:
         raise UsageError("--rrd: the recordings are made from the tick logs; drop --no-tick-logs")
     if Path(out_dir).exists() and not Path(out_dir).is_dir():
