@@ -231,7 +231,7 @@ def test_4_failed_start_leaves_no_run_directory_and_the_retry_works(tmp_path, ca
     assert "no_such_policy" in _err_line(capsys)
     assert not run_dir.exists()
 
-    def fake_trial_fn(hand, policies, settings=None, threads=1):
+    def fake_trial_fn(hand, policies, settings=None, threads=1, **_kw):
         return lambda p, obj, k, seed, log: {
             "object": obj.name,
             "policy": p,
@@ -263,7 +263,7 @@ def _fake_records(monkeypatch):
 
     seen = []
 
-    def fake_trial_fn(hand, policies, settings=None, threads=1):
+    def fake_trial_fn(hand, policies, settings=None, threads=1, **_kw):
         def run(p, obj, k, seed, log):
             seen.append(log)
             if log is not None:

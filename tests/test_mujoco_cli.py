@@ -28,6 +28,8 @@ def test_run_backend_mujoco_scores_from_the_simulation(tmp_path, capsys):
                 str(out),
                 "--quiet",
                 "--no-tick-logs",
+                "--variation",
+                "nominal",
             ]
         )
         == 0

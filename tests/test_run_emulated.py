@@ -43,6 +43,8 @@ def test_one_emulated_trial_runs_like_mujoco(tmp_path, hand, objects, capsys):
                 "--json",
                 str(summary_file),
                 "--quiet",
+                "--variation",
+                "nominal",
             ]
         )
         == 0

@@ -229,7 +229,7 @@ def test_ctrl_c_keeps_finished_trials_and_resume_completes(tmp_path, monkeypatch
 
     calls = []
 
-    def fake_trial_fn(hand, policies, settings=None, threads=1):
+    def fake_trial_fn(hand, policies, settings=None, threads=1, **_kw):
         def run(policy, obj, trial, seed, log_path):
             calls.append((obj.name, trial))
             if len(calls) == 2:

@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from grasp_ctrl.config.objects import ObjectProfile
+    from grasp_ctrl.sim.variation import Variation
 
 NAME = "lift-capacity"
 HELP = "per object, the largest weight the hand's grasp carries within the servos' torque limits and friction"
@@ -15,7 +20,9 @@ DESCRIPTION = (
     "part carried up, the most loaded joint's share of its torque limit and how far the pad's normal "
     "is off the surface's (far off: the contact is not on the pad, and the figure is not to be trusted). An upper bound on "
     "what any grip law gets from this posture: use it to compare mounts (base_rpy) and postures "
-    "of a hand file. Exits 1 when an object's ratio is below --min-margin."
+    "of a hand file. Exits 1 when an object's ratio is below --min-margin. Under --variation (default "
+    "bench) each object is judged at the profile's worst corner: its mass raised and its friction lowered "
+    "by the profile's half-widths (nominal: the object file's values)."
 )
 ORDER = 45
 
@@ -33,6 +40,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="X",
         help="exit 1 when a liftable weight is below X times the object's weight (default 1.0)",
     )
+    from grasp_ctrl.sim.variation import add_variation_argument
+
+    add_variation_argument(p)
+
+
+def worst_corner(obj: ObjectProfile, v: Variation) -> ObjectProfile:
+    """``obj`` at the variation's worst corner for lifting: heaviest (mass x (1 + mass_frac))
+    and most slippery (mu x (1 - friction_frac)); under nominal the profile's own values."""
+    from grasp_ctrl.sim.variation import NOMINAL
+
+    if v == NOMINAL:
+        return obj
+    return obj.with_params(mass_kg=obj.mass_kg * (1.0 + v.mass_frac), mu=obj.mu * (1.0 - v.friction_frac))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -40,7 +60,9 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.config.objects import default_set, load_objects
     from grasp_ctrl.controller.grasp_capacity import GRAVITY_M_S2, object_capacity
     from grasp_ctrl.errors import UsageError
+    from grasp_ctrl.sim.variation import DEFAULT_VARIATION, NOMINAL, variation
 
+    v = variation(args.variation or DEFAULT_VARIATION)
     if not args.min_margin > 0.0:
         raise UsageError(f"--min-margin: expected a positive number, got {args.min_margin}")
     hand = load_hand(args.hand)
@@ -50,12 +72,19 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         raise UsageError(f"--objects: unknown object(s) {', '.join(unknown)} (known: {', '.join(profiles)})")
     print(f"lift-capacity: {hand.name}, servos at their current limits x 0.5 N m/A")
+    if v == NOMINAL:
+        print(f"  variation {v.name}: each object at the object file's mass and friction")
+    else:
+        print(
+            f"  variation {v.name}: each object at its worst corner, mass +{100 * v.mass_frac:g} % and "
+            f"friction -{100 * v.friction_frac:g} % (placement, yaw, stiffness and joint offsets are not in the statics)"
+        )
     print(
         f"  {'object':16s} {'weight_N':>8s} {'liftable_N':>10s} {'ratio':>6s}  per pad: normal N / up N / most loaded joint (share of its limit), pad facing off the surface"
     )
     short = []
     for name in names:
-        obj = profiles[name]
+        obj = worst_corner(profiles[name], v)
         weight = obj.mass_kg * GRAVITY_M_S2
         try:
             cap, contacts, _ = object_capacity(hand, obj)

@@ -51,6 +51,8 @@ PLAN_FLAGS = (
     "seed",
     "preset",
     "no_tick_logs",
+    "controller",
+    "variation",
 )
 DEFAULT_BACKEND = "mujoco"  # the reference world (docs/mujoco.md)
 EMULATED = "dynamixel-emulated"  # the run's backend with --emulate (= manifest.EMULATED_BACKEND; lazy imports)
@@ -67,6 +69,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--object-file", default=None, metavar="FILE", help="object profiles TOML (default: hand_configs/objects.toml)"
     )
+    from grasp_ctrl.controller.registry import CONTROLLER_NAMES, DEFAULT_CONTROLLER
+
+    p.add_argument(
+        "--controller",
+        default=None,
+        metavar="NAME",
+        help=f"the lift-and-place controller, one of {', '.join(CONTROLLER_NAMES)} (default: {DEFAULT_CONTROLLER}; "
+        "the paper preset: paper). paper: the paper's fixed grasp, ramp and lift; grip_load: a load phase "
+        "and a slip response from the force vectors (docs/controller.md)",
+    )
     p.add_argument(
         "--backend",
         choices=(*SIMULATED, "dynamixel"),
@@ -76,6 +88,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "success rates are not results (docs/results.md); dynamixel: the real hand, the operator "
         "labels each trial",
     )
+    from grasp_ctrl.sim.variation import add_variation_argument
+
+    add_variation_argument(p)
     p.add_argument(
         "--emulate",
         action="store_true",
@@ -205,7 +220,20 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
         if backend != "dynamixel":
             raise UsageError("--emulate: only with --backend dynamixel (it emulates the real hand's links)")
         backend = EMULATED
+    from grasp_ctrl.controller.registry import DEFAULT_CONTROLLER, controller_class
+    from grasp_ctrl.controller.settings import ControllerSettings
+
+    controller = args.controller or (preset.controller if preset else DEFAULT_CONTROLLER)
+    controller_class(controller)  # an unknown name: one line listing the controllers
+    from grasp_ctrl.sim.variation import DEFAULT_VARIATION, variation
+
+    # The world's per-trial draws (the paper preset too); the real hand has none to choose.
+    if backend == "dynamixel" and args.variation is not None:
+        raise UsageError("--variation: only for a simulated world (mujoco, mock, or --emulate)")
+    drawn = None if backend == "dynamixel" else variation(args.variation or DEFAULT_VARIATION)
     manifest = RunManifest(
+        variation=drawn,
+        settings=ControllerSettings(controller=controller),
         backend=backend,
         hand=hand.name,
         seed=args.seed if args.seed is not None else 0,
@@ -267,7 +295,7 @@ def _preflight(hand: Any, manifest: Any, args: argparse.Namespace) -> None:
 
     if manifest.backend == EMULATED:
         obj = manifest.objects[0]
-        report = preflight_emulated(hand, obj, trial_seed(manifest.seed, obj.name, 0))
+        report = preflight_emulated(hand, obj, trial_seed(manifest.seed, obj.name, 0), manifest.variation)
     else:
         report = preflight_hardware(hand, args.port, args.sensor_port)
     say = lambda text: print(text, file=sys.stderr, flush=True)  # noqa: E731
@@ -308,6 +336,10 @@ def run(args: argparse.Namespace) -> int:
             "here, one trial at a time"
         )
     trial_fn = None
+    if args.record_video is not None:
+        from grasp_ctrl.safe_write import check_output_dir
+
+        check_output_dir(args.record_video, "--record-video")
     if args.record_video is not None and manifest.backend != "mujoco":
         raise UsageError("--record-video: only with --backend mujoco")
     from grasp_ctrl.trials.episode.capacity_check import preflight_capacity
@@ -339,11 +371,14 @@ def run(args: argparse.Namespace) -> int:
             make_backends=emulated_backends,
             backend=EMULATED,
             make_world=make_world,
+            variation=manifest.variation,
         )
     elif manifest.backend == "mujoco" and args.record_video:
         from grasp_ctrl.trials.episode.mujoco_video import video_trial_fn
 
-        trial_fn = video_trial_fn(hand, manifest.policies, manifest.settings, args.threads, Path(args.record_video))
+        trial_fn = video_trial_fn(
+            hand, manifest.policies, manifest.settings, args.threads, Path(args.record_video), manifest.variation
+        )
     if args.rrd is not None:
         from grasp_ctrl.trials.analysis.rerun_log import check_run_rrd
 
@@ -392,6 +427,8 @@ def run(args: argparse.Namespace) -> int:
         summary = flagged
         write_json(run_dir / SUMMARY_FILE, summary)
     print(format_table(summary))
+    if manifest.variation is not None:
+        print(f"variation: {manifest.variation.describe()}")
     print(f"logs: {run_dir}  (compare: grasp-ctrl compare {run_dir})")
     if summary.get("test_double"):
         print(f"note: {MOCK_NOTE}")

@@ -78,6 +78,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="mujoco: the reference world (default); mock: the fast test-double world; "
         "dynamixel: the real hand, each trial labelled by the operator",
     )
+    from grasp_ctrl.sim.variation import add_variation_argument
+
+    add_variation_argument(p)
     p.add_argument("--port", default=None, metavar="PORT", help="dynamixel: the servo bus port")
     p.add_argument("--sensor-port", default=None, metavar="PORT", help="dynamixel: the fingertip sensors' port")
     p.add_argument(
@@ -128,8 +131,18 @@ def _check_args(args: argparse.Namespace) -> None:
     check_executor(args.executor, args.address)
     if args.backend == "dynamixel" and args.executor != "local":
         raise UsageError("--executor ray: the real hand runs here, one trial at a time")
+    if args.backend == "dynamixel" and args.variation is not None:
+        raise UsageError("--variation: only for a simulated world (mujoco, mock)")
+    _variation(args)  # an unknown name: one line listing the profiles
     if args.trials < 1:
         raise UsageError("--trials: must be at least 1")
+    from grasp_ctrl.safe_write import check_output
+
+    check_output(args.json, "--json")  # before any trial: a bad path costs nothing
+    if args.plots is not None:
+        from grasp_ctrl.safe_write import check_output_dir
+
+        check_output_dir(args.plots, "--plots")
     if args.jobs < 1:
         raise UsageError("--jobs: must be at least 1")
     if args.budget is not None and args.budget < 1:
@@ -146,6 +159,15 @@ def _check_args(args: argparse.Namespace) -> None:
         from grasp_ctrl.trials.tuning.study_defaults import check_storage
 
         check_storage(args.storage)
+
+
+def _variation(args: argparse.Namespace) -> Any:
+    """The simulated world's variation profile (sim/variation.py; default bench); None on the real hand."""
+    if args.backend == "dynamixel":
+        return None
+    from grasp_ctrl.sim.variation import DEFAULT_VARIATION, variation
+
+    return variation(args.variation or DEFAULT_VARIATION)
 
 
 def _executor(args: argparse.Namespace, hand: Any, trial_fn: Any) -> Any:
@@ -167,9 +189,11 @@ def _executor(args: argparse.Namespace, hand: Any, trial_fn: Any) -> Any:
             )
         )
     if args.executor == "ray":
-        return RayExecutor(args.address, args.jobs if args.jobs > 1 else None, hand, args.policy, args.backend)
+        return RayExecutor(
+            args.address, args.jobs if args.jobs > 1 else None, hand, args.policy, args.backend, _variation(args)
+        )
     if args.jobs > 1:
-        return ProcessExecutor(args.jobs, hand, args.policy, args.backend)
+        return ProcessExecutor(args.jobs, hand, args.policy, args.backend, _variation(args))
     return SerialExecutor(trial_fn)
 
 
@@ -217,6 +241,7 @@ def run(args: argparse.Namespace) -> int:
             args.storage,
             args.study_name,
             prune=not args.no_prune,
+            variation=_variation(args),
         )
         for obj in objects
     ]
@@ -224,7 +249,7 @@ def run(args: argparse.Namespace) -> int:
     if args.backend != "dynamixel":  # the policy and world load here, so a bad one fails before any study
         from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
-        trial_fn = sim_trial_fn(hand, [args.policy], backend=args.backend)
+        trial_fn = sim_trial_fn(hand, [args.policy], backend=args.backend, variation=_variation(args))
     docs = []
     for plan in plans:
         doc = _tune_one(plan, args, hand, trial_fn)
@@ -232,10 +257,10 @@ def run(args: argparse.Namespace) -> int:
             return 130
         docs.append(doc)
     if args.json:
-        from grasp_ctrl.storage import write_text_atomic
+        from grasp_ctrl.safe_write import write_output
 
         out = docs[0] if args.object is not None else {"objects": docs}
-        write_text_atomic(args.json, json.dumps(out, indent=2) + "\n")
+        write_output(args.json, json.dumps(out, indent=2) + "\n")
     if not args.write:
         return 0
     return _write(args, docs)

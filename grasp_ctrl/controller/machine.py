@@ -85,24 +85,35 @@ def _distance(a: np.ndarray, b: np.ndarray) -> float:
     return norm3(a - b)  # fixed-order sum: the kernel's bits on any CPU (grasp_ctrl/vec3.py)
 
 
-def build_machine(model: Any, reason_setter: Any = None, machine_cls: type = Machine, **extra: Any) -> Machine:
-    """The one definition of states and transitions (also drawn by ``diagram``)."""
+def build_machine(
+    model: Any,
+    reason_setter: Any = None,
+    machine_cls: type = Machine,
+    states: list[str] | None = None,
+    transitions: list[tuple[str, str, str, str | None]] | None = None,
+    **extra: Any,
+) -> Machine:
+    """The one definition of states and transitions (also drawn by ``diagram``); ``states`` and
+    ``transitions``: a controller's own (default: the paper's, ``STATES`` and ``TRANSITIONS``)."""
+    states = states or STATES
+    transitions = transitions or TRANSITIONS
+    active = [s for s in states if s not in TERMINAL]
     machine = machine_cls(
         model=model,
-        states=STATES,
+        states=states,
         initial="tare",
         auto_transitions=False,
         queued=True,
         after_state_change="_on_enter" if reason_setter else None,
         **extra,
     )
-    for src, dst, guard, reason in TRANSITIONS:
+    for src, dst, guard, reason in transitions:
         kwargs: dict[str, Any] = {"conditions": guard}
         if reason and reason_setter:
             kwargs["before"] = reason_setter(reason)
         machine.add_transition("step", src, dst, **kwargs)
     # Faults detected outside the guards (stale sensor, hardware, over-force, abort).
-    machine.add_transition("fail", ACTIVE, "fault", before="_set_reason" if reason_setter else None)
+    machine.add_transition("fail", active, "fault", before="_set_reason" if reason_setter else None)
     return machine
 
 
@@ -124,6 +135,11 @@ class GraspController:
 
     #: The current state's name; set by the ``transitions`` machine (``build_machine``).
     state: str
+    #: This controller's states and transitions (a subclass may add its own).
+    STATES: list[str] = STATES
+    TRANSITIONS: list[tuple[str, str, str, str | None]] = TRANSITIONS
+    #: Whether the tick gives it each fingertip's PAC spread (``Snapshot.pac_spread``).
+    reads_vibration = False
 
     def __init__(
         self,
@@ -186,10 +202,12 @@ class GraspController:
         self.history: list[tuple[float, str, str]] = []  # (t, from, to)
 
         self._squeeze_cache: dict[int, tuple] = {}  # squeeze_plan's arguments that stay, per squeeze state
-        self.machine = build_machine(self, self._reason_setter)
+        self.machine = build_machine(self, self._reason_setter, states=self.STATES, transitions=self.TRANSITIONS)
         # The guards of each state's transitions: the machine is triggered only when one
         # holds (guards are pure, so this skips its overhead on the ticks nothing happens).
-        self._guards = {state: [getattr(self, g) for src, _, g, _ in TRANSITIONS if src == state] for state in STATES}
+        self._guards = {
+            state: [getattr(self, g) for src, _, g, _ in self.TRANSITIONS if src == state] for state in self.STATES
+        }
 
     # ----- helpers ----------------------------------------------------------
     def _reach_posture(self) -> np.ndarray:
@@ -199,7 +217,7 @@ class GraspController:
         contact height (the others close at ``grasp_height_m``)."""
         q = self.motion.pregrasp_q.copy()
         if self.s.preshape:
-            shape = preshape(self.hand, self.obj, self.s.preshape_standoff_m)
+            shape = preshape(self.hand, self.obj, self._preshape_standoff_m())
             q = shape.q
             facing = np.array([n is not None for n in shape.pad_normals_hand])
             normals = np.array([n if n is not None else np.zeros(3) for n in shape.pad_normals_hand])
@@ -217,6 +235,10 @@ class GraspController:
         cap_joints = self.kin.slices[cap.finger]
         q[cap_joints] = raised[cap_joints]
         return q
+
+    def _preshape_standoff_m(self) -> float:
+        """How far from the object's nominal surface the pads wait before closing."""
+        return self.s.preshape_standoff_m
 
     @property
     def terminal(self) -> bool:

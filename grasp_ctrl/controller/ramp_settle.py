@@ -67,3 +67,46 @@ class RampSettle:
 
     def settled(self, dt: float) -> bool:
         return self.within_ticks * dt >= self.s.ramp_settle_s or self.steady_ticks * dt >= self.s.ramp_steady_s
+
+
+class TrendRampSettle(RampSettle):
+    """``RampSettle`` whose steady rule reads the grips' trend, not their tick-to-tick spread.
+
+    With quantised servo goals (an X-series servo moves in 0.088 deg steps, a tenth of a
+    millimetre at the pad, a few tenths of a newton on a stiff object) and a learned estimate's
+    noise, the grips of a balanced grasp jitter by more than ``ramp_steady_n`` around a steady
+    mean, so the window rule never holds and the ramp times out. Here the grasp is steady when,
+    over the last ``ramp_steady_s``, every filtered error stayed in the band and each grip's mean
+    over the window's second half differs from its mean over the first half by at most
+    ``ramp_steady_n``: zero-mean jitter averages out, a drift does not."""
+
+    def __init__(self, settings: ControllerSettings, dt: float = 0.01) -> None:
+        super().__init__(settings, dt)
+        self._span = max(2, int(round(settings.ramp_steady_s / dt)))
+        self._history: deque[np.ndarray] = deque(maxlen=self._span)
+
+    def reset(self) -> None:
+        super().reset()
+        self._history.clear()
+
+    def update(self, err_now: np.ndarray) -> None:
+        recent = self._recent
+        recent.append(np.array(err_now, dtype=float))
+        err = recent[0] if len(recent) == 1 else np.mean(recent, axis=0)
+        abs_err = np.abs(err)
+        self.within_ticks = self.within_ticks + 1 if bool((abs_err <= self.s.ramp_tolerance_n).all()) else 0
+        in_band = abs(float(err.mean())) <= self.s.ramp_tolerance_n and bool(
+            (abs_err <= self.s.ramp_balance_band_n).all()
+        )
+        if not in_band:
+            self._history.clear()
+            self.steady_ticks = 0
+            return
+        self._history.append(err)
+        if len(self._history) < self._span:
+            self.steady_ticks = 0
+            return
+        window = np.array(self._history)
+        half = len(window) // 2
+        drift = np.abs(window[half:].mean(axis=0) - window[:half].mean(axis=0))
+        self.steady_ticks = self._span if bool((drift <= self.s.ramp_steady_n).all()) else 0

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class ControllerSettings:
+    controller: str = "paper"  # which controller (controller/registry.py): paper | grip_load
     close_speed_m_s: float = 0.02  # fingertip speed along the task vector while closing
     close_timeout_s: float = 4.0
     ramp_gain_m_s_per_n: float = 0.01  # fingertip speed per N of force error
@@ -42,5 +43,32 @@ class ControllerSettings:
     #   the smallest tau (controller/grip_targets.py)
     grip_weight_margin: float = 0.0  # > 0: scale the targets so mu x their sum >= this x the object's
     #   weight (objects.toml mass_kg); 0: tau_n as tuned
+    # grip_load only (controller/grip_load.py, docs/controller.md)
+    guarded_standoff_m: float = 0.01  # the preshape's standoff (per object: objects.toml standoff_m)
+    load_speed_m_s: float = 0.005  # the arm's speed while the fingertips take the weight
+    load_min_rise_m: float = 0.006  # the load phase lasts at least this rise (the grasp's compliance unwinds)
+    load_max_rise_m: float = 0.015  # and ends this high at the latest
+    load_gain_m_s_per_n: float = 0.005  # the grip loop while loading, lifting and holding
+    load_max_speed_m_s: float = 0.004
+    load_weight_fraction: float = 0.8  # ... or once the fingertips carry this share of the profile's weight
+    load_settle_s: float = 0.1  #   for this long
+    grip_margin: float = 1.3  # each pad's load <= mu x its grip / this (the friction cone's safety margin)
+    slip_cone_fraction: float = 0.9  # slip: a pad's load above this share of mu x its grip
+    slip_grip_rate_n_s: float = 15.0  # slip: a grip falling faster than this
+    slip_rate_n_s: float = 25.0  # slip: a tangential force changing faster than this
+    slip_filter_s: float = 0.03  # the rates are read over this long
+    slip_pac_counts: float = 20.0  # slip: a fingertip's PAC spread this far above its usual level (raw counts;
+    #   the sensor model's noise is 6, sim/biotac_model.py: 20 is sliding at about 1.5 mm/s more than usual)
+    slip_pac_window_s: float = 0.5  # the usual level: the spread averaged over this long
+    slip_pac_ticks: int = 2  #   for this many ticks
+    slip_boost: float = 0.15  # each slip raises the grip scale by this
+    slip_adapts_mu: bool = True  # vibration in lift or hold lowers the friction estimate to the load/grip held
+    min_mu_hat: float = 0.3  # a slip lowers the friction estimate to the load/grip ratio held before it, not below this
+    slip_max_pause_s: float = 1.0  # the arm waits for the grips at most this long per state
+    pause_when_short: bool = False  # the arm also waits while a grip is short of its raised target
+    release_relative: bool = True  # release also when the carried load falls near the support (grip_load.py)
+    grip_relax_per_s: float = 0.5  # the grip scale falls back toward the load's need at this rate
+    min_grip_scale: float = 0.6  # the safety limit may scale the ramp's targets down to this share
+    grip_cap_fraction: float = 0.8  # grips stay below this share of the safety limit and the crush force
     low_confidence_slowdown: bool = False  # slow the ramp when the policy's variance is high
     variance_scale_n2: float = 0.05  # variance at which the ramp runs at half speed

@@ -26,6 +26,9 @@ class Snapshot(NamedTuple):
     variance: np.ndarray | None = None  # (n_tips, 3) N^2 when the policy provides it
     fault: str | None = None  # a fault the runner detected (sensor_stale, hardware_error, aborted, ...)
     fault_detail: str | None = None  # what failed, in words (servo id and error bits, port, fingertip)
+    # (n_tips,) raw counts: the spread of each fingertip's 22 PAC samples in this tick's frame
+    # (vibration: slip), for a controller that reads it (``reads_vibration``); None otherwise
+    pac_spread: np.ndarray | None = None
 
 
 class Command(NamedTuple):

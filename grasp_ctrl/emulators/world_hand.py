@@ -9,6 +9,9 @@ velocity, current) on the emulated servos; each ``write_goals`` waits until the
 emulator has taken the sync write and hands the goals it received (quantised
 to counts) to the world. So a controller trial on the mock world exercises
 calibration, clamping, the step limit and the bus exactly as on a real hand.
+On the MuJoCo world (``run --backend dynamixel --emulate``) the servos publish the
+angles its joint calibration offsets leave them (``q_measured``) and their goals
+go back through ``command_goal``: the offsets stay inside the world.
 """
 
 from __future__ import annotations
@@ -45,16 +48,33 @@ def _present_current_a(world: Any) -> np.ndarray:
     return p.servo_stiffness_nm_per_rad * (np.asarray(world.q_servo) - np.asarray(world.q)) / p.torque_per_amp_nm
 
 
+def _measured_q(world: Any) -> np.ndarray:
+    """The joint angles the servos report: the MuJoCo world's true angles less its joints'
+    calibration offsets (``q_measured``), or the mock world's angles."""
+    q = getattr(world, "q_measured", None)
+    return np.asarray(world.q if q is None else q, dtype=float)
+
+
+def _command(world: Any, q_goal: np.ndarray) -> None:
+    """The goals the servos received (calibrated angles) to the world: the MuJoCo world adds
+    its offsets (``command_goal``), the mock world takes them as they are."""
+    command = getattr(world, "command_goal", None)
+    if command is None:
+        world.q_goal = q_goal
+    else:
+        command(q_goal)
+
+
 class EmulatedDynamixelHand:
     def __init__(self, world: Any, hand: HandConfig) -> None:
         self.world = world
         self.hand = hand
         self.cal = Calibration.from_joints(hand.joints)
         self.ids = [j.servo_id for j in hand.joints]
-        self.emu = DynamixelChainEmulator.for_hand(hand, np.asarray(world.q, dtype=float))
+        self.emu = DynamixelChainEmulator.for_hand(hand, _measured_q(world))
         self.emu.external_physics = True
         self.dxl: DynamixelHand | None = None
-        self._q_prev = np.asarray(world.q, dtype=float).copy()
+        self._q_prev = _measured_q(world).copy()
 
     def connect(self) -> None:
         self.emu.start()
@@ -74,7 +94,7 @@ class EmulatedDynamixelHand:
 
     def _publish(self) -> None:
         w = self.world
-        q = np.asarray(w.q, dtype=float)
+        q = _measured_q(w)
         dq = (q - self._q_prev) / w.dt
         self._q_prev = q.copy()
         current_a = _present_current_a(w)
@@ -87,7 +107,7 @@ class EmulatedDynamixelHand:
     def _pull_goals(self) -> None:
         goals = self.emu.goals()
         counts = np.array([goals[i][0] for i in self.ids], dtype=float)
-        self.world.q_goal = self.cal.to_rad(counts)
+        _command(self.world, self.cal.to_rad(counts))
         self.world.torque_on = all(goals[i][1] for i in self.ids)
 
     def _wait_for_sync_write(self, before: int, timeout_s: float = 0.5) -> None:

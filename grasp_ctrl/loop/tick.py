@@ -15,6 +15,7 @@ from grasp_ctrl.errors import FrameError, HardwareError
 from grasp_ctrl.finite import both_finite
 from grasp_ctrl.hardware.base import ArmBackend, HandBackend, SensorBackend
 from grasp_ctrl.loop.sensing import SensingPipeline
+from grasp_ctrl.tactile.layout import PAC
 
 
 def control_tick(
@@ -42,8 +43,15 @@ def control_tick(
         if fault is None:
             fault, detail = "sensor_invalid", str(exc)
     snap = pipeline.snapshot(raw, hand.read(), arm.position(), ctrl.state == "tare", fault, detail)
+    if ctrl.reads_vibration and raw is not None:
+        snap = snap._replace(pac_spread=pac_spread(raw))
     cmd = send_command(hand, arm, ctrl, snap, ctrl.tick(snap))
     return snap, cmd, raw
+
+
+def pac_spread(raw: np.ndarray) -> np.ndarray:
+    """(n_tips, 44) raw frames -> (n_tips,) standard deviation of each frame's 22 PAC samples (counts)."""
+    return np.asarray(raw, dtype=float)[:, PAC].std(axis=1)
 
 
 def send_command(hand: HandBackend, arm: ArmBackend, ctrl: GraspController, snap: Snapshot, cmd: Command) -> Command:

@@ -1,12 +1,18 @@
 """Hand, arm and sensor backends over a MuJoCoWorld (the mock backends' interfaces).
 
 The arm and the sensors are the mock's own (they only move ``palm_target`` and
-read ``raw``); the hand reads its current from the actuators' torques.
+read ``raw``); the hand reads its current from the actuators' torques, and its
+joint angles and goals as the servos know them: the world's calibration offsets
+(sim/variation.py) stay inside the world.
 """
 
 from __future__ import annotations
 
+import numpy as np
+
 from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.errors import HardwareError
+from grasp_ctrl.finite import all_finite
 from grasp_ctrl.hardware.base import JointState
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
 from grasp_ctrl.sim.mujoco_world import MuJoCoWorld
@@ -15,14 +21,26 @@ __all__ = ["MuJoCoHand", "MuJoCoSensors", "MockArm", "mujoco_backends"]
 
 
 class MuJoCoHand(MockHand):
-    """Goals clamped like the real backend (MockHand); state read from MuJoCo."""
+    """Goals clamped like the real backend (MockHand); state read from MuJoCo. Angles and
+    goals are the servos' calibrated ones (``q_measured``, ``command_goal``), never the
+    world's true joint angles."""
 
     world: MuJoCoWorld  # type: ignore[assignment]
 
     def read(self) -> JointState:
         w = self.world
         current = w.joint_torque_nm / w.params.scene.torque_per_amp_nm
-        return JointState(q=w.q, dq=w.dq, current_a=current, t=w.t)
+        return JointState(q=w.q_measured, dq=w.dq, current_a=current, t=w.t)
+
+    def write_goals(self, q_goal: np.ndarray) -> None:
+        """MockHand's clamping (step limit from the servos' last goal, then the hand file's
+        limits), in calibrated angles; the world adds the offsets."""
+        q_goal = np.asarray(q_goal, dtype=float)
+        if q_goal.shape != self.lower.shape or not all_finite(q_goal):
+            raise HardwareError(f"bad goal vector of shape {q_goal.shape}")
+        prev = self.world.q_goal_measured
+        q = np.minimum(np.maximum(q_goal, prev - self.max_step), prev + self.max_step)  # = np.clip, cheaper
+        self.world.command_goal(np.minimum(np.maximum(q, self.lower), self.upper))
 
 
 class MuJoCoSensors(MockSensors):

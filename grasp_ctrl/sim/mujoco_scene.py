@@ -80,6 +80,7 @@ class PlacedObject:
     mass_kg: float
     mu: float
     stiffness_n_per_m: float
+    yaw_rad: float = 0.0  # turned about the vertical through its footprint's centre
 
 
 @dataclass
@@ -303,8 +304,10 @@ def _object(obj: PlacedObject, p: SceneParams) -> tuple[str, list[str]]:
             f'<geom name="object_cap" type="sphere" size="{R:.9g}" pos="{ox:.9g} {oy:.9g} {cz:.9g}" {common}/>'
         )
         names.append("object_cap")
+    # No quat attribute without a yaw: the scene of an unturned object is the same XML as ever.
+    yaw = f' quat="{_f((math.cos(0.5 * obj.yaw_rad), 0.0, 0.0, math.sin(0.5 * obj.yaw_rad)))}"' if obj.yaw_rad else ""
     xml = (
-        f'<body name="object" pos="{obj.xy_m[0]:.9g} {obj.xy_m[1]:.9g} 0">'
+        f'<body name="object" pos="{obj.xy_m[0]:.9g} {obj.xy_m[1]:.9g} 0"{yaw}>'
         f'<freejoint name="object_free"/>'
         f'<inertial pos="0 0 {0.5 * h:.9g}" mass="{m:.9g}" diaginertia="{_f(inertia)}"/>' + "".join(geoms) + "</body>"
     )

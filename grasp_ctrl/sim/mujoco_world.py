@@ -8,10 +8,14 @@ welded to), and the fingertip contacts that MuJoCo solves feed the same BioTac
 forward model (``sim/biotac_model.py``) as the mock world. Outcome flags
 (crushed, knocked over) and events (contact, fell) come from MuJoCo's state.
 
-Deterministic per seed: the seed draws the object's placement and its mass,
-friction and stiffness within a few percent (as the mock world does) and the
-sensors; MuJoCo itself runs with fixed settings on one thread.
-See docs/mujoco.md.
+Deterministic per seed: the seed draws the object's placement, yaw, mass,
+friction and stiffness and the joints' calibration offsets within the
+half-widths of ``params.variation`` (sim/variation.py; ``nominal`` by default,
+the command line's default is ``bench``) and the sensors; MuJoCo itself runs
+with fixed settings on one thread. The joint offsets are the servos' error:
+the hand backends read ``q_measured`` (= q - offset) and command through
+``command_goal`` (the joint goes to goal + offset), so the controller never sees
+the draw. See docs/mujoco.md.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.sim.biotac_model import BioTacParams, BioTacSensorModel
 from grasp_ctrl.sim.mujoco_contacts import read_contacts, skin_point_and_normal
 from grasp_ctrl.sim.mujoco_scene import PlacedObject, SceneParams, build_scene
+from grasp_ctrl.sim.variation import NOMINAL, Variation, draw_extra, draw_object, draw_record, max_rotated_half_extents
 from grasp_ctrl.sim.world import GRAVITY, NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
 
 FALL_SPEED_M_S = 0.1  # landing on the table faster than this is a drop (placing is slower)
@@ -51,10 +56,8 @@ def mocap_step(mocap: list[float], tx: float, ty: float, tz: float, max_move: fl
 @dataclass(frozen=True)
 class MuJoCoParams:
     scene: SceneParams = field(default_factory=SceneParams)
-    placement_jitter_m: float = 0.003
-    mass_jitter: float = 0.03
-    friction_jitter: float = 0.03
-    stiffness_jitter: float = 0.05
+    # The per-trial draws' half-widths (sim/variation.py); library worlds keep the small nominal ones.
+    variation: Variation = NOMINAL
     start_clearance_m: float = 0.05  # the wrist starts this far above the reach pose
     top_clearance_m: float = 0.005  # the hand above the object's top when reaching
     footprint_margin_m: float = 0.008  # hand parts this close to the footprint count as above it
@@ -86,13 +89,18 @@ class MuJoCoWorld:
         self.t = 0.0
         self.phase = "idle"
         self.obj = obj
-        # The same draws, in the same order, as the mock world.
-        xy = rng.uniform(-p.placement_jitter_m, p.placement_jitter_m, size=2)
-        self.mass = obj.mass_kg * (1.0 + p.mass_jitter * rng.uniform(-1, 1))
-        self.mu = obj.mu * (1.0 + p.friction_jitter * rng.uniform(-1, 1))
-        self.k_contact = obj.stiffness_n_per_m * (1.0 + p.stiffness_jitter * rng.uniform(-1, 1))
+        # The same draws, in the same order, as the mock world; the yaw and the joint
+        # offsets from a second stream of the seed (the sensors' noise follows on this one).
+        v = p.variation
+        drawn = draw_object(rng, v)
+        self.mass = obj.mass_kg * (1.0 + drawn.mass_frac)
+        self.mu = obj.mu * (1.0 + drawn.friction_frac)
+        self.k_contact = obj.stiffness_n_per_m * (1.0 + drawn.stiffness_frac)
         self._weight = self.mass * GRAVITY
-        placed = PlacedObject(obj, (float(xy[0]), float(xy[1])), self.mass, self.mu, self.k_contact)
+        self.yaw_rad, self.joint_offset_rad = draw_extra(seed, v, len(hand.joints))
+        #: The trial's actual draws (the record's ``variation_draw``); the controller never sees them.
+        self.draw = draw_record(drawn, self.yaw_rad, self.joint_offset_rad)
+        placed = PlacedObject(obj, drawn.xy_m, self.mass, self.mu, self.k_contact, self.yaw_rad)
 
         self.fingers = [f.name for f in hand.fingers]
         self.sensor_ids = [f.sensor_id for f in hand.fingers]
@@ -131,6 +139,7 @@ class MuJoCoWorld:
         self.lower = np.array([j.lower_rad for j in joints])
         self.upper = np.array([j.upper_rad for j in joints])
         self._q_goal = np.array([j.open_rad for j in joints])
+        self._q_goal_cmd = self._q_goal - self.joint_offset_rad  # the servos' goal, calibrated angles
         self.tau_max = np.array([j.current_limit_a for j in joints]) * p.scene.torque_per_amp_nm
         self.torque_on = True
         self.arm_speed = hand.arm.max_speed_m_s
@@ -175,7 +184,13 @@ class MuJoCoWorld:
         pre = np.array([j.pregrasp_rad for j in self.hand.joints])
         opened = np.array([j.open_rad for j in self.hand.joints])
         obj = self.obj
-        reach = 0.5 * np.array(obj.size_m) + self.params.placement_jitter_m + self.params.footprint_margin_m
+        # The footprint as far as the profile's placement and yaw may carry it (not this
+        # trial's draw: the grasp height, which the controller is told, must not tell it).
+        v = self.params.variation
+        half = 0.5 * np.array(obj.size_m)
+        if obj.shape != "cylinder" and v.yaw_deg > 0.0:
+            half = np.array(max_rotated_half_extents(float(half[0]), float(half[1]), math.radians(v.yaw_deg)))
+        reach = half + v.placement_m + self.params.footprint_margin_m
         corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
         hand_geoms = [g for g in np.flatnonzero(m.geom_contype == 2) if self._tip_geom_of[g] < 0]
         low = 0.0
@@ -222,11 +237,31 @@ class MuJoCoWorld:
 
     @q_goal.setter
     def q_goal(self, q: np.ndarray) -> None:
+        """The joints' true goal (within their limits); the servos' goal follows, less the offsets."""
         self._q_goal = np.clip(np.asarray(q, dtype=float), self.lower, self.upper)
+        self._q_goal_cmd = self._q_goal - self.joint_offset_rad
+
+    def command_goal(self, q_measured_goal: np.ndarray) -> None:
+        """A goal in the servos' calibrated angles (what a hand backend writes): each joint is
+        driven to goal + its offset, within its limits."""
+        q = np.array(q_measured_goal, dtype=float)
+        self._q_goal = np.clip(q + self.joint_offset_rad, self.lower, self.upper)
+        self._q_goal_cmd = q
+
+    @property
+    def q_goal_measured(self) -> np.ndarray:
+        """The goal as the servos hold it (calibrated angles): the last ``command_goal``."""
+        return self._q_goal_cmd
 
     @property
     def q(self) -> np.ndarray:
+        """The joints' true angles (ground truth; the backends read ``q_measured``)."""
         return self.data.qpos[self._qadr].copy()
+
+    @property
+    def q_measured(self) -> np.ndarray:
+        """What the servos report: the true angles less each joint's calibration offset."""
+        return self.data.qpos[self._qadr] - self.joint_offset_rad
 
     @property
     def dq(self) -> np.ndarray:

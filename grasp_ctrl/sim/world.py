@@ -48,6 +48,7 @@ from grasp_ctrl.limits import clamp
 from grasp_ctrl.sim import world_step as ws
 from grasp_ctrl.sim.biotac_model import BioTacParams, BioTacSensorModel
 from grasp_ctrl.sim.shapes import shape_params
+from grasp_ctrl.sim.variation import NOMINAL, Variation, draw_object, draw_record
 
 GRAVITY = 9.81
 NEAR_M = 0.01  # fingertips further than this from the object cannot touch it this step
@@ -62,10 +63,9 @@ class WorldParams:
     servo_max_speed_rad_s: float = 6.0
     torque_per_amp_nm: float = 0.5
     tangential_stiffness_n_per_m: float = 400.0
-    placement_jitter_m: float = 0.003
-    mass_jitter: float = 0.03
-    friction_jitter: float = 0.03
-    stiffness_jitter: float = 0.05
+    # The placement, mass, friction and stiffness draws' half-widths (sim/variation.py); the
+    # mock world has no yaw (its objects stay axis-aligned) and no joint offsets.
+    variation: Variation = NOMINAL
     start_clearance_m: float = 0.05  # palm starts this far above the reach pose
     # Contact on the skin point facing the object (cap or pad), as on a real fingertip
     # and in MuJoCo; False puts it at the pad centre whatever the tilt (the old model,
@@ -319,10 +319,13 @@ class MockWorld:
         self.obj = obj
         self._shape = shape_params(obj)
         rng = self.rng
-        xy = rng.uniform(-p.placement_jitter_m, p.placement_jitter_m, size=2)
-        self.mass = obj.mass_kg * (1.0 + p.mass_jitter * rng.uniform(-1, 1))
-        self.mu = obj.mu * (1.0 + p.friction_jitter * rng.uniform(-1, 1))
-        self.k_contact = obj.stiffness_n_per_m * (1.0 + p.stiffness_jitter * rng.uniform(-1, 1))
+        drawn = draw_object(rng, p.variation)
+        xy = drawn.xy_m
+        self.mass = obj.mass_kg * (1.0 + drawn.mass_frac)
+        self.mu = obj.mu * (1.0 + drawn.friction_frac)
+        self.k_contact = obj.stiffness_n_per_m * (1.0 + drawn.stiffness_frac)
+        #: The trial's actual draws (the record's ``variation_draw``); no yaw, no joint offsets here.
+        self.draw = draw_record(drawn, 0.0, np.zeros(len(hand.joints)))
         self._weight = self.mass * GRAVITY
         self._obj = np.array([xy[0], xy[1], 0.0, self._weight, 0.0, 0.0])
         # The highest object height, the height before the last step, and the levels past

@@ -24,7 +24,7 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
-from grasp_ctrl.controller.machine import GraspController
+from grasp_ctrl.controller.registry import make_controller
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.estimators.base import ForceEstimator
@@ -61,7 +61,7 @@ def run_hardware_trial(
     kin = kin or HandKinematics(hand)
     sleep = sleep or _sleep
     pipeline = SensingPipeline(hand, kin, estimator)
-    ctrl = GraspController(hand, obj, reach_pose_world(hand, obj), settings, kin)
+    ctrl = make_controller(hand, obj, reach_pose_world(hand, obj), settings, kin)
     log = TickLog(log_path, pipeline.names, len(hand.joints), truth=False) if log_path else None
     wait = getattr(rig.sensors, "wait_for_frames", None)
     if wait is not None:

@@ -113,9 +113,15 @@ class RecordingWorld(MuJoCoWorld):
 
 
 def video_trial_fn(
-    hand: HandConfig, policies: Sequence[str], settings: ControllerSettings | None, threads: int, video_dir: Path
+    hand: HandConfig,
+    policies: Sequence[str],
+    settings: ControllerSettings | None,
+    threads: int,
+    video_dir: Path,
+    variation: Any = None,
 ) -> Any:
-    """The mujoco trial runner with each trial recorded to VIDEO_DIR/POLICY-OBJECT-TRIAL.(mp4|gif)."""
+    """The mujoco trial runner with each trial recorded to VIDEO_DIR/POLICY-OBJECT-TRIAL.(mp4|gif);
+    ``variation``: the world's per-trial draws (sim/variation.py; None: nominal)."""
     choose_gl_backend()
     from grasp_ctrl.sim.mujoco_backends import mujoco_backends
     from grasp_ctrl.trials.episode.runner import sim_trial_fn
@@ -126,7 +132,14 @@ def video_trial_fn(
         return RecordingWorld(hand, obj, seed, params, current["path"])
 
     inner = sim_trial_fn(
-        hand, policies, settings, threads, make_backends=mujoco_backends, backend="mujoco", make_world=make_world
+        hand,
+        policies,
+        settings,
+        threads,
+        make_backends=mujoco_backends,
+        backend="mujoco",
+        make_world=make_world,
+        variation=variation,
     )
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:

@@ -107,12 +107,14 @@ def preflight_hardware(hand: HandConfig, port: str | None = None, sensor_port: s
     return PreflightReport(servos, tips)
 
 
-def preflight_emulated(hand: HandConfig, obj: Any, seed: int) -> PreflightReport:
-    """The emulated rig of ``run --emulate``, on a world of the first object (before any trial)."""
+def preflight_emulated(hand: HandConfig, obj: Any, seed: int, variation: Any = None) -> PreflightReport:
+    """The emulated rig of ``run --emulate``, on a world of the first object (before any trial),
+    drawn under ``variation`` (sim/variation.py; None: nominal) as its first trial is."""
     from grasp_ctrl.emulators.world_rig import emulated_backends
     from grasp_ctrl.sim.mujoco_backends import make_world
+    from grasp_ctrl.sim.registry import world_params
 
-    world = make_world(hand, obj, seed)
+    world = make_world(hand, obj, seed, world_params("mujoco", variation))
     hand_backend, sensors = emulated_backends(world, hand)
     try:
         hand_backend.connect()

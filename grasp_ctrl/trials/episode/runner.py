@@ -33,6 +33,7 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.motion import squeeze_mode
+from grasp_ctrl.controller.registry import make_controller
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import ConfigError, GraspCtrlError, UsageError
 from grasp_ctrl.estimators.base import ForceEstimator
@@ -45,7 +46,8 @@ from grasp_ctrl.loop.ticklog import TickLog
 from grasp_ctrl.sim.backends import MockArm
 from grasp_ctrl.sim.mujoco_log import set_log_dir as set_engine_log_dir
 from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
-from grasp_ctrl.sim.registry import BackendFactory, WorldFactory, simulated_backend
+from grasp_ctrl.sim.registry import BackendFactory, WorldFactory, simulated_backend, world_params
+from grasp_ctrl.sim.variation import NOMINAL, Variation
 from grasp_ctrl.sim.world import WorldParams
 from grasp_ctrl.sim.world_api import World
 from grasp_ctrl.storage import (
@@ -100,6 +102,9 @@ class TrialResult:
     timings: dict[str, Any] = field(default_factory=dict)
     peak_forces: dict[str, dict[str, float]] = field(default_factory=dict)
     fault_detail: str | None = None  # the controller's fault, in words (None without a fault)
+    # The world's draw of this trial (sim/variation.py; None on the real hand): the judge's
+    # truth, which the controller never saw.
+    variation_draw: dict[str, Any] | None = None
     format: int = RECORD_FORMAT
 
     def to_json(self) -> dict[str, Any]:
@@ -209,7 +214,7 @@ def run_sim_trial(
         raise
     estimator = make_estimator(world)
     pipeline = SensingPipeline(hand, kin, estimator)
-    ctrl = GraspController(hand, obj, world.reach_pose_world(), settings, kin)
+    ctrl = make_controller(hand, obj, world.reach_pose_world(), settings, kin)
     names = pipeline.names
     grasp = np.array([f.grasp for f in hand.fingers])
     log = TickLog(log_path, names, len(hand.joints), truth=True) if log_path else None
@@ -291,6 +296,7 @@ def run_sim_trial(
         backend=backend,
         controller=controller_view(ctrl),
         fault_detail=ctrl.failure_detail,
+        variation_draw=getattr(world, "draw", None),
         timings=timings,
         peak_forces={
             name: {
@@ -327,11 +333,14 @@ def sim_trial_fn(
     make_backends: BackendFactory | None = None,
     backend: str = "mock",
     make_world: WorldFactory | None = None,
+    variation: Variation | None = None,
 ) -> TrialFn:
-    """Policies are loaded up front, so a bad one fails before the first trial."""
+    """Policies are loaded up front, so a bad one fails before the first trial. ``variation``:
+    the world's per-trial draws (sim/variation.py; None: the world's own, nominal)."""
     factories = {p: estimator_factory(p, hand, threads) for p in policies}
     kin = HandKinematics(hand)
     make_world, make_backends = world_for_backend(backend, make_world, make_backends)
+    params = world_params(backend, variation)
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
         return run_sim_trial(
@@ -342,6 +351,7 @@ def sim_trial_fn(
             policy,
             trial,
             settings,
+            world_params=params,
             log_path=log_path,
             kin=kin,
             make_backends=make_backends,
@@ -357,11 +367,16 @@ _WORKER_TRIAL_FN: TrialFn | None = None
 
 
 def _init_worker(
-    hand: HandConfig, policies: list[str], settings: ControllerSettings, threads: int, backend: str = "mock"
+    hand: HandConfig,
+    policies: list[str],
+    settings: ControllerSettings,
+    threads: int,
+    backend: str = "mock",
+    variation: Variation | None = None,
 ) -> None:
     global _WORKER_TRIAL_FN
     ignore_interrupts()
-    _WORKER_TRIAL_FN = sim_trial_fn(hand, policies, settings, threads, backend=backend)
+    _WORKER_TRIAL_FN = sim_trial_fn(hand, policies, settings, threads, backend=backend, variation=variation)
 
 
 def _worker_trial(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
@@ -380,6 +395,7 @@ def parallel_trials(
     threads: int,
     tasks: Sequence[TrialTask],
     backend: str = "mock",
+    variation: Variation | None = None,
 ) -> Iterator[tuple[int, dict[str, Any]]]:
     """Simulated trials in ``jobs`` processes: yields (task index, record) as each finishes."""
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -390,7 +406,7 @@ def parallel_trials(
         jobs,
         mp_context=ctx,
         initializer=_init_worker,
-        initargs=(hand, list(policies), settings or ControllerSettings(), threads, backend),
+        initargs=(hand, list(policies), settings or ControllerSettings(), threads, backend, variation),
     )
     finished_cleanly = False
     try:
@@ -466,6 +482,7 @@ def run_series(
     jobs: int = 1,
     executor: str = "local",
     address: str | None = None,
+    variation: Variation | None = None,
 ) -> dict[str, Any]:
     """objects x policies x trials with shared seeds; returns the summary (docs/design.md 5.2).
 
@@ -475,7 +492,8 @@ def run_series(
     ``jobs``: simulated trials in that many worker processes (records arrive out of
     order; the summary does not depend on it). ``executor="ray"``: the trials are
     Ray tasks instead (``address``: a running cluster; else a local instance of
-    ``jobs`` CPUs), see ray_executor.py.
+    ``jobs`` CPUs), see ray_executor.py. ``variation``: the simulated world's per-trial
+    draws of a new run without ``manifest`` (default: nominal, the worlds' own).
     """
     if len(set(safe_name(p) for p in policies)) != len(policies):
         raise UsageError("--policy: two policies would share one log directory; give each once")
@@ -496,6 +514,7 @@ def run_series(
         objects=list(objects),
         tick_logs=tick_logs,
         settings=settings or ControllerSettings(),
+        variation=variation or NOMINAL,
     )
     # Everything that can be checked is checked before the first file is touched.
     for obj in plan.objects:
@@ -506,12 +525,12 @@ def run_series(
     kin = HandKinematics(hand)
     for obj in plan.objects:  # the reach postures (preshape, a cap the finger must reach) fit this hand
         try:
-            GraspController(hand, obj, np.zeros(3), plan.settings, kin)
+            make_controller(hand, obj, np.zeros(3), plan.settings, kin)
         except ConfigError as exc:
             raise ConfigError(source, f"object {obj.name!r}: {exc.key}", exc.expected) from None
     other_world = {} if plan.backend == "mock" else {"backend": plan.backend}  # e.g. mujoco
     run_trial = trial_fn or sim_trial_fn(
-        hand, policies, plan.settings, threads, **other_world
+        hand, policies, plan.settings, threads, **other_world, variation=plan.variation
     )  # bad policies fail here
 
     created = not run_dir.exists()
@@ -626,7 +645,7 @@ def _run_locked(
             from grasp_ctrl.trials.runs.ray_executor import ray_trials
 
             with contextlib.closing(
-                ray_trials(address, jobs, hand, policies, plan.settings, threads, pending, plan.backend)
+                ray_trials(address, jobs, hand, policies, plan.settings, threads, pending, plan.backend, plan.variation)
             ) as results:
                 for _, rec in results:
                     finish(rec)
@@ -635,7 +654,14 @@ def _run_locked(
                 # closing: the workers are stopped at once on Ctrl-C or an error, not when collected.
                 with contextlib.closing(
                     parallel_trials(
-                        min(jobs, len(pending)), hand, policies, plan.settings, threads, pending, plan.backend
+                        min(jobs, len(pending)),
+                        hand,
+                        policies,
+                        plan.settings,
+                        threads,
+                        pending,
+                        plan.backend,
+                        plan.variation,
                     )
                 ) as results:
                     for _, rec in results:

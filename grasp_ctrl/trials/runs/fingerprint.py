@@ -27,6 +27,9 @@ from grasp_ctrl.errors import GraspCtrlError, UsageError
 from grasp_ctrl.storage import file_sha256
 
 PLAN_KEYS = ("backend", "hand", "seed", "trials", "policies", "tick_logs", "settings")
+# Plan keys hashed only when they differ from what every run drew before they existed, so that
+# such a run resumes with its fingerprint: the variation profile (nominal; null on the real hand).
+OPTIONAL_PLAN_KEYS = ("variation",)
 RECORD_KEY = "fingerprint"
 
 
@@ -65,6 +68,11 @@ def _entry(path: Path) -> dict[str, Any]:
 def settings_digests(plan: dict[str, Any]) -> dict[str, str]:
     """One hash per plan key of run.json (each object on its own), so a change is named."""
     out = {k: sha256_json(plan.get(k)) for k in PLAN_KEYS}
+    from grasp_ctrl.sim.variation import NOMINAL
+
+    variation = plan.get("variation")
+    if variation is not None and variation != NOMINAL.to_json():
+        out["variation"] = sha256_json(variation)
     for obj in plan.get("objects") or []:
         name = obj.get("name") if isinstance(obj, dict) else None
         out[f"objects.{name}"] = sha256_json(obj)
@@ -86,7 +94,7 @@ def compute(manifest: Any) -> dict[str, Any]:
             files[f"policy {spec}"] = {"path": spec, "sha256": None}
         for role, path in found:
             files[role] = _entry(path)
-    plan = {k: v for k, v in manifest.to_json().items() if k in (*PLAN_KEYS, "objects")}
+    plan = {k: v for k, v in manifest.to_json().items() if k in (*PLAN_KEYS, *OPTIONAL_PLAN_KEYS, "objects")}
     settings = settings_digests(plan)
     digest = sha256_json({"files": {k: v["sha256"] for k, v in files.items()}, "settings": settings})
     return {"sha256": digest, "files": files, "settings": settings}

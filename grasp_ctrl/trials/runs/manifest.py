@@ -16,10 +16,12 @@ from typing import Any
 from grasp_ctrl.config.objects import ObjectProfile, profile_from_json
 from grasp_ctrl.config.toml_reader import finite_number
 from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES
+from grasp_ctrl.controller.registry import CONTROLLER_NAMES
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import ConfigError, UsageError
 from grasp_ctrl.json_limits import JsonFileError, read_json
 from grasp_ctrl.sim.registry import SIMULATED
+from grasp_ctrl.sim.variation import NOMINAL, Variation, variation_from_json
 from grasp_ctrl.storage import (
     RUN_FILE,
     file_sha256,  # noqa: F401  (run's plan hashes its files with it)
@@ -31,7 +33,10 @@ EMULATED_BACKEND = "dynamixel-emulated"  # run --backend dynamixel --emulate (pt
 BACKENDS = (*SIMULATED, "dynamixel", EMULATED_BACKEND)
 MAX_TRIALS = 100_000
 # settings that may be zero (no slow zone, no overshoot, no retreat)
-SETTING_CHOICES = {"grip_targets": GRIP_TARGET_MODES}  # the text settings and their values
+SETTING_CHOICES = {
+    "grip_targets": GRIP_TARGET_MODES,
+    "controller": CONTROLLER_NAMES,
+}  # the text settings and their values
 MAX_SETTING = 1e6  # no controller setting (seconds, metres, newtons, ratios) comes near it
 ZERO_ALLOWED = ("lower_overshoot_m", "lower_slow_zone_m", "retreat_m", "grip_weight_margin")
 
@@ -52,6 +57,8 @@ class RunManifest:
     settings: ControllerSettings = field(default_factory=ControllerSettings)
     fingerprint: dict[str, Any] | None = None  # trials/runs/fingerprint.py
     forced: list[dict[str, Any]] = field(default_factory=list)  # resumes with --force despite changes
+    # The simulated world's per-trial draws (sim/variation.py); None on the real hand.
+    variation: Variation | None = NOMINAL
 
     @property
     def object_names(self) -> list[str]:
@@ -75,9 +82,11 @@ class RunManifest:
             "policies": list(self.policies),
             "objects": [dataclasses.asdict(o) for o in self.objects],
             "tick_logs": self.tick_logs,
+            "controller": self.settings.controller,
             "settings": dataclasses.asdict(self.settings),
             "fingerprint": self.fingerprint,
             "forced": list(self.forced),
+            "variation": self.variation.to_json() if self.variation is not None else None,
         }
 
     @classmethod
@@ -134,6 +143,9 @@ class RunManifest:
         forced = doc.get("forced") or []
         if not isinstance(forced, list) or not all(isinstance(f, dict) for f in forced):
             raise bad("forced", "a list of tables (resumes with --force)")
+        # A run from before the variation profiles drew the nominal ones; null: the real hand.
+        raw_variation = doc.get("variation", NOMINAL.to_json())
+        variation = None if raw_variation is None else variation_from_json(raw_variation, where)
         return cls(
             backend=backend,
             hand=hand,
@@ -149,12 +161,13 @@ class RunManifest:
             settings=settings,
             fingerprint=fingerprint,
             forced=forced,
+            variation=variation,
         )
 
     def same_plan(self, other: RunManifest) -> bool:
         """Would both produce the same trials? (paths and presets may differ)"""
         a, b = self.to_json(), other.to_json()
-        keys = ("backend", "hand", "seed", "trials", "policies", "objects", "tick_logs", "settings")
+        keys = ("backend", "hand", "seed", "trials", "policies", "objects", "tick_logs", "settings", "variation")
         return all(a[k] == b[k] for k in keys)
 
 

@@ -26,6 +26,7 @@ class Preset:
     objects: tuple[str, ...]
     trials: int
     policies: tuple[str, ...]
+    controller: str = "paper"
 
 
 PRESETS: dict[str, Preset] = {
@@ -36,6 +37,7 @@ PRESETS: dict[str, Preset] = {
         PAPER_OBJECTS,
         5,
         PAPER_POLICIES,
+        "paper",  # Fig. 6 is the paper's controller's experiment
     ),
 }
 

@@ -35,6 +35,7 @@ from optuna.trial import FrozenTrial, TrialState
 
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.sim.variation import NOMINAL, Variation
 from grasp_ctrl.trials.episode.runner import trial_seed
 from grasp_ctrl.trials.tuning.search_space import Param, Value, grid_size
 from grasp_ctrl.trials.tuning.study_defaults import DEFAULT_BUDGET  # noqa: F401 - re-exported
@@ -71,6 +72,7 @@ class StudyPlan:
     name: str | None = None
     prune: bool = True
     seeds: list[int] = field(default_factory=list)
+    variation: Variation | None = None  # the world's per-trial draws (sim/variation.py); None: nominal
 
     def __post_init__(self) -> None:
         self.seeds = [trial_seed(self.seed, self.obj.name, k) for k in range(self.trials)]
@@ -81,7 +83,7 @@ class StudyPlan:
 
     def identity(self) -> dict[str, Any]:
         """What makes two studies the same study (kept in the storage, checked on resume)."""
-        return {
+        out: dict[str, Any] = {
             "object": self.obj.name,
             "policy": self.policy,
             "backend": self.backend,
@@ -89,6 +91,11 @@ class StudyPlan:
             "trials": self.trials,
             "params": [p.spec() for p in self.params],
         }
+        # Only a variation other than nominal is part of it: a study made before the profiles
+        # (nominal draws) keeps its name and identity.
+        if self.variation is not None and self.variation != NOMINAL:
+            out["variation"] = self.variation.to_json()
+        return out
 
     def study_name(self) -> str:
         if self.name:
@@ -180,7 +187,9 @@ def open_study(plan: StudyPlan) -> optuna.Study:
         study.set_user_attr("identity", identity)
     elif stored != identity:
         diff = ", ".join(
-            f"{k} {stored.get(k)!r} (now {identity[k]!r})" for k in identity if stored.get(k) != identity[k]
+            f"{k} {stored.get(k)!r} (now {identity.get(k)!r})"
+            for k in {**stored, **identity}
+            if stored.get(k) != identity.get(k)
         )
         raise UsageError(f"--study-name {name}: the stored study was made with {diff}")
     _recover(study, plan)

@@ -19,8 +19,9 @@ def report(study: optuna.Study, plan: StudyPlan, ran_here: int) -> tuple[str, di
     current = {n: getattr(plan.obj, n) for n in names}
     sampler = "grid" if plan.all_grid else "TPE"
     pruned = sum(r.pruned for r in rows)
+    varied = f", variation {plan.variation.name}" if plan.variation is not None else ""
     head = (
-        f"{plan.obj.name}, policy {plan.policy}, backend {plan.backend}, {plan.trials} trials per setting, "
+        f"{plan.obj.name}, policy {plan.policy}, backend {plan.backend}{varied}, {plan.trials} trials per setting, "
         f"seed {plan.seed}; study {plan.study_name()} ({sampler}): {len(rows)} settings finished "
         f"({ran_here} now, {pruned} pruned) (* = current)"
     )
@@ -29,6 +30,7 @@ def report(study: optuna.Study, plan: StudyPlan, ran_here: int) -> tuple[str, di
         "object": plan.obj.name,
         "policy": plan.policy,
         "backend": plan.backend,
+        "variation": plan.variation.to_json() if plan.variation is not None else None,
         "seed": plan.seed,
         "trials": plan.trials,
         "seeds": plan.seeds,

@@ -46,7 +46,7 @@ class SerialExecutor:
 class ProcessExecutor:
     """Worker processes from the fork server of ``run --jobs N`` (runner.parallel_trials)."""
 
-    def __init__(self, jobs: int, hand: Any, policy: str, backend: str) -> None:
+    def __init__(self, jobs: int, hand: Any, policy: str, backend: str, variation: Any = None) -> None:
         from concurrent.futures import ProcessPoolExecutor
 
         from grasp_ctrl.controller.settings import ControllerSettings
@@ -57,7 +57,7 @@ class ProcessExecutor:
             jobs,
             mp_context=worker_context(),
             initializer=_init_worker,
-            initargs=(hand, [policy], ControllerSettings(), 1, backend),
+            initargs=(hand, [policy], ControllerSettings(), 1, backend, variation),
         )
         self.running: dict[Any, Hashable] = {}
 
@@ -89,27 +89,32 @@ class ProcessExecutor:
             self.pool.shutdown(wait=True)
 
 
-def _tune_trial_in_worker(token: str, hand: Any, policy: str, backend: str, task: TrialTask) -> dict[str, Any]:
-    """One trial in a Ray worker; the policy is loaded once per worker and study (``token``)."""
+def _tune_trial_in_worker(
+    token: str, hand: Any, policy: str, backend: str, variation: Any, task: TrialTask
+) -> dict[str, Any]:
+    """One trial in a Ray worker (its world drawn under ``variation``); the policy is loaded once
+    per worker and study (``token``)."""
     from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
     key = ("tune", token)
     if key not in _CACHE:
         _CACHE.clear()
-        _CACHE[key] = sim_trial_fn(hand, [policy], backend=backend)
+        _CACHE[key] = sim_trial_fn(hand, [policy], backend=backend, variation=variation)
     return _CACHE[key](*task)
 
 
 class RayExecutor:
     """Ray tasks (the ``ray`` extra): a local instance of ``jobs`` CPUs, or the cluster at ``address``."""
 
-    def __init__(self, address: str | None, jobs: int | None, hand: Any, policy: str, backend: str) -> None:
+    def __init__(
+        self, address: str | None, jobs: int | None, hand: Any, policy: str, backend: str, variation: Any = None
+    ) -> None:
         from grasp_ctrl.trials.runs.ray_executor import ray_session
 
         self._session = ray_session(address, jobs)
         self.ray = self._session.__enter__()
         self.remote = self.ray.remote(num_cpus=1)(_tune_trial_in_worker)
-        self.shared = (uuid.uuid4().hex, self.ray.put(hand), policy, backend)
+        self.shared = (uuid.uuid4().hex, self.ray.put(hand), policy, backend, variation)
         self.running: dict[Any, Hashable] = {}
 
     def submit(self, key: Hashable, task: TrialTask) -> None:

@@ -1,0 +1,321 @@
+"""The grip-load controller: the paper's states plus a load phase and a slip response.
+
+The paper's controller ramps each fingertip to a fixed tau and lifts at constant speed. On a
+heavy object the grasp then changes under the fingers at lift-off: whatever pressed the object
+into the table (the LEAP thumb's distal link on a bottle's top, a pad on a box's rim) lets go
+within a tick, the grip drops by a third to a half and the object slips. This controller uses
+the force *vectors* the estimators give, as a human grasp does (Johansson and Westling 1984;
+Romano et al. 2011, "Load"):
+
+- **load** (between ramp and lift): the arm rises slowly (``load_speed_m_s``) while the grip
+  loop runs at the ramp's gains, so the grip follows what the fingertips come to carry; the
+  state ends once the fingertips carry ``load_weight_fraction`` of the object profile's weight
+  for ``load_settle_s`` (or the palm has risen ``load_max_rise_m``).
+- **grip-load coordination** (load, lift, hold, lower): every grip target is the ramp's target
+  scaled by one common factor ``s`` (the fingers push against each other through the object, so
+  their targets must keep their proportions), the smallest that keeps each fingertip's tangential
+  force inside its friction cone with a margin: ``|f_t| <= mu_hat * f_n / grip_margin`` in the
+  sensor frame (``f_n`` along the pad's normal, +z); ``mu_hat`` is the object profile's friction.
+- **slip response**: a fingertip whose force ratio approaches the cone
+  (``|f_t| > slip_cone_fraction * mu_hat * f_n``), whose grip falls below
+  ``slip_grip_fraction`` of its target, or whose tangential force changes faster than
+  ``slip_rate_n_s`` raises ``s`` by ``slip_boost``; while any fingertip slips the arm waits
+  (lift and lower pause until the grips are back within tolerance).
+- ``s`` never exceeds what the safety limit allows (``grip_cap_fraction`` of
+  ``safety.max_fingertip_force_n``, less the tangential force: the over-force check reads
+  ``|f_sensor|``) nor, on a deformable object, ``grip_cap_fraction`` of its crush force; it falls back
+  toward 1 at ``grip_relax_per_s`` when the load goes (placing the object).
+
+It reads only what a real hand gives (the estimated forces, contact flags, joint angles, the
+palm's position) and the object profile, never the world's truth. Its ticks run the Python
+path (the compiled kernels take one fixed target per fingertip). docs/controller.md.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from grasp_ctrl.controller.machine import STATES, TRANSITIONS, GraspController
+from grasp_ctrl.controller.ramp_settle import TrendRampSettle
+from grasp_ctrl.controller.snapshot import Snapshot
+
+GRAVITY_M_S2 = 9.81
+
+LOAD_STATES = [*STATES[: STATES.index("ramp") + 1], "load", *STATES[STATES.index("ramp") + 1 :]]
+
+
+def _load_transitions() -> list[tuple[str, str, str, str | None]]:
+    out: list[tuple[str, str, str, str | None]] = []
+    for src, dst, guard, reason in TRANSITIONS:
+        if (src, dst) == ("ramp", "lift"):
+            out += [
+                ("ramp", "load", guard, reason),
+                ("load", "fault", "grip_lost", "slipped"),
+                ("load", "lift", "load_carried", None),
+            ]
+        else:
+            out.append((src, dst, guard, reason))
+    return out
+
+
+LOAD_TRANSITIONS = _load_transitions()
+COORDINATED = ("load", "lift", "hold", "lower")
+
+
+class GripLoadController(GraspController):
+    """``GraspController`` with the load state, grip-load coordination and the slip response."""
+
+    STATES = LOAD_STATES
+    TRANSITIONS = LOAD_TRANSITIONS
+    reads_vibration = True
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._compiled = False  # targets change every tick: the Python tick (the reference)
+        self.ramp_settle = TrendRampSettle(self.s, self.dt)  # holds under quantised goals and noise
+        self.base_targets = self.grip_targets.copy()
+        self._base = self.base_targets.tolist()
+        self.scale = 1.0  # the common factor on the base targets
+        self.ramp_scale = 1.0  # the factor the ramp settled on
+        self.mu_hat = float(self.obj.mu)
+        self.weight_n = float(self.obj.mass_kg) * GRAVITY_M_S2
+        self.carried_n = 0.0
+        self.carried_ticks = 0
+        self.slipping = np.zeros(len(self.names), dtype=bool)
+        self.slip_events = 0
+        self._prev_ft: np.ndarray | None = None
+        self._prev_grip = np.zeros(len(self.names))
+        self._held_ratio = 0.0  # the carried load over the summed grip, on the previous tick
+        self._pac_usual = np.full(len(self.names), np.inf)  # each fingertip's usual PAC spread (counts)
+        self._pac_ticks = np.zeros(len(self.names), dtype=np.int64)
+        self._load_start_z: float | None = None
+        self._load_top: np.ndarray | None = None
+        self.pause_ticks = 0
+        self._hold_sum, self._hold_n = 0.0, 0
+        limit = self.hand.safety.max_fingertip_force_n * self.s.grip_cap_fraction
+        if self.obj.deformable and self.obj.crush_force_n is not None:
+            limit = min(limit, self.obj.crush_force_n * self.s.grip_cap_fraction)
+        self.grip_cap_n = limit
+
+    def _preshape_standoff_m(self) -> float:
+        """Guarded closing: the pads wait ``guarded_standoff_m`` off the nominal surface (an object
+        set down by hand sits up to a centimetre and ten degrees off), and each finger closes
+        until its own contact (the close state), so the placement does not decide the grasp."""
+        return self.s.guarded_standoff_m
+
+    # ----- guards --------------------------------------------------------------
+    def load_carried(self) -> bool:
+        assert self.snap is not None
+        start = self._load_start_z
+        if start is None:
+            return False
+        rise = self.snap.p_palm_world[2] - start
+        if rise >= self.s.load_max_rise_m:
+            return True
+        return rise >= self.s.load_min_rise_m and self.carried_ticks * self.dt >= self.s.load_settle_s
+
+    # ----- per-tick estimates ------------------------------------------------------
+    def _update_counters(self, snap: Snapshot) -> None:
+        """The paper's counters with the lost-grip floor on the base targets (a raised target must
+        not turn a steady grip into a slip), then the coordination in the states that carry."""
+        targets, tolerance = self._targets, self.s.ramp_tolerance_n
+        grip = snap.grip_n.tolist()
+        within = all(abs(t - g) <= tolerance or not grasping for g, t, grasping in zip(grip, targets, self._grasping))
+        self.settle_count = self.settle_count + 1 if within else 0
+        if self.state == "ramp":
+            self._limit_to_safety(snap)
+            self.ramp_settle.update(self.grip_targets[self.grasp_mask] - snap.grip_n[self.grasp_mask])
+        fraction = self.s.grip_lost_fraction
+        self.lost_count = [
+            count + 1 if not touching or g < fraction * t else 0
+            for count, touching, g, t in zip(self.lost_count, snap.in_contact.tolist(), grip, self._base)
+        ]
+        self.release_count = self.release_count + 1 if self._support_took_load(snap) else 0
+        if self.state in COORDINATED:
+            self._coordinate(snap)
+
+    def _support_took_load(self, snap: Snapshot) -> bool:
+        """The paper's release rule (the index's force on the object along the support normal below
+        -``release_threshold_n``), or, near the support (within ``lower_slow_zone_m`` of the grasp
+        height), the load the fingertips carry together falling ``release_threshold_n`` (or half of
+        it, when more) below its mean while the object hung in the grasp (the hold state): the
+        support pushes back. The sum, not one fingertip: the fingers' vertical forces also hold a
+        couple (on the lego the index and middle push up 0.8 N each, the thumb down 0.9 N), which
+        shifts as the arm moves; the sum is the object's weight however the couple shifts."""
+        if self.release_force_n(snap) < -self.obj.release_threshold_n:
+            return True
+        carried = self._carried(snap)
+        if self.state == "hold":
+            self._hold_sum += carried
+            self._hold_n += 1
+            return False
+        if self.state != "lower" or not self.s.release_relative or not self._hold_n:
+            return False
+        near = snap.p_palm_world[2] - self.reach_pose[2] < self.s.lower_slow_zone_m
+        held = self._hold_sum / self._hold_n
+        return near and carried < held - max(self.obj.release_threshold_n, 0.5 * held)
+
+    def _vibrating(self, snap: Snapshot, touching: np.ndarray) -> np.ndarray:
+        """Fingertips whose PAC spread stayed ``slip_pac_counts`` above its usual level for
+        ``slip_pac_ticks`` ticks: the skin vibrates as it slides (a BioTac's PAC, sampled at
+        2.2 kHz, 22 samples a frame). The usual level is each fingertip's spread averaged over
+        ``slip_pac_window_s`` of quiet ticks, so a steady creep (MuJoCo's held grasps creep at
+        about a millimetre a second) raises it, and a slip that speeds up stands out."""
+        spread = snap.pac_spread
+        if spread is None:
+            return np.zeros(len(self.names), dtype=bool)
+        spread = np.asarray(spread, dtype=float)
+        usual = np.where(np.isfinite(self._pac_usual), self._pac_usual, spread)
+        loud = touching & (spread > usual + self.s.slip_pac_counts)
+        k = min(1.0, self.dt / max(self.s.slip_pac_window_s, self.dt))
+        self._pac_usual = np.where(touching, np.where(loud, usual, usual + k * (spread - usual)), np.inf)
+        self._pac_ticks = np.where(loud, self._pac_ticks + 1, 0)
+        return self._pac_ticks >= self.s.slip_pac_ticks
+
+    def _carried(self, snap: Snapshot) -> float:
+        """The load the touching grasping fingertips carry together: the object's weight pulls them
+        down (-z on the sensor), so it is minus the sum of their vertical forces."""
+        touching = np.asarray(snap.in_contact, dtype=bool) & self.grasp_mask
+        return float(-np.sum(np.asarray(snap.f_world, dtype=float)[touching, 2]))
+
+    def _limit_to_safety(self, snap: Snapshot) -> None:
+        """While ramping, a fingertip whose |f_sensor| passes ``grip_cap_fraction`` of the safety
+        limit (the LEAP thumb on a box's rim carries as much shear as normal force) scales every
+        target down in proportion, so the ramp settles below the over-force fault instead of
+        running into it (down to ``min_grip_scale`` of the tuned targets)."""
+        f = np.asarray(snap.f_sensor, dtype=float)[self.grasp_mask]
+        peak = float(np.sqrt(np.max(np.sum(f * f, axis=1), initial=0.0)))
+        if peak > self.grip_cap_n:
+            self.scale = max(self.s.min_grip_scale, self.scale * self.grip_cap_n / peak)
+            self._targets = [b * self.scale for b in self._base]
+            self.grip_targets = np.asarray(self._targets)
+
+    def _coordinate(self, snap: Snapshot) -> None:
+        s, dt = self.s, self.dt
+        f = np.asarray(snap.f_sensor, dtype=float)
+        f_t = np.hypot(f[:, 0], f[:, 1])
+        grip = np.asarray(snap.grip_n, dtype=float)
+        touching = np.asarray(snap.in_contact, dtype=bool) & self.grasp_mask
+        self.carried_n = self._carried(snap)
+        if self.state == "load":
+            enough = self.carried_n >= s.load_weight_fraction * self.weight_n
+            self.carried_ticks = self.carried_ticks + 1 if enough else 0
+        # the scale each fingertip's cone asks for. The pads grip the object's sides, so the
+        # normal force is the grip (horizontal) and the load is the vertical force on the object:
+        # grip_i >= margin x load_i / mu_hat, i.e. scale >= margin x load_i / (mu_hat x base_i).
+        # (The sensor frame's own normal is not the contact's on the BioTac's curved skin: a
+        # pad on a domed cap reads as much shear as normal force while it holds still.)
+        mu = max(self.mu_hat, 1e-3)
+        load = -np.asarray(snap.f_world, dtype=float)[:, 2]
+        need = [
+            s.grip_margin * max(float(load[i]), 0.0) / (mu * max(self._base[i], 1e-3)) for i in np.flatnonzero(touching)
+        ]
+        wanted = max(need, default=1.0)
+        # slip signals: the ratio near the cone, the grip falling, the tangential force jumping
+        # (rates from first-order filtered forces: a learned estimate's tick-to-tick noise is no slip)
+        k = min(1.0, dt / max(s.slip_filter_s, dt))
+        if self._prev_ft is None:
+            self._prev_ft, self._prev_grip = f_t.copy(), grip.copy()
+        ft_filtered = self._prev_ft + k * (f_t - self._prev_ft)
+        grip_filtered = self._prev_grip + k * (grip - self._prev_grip)
+        ft_rate = (ft_filtered - self._prev_ft) / dt
+        grip_rate = (grip_filtered - self._prev_grip) / dt
+        self._prev_ft, self._prev_grip = ft_filtered, grip_filtered
+        vibrating = self._vibrating(snap, touching)
+        slipping = touching & (
+            (np.abs(load) > s.slip_cone_fraction * mu * np.maximum(grip, 0.0))
+            | (grip_rate < -s.slip_grip_rate_n_s)
+            | (np.abs(ft_rate) > s.slip_rate_n_s)
+            | vibrating
+        )
+        if slipping.any() and not self.slipping.any():
+            self.slip_events += 1
+            self.scale += s.slip_boost
+        if vibrating.any() and self.state in ("lift", "hold") and s.slip_adapts_mu:
+            # The object slides in the grasp (the skin vibrates) while it hangs in it: the friction
+            # is at most the load the grasp held over the grip it held it with (the sum: a single
+            # pad's ratio on a domed cap is no friction). The cone rule then asks for the grip
+            # that friction needs. (Not while loading: pads that slide over an object the table
+            # still carries say nothing of the friction.)
+            total_grip = float(np.sum(np.where(touching, grip, 0.0)))
+            if total_grip > 0.1 and self._held_ratio > 0.0:
+                self.mu_hat = max(s.min_mu_hat, min(self.mu_hat, self._held_ratio))
+        self.slipping = slipping
+        total_grip = float(np.sum(np.where(touching, grip, 0.0)))
+        self._held_ratio = max(self.carried_n, 0.0) / total_grip if total_grip > 0.1 else 0.0
+        # the cap: the safety limit on |f| (with the tangential force) and a deformable's crush force
+        caps = []
+        for i in np.flatnonzero(self.grasp_mask):
+            room = self.grip_cap_n**2 - float(f_t[i]) ** 2
+            caps.append(math.sqrt(room) / max(self._base[i], 1e-3) if room > 0 else 1.0)
+        cap = min(caps, default=1.0)
+        # what the ramp settled on, unless the load asks for more; a slip's boost relaxes like the
+        # load's need (kept through lift and hold, it left the heavy boxes' thumbs at the safety limit)
+        wanted = max(wanted, self.ramp_scale)
+        if wanted > self.scale:
+            self.scale = wanted
+        else:  # relax slowly toward what the load asks for
+            self.scale = max(wanted, self.scale - s.grip_relax_per_s * dt)
+        self.scale = min(max(self.scale, s.min_grip_scale), cap)
+        self._targets = [b * self.scale for b in self._base]
+        self.grip_targets = np.asarray(self._targets)
+
+    # ----- actions ----------------------------------------------------------------
+    def _on_enter(self, *args: Any, **kwargs: Any) -> None:
+        super()._on_enter(*args, **kwargs)
+        self.carried_ticks = 0
+        self.pause_ticks = 0
+        if self.state == "load":
+            self.ramp_scale = self.scale
+        if self.state == "load" and self.snap is not None:
+            self._load_start_z = float(self.snap.p_palm_world[2])
+            self._load_top = np.asarray(
+                self.palm_target if self.palm_target is not None else self.snap.p_palm_world, dtype=float
+            ).copy()
+            self._load_top[2] += self.s.load_max_rise_m + 0.01  # a goal past the phase's end: it ends on the way
+
+    def _paused(self) -> bool:
+        """The arm waits while a fingertip slips or a grip is short of its raised target (at
+        most ``slip_max_pause_s`` per state: a grip the servos cannot give must not stall it)."""
+        if self.pause_ticks * self.dt >= self.s.slip_max_pause_s:
+            return False
+        assert self.snap is not None
+        grip = self.snap.grip_n.tolist()
+        tol = self.s.ramp_tolerance_n
+        short = self.s.pause_when_short and any(
+            g < t - 3.0 * tol for g, t, grasping in zip(grip, self._targets, self._grasping) if grasping
+        )
+        if self.slipping.any() or short:
+            self.pause_ticks += 1
+            return True
+        return False
+
+    def _act(self, snap: Snapshot) -> None:
+        state, s = self.state, self.s
+        if state == "load":
+            if self._load_top is None:  # (entered without a snapshot: only in hand-driven tests)
+                self._on_enter()
+            assert self._load_top is not None
+            speed = 0.0 if self._paused() else s.load_speed_m_s
+            self._squeeze(snap, s.load_gain_m_s_per_n, s.load_max_speed_m_s, self._load_top, speed)
+        elif state == "lift":
+            speed = 0.0 if self._paused() else s.lift_speed_m_s
+            self._squeeze(snap, s.load_gain_m_s_per_n, s.load_max_speed_m_s, self.lift_top, speed)
+        elif state == "hold":
+            self._squeeze(snap, s.load_gain_m_s_per_n, s.load_max_speed_m_s)
+        elif state == "lower":
+            near = snap.p_palm_world[2] - self.reach_pose[2] < s.lower_slow_zone_m
+            speed = s.lower_slow_speed_m_s if near else s.lower_speed_m_s
+            if self._paused() and not near:
+                speed = 0.0
+            self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s, self.lower_bottom, speed)
+        else:
+            super()._act(snap)
+
+    @property
+    def tau(self) -> float:
+        """The ramp's tau times the grip scale (what the tick log records as the grip target)."""
+        return self.obj.tau_n * self.scale
