@@ -7,7 +7,8 @@ from collections.abc import Callable
 
 from grasp_ctrl.bench.figure import Figure, time_ms
 from grasp_ctrl.config import load_hand, load_objects
-from grasp_ctrl.controller.machine import GraspController
+from grasp_ctrl.controller.registry import make_controller
+from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.loop.sensing import SensingPipeline
@@ -23,7 +24,7 @@ BENCH_OBJECT = "chips_can"
 class _Loop:
     """The mock trial loop with its parts exposed, for timing them separately."""
 
-    def __init__(self, estimator_for_world, seed: int = 0) -> None:
+    def __init__(self, estimator_for_world, seed: int = 0, controller: str = "paper") -> None:
         self.hand = load_hand(default_hand_file())
         obj = load_objects(default_objects_file())[BENCH_OBJECT]
         kin = HandKinematics(self.hand)
@@ -32,7 +33,8 @@ class _Loop:
         self.arm = MockArm(self.world, self.hand)
         self.sensors = MockSensors(self.world)
         self.pipeline = SensingPipeline(self.hand, kin, estimator_for_world(self.world))
-        self.ctrl = GraspController(self.hand, obj, self.world.reach_pose_world(), kin=kin)
+        settings = ControllerSettings(controller=controller)
+        self.ctrl = make_controller(self.hand, obj, self.world.reach_pose_world(), settings, kin)
 
     def control(self) -> None:
         """Everything of one tick except the world's physics step."""
@@ -49,14 +51,16 @@ class _Loop:
 NETWORK_POLICY = "icra19_official"
 
 
-def _control_tick(policy: str, quick: bool, timer: Callable[[], float] = time.perf_counter) -> Figure:
+def _control_tick(
+    policy: str, quick: bool, timer: Callable[[], float] = time.perf_counter, controller: str = "paper"
+) -> Figure:
     """One control tick (sensors, tare, gate, features, the policy's batched
     inference, kinematics, state machine, IK, goals) with the grasping fingertips
     in contact. The trial is driven to the lift with the default policy; ``policy``
     is then timed in its place (1 thread)."""
     hand = load_hand(default_hand_file())
     est = load_policy(DEFAULT_POLICY, hand, threads=1)
-    loop = _Loop(lambda world: est)
+    loop = _Loop(lambda world: est, controller=controller)
     loop.run_until("lift")
     loop.pipeline.tactile.estimator = load_policy(policy, hand, threads=1)
     return time_ms(loop.control, repeats=200 if quick else 3000, timer=timer)
@@ -71,6 +75,12 @@ def measure_control_tick_cpu(quick: bool) -> Figure:
     """``control_tick_cpu_ms``: the same in this thread's CPU time: the code's own tail,
     without the waits of a machine shared with other jobs."""
     return _control_tick(DEFAULT_POLICY, quick, timer=time.thread_time)
+
+
+def measure_control_tick_grip_load(quick: bool) -> Figure:
+    """``control_tick_grip_load_ms``: the same with the grip_load controller (its Python tick:
+    grip-load coordination, slip signals, the PAC spread), in the lift."""
+    return _control_tick(DEFAULT_POLICY, quick, controller="grip_load")
 
 
 def measure_control_tick_network(quick: bool) -> Figure:
@@ -108,6 +118,7 @@ def mock_realtime_factor(quick: bool) -> Figure:
 FIGURES = {
     "control_tick_ms": measure_control_tick,
     "control_tick_cpu_ms": measure_control_tick_cpu,
+    "control_tick_grip_load_ms": measure_control_tick_grip_load,
     "control_tick_icra19_ms": measure_control_tick_network,
     "mock_realtime_factor": mock_realtime_factor,
 }

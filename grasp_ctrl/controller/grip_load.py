@@ -39,18 +39,31 @@ from typing import Any
 import numpy as np
 
 from grasp_ctrl.controller.machine import STATES, TRANSITIONS, GraspController
+from grasp_ctrl.controller.motion import FingertipMotion
 from grasp_ctrl.controller.ramp_settle import TrendRampSettle
 from grasp_ctrl.controller.snapshot import Snapshot
 
 GRAVITY_M_S2 = 9.81
 
-LOAD_STATES = [*STATES[: STATES.index("ramp") + 1], "load", *STATES[STATES.index("ramp") + 1 :]]
+LOAD_STATES = [
+    *STATES[: STATES.index("reach") + 1],
+    "preshape",
+    *STATES[STATES.index("reach") + 1 : STATES.index("ramp") + 1],
+    "load",
+    *STATES[STATES.index("ramp") + 1 :],
+]
 
 
 def _load_transitions() -> list[tuple[str, str, str, str | None]]:
     out: list[tuple[str, str, str, str | None]] = []
     for src, dst, guard, reason in TRANSITIONS:
-        if (src, dst) == ("ramp", "lift"):
+        if (src, dst) == ("reach", "close"):
+            out += [
+                ("reach", "preshape", guard, reason),
+                ("preshape", "close", "preshape_done", None),
+                ("preshape", "fault", "close_timed_out", "no_contact"),
+            ]
+        elif (src, dst) == ("ramp", "lift"):
             out += [
                 ("ramp", "load", guard, reason),
                 ("load", "fault", "grip_lost", "slipped"),
@@ -99,6 +112,8 @@ class GripLoadController(GraspController):
         if self.obj.deformable and self.obj.crush_force_n is not None:
             limit = min(limit, self.obj.crush_force_n * self.s.grip_cap_fraction)
         self.grip_cap_n = limit
+        self.wide_q = self._wide_posture()
+        self._alpha = [0.0] * len(self.names)  # each finger's way from the wide to the closing preshape
 
     def _preshape_standoff_m(self) -> float:
         """Guarded closing: the pads wait ``guarded_standoff_m`` off the nominal surface (an object
@@ -106,7 +121,31 @@ class GripLoadController(GraspController):
         until its own contact (the close state), so the placement does not decide the grasp."""
         return self.s.guarded_standoff_m
 
+    def _wide_posture(self) -> np.ndarray:
+        """The reach posture with every grasping pad backed off along its closing vector by
+        ``reach_standoff_m`` less the closing standoff (the same IK as closing, so the preshape
+        state's way back is the line the pad closes along); the cap finger keeps its posture."""
+        back = self.s.reach_standoff_m - self._preshape_standoff_m()
+        if back <= 0.0:
+            return self.reach_q.copy()
+        scratch = FingertipMotion(self.hand, self.kin, self.s.stiffness_aware_squeeze)
+        scratch.facing = self.motion.facing
+        scratch.set_posture(self.reach_q)
+        moving = self.grasp_mask.copy()
+        if self.obj.cap is not None and self.obj.cap.finger in self.names:
+            moving[self.names.index(self.obj.cap.finger)] = False
+        steps = max(1, math.ceil(back / 0.001))  # millimetre IK steps, as closing takes them
+        for _ in range(steps):
+            scratch.advance_all(np.where(moving, -back / steps, 0.0))
+        return np.clip(scratch.q_goal, self.motion.lower, self.motion.upper)
+
     # ----- guards --------------------------------------------------------------
+    def preshape_done(self) -> bool:
+        """Every grasping finger at its closing preshape, or stopped at its own contact."""
+        assert self.snap is not None
+        touching = self.snap.in_contact.tolist()
+        return all(a >= 1.0 or t for a, t, g in zip(self._alpha, touching, self._grasping) if g)
+
     def load_carried(self) -> bool:
         assert self.snap is not None
         start = self._load_start_z
@@ -295,7 +334,23 @@ class GripLoadController(GraspController):
 
     def _act(self, snap: Snapshot) -> None:
         state, s = self.state, self.s
-        if state == "load":
+        if state == "reach":
+            self.motion.set_posture(self.wide_q)  # pads clear of an object set down off its mark
+            self._move_palm_toward(self.reach_pose, self.hand.arm.max_speed_m_s)
+        elif state == "preshape":
+            # each finger moves in joint space from the wide to the closing preshape, its pad at
+            # about the closing speed, and stops at its own contact
+            span = max(s.reach_standoff_m - self._preshape_standoff_m(), 1e-6)
+            step = s.close_speed_m_s * self.dt / span
+            touching = snap.in_contact.tolist()
+            q = self.wide_q.copy()
+            for i, name in enumerate(self.names):
+                if not touching[i]:
+                    self._alpha[i] = min(1.0, self._alpha[i] + step)
+                rows = self.kin.slices[name]
+                q[rows] += self._alpha[i] * (self.reach_q[rows] - self.wide_q[rows])
+            self.motion.set_posture(q)
+        elif state == "load":
             if self._load_top is None:  # (entered without a snapshot: only in hand-driven tests)
                 self._on_enter()
             assert self._load_top is not None

@@ -44,6 +44,9 @@ class ControllerSettings:
     grip_weight_margin: float = 0.0  # > 0: scale the targets so mu x their sum >= this x the object's
     #   weight (objects.toml mass_kg); 0: tau_n as tuned
     # grip_load only (controller/grip_load.py, docs/controller.md)
+    reach_standoff_m: float = 0.025  # the pads reach this far off the nominal surface (an object set down
+    #   by hand is up to a centimetre and ten degrees off), then take the closing preshape, each
+    #   stopping at its own contact
     guarded_standoff_m: float = 0.01  # the preshape's standoff (per object: objects.toml standoff_m)
     load_speed_m_s: float = 0.005  # the arm's speed while the fingertips take the weight
     load_min_rise_m: float = 0.006  # the load phase lasts at least this rise (the grasp's compliance unwinds)
