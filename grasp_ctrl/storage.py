@@ -23,8 +23,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
 
-from grasp_ctrl.errors import UsageError
-from grasp_ctrl.names import SAFE_NAME_RULE, is_safe_name, path_component
+from grasp_ctrl.config.identifiers import check_identifier_arg
+from grasp_ctrl.names import path_component
 
 RUN_FILE = "run.json"
 LOCK_FILE = "run.lock"
@@ -39,9 +39,8 @@ def safe_name(name: str) -> str:
 
 
 def check_object_name(name: str) -> str:
-    if not is_safe_name(name):
-        raise UsageError(f"object name {name!r}: {SAFE_NAME_RULE}")
-    return name
+    """``name`` if it is an identifier (config/identifiers.py), else a one-line UsageError."""
+    return check_identifier_arg(name, "object name")
 
 
 def trial_dir(run_dir: Path, policy: str, obj: str) -> Path:

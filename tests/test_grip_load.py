@@ -86,7 +86,9 @@ def test_registry_names_both_controllers_and_refuses_others(hand, mustard):
     assert CONTROLLER_NAMES == ("paper", "grip_load")
     assert controller_class("paper") is GraspController
     assert isinstance(make_controller(hand, mustard, REACH, GRIP_LOAD), GripLoadController)
-    assert type(make_controller(hand, mustard, REACH)) is GraspController  # the paper's by default
+    assert isinstance(make_controller(hand, mustard, REACH), GripLoadController)  # the default
+    paper = make_controller(hand, mustard, REACH, ControllerSettings(controller="paper"))
+    assert type(paper) is GraspController
     with pytest.raises(UsageError, match="one of paper, grip_load"):
         controller_class("pid")
 

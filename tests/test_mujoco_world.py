@@ -5,8 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from grasp_ctrl.controller.settings import ControllerSettings  # noqa: E402
 from grasp_ctrl.sim.mujoco_world import MuJoCoWorld  # noqa: E402
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial  # noqa: E402
+
+PAPER = ControllerSettings(controller="paper")
 
 
 class _Stop(Exception):
@@ -34,7 +37,13 @@ def test_an_oracle_grasp_lifts_the_chips_can(hand, objects):
 def test_a_too_weak_grasp_slips(hand, objects):
     # The oracle read 4x too high: the real grip is a quarter of tau, too little to carry the can.
     r = run_sim_trial(
-        hand, objects["chips_can"], estimator_factory("oracle:scale=4", hand), 1, "oracle:scale=4", backend="mujoco"
+        hand,
+        objects["chips_can"],
+        estimator_factory("oracle:scale=4", hand),
+        1,
+        "oracle:scale=4",
+        settings=PAPER,  # the paper's controller keeps tau (grip_load raises the grip as the can slides)
+        backend="mujoco",
     )
     assert not r.success and r.reason == "slipped"
     assert r.max_object_z_m < 0.01
@@ -100,6 +109,7 @@ def test_release_relaxes_in_place_and_does_not_drag_the_mustard_bottle_up(hand, 
         trial_seed(1, "mustard_bottle", 1),
         "oracle",
         1,
+        PAPER,  # the release the paper's controller and grip_load share, on the trial it was found on
         backend="mujoco",
         on_tick=on_tick,
     )

@@ -103,6 +103,7 @@ def _main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "_run", None):
         parser.print_help()
         return 2
+    args._argv = list(argv)  # the command as given (tune --write records it in the object file)
     try:
         return int(args._run(args) or 0)
     except GraspCtrlError as exc:

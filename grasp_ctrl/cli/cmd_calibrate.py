@@ -74,18 +74,18 @@ def _ids(text: str | None) -> list[str]:
 
 
 def _out_path(spec: str) -> Path:
+    from grasp_ctrl.config.identifiers import check_identifier_arg
     from grasp_ctrl.paths import policies_dir
 
     if spec.endswith(".json"):
         return Path(spec)
-    if not spec or any(c in spec for c in "/\\") or spec.startswith("."):
-        raise UsageError(f"--out: a policy name (letters, digits, _ -) or a path ending in .json (got {spec!r})")
-    return policies_dir() / f"{spec}.json"
+    return policies_dir() / f"{check_identifier_arg(spec, '--out (a policy name, or a path ending in .json)')}.json"
 
 
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from grasp_ctrl.config.identifiers import check_identifier_arg
     from grasp_ctrl.estimators.calibrated import policy_files, sha256_of
     from grasp_ctrl.estimators.registry import load_policy, read_metadata, resolve_policy_path
     from grasp_ctrl.evaluation.calibration import calibrate, load_data
@@ -108,6 +108,9 @@ def run(args: argparse.Namespace) -> int:
         )
     out = _out_path(args.out)
     check_output(out, "--out")
+    # the new policy's name is its file's stem, and its base is named by the base's stem
+    check_identifier_arg(out.stem, "--out: policy name")
+    check_identifier_arg(base_json.stem, "--policy: base policy name")
     if out.resolve() == base_json.resolve():
         raise UsageError("--out: that is the base policy itself; choose a new name")
     check_new_file(out, "--out", args.force)

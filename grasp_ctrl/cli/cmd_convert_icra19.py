@@ -28,6 +28,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from grasp_ctrl.config.identifiers import check_identifier_arg
     from grasp_ctrl.paths import policies_dir
 
     try:
@@ -41,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
         path = Path(npz)
         if not path.is_file():
             raise UsageError(f"{npz}: no such weight file")
-        name = args.name or _DEFAULT_NAMES.get(path.stem, path.stem)
+        name = check_identifier_arg(args.name or _DEFAULT_NAMES.get(path.stem, path.stem), "--name")
         try:
             onnx_path, json_path, err = convert(path, out, name, seed=args.seed, tol=args.tol)
         except (ValueError, KeyError, OSError) as exc:

@@ -28,12 +28,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from grasp_ctrl.config.identifiers import check_identifier_arg
     from grasp_ctrl.paths import policies_dir
     from grasp_ctrl.safe_write import check_output_dir
 
     out_dir = check_output_dir(args.out_dir, "--out-dir") if args.out_dir is not None else policies_dir()
-    if not args.name.replace("_", "").replace("-", "").isalnum():
-        raise UsageError(f"--name: letters, digits, '_' and '-' only (got {args.name!r})")
+    check_identifier_arg(args.name, "--name")  # it names NAME.json and NAME.onnx
     json_path = out_dir / f"{args.name}.json"
     if json_path.exists() and not args.force:
         raise UsageError(f"{json_path}: exists (use --force to overwrite)")

@@ -11,17 +11,20 @@ from typing import Any
 from grasp_ctrl.sim.registry import SIMULATED
 
 NAME = "tune"
-HELP = "tune an object's thresholds (tau, release threshold, ...) with an Optuna study and rank the settings"
+HELP = "tune an object's thresholds and grasp (tau, approach, standoff, posture, ...) with an Optuna study"
 DESCRIPTION = (
-    "An Optuna study per object: each setting of the --param thresholds runs the same --trials seeded "
-    "trials (same seeds for every setting). Objective, maximised: the success rate, ties broken by the "
-    "mean peak true grip force (gentler wins): value = (successes - 0.5*g/(1+g))/K, g the mean peak true "
-    "grip in N, K = --trials. TPE samples the settings (the grid sampler when every --param is a grid); "
-    "a setting that can no longer reach the best finished success rate is pruned after any trial. "
-    "Prints the settings ranked and the best one's success rate with its 95 % Wilson interval. "
-    "--storage sqlite:///FILE keeps the study: Ctrl-C, then the same command again, continues it "
-    "without repeating finished settings. With --write the best setting goes into the object file "
-    "(only those lines change; the diff is shown)."
+    "An Optuna study per object: each setting of the --param thresholds, grasp parameters or controller "
+    "settings runs the same --trials seeded trials (same seeds for every setting). Objective, maximised "
+    "(--rank wilson, the default): the lower bound W of the success rate's 95 % Wilson score interval, "
+    "ties broken by the mean peak true grip force (gentler wins): value = W(successes, K) - 0.5*d*g/(1+g), "
+    "d the smallest step of W between two success counts, g the mean peak true grip in N, K = --trials; "
+    "--rank mean: value = (successes - 0.5*g/(1+g))/K. TPE samples the settings (the grid sampler when "
+    "every --param is a grid); a setting that can no longer reach the best finished success rate is "
+    "pruned after any trial. Prints the settings ranked with their Wilson lower bounds and the best one's "
+    "success rate with its 95 % Wilson interval. --storage sqlite:///FILE keeps the study: Ctrl-C, then "
+    "the same command again, continues it without repeating finished settings. With --write the best "
+    "setting's object-file keys go into the object file (only those lines change, and a '# chosen by:' "
+    "comment with the command goes above the object's table; the diff is shown)."
 )
 ORDER = 5
 
@@ -46,7 +49,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="NAME=LOW:HIGH",
         help="a threshold and where to search it: LOW:HIGH a continuous range (LOW:HIGH:log on a "
         "log scale), START:STOP:STEP (STOP included), A,B,C or one value a grid; repeat for "
-        f"several. Tunable: {', '.join(TUNABLE)} (tau and release_threshold also accepted)",
+        f"several. Tunable: {', '.join(TUNABLE)} (tau and release_threshold also accepted); "
+        "posture.FINGER.J: the reach posture's offset of joint J (from 0) of FINGER, rad; "
+        "setting.NAME: a controller setting of float type (not written by --write)",
     )
     p.add_argument(
         "--trials",
@@ -65,6 +70,23 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--policy", default=DEFAULT_POLICY, metavar="NAME|PATH", help=f"force estimator (default {DEFAULT_POLICY})"
+    )
+    from grasp_ctrl.controller.registry import CONTROLLER_NAMES, DEFAULT_CONTROLLER
+
+    p.add_argument(
+        "--controller",
+        default=None,
+        metavar="NAME",
+        help=f"the lift-and-place controller, one of {', '.join(CONTROLLER_NAMES)} (default: {DEFAULT_CONTROLLER})",
+    )
+    from grasp_ctrl.trials.tuning.tune import RANKS
+
+    p.add_argument(
+        "--rank",
+        choices=RANKS,
+        default="wilson",
+        help="the objective: wilson (default), the lower bound of the success rate's 95 %% Wilson interval; "
+        "mean, the success rate (the objective of studies stored before --rank); ties: the gentler grip",
     )
     p.add_argument(
         "--seed", type=int, default=0, metavar="S", help="base random seed of the trials and sampler (default 0)"
@@ -134,6 +156,7 @@ def _check_args(args: argparse.Namespace) -> None:
     if args.backend == "dynamixel" and args.variation is not None:
         raise UsageError("--variation: only for a simulated world (mujoco, mock)")
     _variation(args)  # an unknown name: one line listing the profiles
+    _settings(args)  # an unknown controller: one line listing them
     if args.trials < 1:
         raise UsageError("--trials: must be at least 1")
     from grasp_ctrl.safe_write import check_output
@@ -170,6 +193,16 @@ def _variation(args: argparse.Namespace) -> Any:
     return variation(args.variation or DEFAULT_VARIATION)
 
 
+def _settings(args: argparse.Namespace) -> Any:
+    """The controller settings every setting starts from: ``--controller``'s (default the registry's)."""
+    from grasp_ctrl.controller.registry import DEFAULT_CONTROLLER, controller_class
+    from grasp_ctrl.controller.settings import ControllerSettings
+
+    name = args.controller or DEFAULT_CONTROLLER
+    controller_class(name)
+    return ControllerSettings(controller=name)
+
+
 def _executor(args: argparse.Namespace, hand: Any, trial_fn: Any) -> Any:
     from grasp_ctrl.trials.tuning.tune_executors import (
         ProcessExecutor,
@@ -177,24 +210,38 @@ def _executor(args: argparse.Namespace, hand: Any, trial_fn: Any) -> Any:
         SerialExecutor,
     )
 
+    settings = _settings(args)
     if args.backend == "dynamixel":
         # No ground truth on the real hand: the operator labels every trial.
         from grasp_ctrl.trials.episode.hardware import hardware_trial_fn
         from grasp_ctrl.trials.episode.labelling import OperatorLabeller, labelled
 
-        return SerialExecutor(
-            labelled(
-                hardware_trial_fn(hand, [args.policy], None, 1, port=args.port, sensor_port=args.sensor_port),
-                OperatorLabeller(),
+        labeller = OperatorLabeller()
+
+        def on_hand(s: Any) -> Any:
+            return labelled(
+                hardware_trial_fn(hand, [args.policy], s, 1, port=args.port, sensor_port=args.sensor_port), labeller
             )
-        )
+
+        return SerialExecutor(on_hand(settings), on_hand, settings)
     if args.executor == "ray":
         return RayExecutor(
-            args.address, args.jobs if args.jobs > 1 else None, hand, args.policy, args.backend, _variation(args)
+            args.address,
+            args.jobs if args.jobs > 1 else None,
+            hand,
+            args.policy,
+            args.backend,
+            _variation(args),
+            settings,
         )
     if args.jobs > 1:
-        return ProcessExecutor(args.jobs, hand, args.policy, args.backend, _variation(args))
-    return SerialExecutor(trial_fn)
+        return ProcessExecutor(args.jobs, hand, args.policy, args.backend, _variation(args), settings)
+    from grasp_ctrl.trials.episode.runner import sim_trial_fn
+
+    def in_sim(s: Any) -> Any:
+        return sim_trial_fn(hand, [args.policy], s, backend=args.backend, variation=_variation(args))
+
+    return SerialExecutor(trial_fn, in_sim, settings)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -209,13 +256,22 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.config.checks import check_objects_for_hand
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.trials.runs.selection import select_objects
-    from grasp_ctrl.trials.tuning.search_space import corner_settings, grid_size, parse_params
+    from grasp_ctrl.trials.tuning.search_space import (
+        check_params_for_hand,
+        check_settings_values,
+        corner_settings,
+        grid_size,
+        parse_params,
+    )
     from grasp_ctrl.trials.tuning.study import StudyPlan
     from grasp_ctrl.trials.tuning.study_defaults import DEFAULT_BUDGET
     from grasp_ctrl.trials.tuning.tune import apply_setting
 
     params = parse_params(args.param)
     hand = load_hand(args.hand)
+    finger_joints = check_params_for_hand(params, hand)
+    check_settings_values(params)
+    settings = _settings(args)
     if args.object is not None:
         objects = select_objects(args.object_file, args.object, flag="--object")
     else:
@@ -223,7 +279,8 @@ def run(args: argparse.Namespace) -> int:
     corners = corner_settings(params)
     for obj in objects:
         # every end of the search must fit the object file's limits and the hand (tau below its force limit, ...)
-        check_objects_for_hand([apply_setting(obj, s) for s in corners], hand, f"--param ({obj.name})")
+        tuned = [apply_setting(obj, s, finger_joints) for s in corners]
+        check_objects_for_hand(tuned, hand, f"--param ({obj.name})")
     if args.study_name and len(objects) > 1:
         from grasp_ctrl.errors import UsageError
 
@@ -242,6 +299,9 @@ def run(args: argparse.Namespace) -> int:
             args.study_name,
             prune=not args.no_prune,
             variation=_variation(args),
+            settings=settings,
+            rank=args.rank,
+            finger_joints=finger_joints,
         )
         for obj in objects
     ]
@@ -249,7 +309,7 @@ def run(args: argparse.Namespace) -> int:
     if args.backend != "dynamixel":  # the policy and world load here, so a bad one fails before any study
         from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
-        trial_fn = sim_trial_fn(hand, [args.policy], backend=args.backend, variation=_variation(args))
+        trial_fn = sim_trial_fn(hand, [args.policy], settings, backend=args.backend, variation=_variation(args))
     docs = []
     for plan in plans:
         doc = _tune_one(plan, args, hand, trial_fn)
@@ -263,7 +323,7 @@ def run(args: argparse.Namespace) -> int:
         write_output(args.json, json.dumps(out, indent=2) + "\n")
     if not args.write:
         return 0
-    return _write(args, docs)
+    return _write(args, docs, plans)
 
 
 def _tune_one(plan: Any, args: argparse.Namespace, hand: Any, trial_fn: Any) -> dict[str, Any] | None:
@@ -310,15 +370,47 @@ def _tune_one(plan: Any, args: argparse.Namespace, hand: Any, trial_fn: Any) -> 
     return doc
 
 
-def _write(args: argparse.Namespace, docs: list[dict[str, Any]]) -> int:
+def _write(args: argparse.Namespace, docs: list[dict[str, Any]], plans: list[Any]) -> int:
     from grasp_ctrl.trials.tuning.toml_edit import update_objects_file
 
-    values = {d["object"]: d["best"]["setting"] for d in docs if d.get("best") and d["best"]["successes"] > 0}
+    chosen = {d["object"]: d["best"]["setting"] for d in docs if d.get("best") and d["best"]["successes"] > 0}
     for d in docs:
-        if d["object"] not in values:
+        if d["object"] not in chosen:
             print(f"{d['object']}: no setting succeeded; left unchanged in {args.object_file}", file=sys.stderr)
-    if not values:
+    if not chosen:
         return 1
-    diff = update_objects_file(Path(args.object_file), values)
+    values = {}
+    for plan in plans:
+        if plan.obj.name in chosen:
+            values[plan.obj.name] = _file_values(plan, chosen[plan.obj.name])
+            others = [f"{k}={v:g}" for k, v in chosen[plan.obj.name].items() if k.startswith("setting.")]
+            if others:
+                print(
+                    f"{plan.obj.name}: controller settings are not object-file keys, not written: {', '.join(others)}"
+                )
+    diff = update_objects_file(Path(args.object_file), {k: v for k, v in values.items() if v}, _chosen_by(args))
     print(diff.rstrip() if diff else f"{args.object_file}: the best settings are already there; unchanged")
     return 0
+
+
+def _file_values(plan: Any, setting: dict[str, Any]) -> dict[str, Any]:
+    """The object-file keys of a chosen setting: its keys as they are, ``posture.FINGER.J`` as the
+    whole ``posture_offsets_rad`` table of the tuned profile."""
+    from grasp_ctrl.trials.tuning.tune import POSTURE_PREFIX, SETTING_PREFIX, apply_setting
+
+    out: dict[str, Any] = {k: v for k, v in setting.items() if not k.startswith((POSTURE_PREFIX, SETTING_PREFIX))}
+    if any(k.startswith(POSTURE_PREFIX) for k in setting):
+        tuned = apply_setting(plan.obj, setting, plan.finger_joints)
+        out["posture_offsets_rad"] = {f: list(v) for f, v in tuned.posture_offsets().items()}
+    return out
+
+
+def _chosen_by(args: argparse.Namespace) -> str:
+    """The command that chose the values and today's date: ``grasp-ctrl tune ... (2026-11-27)``."""
+    import datetime
+    import shlex
+
+    from grasp_ctrl.cli import PROG
+
+    argv = getattr(args, "_argv", None) or sys.argv[1:]
+    return f"{PROG} {shlex.join(argv)} ({datetime.date.today().isoformat()})"

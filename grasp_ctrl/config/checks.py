@@ -32,3 +32,17 @@ def check_objects_for_hand(objects: Sequence[ObjectProfile], hand: HandConfig, s
                 key + "cap.finger",
                 f"a grasping finger of hand {hand.name!r} ({', '.join(grasping)}; got {obj.cap.finger!r})",
             )
+        check_posture_offsets(obj, hand, source)
+
+
+def check_posture_offsets(obj: ObjectProfile, hand: HandConfig, source: str) -> None:
+    """``posture_offsets_rad``: fingers of ``hand``, one offset per joint of each."""
+    joints = {f.name: len(f.joints) for f in hand.fingers}
+    for finger, offsets in obj.posture_offsets().items():
+        key = f"objects.{obj.name}.posture_offsets_rad.{finger}"
+        if finger not in joints:
+            raise ConfigError(source, key, f"a finger of hand {hand.name!r} ({', '.join(joints)}; got {finger!r})")
+        if len(offsets) != joints[finger]:
+            raise ConfigError(
+                source, key, f"{joints[finger]} offsets, one per joint of finger {finger} (got {len(offsets)})"
+            )

@@ -9,7 +9,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from grasp_ctrl.config.identifiers import check_identifier
 from grasp_ctrl.config.servos import MODELS as SERVO_MODELS
+from grasp_ctrl.config.servos import ServoModel
 from grasp_ctrl.config.toml_reader import Table, read_toml
 from grasp_ctrl.tactile.layout import LAYOUTS, SensorLayout, layout_for
 
@@ -67,6 +69,12 @@ class DynamixelConfig:
     position_p_gain: int | None = None  # None: keep the servo's value
     position_i_gain: int | None = None
     position_d_gain: int | None = None
+    custom_model: ServoModel | None = None  # the hand file's [servo_models.NAME] when `model` names one
+
+    @property
+    def servo(self) -> ServoModel | None:
+        """The servos' facts and ratings: the hand file's own table, else config/servos.py's."""
+        return self.custom_model or SERVO_MODELS.get(self.model)
 
 
 @dataclass(frozen=True)
@@ -112,6 +120,12 @@ class ArmConfig:
     tolerance_m: float = 0.002  # IK accuracy / "arrived" distance
     # kind = "external": ask for a confirmation every time the target moved this far
     confirm_step_m: float = 0.02
+    custom_model: ServoModel | None = None  # the hand file's [servo_models.NAME] when `model` names one
+
+    @property
+    def servo(self) -> ServoModel | None:
+        """The arm servos' facts and ratings: the hand file's own table, else config/servos.py's."""
+        return self.custom_model or SERVO_MODELS.get(self.model)
 
 
 @dataclass(frozen=True)
@@ -226,7 +240,7 @@ def _finger(t: Table) -> FingerConfig:
     )
     joints = tuple(_joint(j) for j in t.tables("joints", min_len=1))
     return FingerConfig(
-        name=t.str("name"),
+        name=check_identifier(t.str("name"), t.path, t.key("name")),
         sensor_id=t.int("sensor_id", lo=0, hi=255),
         grasp=t.bool("grasp", True),
         task_vector_hand=t.vector("task_vector_hand", 3, unit=True),  # type: ignore[arg-type]
@@ -238,11 +252,130 @@ def _finger(t: Table) -> FingerConfig:
     )
 
 
+SERVO_MODEL_KEYS = {
+    "model_number",
+    "current_unit_a",
+    "max_current_limit",
+    "stall_current_a",
+    "stall_voltage_v",
+    "stall_torque_nm",
+    "no_load_speed_rpm",
+    "max_velocity_limit",
+    "max_position_gain",
+}
+DXL_MAX_GAIN = 16383  # the largest position gain the bus writes (hardware/dynamixel/setup.py)
+
+
+def _servo_models(root: Table) -> dict[str, ServoModel]:
+    """``[servo_models.NAME]``: a servo that config/servos.py does not know, with its ratings
+    (docs/hardware.md). A model the table knows keeps its data-sheet ratings: redefining it is refused."""
+    t = root.table("servo_models", {})
+    out: dict[str, ServoModel] = {}
+    for name in t.data:
+        check_identifier(name, t.path, "servo_models.<model name>")
+        if name in SERVO_MODELS:
+            raise t.fail(
+                name,
+                f"a model that config/servos.py does not know ({name} is there, with its data-sheet "
+                "ratings; remove this table)",
+            )
+        m = t.table(name)
+        m.unknown_keys(SERVO_MODEL_KEYS)
+        out[name] = ServoModel(
+            name=name,
+            model_number=m.int("model_number", lo=0, hi=65535),
+            amp_per_current_unit=m.float("current_unit_a", lo=0.0, hi=0.1, lo_open=True),
+            max_current_limit=m.int("max_current_limit", lo=1, hi=65535),
+            stall_current_a=_positive(m, "stall_current_a", 100.0),
+            stall_voltage_v=_positive(m, "stall_voltage_v", 100.0),
+            stall_torque_nm=_positive(m, "stall_torque_nm", 1000.0),
+            no_load_speed_rpm=_positive(m, "no_load_speed_rpm", 10000.0),
+            max_velocity_limit=m.int("max_velocity_limit", lo=0, hi=DXL_MAX_PROFILE)
+            if m.has("max_velocity_limit")
+            else None,
+            max_position_gain=m.int("max_position_gain", lo=0, hi=DXL_MAX_GAIN) if m.has("max_position_gain") else None,
+        )
+    return out
+
+
+def _positive(t: Table, key: str, hi: float) -> float | None:
+    return t.float(key, lo=0.0, hi=hi, lo_open=True) if t.has(key) else None
+
+
+def _model_name(t: Table, default: str, custom: dict[str, ServoModel]) -> str:
+    model = t.str("model", default)
+    if model not in SERVO_MODELS and model not in custom:
+        raise t.fail(
+            "model",
+            f"one of {', '.join(SERVO_MODELS)} or a model of a [servo_models.NAME] table (got {model!r})",
+        )
+    return model
+
+
+def _check_ratings(root: Table, fingers: tuple[FingerConfig, ...], dxl: DynamixelConfig, arm: ArmConfig) -> None:
+    """What the file asks of each servo, against its model's ratings (config/servos.py or the file's
+    [servo_models.NAME]): current limits, the profile velocity and the position gains as written."""
+    model = dxl.servo
+    if model is None:  # not reached: _model_name refuses a model without facts
+        return
+    for i, f in enumerate(fingers):
+        for k, j in enumerate(f.joints):
+            _check_current(root, f"fingers[{i}].joints[{k}].current_limit_a", j.current_limit_a, model)
+    if arm.servo is not None:
+        for k, j in enumerate(arm.joints):
+            _check_current(root, f"arm.joints[{k}].current_limit_a", j.current_limit_a, arm.servo)
+    vmax = model.max_velocity_limit
+    if vmax is not None and dxl.profile_velocity > vmax:
+        raise root.fail(
+            "dynamixel.profile_velocity",
+            f"at most {vmax} ({vmax * model.velocity_unit_rpm:.1f} rev/min), the {model.name}'s Velocity Limit "
+            f"register maximum, which bounds Goal and Profile Velocity (got {dxl.profile_velocity})",
+        )
+    gmax = model.max_position_gain if model.max_position_gain is not None else DXL_MAX_GAIN
+    whose = (
+        f"the {model.name}'s Position {{}} Gain register maximum"
+        if model.max_position_gain is not None
+        else f"the largest gain the bus writes ({model.name}'s register range unknown)"
+    )
+    for letter, gain in (("P", dxl.position_p_gain), ("I", dxl.position_i_gain), ("D", dxl.position_d_gain)):
+        if gain is None:
+            continue
+        key = f"position_{letter.lower()}_gain"
+        if gain > gmax:
+            raise root.fail(f"dynamixel.{key}", f"at most {gmax}, {whose.format(letter)} (got {gain})")
+        for i, f in enumerate(fingers):
+            for k, j in enumerate(f.joints):
+                written = int(round(gain * j.gain_scale))
+                if written > gmax:
+                    raise root.fail(
+                        f"fingers[{i}].joints[{k}].gain_scale",
+                        f"at most {gmax / gain:.4g} with {key} = {gain}: {gain} x {j.gain_scale:g} = {written} "
+                        f"is above {gmax}, {whose.format(letter)} (got {j.gain_scale:g})",
+                    )
+
+
+def _check_current(root: Table, key: str, amps: float, model: ServoModel) -> None:
+    register = model.max_current_a
+    stall = model.stall_current_a
+    if stall is not None and stall <= register:
+        at = f" at {model.stall_voltage_v:g} V" if model.stall_voltage_v is not None else ""
+        limit, what = stall, f"the {model.name}'s stall current{at}"
+    else:
+        limit = register
+        what = (
+            f"the {model.name}'s Current Limit register maximum "
+            f"({model.max_current_limit} x {model.amp_per_current_unit * 1000:g} mA)"
+        )
+    if amps > limit + 1e-9:
+        raise root.fail(key, f"at most {limit:g} A, {what} (got {amps:g})")
+
+
 def load_hand(path: str | Path) -> HandConfig:
     """Read and validate a hand file; raises ConfigError naming file and key."""
     root = Table(path, read_toml(path))
-    root.unknown_keys({"name", "rate_hz", "fingers", "dynamixel", "tactile", "arm", "safety", "grasp"})
+    root.unknown_keys({"name", "rate_hz", "fingers", "dynamixel", "tactile", "arm", "safety", "grasp", "servo_models"})
     fingers = tuple(_finger(f) for f in root.tables("fingers", min_len=1))
+    custom_models = _servo_models(root)
 
     names = [f.name for f in fingers]
     for i, n in enumerate(names):
@@ -276,19 +409,22 @@ def load_hand(path: str | Path) -> HandConfig:
             "position_d_gain",
         }
     )
+    dxl_model = _model_name(d, DynamixelConfig.model, custom_models)
     dynamixel = DynamixelConfig(
         port=d.str("port", DynamixelConfig.port),
         baud=d.int("baud", DynamixelConfig.baud, lo=9600, hi=DXL_MAX_BAUD),
-        model=d.str("model", DynamixelConfig.model, choices=tuple(SERVO_MODELS)),
+        model=dxl_model,
         packet_timeout_ms=d.float("packet_timeout_ms", DynamixelConfig.packet_timeout_ms, lo=1.0, hi=1000.0),
         retries=d.int("retries", DynamixelConfig.retries, lo=0, hi=10),
         profile_velocity=d.int("profile_velocity", 0, lo=0, hi=DXL_MAX_PROFILE),
         profile_acceleration=d.int("profile_acceleration", 0, lo=0, hi=DXL_MAX_PROFILE),
         fast_sync_read=d.bool("fast_sync_read", True),
         latency_timer_ms=d.int("latency_timer_ms", 1, lo=1, hi=255),
-        position_p_gain=d.int("position_p_gain", None, lo=0, hi=16383) if d.has("position_p_gain") else None,
-        position_i_gain=d.int("position_i_gain", None, lo=0, hi=16383) if d.has("position_i_gain") else None,
-        position_d_gain=d.int("position_d_gain", None, lo=0, hi=16383) if d.has("position_d_gain") else None,
+        # the register holds 2 bytes; the model's range is checked with the other ratings below
+        position_p_gain=d.int("position_p_gain", None, lo=0, hi=65535) if d.has("position_p_gain") else None,
+        position_i_gain=d.int("position_i_gain", None, lo=0, hi=65535) if d.has("position_i_gain") else None,
+        position_d_gain=d.int("position_d_gain", None, lo=0, hi=65535) if d.has("position_d_gain") else None,
+        custom_model=custom_models.get(dxl_model),
     )
 
     s = root.table("tactile", {})
@@ -347,6 +483,7 @@ def load_hand(path: str | Path) -> HandConfig:
         }
     )
     arm_joints = tuple(_joint(j) for j in a.tables("joints"))
+    arm_model = _model_name(a, ArmConfig.model, custom_models)
     arm = ArmConfig(
         kind=a.str("kind", "mock", choices=ARM_KINDS),
         max_speed_m_s=a.float("max_speed_m_s", 0.05, lo=0.0, hi=1.0, lo_open=True),
@@ -355,7 +492,7 @@ def load_hand(path: str | Path) -> HandConfig:
         z_max_m=a.float("z_max_m", 0.6, lo=-10.0, hi=10.0),
         port=a.str("port", ArmConfig.port),
         baud=a.int("baud", ArmConfig.baud, lo=9600, hi=DXL_MAX_BAUD),
-        model=a.str("model", ArmConfig.model, choices=tuple(SERVO_MODELS)),
+        model=arm_model,
         joints=arm_joints,
         base_xyz=a.vector("base_xyz", 3, (0.0, 0.0, 0.0), bound=MAX_OFFSET_M),  # type: ignore[arg-type]
         base_rpy=a.vector("base_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),  # type: ignore[arg-type]
@@ -364,6 +501,7 @@ def load_hand(path: str | Path) -> HandConfig:
         line_xy=a.vector("line_xy", 2) if a.has("line_xy") else None,  # type: ignore[arg-type]
         tolerance_m=a.float("tolerance_m", 0.002, lo=0.0, hi=0.1, lo_open=True),
         confirm_step_m=a.float("confirm_step_m", 0.02, lo=0.0, hi=1.0, lo_open=True),
+        custom_model=custom_models.get(arm_model),
     )
     if arm.z_max_m <= arm.z_min_m:
         raise a.fail("z_max_m", f"a value > z_min_m ({arm.z_min_m})")
@@ -372,6 +510,7 @@ def load_hand(path: str | Path) -> HandConfig:
     arm_ids = [j.servo_id for j in arm.joints]
     if len(set(arm_ids)) != len(arm_ids):
         raise a.fail("joints.servo_id", f"unique servo ids (got {arm_ids})")
+    _check_ratings(root, fingers, dynamixel, arm)
 
     sf = root.table("safety", {})
     sf.unknown_keys({"on_fault", "max_fingertip_force_n", "max_joint_step_rad"})

@@ -11,8 +11,8 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from grasp_ctrl.config.identifiers import check_identifier
 from grasp_ctrl.config.toml_reader import Table, read_toml
-from grasp_ctrl.names import SAFE_NAME_RULE, is_safe_name
 
 #: How an object's grip targets are set (controller/grip_targets.py).
 GRIP_TARGET_MODES = ("equal", "force_closure")
@@ -53,16 +53,38 @@ class ObjectProfile:
     lift_height_m: float = 0.10
     hold_s: float = 0.5
     grip_targets: str | None = None  # equal | force_closure (controller/grip_targets.py); None: the controller's
+    # the grasp (tunable per object: tune --param)
+    approach_offset_m: float = 0.0  # added to the grasp height the world uses (positive: the pads grasp higher)
+    standoff_m: float | None = None  # the preshape's standoff; None: the controller's setting
+    # per finger, offsets added to its reach posture's joint angles (one per joint, rad); None: none
+    posture_offsets_rad: tuple[tuple[str, tuple[float, ...]], ...] | None = None
 
     @property
     def half_width_m(self) -> float:
         return 0.5 * self.size_m[0]
 
+    def posture_offsets(self) -> dict[str, tuple[float, ...]]:
+        """``posture_offsets_rad`` as ``{finger: offsets}`` (empty when none)."""
+        return dict(self.posture_offsets_rad or ())
+
     def with_params(self, **params: Any) -> ObjectProfile:
         return replace(self, **params)
 
 
-TUNABLE = ("tau_n", "release_threshold_n", "release_debounce", "lift_height_m", "hold_s")
+TUNABLE = (
+    "tau_n",
+    "release_threshold_n",
+    "release_debounce",
+    "lift_height_m",
+    "hold_s",
+    "approach_offset_m",
+    "standoff_m",
+)
+#: The object file's bounds on the grasp keys.
+MAX_APPROACH_OFFSET_M = 0.05
+MAX_STANDOFF_M = 0.05
+MAX_POSTURE_OFFSET_RAD = 0.2
+MAX_FINGER_JOINTS = 8
 
 
 def _object(name: str, t: Table) -> ObjectProfile:
@@ -81,6 +103,7 @@ def _object(name: str, t: Table) -> ObjectProfile:
             "tip_force_n",
             "cap",
             "grip_targets",
+            "posture_offsets_rad",
             *TUNABLE,
         }
     )
@@ -102,6 +125,13 @@ def _object(name: str, t: Table) -> ObjectProfile:
         raise t.fail("crush_force_n", "absent for a rigid object (set deformable = true)")
     grasp_h = t.float("grasp_height_m", 0.5 * height, lo=0.005, hi=height)
     cap = _cap(t.table("cap"), size, height) if t.has("cap") else None
+    approach = t.float("approach_offset_m", 0.0, lo=-MAX_APPROACH_OFFSET_M, hi=MAX_APPROACH_OFFSET_M)
+    if not 0.005 <= grasp_h + approach <= height:
+        raise t.fail(
+            "approach_offset_m",
+            f"an offset that keeps grasp_height_m + approach_offset_m from 0.005 m to height_m = {height:g} m "
+            f"(got {grasp_h:g} + {approach:g})",
+        )
     return ObjectProfile(
         name=name,
         shape=shape,
@@ -122,7 +152,23 @@ def _object(name: str, t: Table) -> ObjectProfile:
         lift_height_m=t.float("lift_height_m", 0.10, lo=0.0, hi=1.0, lo_open=True),
         hold_s=t.float("hold_s", 0.5, lo=0.0, hi=60.0),
         grip_targets=t.str("grip_targets", choices=GRIP_TARGET_MODES) if t.has("grip_targets") else None,
+        approach_offset_m=approach,
+        standoff_m=t.float("standoff_m", lo=0.0, hi=MAX_STANDOFF_M, lo_open=True) if t.has("standoff_m") else None,
+        posture_offsets_rad=_posture_offsets(t) if t.has("posture_offsets_rad") else None,
     )
+
+
+def _posture_offsets(t: Table) -> tuple[tuple[str, tuple[float, ...]], ...] | None:
+    """``posture_offsets_rad = {FINGER = [one offset per joint, rad], ...}``; the finger names and
+    joint counts are checked against the hand file when a run starts (config/checks.py)."""
+    table = t.table("posture_offsets_rad")
+    out = []
+    for finger, value in table.data.items():
+        check_identifier(finger, table.path, table.key("<finger name>"))
+        if not isinstance(value, list) or not 1 <= len(value) <= MAX_FINGER_JOINTS:
+            raise table.fail(finger, "a list of joint-angle offsets, one per joint of the finger (rad)")
+        out.append((finger, table.vector(finger, len(value), bound=MAX_POSTURE_OFFSET_RAD)))
+    return tuple(out) or None
 
 
 def _cap(t: Table, size: tuple[float, float], height: float) -> CapProfile:
@@ -153,18 +199,40 @@ def profile_table(obj: ObjectProfile) -> dict[str, Any]:
         cap = asdict(obj.cap)
         cap["offset_m"] = list(obj.cap.offset_m)
         doc["cap"] = cap
+    if obj.standoff_m is None:
+        doc.pop("standoff_m")
+    if obj.posture_offsets_rad is None:
+        doc.pop("posture_offsets_rad")
+    else:
+        doc["posture_offsets_rad"] = {f: list(v) for f, v in obj.posture_offsets_rad}
+    return doc
+
+
+#: The grasp keys and their defaults: a profile stored in run.json leaves them out at these, so a
+#: run made before the keys existed keeps its run.json and fingerprint (trials/runs/fingerprint.py).
+GRASP_KEY_DEFAULTS: dict[str, Any] = {"approach_offset_m": 0.0, "standoff_m": None, "posture_offsets_rad": None}
+
+
+def profile_json(obj: ObjectProfile) -> dict[str, Any]:
+    """``obj`` as run.json stores it (``dataclasses.asdict``; read back by :func:`profile_from_json`):
+    the grasp keys only where they differ from their defaults, the posture as ``{finger: [...]}``."""
+    doc = asdict(obj)
+    for key, default in GRASP_KEY_DEFAULTS.items():
+        if doc[key] == default:
+            doc.pop(key)
+    if obj.posture_offsets_rad is not None:
+        doc["posture_offsets_rad"] = {f: list(v) for f, v in obj.posture_offsets_rad}
     return doc
 
 
 def profile_from_json(name: object, doc: Any, source: str, prefix: str = "") -> ObjectProfile:
-    """A profile stored as ``dataclasses.asdict`` (``run.json``) -> checked by the loader's rules.
+    """A profile stored by :func:`profile_json` (``run.json``) -> checked by the loader's rules.
 
     The cap comes back as a :class:`CapProfile`, and every bound and cross-field
     rule of the object file applies; errors name ``source`` and ``prefix + key``."""
     if not isinstance(doc, dict):
         raise Table(source, {}, prefix).fail(str(name), "an object profile table")
-    if not is_safe_name(name):
-        raise Table(source, {}, prefix).fail("name", f"{SAFE_NAME_RULE} (got {name!r})")
+    check_identifier(name, source, f"{prefix}name")
     table = {k: v for k, v in doc.items() if k not in ("name", "size_m", "cap") and v is not None}
     size = doc.get("size_m")
     if doc.get("shape") == "cylinder":
@@ -192,8 +260,7 @@ def load_objects(path: str | Path) -> dict[str, ObjectProfile]:
     if not objs.data:
         raise root.fail("objects", "at least one [objects.NAME] table")
     for name in objs.data:
-        if not is_safe_name(name):
-            raise objs.fail(name, f"{SAFE_NAME_RULE} (object names become directory names)")
+        check_identifier(name, objs.path, "objects.<object name>", "object names become directory names")
     profiles = {name: _object(name, objs.table(name)) for name in objs.data}
     return profiles
 

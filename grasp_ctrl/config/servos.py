@@ -6,6 +6,12 @@ Model numbers as the servos report them on PING (XC330-M288-T, XC330-T288-T and 
 checked against the ROBOTIS e-manual; the others from the same tables, unverified here).
 Torque and speed facts are given only where taken from the data sheet: XC330-M288-T, stall
 torque 0.93 N m at 1.8 A and 5 V, no-load speed 103 rpm; PWM limit 885 (X330 series).
+
+Ratings (what a hand file may ask of a servo; config/hand.py refuses more): the stall current at
+the recommended voltage, and the control-table ranges of Current Limit(38), Velocity Limit(44)
+(which bounds Goal Velocity(104) and Profile Velocity(112)) and Position P/I/D Gain(84/82/80), from
+the ROBOTIS e-Manual (emanual.robotis.com/docs/en/dxl/x/MODEL/: its specifications and control
+table). A figure the e-Manual pages did not give is None here and not checked.
 """
 
 from __future__ import annotations
@@ -28,6 +34,16 @@ class ServoModel:
     no_load_speed_rpm: float | None = None
     pwm_limit: int = 885  # full PWM duty in register units
     pulses_per_rev: int = 4096
+    # ratings: stall current at this (the recommended) voltage; register ranges
+    stall_voltage_v: float | None = None
+    max_velocity_limit: int | None = None  # Velocity Limit(44) range: bounds Goal and Profile Velocity
+    velocity_unit_rpm: float = 0.229  # Velocity Limit / Goal / Profile Velocity unit (velocity-based profile)
+    max_position_gain: int | None = None  # Position P/I/D Gain(84/82/80) range 0 .. this
+
+    @property
+    def max_current_a(self) -> float:
+        """The Current Limit register's largest value in A."""
+        return self.max_current_limit * self.amp_per_current_unit
 
     @property
     def known_torque(self) -> bool:
@@ -62,19 +78,39 @@ class ServoModel:
         return (d_gain / 16.0) / self.pwm_limit * pulses_per_rad * 1e-3 * self.stall_torque_nm
 
 
+# The X330 series: Velocity Limit 0 ~ 2,047 and position gains 0 ~ 16,383 on every X330 page of the
+# e-Manual; XM430: Velocity Limit 0 ~ 1,023 (the XM430 pages' shared Velocity Limit table) and
+# position gains 0 ~ 16,383 (their shared Position PID Gain table).
+_X330 = {"max_velocity_limit": 2047, "max_position_gain": 16383}
+_XM430 = {"max_velocity_limit": 1023, "max_position_gain": 16383}
+
 MODELS: dict[str, ServoModel] = {
     m.name: m
     for m in (
         ServoModel(
-            "XC330-M288-T", 1240, 0.001, 2352, stall_torque_nm=0.93, stall_current_a=1.8, no_load_speed_rpm=103.0
+            "XC330-M288-T",
+            1240,
+            0.001,
+            2352,
+            stall_torque_nm=0.93,
+            stall_current_a=1.8,
+            no_load_speed_rpm=103.0,
+            stall_voltage_v=5.0,
+            **_X330,
         ),  # checked against the e-manual table
-        ServoModel("XC330-M181-T", 1230, 0.001, 1750),
-        ServoModel("XC330-T288-T", 1220, 0.001, 1750),
-        ServoModel("XC330-T181-T", 1210, 0.001, 1750),
-        ServoModel("XL330-M288-T", 1200, 0.001, 1750),
-        ServoModel("XL330-M077-T", 1190, 0.001, 1750),
-        ServoModel("XM430-W350-T", 1020, 0.00269, 1193),
-        ServoModel("XM430-W210-T", 1030, 0.00269, 1193),
+        # Stall currents below: the e-Manual's specifications at the recommended voltage (their
+        # stall torques and speeds are left out: the simulation reads torque facts only where
+        # checked). Current Limit ranges: the control tables (XC330-M181-T 0 ~ 2,352, XC330-T288-T
+        # and -T181-T 0 ~ 910; this table had 1,750 for all three before).
+        ServoModel("XC330-M181-T", 1230, 0.001, 2352, stall_current_a=1.8, stall_voltage_v=5.0, **_X330),
+        ServoModel("XC330-T288-T", 1220, 0.001, 910, stall_current_a=0.8, stall_voltage_v=11.1, **_X330),
+        ServoModel("XC330-T181-T", 1210, 0.001, 910, stall_current_a=0.8, stall_voltage_v=11.1, **_X330),
+        ServoModel("XL330-M288-T", 1200, 0.001, 1750, stall_current_a=1.47, stall_voltage_v=5.0, **_X330),
+        # XL330-M077-T: stall current not found in the e-Manual pages read; the Current Limit range is checked
+        ServoModel("XL330-M077-T", 1190, 0.001, 1750, **_X330),
+        ServoModel("XM430-W350-T", 1020, 0.00269, 1193, stall_current_a=2.3, stall_voltage_v=12.0, **_XM430),
+        # XM430-W210-T: stall current not read from its e-Manual page here; the Current Limit range is checked
+        ServoModel("XM430-W210-T", 1030, 0.00269, 1193, **_XM430),
     )
 }
 

@@ -119,7 +119,7 @@ class GripLoadController(GraspController):
         """Guarded closing: the pads wait ``guarded_standoff_m`` off the nominal surface (an object
         set down by hand sits up to a centimetre and ten degrees off), and each finger closes
         until its own contact (the close state), so the placement does not decide the grasp."""
-        return self.s.guarded_standoff_m
+        return self.obj.standoff_m if self.obj.standoff_m is not None else self.s.guarded_standoff_m
 
     def _wide_posture(self) -> np.ndarray:
         """The reach posture with every grasping pad backed off along its closing vector by
@@ -263,6 +263,8 @@ class GripLoadController(GraspController):
         ft_rate = (ft_filtered - self._prev_ft) / dt
         grip_rate = (grip_filtered - self._prev_grip) / dt
         self._prev_ft, self._prev_grip = ft_filtered, grip_filtered
+        # (also while loading: a grip raised as the pads start to slide is what carried the
+        # cleanser; without it 5 of 20 bench trials on the tuning seeds held, with it 13)
         vibrating = self._vibrating(snap, touching)
         slipping = touching & (
             (np.abs(load) > s.slip_cone_fraction * mu * np.maximum(grip, 0.0))

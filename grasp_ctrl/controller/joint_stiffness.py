@@ -62,7 +62,7 @@ def joint_stiffness(hand: HandConfig) -> JointStiffness:
         return JointStiffness(
             None, f"hand {hand.name!r}: [dynamixel] position_p_gain = {p_gain} (no position stiffness)"
         )
-    model = servo_model(hand.dynamixel.model)
+    model = hand.dynamixel.servo or servo_model(hand.dynamixel.model)  # the hand file may define its model
     if model.stall_torque_nm is None:
         return JointStiffness(
             None,

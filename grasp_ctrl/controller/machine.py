@@ -29,6 +29,7 @@ from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import ConfigError
 from grasp_ctrl.finite import all_finite
 from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR
 from grasp_ctrl.kinematics.pad_ik import Facing
 from grasp_ctrl.kinematics.preshape import preshape
 from grasp_ctrl.vec3 import norm3
@@ -214,7 +215,8 @@ class GraspController:
         """The pregrasp posture, or with ``settings.preshape`` the object's preshape
         (pads facing the object where closing along the task vectors meets it:
         kinematics/preshape.py); with a capped object, its cap finger's pad raised to the cap's
-        contact height (the others close at ``grasp_height_m``)."""
+        contact height (the others close at ``grasp_height_m``); then the object's
+        ``posture_offsets_rad`` added, clamped to the joint limits."""
         q = self.motion.pregrasp_q.copy()
         if self.s.preshape:
             shape = preshape(self.hand, self.obj, self._preshape_standoff_m())
@@ -224,7 +226,7 @@ class GraspController:
             self.motion.facing = Facing(facing, normals) if facing.any() else None
         cap = self.obj.cap
         if cap is None:
-            return q
+            return self._offset_posture(q)
         where = f"object {self.obj.name!r}"
         if cap.finger not in self.names or not self.grasp_mask[self.names.index(cap.finger)]:
             raise ConfigError(where, "cap.finger", f"a grasping finger of hand {self.hand.name!r} (got {cap.finger!r})")
@@ -234,11 +236,35 @@ class GraspController:
             raise ConfigError(where, "cap.contact_height_m", f"a height the finger can reach ({exc})") from None
         cap_joints = self.kin.slices[cap.finger]
         q[cap_joints] = raised[cap_joints]
+        return self._offset_posture(q)
+
+    def _offset_posture(self, q: np.ndarray) -> np.ndarray:
+        """``q`` with the object's per-finger joint offsets added, clamped to the joint limits; a
+        finger that keeps its pad facing while it closes keeps the facing of the offset posture."""
+        offsets = self.obj.posture_offsets()
+        if not offsets:
+            return q
+        for finger, values in offsets.items():
+            sl = self.kin.slices.get(finger)
+            if sl is None or len(values) != sl.stop - sl.start:
+                raise ConfigError(
+                    f"object {self.obj.name!r}",
+                    f"posture_offsets_rad.{finger}",
+                    f"one offset per joint of a finger of hand {self.hand.name!r}",
+                )
+            chain = self.kin.chains[finger]
+            q[sl] = np.clip(q[sl] + np.asarray(values, dtype=float), chain.lower, chain.upper)
+            facing = self.motion.facing
+            i = self.names.index(finger)
+            if facing is not None and facing.fingers[i]:
+                rot, _ = chain.fk_rp(q[sl])
+                facing.normals_hand[i] = rot @ PAD_NORMAL_SENSOR
         return q
 
     def _preshape_standoff_m(self) -> float:
-        """How far from the object's nominal surface the pads wait before closing."""
-        return self.s.preshape_standoff_m
+        """How far from the object's nominal surface the pads wait before closing: the object's
+        ``standoff_m``, else the controller's setting."""
+        return self.obj.standoff_m if self.obj.standoff_m is not None else self.s.preshape_standoff_m
 
     @property
     def terminal(self) -> bool:

@@ -17,7 +17,7 @@ if TYPE_CHECKING:
     from grasp_ctrl.controller.machine import GraspController
 
 CONTROLLER_NAMES: tuple[str, ...] = ("paper", "grip_load")
-DEFAULT_CONTROLLER = "paper"  # the paper's until grip_load measures better (docs/controller.md)
+DEFAULT_CONTROLLER = "grip_load"  # it measures better under both variation profiles (docs/results.md)
 
 
 def controller_class(name: str) -> type[GraspController]:

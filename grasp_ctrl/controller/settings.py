@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class ControllerSettings:
-    controller: str = "paper"  # which controller (controller/registry.py): paper | grip_load
+    controller: str = "grip_load"  # which controller (controller/registry.py): grip_load | paper
     close_speed_m_s: float = 0.02  # fingertip speed along the task vector while closing
     close_timeout_s: float = 4.0
     ramp_gain_m_s_per_n: float = 0.01  # fingertip speed per N of force error
@@ -47,7 +47,7 @@ class ControllerSettings:
     reach_standoff_m: float = 0.025  # the pads reach this far off the nominal surface (an object set down
     #   by hand is up to a centimetre and ten degrees off), then take the closing preshape, each
     #   stopping at its own contact
-    guarded_standoff_m: float = 0.01  # the preshape's standoff (per object: objects.toml standoff_m)
+    guarded_standoff_m: float = 0.01  # the closing preshape's standoff (an object's standoff_m overrides it)
     load_speed_m_s: float = 0.005  # the arm's speed while the fingertips take the weight
     load_min_rise_m: float = 0.006  # the load phase lasts at least this rise (the grasp's compliance unwinds)
     load_max_rise_m: float = 0.015  # and ends this high at the latest
@@ -66,7 +66,7 @@ class ControllerSettings:
     slip_pac_ticks: int = 2  #   for this many ticks
     slip_boost: float = 0.15  # each slip raises the grip scale by this
     slip_adapts_mu: bool = True  # vibration in lift or hold lowers the friction estimate to the load/grip held
-    min_mu_hat: float = 0.3  # a slip lowers the friction estimate to the load/grip ratio held before it, not below this
+    min_mu_hat: float = 0.3  # the friction estimate never falls below this
     slip_max_pause_s: float = 1.0  # the arm waits for the grips at most this long per state
     pause_when_short: bool = False  # the arm also waits while a grip is short of its raised target
     release_relative: bool = True  # release also when the carried load falls near the support (grip_load.py)

@@ -64,12 +64,11 @@ class DynamixelChainEmulator:
     def for_hand(cls, hand: HandConfig, q_rad: Sequence[float] | None = None) -> DynamixelChainEmulator:
         """A chain with the hand's servo ids and model, resting at ``q_rad`` (default: the open posture)."""
         from grasp_ctrl.hardware.dynamixel.calibration import Calibration
-        from grasp_ctrl.hardware.dynamixel.control_table import MODELS
 
         joints = hand.joints
         q = [j.open_rad for j in joints] if q_rad is None else list(q_rad)
         counts = Calibration.from_joints(joints).to_counts_float(q)
-        model = MODELS.get(hand.dynamixel.model)
+        model = hand.dynamixel.servo  # config/servos.py, or the hand file's [servo_models.NAME]
         return cls(
             [j.servo_id for j in joints],
             model_number=model.model_number if model else 1240,

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.config.identifiers import check_identifier, check_identifier_arg
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.analytic import AnalyticEstimator
 from grasp_ctrl.estimators.base import ForceEstimator
@@ -35,12 +36,13 @@ LOADERS: dict[str, str] = {
 
 
 def resolve_policy_path(spec: str) -> Path:
-    """NAME -> policies/NAME.json; PATH (.json or .onnx) -> its .json."""
+    """NAME -> policies/NAME.json; PATH (.json or .onnx) -> its .json. A NAME is an identifier
+    (config/identifiers.py), else a one-line UsageError."""
     p = Path(spec)
     if p.suffix in (".json", ".onnx") or p.parent != Path("."):
         json_path = p.with_suffix(".json")
     else:
-        json_path = policies_dir() / f"{spec}.json"
+        json_path = policies_dir() / f"{check_identifier_arg(spec, 'policy')}.json"
     if not json_path.is_file():
         known = ", ".join(list_policy_names()) or "none"
         raise PolicyError(f"policy {spec!r}: no metadata file {json_path} (known policies: {known}, oracle)")
@@ -54,6 +56,8 @@ def read_metadata(json_path: Path) -> dict[str, Any]:
         raise PolicyError(f"{json_path}: unreadable policy metadata ({exc})") from None
     if not isinstance(meta, dict) or "kind" not in meta:
         raise PolicyError(f"{json_path}: kind: required key is missing")
+    if "name" in meta:
+        check_identifier(meta["name"], json_path, "name")
     return meta
 
 

@@ -44,7 +44,7 @@ class DynamixelArm:
         self.ids = [j.servo_id for j in self.joints]
         self.chain = arm_chain(hand)
         self.cal = Calibration.from_joints(self.joints)
-        self.model = ct.MODELS.get(self.cfg.model)
+        self.model = self.cfg.servo  # config/servos.py, or the hand file's [servo_models.NAME]
         self.bus = DynamixelBus(
             port or self.cfg.port,
             self.cfg.baud,

@@ -179,7 +179,8 @@ class MuJoCoWorld:
         footprint (with a margin for the jitter and the closing) reaches into it at the
         postures between pregrasp and open (reaching, releasing); the fingertips themselves
         close beside it. The mock world has no link collisions, so its profiles'
-        ``grasp_height_m`` may be lower (docs/mujoco.md)."""
+        ``grasp_height_m`` may be lower (docs/mujoco.md). The profile's ``approach_offset_m``
+        is added to the result."""
         mj, m, d = self._mj, self.model, self.data
         pre = np.array([j.pregrasp_rad for j in self.hand.joints])
         opened = np.array([j.open_rad for j in self.hand.joints])
@@ -216,6 +217,8 @@ class MuJoCoWorld:
         # A capped object keeps its grasp: the cap finger's height is set relative to it.
         if obj.cap is None and needed > obj.grasp_height_m:
             self.grasp_height_m = min(needed, obj.height_m - 0.005)
+        # The object file's approach offset moves the grasp from there (the reach pose by exactly it).
+        self.grasp_height_m += obj.approach_offset_m
 
     def _place_hand(self, palm: np.ndarray) -> None:
         mj, m, d = self._mj, self.model, self.data

@@ -542,8 +542,10 @@ class MockWorld:
         return out
 
     def reach_pose_world(self) -> np.ndarray:
-        """Nominal palm position for grasping (the controller does not see the jitter)."""
-        return np.array([0.0, 0.0, self.obj.grasp_height_m + self.hand.grasp.palm_above_contact_m])
+        """Nominal palm position for grasping (the controller does not see the jitter); the
+        profile's grasp height plus its ``approach_offset_m``."""
+        obj = self.obj
+        return np.array([0.0, 0.0, obj.grasp_height_m + obj.approach_offset_m + self.hand.grasp.palm_above_contact_m])
 
     # ----- stepping -------------------------------------------------------
     def step(self) -> None:

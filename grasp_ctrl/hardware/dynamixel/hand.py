@@ -61,7 +61,7 @@ class DynamixelHand:
         self.lower = self.cal.lower_rad
         self.upper = self.cal.upper_rad
         self.q_open = np.array([j.open_rad for j in self.joints])
-        self.model = ct.MODELS.get(self.cfg.model)
+        self.model = self.cfg.servo  # config/servos.py, or the hand file's [servo_models.NAME]
         self.amp_per_unit = self.model.amp_per_current_unit if self.model else 0.001
         self.bus = DynamixelBus(
             self.port_name,

@@ -5,7 +5,7 @@ wall clock at the hand's control rate. There is no ground truth: the record
 holds the controller's own view, and ``cmd_run`` asks the operator to label
 each trial. The object is expected at the world origin on the table (the spot
 the arm's frame is calibrated to); the hand reaches to ``grasp_height_m`` of its
-profile plus ``grasp.palm_above_contact_m``.
+profile (plus its ``approach_offset_m``) plus ``grasp.palm_above_contact_m``.
 
 Safety: a hardware or sensor fault goes through the state machine to the safe
 action; Ctrl-C marks the trial ``aborted``, keeps ticking the safe action for a
@@ -43,7 +43,8 @@ SENSOR_WAIT_S = 2.0
 
 
 def reach_pose_world(hand: HandConfig, obj: ObjectProfile) -> np.ndarray:
-    return np.array([0.0, 0.0, obj.grasp_height_m + hand.grasp.palm_above_contact_m])
+    """The profile's grasp height plus its ``approach_offset_m``, ``palm_above_contact_m`` higher."""
+    return np.array([0.0, 0.0, obj.grasp_height_m + obj.approach_offset_m + hand.grasp.palm_above_contact_m])
 
 
 def run_hardware_trial(

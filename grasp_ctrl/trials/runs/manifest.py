@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from grasp_ctrl.config.objects import ObjectProfile, profile_from_json
+from grasp_ctrl.config.objects import ObjectProfile, profile_from_json, profile_json
 from grasp_ctrl.config.toml_reader import finite_number
 from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES
 from grasp_ctrl.controller.registry import CONTROLLER_NAMES
@@ -80,7 +80,7 @@ class RunManifest:
             "seed": self.seed,
             "trials": self.trials,
             "policies": list(self.policies),
-            "objects": [dataclasses.asdict(o) for o in self.objects],
+            "objects": [profile_json(o) for o in self.objects],
             "tick_logs": self.tick_logs,
             "controller": self.settings.controller,
             "settings": dataclasses.asdict(self.settings),
@@ -199,6 +199,8 @@ def settings_from_json(d: Any, where: str) -> ControllerSettings:
             shown = repr(v) if len(repr(v)) <= 40 else f"{repr(v)[:20]}..."
             raise UsageError(f"{where}: settings.{key}: {need} (got {shown})")
         values[key] = v
+    # a run written before the controllers had names ran the paper's: it resumes with it
+    values.setdefault("controller", "paper")
     return ControllerSettings(**values)
 
 

@@ -5,7 +5,9 @@ log scale; whole numbers for ``release_debounce``); ``NAME=START:STOP:STEP``
 (STOP included), ``NAME=A,B,C`` and ``NAME=VALUE`` are grids, as before. Every
 bound and value must be a finite number; a range needs LOW < HIGH (and LOW > 0
 on a log scale). The study samples a grid with Optuna's grid sampler when every
-parameter is a grid, else with TPE.
+parameter is a grid, else with TPE. NAME is an object-file key (``TUNABLE``), a
+reach-posture joint offset ``posture.FINGER.J`` or a float controller setting
+``setting.NAME``.
 """
 
 from __future__ import annotations
@@ -16,7 +18,14 @@ from dataclasses import dataclass
 from typing import Any
 
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.trials.tuning.tune import INTEGER, MAX_SETTINGS, parse_param, split_param
+from grasp_ctrl.trials.tuning.tune import (
+    INTEGER,
+    MAX_SETTINGS,
+    SETTING_PREFIX,
+    parse_param,
+    posture_key,
+    split_param,
+)
 
 Value = float | int
 
@@ -105,6 +114,35 @@ def parse_params(specs: Sequence[str]) -> list[Param]:
 
 def grid_size(params: Sequence[Param]) -> int:
     return math.prod(len(p.values) for p in params) if all(p.is_grid for p in params) else 0
+
+
+def check_params_for_hand(params: Sequence[Param], hand: Any) -> dict[str, int]:
+    """Each ``posture.FINGER.J`` names a finger of ``hand`` and one of its joints (one line if not);
+    returns the joints per finger (what ``apply_setting`` fills a finger's other offsets for)."""
+    joints = {f.name: len(f.joints) for f in hand.fingers}
+    for p in params:
+        key = posture_key(p.name)
+        if key is None:
+            continue
+        finger, j = key
+        if finger not in joints:
+            raise UsageError(
+                f"--param {p.name}: {finger!r} is not a finger of hand {hand.name!r} ({', '.join(joints)})"
+            )
+        if j >= joints[finger]:
+            raise UsageError(f"--param {p.name}: finger {finger} has joints 0 to {joints[finger] - 1}")
+    return joints
+
+
+def check_settings_values(params: Sequence[Param]) -> None:
+    """Both ends of every ``setting.NAME`` search lie where run.json's controller settings may
+    (finite, positive; trials/runs/manifest.py), in one line naming the parameter if not."""
+    from grasp_ctrl.trials.runs.manifest import settings_from_json
+
+    for p in params:
+        if p.name.startswith(SETTING_PREFIX):
+            for v in p.ends():
+                settings_from_json({p.name[len(SETTING_PREFIX) :]: float(v)}, f"--param {p.spec()}")
 
 
 def corner_settings(params: Sequence[Param]) -> list[dict[str, Value]]:

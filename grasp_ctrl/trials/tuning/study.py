@@ -2,12 +2,18 @@
 
 One Optuna trial is one *setting* of the tuned thresholds; it runs the same K
 seeded trials (simulations) as every other setting, in order. The objective
-(maximised) is the success rate over those trials, with ties broken by the mean
+(maximised, ``--rank wilson``, the default) is the lower bound of the success
+rate's 95 % Wilson score interval over those trials, with ties broken by the mean
 peak true grip force (lower wins: the gentlest grasp that still works)::
 
-    value = (successes - 0.5 * g / (1 + g)) / K        g: mean peak true grip, N
+    value = W(successes, K) - 0.5 * d(K) * g / (1 + g)   g: mean peak true grip, N
+    d(K) = the smallest step of W(s, K) from s to s + 1 successes
 
-The tie-break term is below half a success, so it never outweighs one. After
+``--rank mean`` (the objective before) ranks by the success rate itself::
+
+    value = (successes - 0.5 * g / (1 + g)) / K
+
+Either tie-break term is below half a success's step, so it never outweighs one. After
 each trial the setting reports the best success rate it can still reach; the
 pruner stops it once that is below the success rate of a finished setting
 (it can no longer win). The sampler is Optuna's grid sampler when every
@@ -19,6 +25,8 @@ a killed process) run again from their first trial, finished ones never.
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import hashlib
 import json
 import logging
@@ -34,18 +42,27 @@ from optuna.samplers import GridSampler, TPESampler
 from optuna.trial import FrozenTrial, TrialState
 
 from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.sim.variation import NOMINAL, Variation
 from grasp_ctrl.trials.episode.runner import trial_seed
 from grasp_ctrl.trials.tuning.search_space import Param, Value, grid_size
 from grasp_ctrl.trials.tuning.study_defaults import DEFAULT_BUDGET  # noqa: F401 - re-exported
-from grasp_ctrl.trials.tuning.tune import SweepRow, apply_setting
+from grasp_ctrl.trials.tuning.tune import SweepRow, apply_setting, controller_settings, wilson_lower
 from grasp_ctrl.trials.tuning.tune_executors import TrialExecutor
 
-OBJECTIVE = (
-    "success rate over the seeded trials, ties broken by the mean peak true grip force "
-    "(gentler wins): value = (successes - 0.5*g/(1+g)) / K, g the mean peak true grip in N"
-)
+OBJECTIVES = {
+    "wilson": (
+        "lower 95 % Wilson bound W of the success rate over the seeded trials, ties broken by the mean "
+        "peak true grip force (gentler wins): value = W(successes, K) - 0.5*d*g/(1+g), d the smallest "
+        "step of W between two success counts, g the mean peak true grip in N"
+    ),
+    "mean": (
+        "success rate over the seeded trials, ties broken by the mean peak true grip force "
+        "(gentler wins): value = (successes - 0.5*g/(1+g)) / K, g the mean peak true grip in N"
+    ),
+}
+OBJECTIVE = OBJECTIVES["wilson"]  # the default (tune --rank wilson)
 MAX_DUPLICATES = 50  # settings sampled again in a row: the space is exhausted
 FINISHED = (TrialState.COMPLETE, TrialState.PRUNED)
 
@@ -53,10 +70,19 @@ optuna.logging.set_verbosity(optuna.logging.WARNING)
 logging.getLogger("optuna").setLevel(logging.WARNING)
 
 
-def objective_value(successes: int, trials: int, mean_peak_grip_n: float) -> float:
+def objective_value(successes: int, trials: int, mean_peak_grip_n: float, rank: str = "wilson") -> float:
     g = mean_peak_grip_n
     tie = 0.5 * g / (1.0 + g) if math.isfinite(g) and g >= 0 else 0.5
+    if rank == "wilson":
+        return wilson_lower(successes, trials) - tie * _wilson_step(trials)
     return (successes - tie) / trials
+
+
+@functools.lru_cache(maxsize=64)
+def _wilson_step(trials: int) -> float:
+    """The smallest rise of the lower Wilson bound from one success count to the next (K trials)."""
+    bounds = [wilson_lower(s, trials) for s in range(trials + 1)]
+    return min(b - a for a, b in zip(bounds, bounds[1:]))
 
 
 @dataclass
@@ -73,9 +99,13 @@ class StudyPlan:
     prune: bool = True
     seeds: list[int] = field(default_factory=list)
     variation: Variation | None = None  # the world's per-trial draws (sim/variation.py); None: nominal
+    settings: ControllerSettings | None = None  # the controller and its settings; None: the defaults
+    rank: str = "wilson"  # the objective: wilson (the success rate's lower 95 % Wilson bound) or mean
+    finger_joints: dict[str, int] = field(default_factory=dict)  # joints per finger (posture.FINGER.J)
 
     def __post_init__(self) -> None:
         self.seeds = [trial_seed(self.seed, self.obj.name, k) for k in range(self.trials)]
+        self.settings = self.settings or ControllerSettings()
 
     @property
     def all_grid(self) -> bool:
@@ -95,6 +125,15 @@ class StudyPlan:
         # (nominal draws) keeps its name and identity.
         if self.variation is not None and self.variation != NOMINAL:
             out["variation"] = self.variation.to_json()
+        # Likewise the controller settings where they differ from the paper controller's defaults
+        # (what every study ran before --controller), and the objective where it is not the success
+        # rate (a study stored before --rank ranked by it: --rank mean).
+        defaults = dataclasses.asdict(dataclasses.replace(ControllerSettings(), controller="paper"))
+        changed = {k: v for k, v in dataclasses.asdict(self.settings).items() if v != defaults[k]}
+        if changed:
+            out["settings"] = changed
+        if self.rank != "mean":
+            out["rank"] = self.rank
         return out
 
     def study_name(self) -> str:
@@ -231,6 +270,7 @@ class _Active:
     trial: optuna.Trial
     setting: dict[str, Value]
     profile: ObjectProfile
+    settings: ControllerSettings
     records: list[dict[str, Any]] = field(default_factory=list)
 
 
@@ -275,10 +315,15 @@ def run_study(
                     _tell_duplicate(study, trial, done.get(key))
                     continue
                 duplicates = 0
-                act = _Active(trial, setting, apply_setting(plan.obj, setting))
+                act = _Active(
+                    trial,
+                    setting,
+                    apply_setting(plan.obj, setting, plan.finger_joints),
+                    controller_settings(plan.settings, setting),
+                )
                 trial.set_user_attr("seeds", plan.seeds)
                 active[trial.number] = act
-                executor.submit(trial.number, (plan.policy, act.profile, 0, plan.seeds[0], None))
+                executor.submit(trial.number, (plan.policy, act.profile, 0, plan.seeds[0], None), act.settings)
             if not active:
                 break
             number, rec = executor.next_done()
@@ -292,14 +337,14 @@ def run_study(
             act.trial.set_user_attr("successes", successes)
             act.trial.report((successes + plan.trials - k - 1) / plan.trials, k)
             if k + 1 < plan.trials and not act.trial.should_prune():
-                executor.submit(number, (plan.policy, act.profile, k + 1, plan.seeds[k + 1], None))
+                executor.submit(number, (plan.policy, act.profile, k + 1, plan.seeds[k + 1], None), act.settings)
                 continue
             del active[number]
             if k + 1 < plan.trials:
                 study.tell(act.trial, state=TrialState.PRUNED)
             else:
                 row = rows_of([act.records])[0]
-                study.tell(act.trial, objective_value(successes, plan.trials, _grip(row)))
+                study.tell(act.trial, objective_value(successes, plan.trials, _grip(row), plan.rank))
             done[setting_key(act.setting)] = study._storage.get_trial(act.trial._trial_id)
             finished_here += 1
     except BaseException:

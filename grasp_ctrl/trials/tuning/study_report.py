@@ -7,28 +7,30 @@ from typing import Any
 
 import optuna
 
-from grasp_ctrl.trials.tuning.study import OBJECTIVE, StudyPlan, study_rows
-from grasp_ctrl.trials.tuning.tune import format_sweep, rank, wilson_interval
+from grasp_ctrl.trials.tuning.study import OBJECTIVES, StudyPlan, study_rows
+from grasp_ctrl.trials.tuning.tune import current_value, format_sweep, rank, wilson_interval, wilson_lower
 
 
 def report(study: optuna.Study, plan: StudyPlan, ran_here: int) -> tuple[str, dict[str, Any]]:
     pairs = study_rows(study, plan)
     by_row = {id(row): t for row, t in pairs}
-    rows = rank([row for row, _ in pairs])
+    rows = rank([row for row, _ in pairs], plan.rank)
     names = [p.name for p in plan.params]
-    current = {n: getattr(plan.obj, n) for n in names}
+    current = {n: current_value(plan.obj, plan.settings, n) for n in names}
     sampler = "grid" if plan.all_grid else "TPE"
     pruned = sum(r.pruned for r in rows)
     varied = f", variation {plan.variation.name}" if plan.variation is not None else ""
+    controller = plan.settings.controller if plan.settings is not None else "paper"
     head = (
-        f"{plan.obj.name}, policy {plan.policy}, backend {plan.backend}{varied}, {plan.trials} trials per setting, "
-        f"seed {plan.seed}; study {plan.study_name()} ({sampler}): {len(rows)} settings finished "
-        f"({ran_here} now, {pruned} pruned) (* = current)"
+        f"{plan.obj.name}, policy {plan.policy}, controller {controller}, backend {plan.backend}{varied}, "
+        f"{plan.trials} trials per setting, seed {plan.seed}; study {plan.study_name()} ({sampler}): "
+        f"{len(rows)} settings finished ({ran_here} now, {pruned} pruned) (* = current)"
     )
-    lines = [head, f"objective: {OBJECTIVE}"]
+    lines = [head, f"objective (--rank {plan.rank}): {OBJECTIVES[plan.rank]}"]
     doc: dict[str, Any] = {
         "object": plan.obj.name,
         "policy": plan.policy,
+        "controller": controller,
         "backend": plan.backend,
         "variation": plan.variation.to_json() if plan.variation is not None else None,
         "seed": plan.seed,
@@ -38,13 +40,15 @@ def report(study: optuna.Study, plan: StudyPlan, ran_here: int) -> tuple[str, di
         "sampler": sampler,
         "study": plan.study_name(),
         "storage": plan.storage,
-        "objective": OBJECTIVE,
+        "rank": plan.rank,
+        "objective": OBJECTIVES[plan.rank],
         "params": [p.spec() for p in plan.params],
         "current": current,
         "best": None,
         "ranked": [
             dict(
                 r.to_json(),
+                wilson_lower=round(wilson_lower(r.successes, r.trials), 4),
                 study_trial=by_row[id(r)].number,
                 value=by_row[id(r)].value if by_row[id(r)].value is not None else None,
             )

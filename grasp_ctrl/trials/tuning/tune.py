@@ -1,10 +1,11 @@
-"""Per-object threshold sweeps on the mock world.
+"""Per-object threshold sweeps: the settings, their rows and their ranking.
 
 ``--param tau_n=1.0:3.0:0.25`` (start:stop:step, stop included), ``1.5,2,2.5``
 or a single value; several ``--param`` give their Cartesian product. Every
 setting runs the same seeded trials, so settings are compared on identical
-situations. Ranking: success rate (higher first), then mean peak true grip
-force (lower first: the gentlest grasp that still works).
+situations. Ranking: the success rate's lower 95 % Wilson bound (or the success
+rate itself, ``rank(by="mean")``; higher first), then mean peak true grip force
+(lower first: the gentlest grasp that still works).
 """
 
 from __future__ import annotations
@@ -15,12 +16,30 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from grasp_ctrl.config.identifiers import is_identifier
 from grasp_ctrl.config.objects import TUNABLE, ObjectProfile
 from grasp_ctrl.errors import UsageError
 
 MAX_SETTINGS = 200
 ALIASES = {"tau": "tau_n", "release_threshold": "release_threshold_n", "lift_height": "lift_height_m", "hold": "hold_s"}
 INTEGER = {"release_debounce"}
+#: ``posture.FINGER.J``: the reach posture's offset of joint J (from 0, in the hand file's order) of
+#: FINGER (the object file's ``posture_offsets_rad``); ``setting.NAME``: a float controller setting.
+POSTURE_PREFIX = "posture."
+SETTING_PREFIX = "setting."
+TUNABLE_FORMS = (
+    f"{', '.join(TUNABLE)}, posture.FINGER.J (a reach-posture joint offset), setting.NAME (a controller setting)"
+)
+
+
+def float_settings() -> list[str]:
+    """The controller settings (``ControllerSettings``) ``setting.NAME`` may tune: those of float type."""
+    import dataclasses
+
+    from grasp_ctrl.controller.settings import ControllerSettings
+
+    defaults = ControllerSettings()
+    return [f.name for f in dataclasses.fields(ControllerSettings) if type(getattr(defaults, f.name)) is float]
 
 
 def split_param(spec: str, forms: str = "NAME=START:STOP:STEP, NAME=A,B,C or NAME=VALUE") -> tuple[str, str]:
@@ -29,9 +48,46 @@ def split_param(spec: str, forms: str = "NAME=START:STOP:STEP, NAME=A,B,C or NAM
     name = ALIASES.get(name.strip(), name.strip())
     if not sep or not values.strip():
         raise UsageError(f"--param {spec!r}: expected {forms}")
+    if name.startswith(POSTURE_PREFIX):
+        finger, dot, joint = name[len(POSTURE_PREFIX) :].rpartition(".")
+        if not dot or not is_identifier(finger) or not joint.isdigit() or not joint.isascii():
+            raise UsageError(f"--param {spec!r}: posture.FINGER.J, J a joint of FINGER counted from 0")
+        return f"{POSTURE_PREFIX}{finger}.{int(joint)}", values
+    if name.startswith(SETTING_PREFIX):
+        floats = float_settings()
+        if name[len(SETTING_PREFIX) :] not in floats:
+            raise UsageError(f"--param {spec!r}: not a controller setting of float type (one of {', '.join(floats)})")
+        return name, values
     if name not in TUNABLE:
-        raise UsageError(f"--param {spec!r}: {name!r} is not tunable (tunable: {', '.join(TUNABLE)})")
+        raise UsageError(f"--param {spec!r}: {name!r} is not tunable (tunable: {TUNABLE_FORMS})")
     return name, values
+
+
+def posture_key(name: str) -> tuple[str, int] | None:
+    """``posture.FINGER.J`` -> (FINGER, J); None for another name."""
+    if not name.startswith(POSTURE_PREFIX):
+        return None
+    finger, _, joint = name[len(POSTURE_PREFIX) :].rpartition(".")
+    return finger, int(joint)
+
+
+def controller_settings(base: Any, setting: dict[str, float | int]) -> Any:
+    """``base`` (ControllerSettings) with the setting's ``setting.NAME`` values."""
+    import dataclasses
+
+    own = {k[len(SETTING_PREFIX) :]: float(v) for k, v in setting.items() if k.startswith(SETTING_PREFIX)}
+    return dataclasses.replace(base, **own) if own else base
+
+
+def current_value(obj: ObjectProfile, settings: Any, name: str) -> float | int | None:
+    """What the object file (or the controller settings) holds now for a tuned name (None: unset)."""
+    key = posture_key(name)
+    if key is not None:
+        offsets = obj.posture_offsets().get(key[0])
+        return offsets[key[1]] if offsets is not None and key[1] < len(offsets) else 0.0
+    if name.startswith(SETTING_PREFIX):
+        return getattr(settings, name[len(SETTING_PREFIX) :])
+    return getattr(obj, name)
 
 
 def parse_param(spec: str) -> tuple[str, list[float | int]]:
@@ -77,12 +133,32 @@ def settings_grid(params: Sequence[tuple[str, list[float | int]]]) -> list[dict[
     return grid
 
 
-def apply_setting(obj: ObjectProfile, setting: dict[str, float | int]) -> ObjectProfile:
-    """The profile with the setting applied; values outside the file's limits are refused."""
+def apply_setting(
+    obj: ObjectProfile, setting: dict[str, float | int], finger_joints: dict[str, int] | None = None
+) -> ObjectProfile:
+    """The profile with the setting applied; values outside the file's limits are refused.
+    ``posture.FINGER.J`` sets joint J of the finger's ``posture_offsets_rad`` (a finger without
+    offsets gets zeros for its other joints, ``finger_joints[FINGER]`` of them); ``setting.NAME``
+    values are controller settings (:func:`controller_settings`), not the profile's."""
     from grasp_ctrl.config.objects import revalidate
     from grasp_ctrl.errors import ConfigError
 
-    tuned = obj.with_params(**setting)
+    params: dict[str, Any] = {}
+    posture = {f: list(v) for f, v in obj.posture_offsets().items()}
+    for name, value in setting.items():
+        key = posture_key(name)
+        if key is not None:
+            finger, joint = key
+            count = (finger_joints or {}).get(finger, joint + 1)
+            offsets = posture.setdefault(finger, [0.0] * count)
+            if joint >= len(offsets):
+                raise UsageError(f"--param {name}: finger {finger} has {len(offsets)} joints (J from 0)")
+            offsets[joint] = float(value)
+        elif not name.startswith(SETTING_PREFIX):
+            params[name] = value
+    if posture != {f: list(v) for f, v in obj.posture_offsets().items()}:
+        params["posture_offsets_rad"] = tuple((f, tuple(v)) for f, v in posture.items())
+    tuned = obj.with_params(**params)
     # Re-validate through the loader so the sweep never tries what the file could not hold.
     try:
         revalidate(tuned, f"--param ({obj.name})")
@@ -135,15 +211,22 @@ class SweepRow:
         }
 
 
-def rank(rows: Sequence[SweepRow]) -> list[SweepRow]:
-    """Success rate first, then the lower mean peak force; ties keep the sweep order.
+RANKS = ("wilson", "mean")  # tune --rank: the 95 % Wilson score interval's lower bound, or the success rate
+
+
+def rank(rows: Sequence[SweepRow], by: str = "wilson") -> list[SweepRow]:
+    """The success rate's lower 95 % Wilson bound (``by="wilson"``) or the success rate
+    (``"mean"``) first, then the lower mean peak force; ties keep the sweep order.
     Settings pruned before their last trial come after every finished one."""
 
     def force(r: SweepRow) -> float:
         f = r.mean_peak_true_n
         return f if math.isfinite(f) else r.mean_peak_est_n if math.isfinite(r.mean_peak_est_n) else math.inf
 
-    return sorted(rows, key=lambda r: (r.pruned, -r.success_rate, force(r)))
+    def score(r: SweepRow) -> float:
+        return wilson_lower(r.successes, r.trials) if by == "wilson" else r.success_rate
+
+    return sorted(rows, key=lambda r: (r.pruned, -score(r), force(r)))
 
 
 SweepTask = tuple[int, ObjectProfile, int]  # setting index, tuned profile, trial index
@@ -181,7 +264,7 @@ def _fmt(v: float | int) -> str:
 def format_sweep(rows: Sequence[SweepRow], current: dict[str, float | int] | None = None) -> str:
     """The ranked table; ``*`` marks the object's current setting."""
     names = list(rows[0].setting) if rows else []
-    head = ["rank"] + names + ["success", "peak grip true", "peak grip est", "failures"]
+    head = ["rank"] + names + ["success", "wilson lb", "peak grip true", "peak grip est", "failures"]
     body = []
     for i, r in enumerate(rows, 1):
         mark = "*" if current is not None and all(_close(r.setting[n], current.get(n)) for n in names) else ""
@@ -193,6 +276,7 @@ def format_sweep(rows: Sequence[SweepRow], current: dict[str, float | int] | Non
             + [_fmt(r.setting[n]) for n in names]
             + [
                 f"{100 * r.success_rate:.0f}% ({r.successes}/{r.trials})",
+                f"{wilson_lower(r.successes, r.trials):.3f}",
                 f"{r.mean_peak_true_n:.2f} N",
                 f"{r.mean_peak_est_n:.2f} N",
                 fails,
@@ -221,3 +305,8 @@ def wilson_interval(successes: int, trials: int, z: float = 1.959964) -> tuple[f
     centre = (p + z * z / (2 * trials)) / denom
     half = z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / denom
     return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def wilson_lower(successes: int, trials: int) -> float:
+    """The lower end of the 95 % Wilson score interval (z = 1.96): 5/5 -> 0.566, 3/5 -> 0.231, 0/5 -> 0."""
+    return wilson_interval(successes, trials)[0]

@@ -2,7 +2,8 @@
 
 A study keeps one trial of each setting in flight (a setting's trials run in
 order, so it can be pruned after any of them) and up to ``--jobs`` settings at
-once. ``submit(key, task)`` hands over one trial; ``next_done()`` returns
+once. ``submit(key, task, settings)`` hands over one trial (``settings``: the
+setting's controller settings, None: the executor's own); ``next_done()`` returns
 ``(key, record)`` of a finished one, in any order; ``close(abort)`` stops the
 workers (at once after Ctrl-C or an error: trials in progress are dropped).
 """
@@ -16,55 +17,103 @@ from typing import Any, Protocol
 
 from grasp_ctrl.trials.episode.runner import TrialTask
 
-_CACHE: dict[Any, Any] = {}  # per Ray worker: the trial function of the current study
+_CACHE: dict[Any, Any] = {}  # per worker: the trial functions of the current study, per controller settings
+MAX_TRIAL_FNS = 8  # trial functions kept per worker (each holds its policy): one per settings in flight
 
 
 class TrialExecutor(Protocol):
-    def submit(self, key: Hashable, task: TrialTask) -> None: ...
+    def submit(self, key: Hashable, task: TrialTask, settings: Any = None) -> None: ...
     def next_done(self) -> tuple[Hashable, dict[str, Any]]: ...
     def close(self, abort: bool) -> None: ...
 
 
+def _cached_fn(cache: dict[Any, Any], key: Hashable, make: Callable[[], Any]) -> Any:
+    if key not in cache:
+        while len(cache) >= MAX_TRIAL_FNS:
+            cache.pop(next(iter(cache)))
+        cache[key] = make()
+    return cache[key]
+
+
 class SerialExecutor:
-    """Here, one trial at a time (the real hand, or ``--jobs 1``)."""
+    """Here, one trial at a time (the real hand, or ``--jobs 1``). ``trial_fn_for(settings)``
+    makes the trial function of other controller settings (``tune --param setting.NAME=...``)."""
 
-    def __init__(self, trial_fn: Callable[..., dict[str, Any]]) -> None:
+    def __init__(
+        self,
+        trial_fn: Callable[..., dict[str, Any]],
+        trial_fn_for: Callable[[Any], Callable[..., dict[str, Any]]] | None = None,
+        settings: Any = None,
+    ) -> None:
         self.trial_fn = trial_fn
-        self.queue: collections.deque[tuple[Hashable, TrialTask]] = collections.deque()
+        self.trial_fn_for = trial_fn_for
+        self.settings = settings  # those trial_fn runs with
+        self.fns: dict[Any, Any] = {}
+        self.queue: collections.deque[tuple[Hashable, TrialTask, Any]] = collections.deque()
 
-    def submit(self, key: Hashable, task: TrialTask) -> None:
-        self.queue.append((key, task))
+    def submit(self, key: Hashable, task: TrialTask, settings: Any = None) -> None:
+        self.queue.append((key, task, settings))
 
     def next_done(self) -> tuple[Hashable, dict[str, Any]]:
-        key, task = self.queue.popleft()
-        return key, self.trial_fn(*task)
+        key, task, settings = self.queue.popleft()
+        if settings is None or settings == self.settings or self.trial_fn_for is None:
+            return key, self.trial_fn(*task)
+        make = self.trial_fn_for
+        return key, _cached_fn(self.fns, settings, lambda: make(settings))(*task)
 
     def close(self, abort: bool) -> None:
         self.queue.clear()
 
 
+_WORKER: dict[str, Any] = {}  # per worker process: the study's hand, policy, backend, variation
+
+
+def _init_tune_worker(hand: Any, policy: str, backend: str, variation: Any, settings: Any) -> None:
+    """A worker process of ``tune --jobs N``: the trial function of the study's settings, loaded once."""
+    from grasp_ctrl.trials.runs.workers import ignore_interrupts
+
+    ignore_interrupts()
+    _WORKER["study"] = (hand, policy, backend, variation)
+    _CACHE.clear()
+    _worker_fn(settings)
+
+
+def _worker_fn(settings: Any) -> Any:
+    from grasp_ctrl.trials.episode.runner import sim_trial_fn
+
+    hand, policy, backend, variation = _WORKER["study"]
+    return _cached_fn(
+        _CACHE, settings, lambda: sim_trial_fn(hand, [policy], settings, backend=backend, variation=variation)
+    )
+
+
+def _tune_worker_trial(settings: Any, *task: Any) -> dict[str, Any]:
+    """One trial in a worker process, with the setting's controller settings."""
+    return _worker_fn(settings)(*task)
+
+
 class ProcessExecutor:
     """Worker processes from the fork server of ``run --jobs N`` (runner.parallel_trials)."""
 
-    def __init__(self, jobs: int, hand: Any, policy: str, backend: str, variation: Any = None) -> None:
+    def __init__(
+        self, jobs: int, hand: Any, policy: str, backend: str, variation: Any = None, settings: Any = None
+    ) -> None:
         from concurrent.futures import ProcessPoolExecutor
 
         from grasp_ctrl.controller.settings import ControllerSettings
-        from grasp_ctrl.trials.episode.runner import _init_worker
         from grasp_ctrl.trials.runs.workers import worker_context
 
+        self.settings = settings or ControllerSettings()
         self.pool = ProcessPoolExecutor(
             jobs,
             mp_context=worker_context(),
-            initializer=_init_worker,
-            initargs=(hand, [policy], ControllerSettings(), 1, backend, variation),
+            initializer=_init_tune_worker,
+            initargs=(hand, policy, backend, variation, self.settings),
         )
         self.running: dict[Any, Hashable] = {}
 
-    def submit(self, key: Hashable, task: TrialTask) -> None:
-        from grasp_ctrl.trials.episode.runner import _worker_trial
-
-        self.running[self.pool.submit(_worker_trial, *task)] = key
+    def submit(self, key: Hashable, task: TrialTask, settings: Any = None) -> None:
+        self.running[self.pool.submit(_tune_worker_trial, settings or self.settings, *task)] = key
 
     def next_done(self) -> tuple[Hashable, dict[str, Any]]:
         from concurrent.futures import FIRST_COMPLETED, wait
@@ -90,35 +139,46 @@ class ProcessExecutor:
 
 
 def _tune_trial_in_worker(
-    token: str, hand: Any, policy: str, backend: str, variation: Any, task: TrialTask
+    token: str, hand: Any, policy: str, backend: str, variation: Any, task: TrialTask, settings: Any = None
 ) -> dict[str, Any]:
-    """One trial in a Ray worker (its world drawn under ``variation``); the policy is loaded once
-    per worker and study (``token``)."""
+    """One trial in a Ray worker (its world drawn under ``variation``, its controller ``settings``);
+    the policy is loaded once per worker, study (``token``) and settings."""
     from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
-    key = ("tune", token)
-    if key not in _CACHE:
+    if _WORKER.get("token") != token:
+        _WORKER["token"] = token
         _CACHE.clear()
-        _CACHE[key] = sim_trial_fn(hand, [policy], backend=backend, variation=variation)
-    return _CACHE[key](*task)
+
+    def make() -> Any:
+        return sim_trial_fn(hand, [policy], settings, backend=backend, variation=variation)
+
+    return _cached_fn(_CACHE, settings, make)(*task)
 
 
 class RayExecutor:
     """Ray tasks (the ``ray`` extra): a local instance of ``jobs`` CPUs, or the cluster at ``address``."""
 
     def __init__(
-        self, address: str | None, jobs: int | None, hand: Any, policy: str, backend: str, variation: Any = None
+        self,
+        address: str | None,
+        jobs: int | None,
+        hand: Any,
+        policy: str,
+        backend: str,
+        variation: Any = None,
+        settings: Any = None,
     ) -> None:
         from grasp_ctrl.trials.runs.ray_executor import ray_session
 
+        self.settings = settings
         self._session = ray_session(address, jobs)
         self.ray = self._session.__enter__()
         self.remote = self.ray.remote(num_cpus=1)(_tune_trial_in_worker)
         self.shared = (uuid.uuid4().hex, self.ray.put(hand), policy, backend, variation)
         self.running: dict[Any, Hashable] = {}
 
-    def submit(self, key: Hashable, task: TrialTask) -> None:
-        self.running[self.remote.remote(*self.shared, task)] = key
+    def submit(self, key: Hashable, task: TrialTask, settings: Any = None) -> None:
+        self.running[self.remote.remote(*self.shared, task, settings or self.settings)] = key
 
     def next_done(self) -> tuple[Hashable, dict[str, Any]]:
         ready, _ = self.ray.wait(list(self.running), num_returns=1)
