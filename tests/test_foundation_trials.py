@@ -7,18 +7,31 @@ import json
 import pytest
 
 from grasp_ctrl.cli import main
+from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 
-
-def _trial(hand, obj, policy, seed=3):
-    return run_sim_trial(hand, obj, estimator_factory(policy, hand), seed, policy)
+PAPER = ControllerSettings(controller="paper")  # these trials check the paper's controller's behaviour
 
 
-def test_oracle_lifts_and_places_a_rigid_object(hand, objects):
-    r = _trial(hand, objects["chips_can"], "oracle")
+def _trial(hand, obj, policy, seed=3, settings=PAPER):
+    return run_sim_trial(hand, obj, estimator_factory(policy, hand), seed, policy, settings=settings)
+
+
+@pytest.mark.parametrize(
+    "controller, expected",
+    [
+        ("paper", ["reach", "close", "ramp", "lift", "hold", "lower", "release", "retreat", "done"]),
+        (
+            "grip_load",
+            ["reach", "preshape", "close", "ramp", "load", "lift", "hold", "lower", "release", "retreat", "done"],
+        ),
+    ],
+)
+def test_oracle_lifts_and_places_a_rigid_object(hand, objects, controller, expected):
+    r = _trial(hand, objects["chips_can"], "oracle", settings=ControllerSettings(controller=controller))
     assert r.success, (r.reason, r.transitions, r.events)
     states = [b for _, _, b in r.transitions]
-    assert states == ["reach", "close", "ramp", "lift", "hold", "lower", "release", "retreat", "done"]
+    assert states == expected
     assert r.max_object_z_m > 0.8 * objects["chips_can"].lift_height_m
     assert r.peak_grip_true_n == pytest.approx(objects["chips_can"].tau_n, rel=0.25)
 

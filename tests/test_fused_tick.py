@@ -92,7 +92,7 @@ def test_squeeze_state_ticks_equal_the_python_controller(
 ):
     """Whole trials (with the fused mock tick) with and without the compiled squeeze-state
     tick: the same record and tick log, bit for bit."""
-    s = ControllerSettings(stiffness_aware_squeeze=stiffness_aware)
+    s = ControllerSettings(controller="paper", stiffness_aware_squeeze=stiffness_aware)  # the compiled one
     counts: dict[str, int] = {}
     _counting(monkeypatch, GraspController, "squeeze_done", counts)
     # the compiled tick takes one target for every fingertip: the heavy boxes at equal targets

@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.sim.biotac_model import BioTacSensorModel
 from grasp_ctrl.sim.grip import solve_object_height, tangential_forces
@@ -17,7 +18,9 @@ from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 
 
 def _trial(hand, obj, policy="oracle", seed=7, on_tick=None):
-    return run_sim_trial(hand, obj, estimator_factory(policy, hand), seed, policy, on_tick=on_tick)
+    # the paper's controller: these check the world against its fixed grip
+    settings = ControllerSettings(controller="paper")
+    return run_sim_trial(hand, obj, estimator_factory(policy, hand), seed, policy, settings=settings, on_tick=on_tick)
 
 
 def test_too_little_grip_lets_a_heavy_object_slip(hand, objects):

@@ -50,7 +50,9 @@ class RampSettle:
         self._ref_err = None
         self._recent.clear()
 
-    def update(self, err_now: np.ndarray) -> None:
+    def _filtered(self, err_now: np.ndarray) -> tuple[np.ndarray, bool]:
+        """The errors averaged over the filter window, after counting the within-tolerance rule;
+        and whether they are in the balance band (mean within tolerance, each within the band)."""
         recent = self._recent
         recent.append(np.array(err_now, dtype=float))
         err = recent[0] if len(recent) == 1 else np.mean(recent, axis=0)
@@ -59,6 +61,10 @@ class RampSettle:
         in_band = abs(float(err.mean())) <= self.s.ramp_tolerance_n and bool(
             (abs_err <= self.s.ramp_balance_band_n).all()
         )
+        return err, in_band
+
+    def update(self, err_now: np.ndarray) -> None:
+        err, in_band = self._filtered(err_now)
         if not in_band or self._ref_err is None or bool((np.abs(err - self._ref_err) > self.s.ramp_steady_n).any()):
             self._ref_err = err.copy() if in_band else None
             self.steady_ticks = 0
@@ -90,14 +96,7 @@ class TrendRampSettle(RampSettle):
         self._history.clear()
 
     def update(self, err_now: np.ndarray) -> None:
-        recent = self._recent
-        recent.append(np.array(err_now, dtype=float))
-        err = recent[0] if len(recent) == 1 else np.mean(recent, axis=0)
-        abs_err = np.abs(err)
-        self.within_ticks = self.within_ticks + 1 if bool((abs_err <= self.s.ramp_tolerance_n).all()) else 0
-        in_band = abs(float(err.mean())) <= self.s.ramp_tolerance_n and bool(
-            (abs_err <= self.s.ramp_balance_band_n).all()
-        )
+        err, in_band = self._filtered(err_now)
         if not in_band:
             self._history.clear()
             self.steady_ticks = 0
