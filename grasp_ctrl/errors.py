@@ -69,3 +69,18 @@ class Terminated(KeyboardInterrupt):
     safely, finished trials stay recorded, the run stays resumable) and exits with 143."""
 
     exit_status = 143
+
+
+#: The SIGINT / SIGTERM numbers the command line's handlers received during this command
+#: (cli/__init__.py). An interrupt inside an extension module's import can surface as an
+#: ImportError, which an optional import (numba, say) would take for a missing package and go on.
+SIGNALLED: list[int] = []
+
+
+def reraise_interrupt() -> None:
+    """Raise the interrupt a handler noted, if any (``Terminated`` for SIGTERM): called where an
+    ``except ImportError`` would otherwise swallow it."""
+    if SIGNALLED:
+        import signal
+
+        raise Terminated() if SIGNALLED[-1] == signal.SIGTERM else KeyboardInterrupt()

@@ -36,6 +36,9 @@ try:
         raise ImportError
     import numba as _numba
 except ImportError:
+    from grasp_ctrl.errors import reraise_interrupt
+
+    reraise_interrupt()  # a Ctrl-C or SIGTERM inside numba's import is not a missing numba
     _numba = None
 
 #: True when the kernels are compiled.

@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from types import ModuleType
 
 from grasp_ctrl.cli._ranges import apply_ranges
-from grasp_ctrl.errors import GraspCtrlError, Terminated
+from grasp_ctrl.errors import SIGNALLED, GraspCtrlError, Terminated
 
 PROG = "grasp-ctrl"
 
@@ -52,7 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-_signalled: list[int] = []  # SIGINT / SIGTERM received during this command
+_signalled = SIGNALLED  # SIGINT / SIGTERM received during this command (errors.py)
 
 
 def _raise_terminated(signum: int, frame: object) -> None:
@@ -74,7 +74,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         handlers = (signal.signal(signal.SIGTERM, _raise_terminated), signal.signal(signal.SIGINT, _raise_interrupted))
     _signalled.clear()
     try:
-        return _main(argv)
+        status = _main(argv)
+        if _signalled and status not in (130, 143):  # an interrupt something swallowed (an ImportError, say)
+            print(f"{PROG}: interrupted", file=sys.stderr)
+            return 143 if _signalled[-1] == signal.SIGTERM else 130
+        return status
     except BaseException as exc:
         if not (isinstance(exc, KeyboardInterrupt) or _signalled) or isinstance(exc, SystemExit):
             raise
