@@ -42,7 +42,7 @@ from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.controller.tick_kernels import C_TAU, TICK_DONE, squeeze_state_tick
 from grasp_ctrl.jit import njit
 from grasp_ctrl.loop.sensing import SensingPipeline
-from grasp_ctrl.loop.tick import control_tick, send_command
+from grasp_ctrl.loop.tick import control_tick, pac_spread, send_command
 from grasp_ctrl.loop.tick_kernels import log_row, place_forces, sense_inputs, track_peaks
 from grasp_ctrl.loop.ticklog import TickLog
 from grasp_ctrl.sim import world_step as ws
@@ -591,6 +591,8 @@ class MockTick:
 
     def _finish(self, ctrl: GraspController, snap: Snapshot, raw: np.ndarray) -> None:
         """The controller's tick on ``snap``, then the command's outputs, peaks and log row."""
+        if ctrl.reads_vibration:  # as control_tick gives it
+            snap = snap._replace(pac_spread=pac_spread(raw))
         self._send(ctrl, snap, ctrl.tick(snap), raw)
 
     def _send(self, ctrl: GraspController, snap: Snapshot, cmd: Command, raw: np.ndarray) -> None:
