@@ -120,7 +120,25 @@ def destination(path: str | Path, flag: str = "output") -> Destination:
     raise UsageError(f"{flag} {p}: {_kind_name(mode)}; give a file, a character device, a FIFO or {STDOUT}")
 
 
-def _write_stream(dest: Destination, chunks: Iterable[bytes]) -> None:
+def _flush_printed() -> None:
+    """What this process printed comes before bytes written to its own descriptors."""
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+
+
+def _open_device(dest: Destination, flag: str) -> int:
+    """A ``stream`` destination opened for writing, without creating or truncating anything (a
+    FIFO waits here for its reader), and checked to be what :func:`destination` saw."""
+    fd = os.open(dest.path, os.O_WRONLY | os.O_NOCTTY)
+    mode = os.fstat(fd).st_mode
+    if not (stat.S_ISCHR(mode) or stat.S_ISFIFO(mode)):
+        os.close(fd)
+        raise UsageError(f"{flag} {dest.path}: changed while being opened; nothing written")
+    return fd
+
+
+def _write_stream(dest: Destination, chunks: Iterable[bytes], flag: str = "output") -> None:
     """The bytes written to a stream destination: opened without creating or truncating
     anything, checked to be what :func:`destination` saw, written whole."""
     if dest.kind == "stdout":
@@ -134,17 +152,10 @@ def _write_stream(dest: Destination, chunks: Iterable[bytes]) -> None:
         (out or sys.stdout).flush()
         return
     if dest.kind == "fd":
-        for stream in (sys.stdout, sys.stderr):  # what this process printed comes first
-            with contextlib.suppress(Exception):
-                stream.flush()
+        _flush_printed()
         fd, close = dest.fd, False
     else:
-        fd = os.open(dest.path, os.O_WRONLY | os.O_NOCTTY)  # a FIFO waits here for its reader
-        close = True
-        mode = os.fstat(fd).st_mode
-        if not (stat.S_ISCHR(mode) or stat.S_ISFIFO(mode)):
-            os.close(fd)
-            raise UsageError(f"{dest.path}: changed while being opened; nothing written")
+        fd, close = _open_device(dest, flag), True
     try:
         for chunk in chunks:
             view = memoryview(chunk)
@@ -162,15 +173,10 @@ def open_output(path: str | Path, flag: str = "output") -> BinaryIO:
     by a new file, never followed."""
     dest = destination(path, flag)
     if dest.kind == "stdout" or dest.kind == "fd":
-        for stream in (sys.stdout, sys.stderr):
-            with contextlib.suppress(Exception):
-                stream.flush()
+        _flush_printed()
         fd = os.dup(1 if dest.kind == "stdout" else dest.fd)
     elif dest.kind == "stream":
-        fd = os.open(dest.path, os.O_WRONLY | os.O_NOCTTY)
-        if not (stat.S_ISCHR(os.fstat(fd).st_mode) or stat.S_ISFIFO(os.fstat(fd).st_mode)):
-            os.close(fd)
-            raise UsageError(f"{flag} {dest.path}: changed while being opened; nothing written")
+        fd = _open_device(dest, flag)
     else:
         if dest.path.is_symlink():  # a new file replaces the link; its target is never written
             dest.path.unlink()
@@ -183,7 +189,7 @@ def write_stream(path: str | Path, data: str | bytes, flag: str = "output") -> D
     (a ``file`` destination is left to the caller)."""
     dest = destination(path, flag)
     if dest.is_stream:
-        _write_stream(dest, [data.encode("utf-8") if isinstance(data, str) else data])
+        _write_stream(dest, [data.encode("utf-8") if isinstance(data, str) else data], flag)
     return dest
 
 

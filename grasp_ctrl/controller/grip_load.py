@@ -1,4 +1,4 @@
-"""The grip-load controller: the paper's states plus a load phase and a slip response.
+"""The grip-load controller: the paper's states plus a guarded reach, a load phase and a slip response.
 
 The paper's controller ramps each fingertip to a fixed tau and lifts at constant speed. On a
 heavy object the grasp then changes under the fingers at lift-off: whatever pressed the object
@@ -7,28 +7,27 @@ within a tick, the grip drops by a third to a half and the object slips. This co
 the force *vectors* the estimators give, as a human grasp does (Johansson and Westling 1984;
 Romano et al. 2011, "Load"):
 
-- **load** (between ramp and lift): the arm rises slowly (``load_speed_m_s``) while the grip
-  loop runs at the ramp's gains, so the grip follows what the fingertips come to carry; the
-  state ends once the fingertips carry ``load_weight_fraction`` of the object profile's weight
-  for ``load_settle_s`` (or the palm has risen ``load_max_rise_m``).
+- **reach and preshape**: the pads reach backed off ``reach_standoff_m`` along their closing
+  vectors, then each finger returns to its closing preshape and stops at its own contact.
+- **load** (between ramp and lift): the arm rises slowly (``load_speed_m_s``) while the grip loop
+  follows what the fingertips come to carry; the state ends after ``load_min_rise_m`` once they
+  carry ``load_weight_fraction`` of the profile's weight for ``load_settle_s``, or at
+  ``load_max_rise_m``.
 - **grip-load coordination** (load, lift, hold, lower): every grip target is the ramp's target
-  scaled by one common factor ``s`` (the fingers push against each other through the object, so
-  their targets must keep their proportions), the smallest that keeps each fingertip's tangential
-  force inside its friction cone with a margin: ``|f_t| <= mu_hat * f_n / grip_margin`` in the
-  sensor frame (``f_n`` along the pad's normal, +z); ``mu_hat`` is the object profile's friction.
-- **slip response**: a fingertip whose force ratio approaches the cone
-  (``|f_t| > slip_cone_fraction * mu_hat * f_n``), whose grip falls below
-  ``slip_grip_fraction`` of its target, or whose tangential force changes faster than
-  ``slip_rate_n_s`` raises ``s`` by ``slip_boost``; while any fingertip slips the arm waits
-  (lift and lower pause until the grips are back within tolerance).
-- ``s`` never exceeds what the safety limit allows (``grip_cap_fraction`` of
-  ``safety.max_fingertip_force_n``, less the tangential force: the over-force check reads
-  ``|f_sensor|``) nor, on a deformable object, ``grip_cap_fraction`` of its crush force; it falls back
-  toward 1 at ``grip_relax_per_s`` when the load goes (placing the object).
+  times one common factor ``s`` (the fingers push against each other through the object, so their
+  targets keep their proportions), the smallest that keeps each pad's load inside its friction
+  cone with a margin: ``grip_i >= grip_margin * load_i / mu_hat`` (the grip is the pad's normal
+  force on an object held by its sides; ``mu_hat`` starts at the profile's friction).
+- **slip response**: a pad whose load nears the cone, whose grip falls or whose tangential force
+  jumps faster than set, or whose skin vibrates (PAC), raises ``s`` by ``slip_boost`` and makes the
+  arm wait; vibration in lift or hold also lowers ``mu_hat`` to what the grasp held.
+- ``s`` stays below ``grip_cap_fraction`` of the safety limit (less the tangential force: the
+  over-force check reads ``|f_sensor|``) and of a deformable object's crush force, and relaxes at
+  ``grip_relax_per_s``; during the ramp a fingertip past that cap scales the targets down.
 
-It reads only what a real hand gives (the estimated forces, contact flags, joint angles, the
-palm's position) and the object profile, never the world's truth. Its ticks run the Python
-path (the compiled kernels take one fixed target per fingertip). docs/controller.md.
+It reads only what a real hand gives (the estimated forces, contact flags, PAC, joint angles, the
+palm's position) and the object profile, never the world's truth. Its ticks run the Python path
+(the compiled kernels take one fixed target per fingertip). docs/controller.md.
 """
 
 from __future__ import annotations
@@ -158,23 +157,22 @@ class GripLoadController(GraspController):
 
     # ----- per-tick estimates ------------------------------------------------------
     def _update_counters(self, snap: Snapshot) -> None:
-        """The paper's counters with the lost-grip floor on the base targets (a raised target must
-        not turn a steady grip into a slip), then the coordination in the states that carry."""
-        targets, tolerance = self._targets, self.s.ramp_tolerance_n
-        grip = snap.grip_n.tolist()
-        within = all(abs(t - g) <= tolerance or not grasping for g, t, grasping in zip(grip, targets, self._grasping))
-        self.settle_count = self.settle_count + 1 if within else 0
-        if self.state == "ramp":
-            self._limit_to_safety(snap)
-            self.ramp_settle.update(self.grip_targets[self.grasp_mask] - snap.grip_n[self.grasp_mask])
-        fraction = self.s.grip_lost_fraction
-        self.lost_count = [
-            count + 1 if not touching or g < fraction * t else 0
-            for count, touching, g, t in zip(self.lost_count, snap.in_contact.tolist(), grip, self._base)
-        ]
-        self.release_count = self.release_count + 1 if self._support_took_load(snap) else 0
+        """The paper's counters (with the refinements below), then the coordination in the
+        states that carry."""
+        super()._update_counters(snap)
         if self.state in COORDINATED:
             self._coordinate(snap)
+
+    def _ramp_tick(self, snap: Snapshot) -> None:
+        self._limit_to_safety(snap)
+        super()._ramp_tick(snap)
+
+    def _lost_floor(self) -> list[float]:
+        """The tuned targets: a raised target must not turn a steady grip into a slip."""
+        return self._base
+
+    def _release_signal(self, snap: Snapshot) -> bool:
+        return self._support_took_load(snap)
 
     def _support_took_load(self, snap: Snapshot) -> bool:
         """The paper's release rule (the index's force on the object along the support normal below
@@ -275,17 +273,16 @@ class GripLoadController(GraspController):
         if slipping.any() and not self.slipping.any():
             self.slip_events += 1
             self.scale += s.slip_boost
+        total_grip = float(np.sum(np.where(touching, grip, 0.0)))
         if vibrating.any() and self.state in ("lift", "hold") and s.slip_adapts_mu:
             # The object slides in the grasp (the skin vibrates) while it hangs in it: the friction
             # is at most the load the grasp held over the grip it held it with (the sum: a single
             # pad's ratio on a domed cap is no friction). The cone rule then asks for the grip
             # that friction needs. (Not while loading: pads that slide over an object the table
             # still carries say nothing of the friction.)
-            total_grip = float(np.sum(np.where(touching, grip, 0.0)))
             if total_grip > 0.1 and self._held_ratio > 0.0:
                 self.mu_hat = max(s.min_mu_hat, min(self.mu_hat, self._held_ratio))
         self.slipping = slipping
-        total_grip = float(np.sum(np.where(touching, grip, 0.0)))
         self._held_ratio = max(self.carried_n, 0.0) / total_grip if total_grip > 0.1 else 0.0
         # the cap: the safety limit on |f| (with the tangential force) and a deformable's crush force
         caps = []
@@ -309,9 +306,8 @@ class GripLoadController(GraspController):
         super()._on_enter(*args, **kwargs)
         self.carried_ticks = 0
         self.pause_ticks = 0
-        if self.state == "load":
+        if self.state == "load" and self.snap is not None:  # (a tick sets the snapshot before stepping)
             self.ramp_scale = self.scale
-        if self.state == "load" and self.snap is not None:
             self._load_start_z = float(self.snap.p_palm_world[2])
             self._load_top = np.asarray(
                 self.palm_target if self.palm_target is not None else self.snap.p_palm_world, dtype=float
@@ -353,9 +349,7 @@ class GripLoadController(GraspController):
                 q[rows] += self._alpha[i] * (self.reach_q[rows] - self.wide_q[rows])
             self.motion.set_posture(q)
         elif state == "load":
-            if self._load_top is None:  # (entered without a snapshot: only in hand-driven tests)
-                self._on_enter()
-            assert self._load_top is not None
+            assert self._load_top is not None  # set on entering load
             speed = 0.0 if self._paused() else s.load_speed_m_s
             self._squeeze(snap, s.load_gain_m_s_per_n, s.load_max_speed_m_s, self._load_top, speed)
         elif state == "lift":

@@ -376,14 +376,27 @@ class GraspController:
                 break
         self.settle_count = self.settle_count + 1 if within else 0
         if self.state == "ramp":
-            self.ramp_settle.update(self.grip_targets[self.grasp_mask] - snap.grip_n[self.grasp_mask])
+            self._ramp_tick(snap)
         fraction = self.s.grip_lost_fraction
         self.lost_count = [
             count + 1 if not touching or g < fraction * t else 0
-            for count, touching, g, t in zip(self.lost_count, snap.in_contact.tolist(), grip, targets)
+            for count, touching, g, t in zip(self.lost_count, snap.in_contact.tolist(), grip, self._lost_floor())
         ]
-        below = self.release_force_n(snap) < -self.obj.release_threshold_n
-        self.release_count = self.release_count + 1 if below else 0
+        self.release_count = self.release_count + 1 if self._release_signal(snap) else 0
+
+    # The Python tick's rules a controller may refine (controller/grip_load.py does).
+    def _ramp_tick(self, snap: Snapshot) -> None:
+        """The ramp's settle counters, on the errors from the grip targets."""
+        self.ramp_settle.update(self.grip_targets[self.grasp_mask] - snap.grip_n[self.grasp_mask])
+
+    def _lost_floor(self) -> list[float]:
+        """The targets whose ``grip_lost_fraction`` is the lost-grip floor, per fingertip."""
+        return self._targets
+
+    def _release_signal(self, snap: Snapshot) -> bool:
+        """This tick counts toward the release: the index's force on the object along the
+        support normal below -``release_threshold_n``."""
+        return self.release_force_n(snap) < -self.obj.release_threshold_n
 
     @staticmethod
     def _force_sq(snap: Snapshot) -> list[float]:

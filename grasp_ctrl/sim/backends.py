@@ -117,14 +117,22 @@ class MockHand:
                     return
                 raise HardwareError(f"bad goal vector of shape {q_goal.shape}")
             q = np.empty(self._n_joints)
-            if checked_limit_goal(q_goal, self.world.q_goal, self.max_step, self.lower, self.upper, q):
-                self.world.q_goal = q
+            if checked_limit_goal(q_goal, self._goal_held(), self.max_step, self.lower, self.upper, q):
+                self._hold_goal(q)
                 return
         if q_goal.shape != self.lower.shape or not all_finite(q_goal):
             raise HardwareError(f"bad goal vector of shape {q_goal.shape}")
-        prev = self.world.q_goal
+        prev = self._goal_held()
         q = np.minimum(np.maximum(q_goal, prev - self.max_step), prev + self.max_step)  # = np.clip, cheaper
-        self.world.q_goal = np.minimum(np.maximum(q, self.lower), self.upper)
+        self._hold_goal(np.minimum(np.maximum(q, self.lower), self.upper))
+
+    def _goal_held(self) -> np.ndarray:
+        """The goal the servos hold now, in the angles they are commanded in (the step limit's origin)."""
+        return self.world.q_goal
+
+    def _hold_goal(self, q: np.ndarray) -> None:
+        """Hand the servos a clamped goal (the world's joints follow it)."""
+        self.world.q_goal = q
 
     def set_torque(self, enabled: bool) -> None:
         self.world.torque_on = enabled

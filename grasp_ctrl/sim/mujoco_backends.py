@@ -11,8 +11,6 @@ from __future__ import annotations
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
-from grasp_ctrl.errors import HardwareError
-from grasp_ctrl.finite import all_finite
 from grasp_ctrl.hardware.base import JointState
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
 from grasp_ctrl.sim.mujoco_world import MuJoCoWorld
@@ -32,15 +30,13 @@ class MuJoCoHand(MockHand):
         current = w.joint_torque_nm / w.params.scene.torque_per_amp_nm
         return JointState(q=w.q_measured, dq=w.dq, current_a=current, t=w.t)
 
-    def write_goals(self, q_goal: np.ndarray) -> None:
-        """MockHand's clamping (step limit from the servos' last goal, then the hand file's
-        limits), in calibrated angles; the world adds the offsets."""
-        q_goal = np.asarray(q_goal, dtype=float)
-        if q_goal.shape != self.lower.shape or not all_finite(q_goal):
-            raise HardwareError(f"bad goal vector of shape {q_goal.shape}")
-        prev = self.world.q_goal_measured
-        q = np.minimum(np.maximum(q_goal, prev - self.max_step), prev + self.max_step)  # = np.clip, cheaper
-        self.world.command_goal(np.minimum(np.maximum(q, self.lower), self.upper))
+    # MockHand's clamping (step limit from the servos' last goal, then the hand file's limits),
+    # in calibrated angles; the world adds the offsets.
+    def _goal_held(self) -> np.ndarray:
+        return self.world.q_goal_measured
+
+    def _hold_goal(self, q: np.ndarray) -> None:
+        self.world.command_goal(q)
 
 
 class MuJoCoSensors(MockSensors):
