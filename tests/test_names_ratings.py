@@ -21,7 +21,7 @@ from grasp_ctrl.config.identifiers import (
     is_identifier,
 )
 from grasp_ctrl.config.servos import MODELS
-from grasp_ctrl.errors import ConfigError, UsageError
+from grasp_ctrl.errors import ConfigError, PolicyError, UsageError
 from grasp_ctrl.estimators.registry import load_policy, resolve_policy_path
 from grasp_ctrl.paths import REPO_ROOT, default_objects_file, policies_dir
 from grasp_ctrl.storage import check_object_name
@@ -114,7 +114,7 @@ def test_a_policy_json_whose_name_has_a_space_is_one_line(tmp_path):
     meta["name"] = "mlp mock"
     path = tmp_path / "mlp_mock.json"
     path.write_text(json.dumps(meta))
-    with pytest.raises(ConfigError) as info:
+    with pytest.raises(PolicyError) as info:  # what every unloadable policy raises
         load_policy(str(path))
     assert one_line(info.value).startswith(f"{path}: name: an identifier")
     meta["name"] = "mlp_mock.v2"  # the same file with an identifier loads
@@ -139,7 +139,7 @@ def test_a_bad_policy_name_is_refused_by_run_in_one_line(tmp_path, capsys):
 def test_a_calibrated_policys_base_name_cannot_leave_its_folder(tmp_path):
     from grasp_ctrl.estimators.calibrated import _base_path
 
-    with pytest.raises(ConfigError, match=r"base_policy\.name: an identifier"):
+    with pytest.raises(PolicyError, match=r"base_policy\.name: an identifier"):
         _base_path({"base_policy": {"name": "../../x"}}, tmp_path / "cal.json")
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from grasp_ctrl.errors import ConfigError, UsageError
+from grasp_ctrl.errors import ConfigError, PolicyError, UsageError
 
 MAX_IDENTIFIER = 64
 IDENTIFIER = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9_.-]{0,63}")  # matched with fullmatch, never match
@@ -38,8 +38,20 @@ def shown(value: Any) -> str:
 def check_identifier(value: object, where: object, key: str, why: str = "") -> str:
     """``value`` if it is an identifier, else ConfigError(where, key, the rule, ``why`` and the value)."""
     if not is_identifier(value):
-        raise ConfigError(str(where), key, f"{IDENTIFIER_RULE}{f'; {why}' if why else ''} (got {shown(value)})")
+        raise ConfigError(str(where), key, _expected(value, why))
     return value  # type: ignore[return-value]
+
+
+def check_policy_identifier(value: object, where: object, key: str) -> str:
+    """``check_identifier`` for a policy file: the same line as a PolicyError (what a policy that
+    cannot be loaded raises, and the command line reports)."""
+    if not is_identifier(value):
+        raise PolicyError(f"{where}: {key}: {_expected(value)}")
+    return value  # type: ignore[return-value]
+
+
+def _expected(value: object, why: str = "") -> str:
+    return f"{IDENTIFIER_RULE}{f'; {why}' if why else ''} (got {shown(value)})"
 
 
 def check_identifier_arg(value: object, what: str) -> str:

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
-from grasp_ctrl.config.identifiers import check_identifier
+from grasp_ctrl.config.identifiers import check_policy_identifier
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.base import Estimate, ForceEstimator
 from grasp_ctrl.storage import file_sha256
@@ -74,7 +74,7 @@ def _base_path(meta: dict[str, Any], json_path: Path) -> Path:
     base = meta.get("base_policy")
     if not isinstance(base, dict) or not isinstance(base.get("name"), str) or not base["name"]:
         raise PolicyError(f"{json_path}: base_policy.name: required (the policy the correction applies to)")
-    check_identifier(base["name"], json_path, "base_policy.name")  # it names a file beside this one
+    check_policy_identifier(base["name"], json_path, "base_policy.name")  # it names a file beside this one
     beside = json_path.parent / f"{base['name']}.json"
     if beside.is_file():
         return beside

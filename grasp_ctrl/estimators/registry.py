@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from grasp_ctrl.config.hand import HandConfig
-from grasp_ctrl.config.identifiers import check_identifier, check_identifier_arg
+from grasp_ctrl.config.identifiers import check_identifier_arg, check_policy_identifier
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.analytic import AnalyticEstimator
 from grasp_ctrl.estimators.base import ForceEstimator
@@ -57,7 +57,7 @@ def read_metadata(json_path: Path) -> dict[str, Any]:
     if not isinstance(meta, dict) or "kind" not in meta:
         raise PolicyError(f"{json_path}: kind: required key is missing")
     if "name" in meta:
-        check_identifier(meta["name"], json_path, "name")
+        check_policy_identifier(meta["name"], json_path, "name")
     return meta
 
 
