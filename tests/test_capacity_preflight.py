@@ -40,7 +40,7 @@ def test_two_newtons_of_equal_grip_cannot_carry_the_heavy_boxes(hand, objects):
     """The grip targets count, not only the currents: at tau 2 N, all pads equal, the thumb's
     grip binds and the heavy boxes are short, as MuJoCo shows (they slip at lift-off)."""
     for name in ("cleanser", "mustard_bottle"):
-        v = check_object(hand, objects[name].with_params(tau_n=2.0, grip_targets=None))
+        v = check_object(hand, objects[name].with_params(tau_n=2.0, grip_targets="equal"))
         assert not v.carried and v.ratio < 0.8, v.line()
         assert "thumb's grip target 2.00 N" in v.binding
 
@@ -54,7 +54,7 @@ def test_halved_currents_name_the_cleanser_and_the_binding_joint(tmp_path, objec
 
 
 def test_refused_on_a_hand_unless_forced(hand, objects):
-    short = objects["cleanser"].with_params(tau_n=2.0, grip_targets=None)
+    short = objects["cleanser"].with_params(tau_n=2.0, grip_targets="equal")
     said: list[str] = []
     with pytest.raises(CapacityRefused, match=r"capacity: cleanser: the grasp carries 0\.\d\dx its weight"):
         preflight_capacity(hand, [short], None, on_hand=True, force=False, say=said.append)

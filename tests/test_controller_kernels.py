@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from grasp_ctrl.controller.machine import GraspController
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.pad_ik import PadIK
@@ -42,7 +42,7 @@ def controllers(request, hand, objects):
     (as before these kernels), squeezing along the closing vectors or stiffness-aware. Without
     numba the kernels run as plain Python."""
     kin = HandKinematics(hand)
-    s = ControllerSettings(stiffness_aware_squeeze=request.param)
+    s = settings_for("paper", stiffness_aware_squeeze=request.param)
     fast = GraspController(hand, objects["chips_can"], np.zeros(3), s, kin=kin)
     slow = GraspController(hand, objects["chips_can"], np.zeros(3), s, kin=kin)
     for ctrl, compiled in ((fast, True), (slow, False)):

@@ -7,10 +7,10 @@ import json
 import pytest
 
 from grasp_ctrl.cli import main
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 
-PAPER = ControllerSettings(controller="paper")  # these trials check the paper's controller's behaviour
+PAPER = settings_for("paper")  # these trials check the paper's controller's behaviour
 
 
 def _trial(hand, obj, policy, seed=3, settings=PAPER):
@@ -28,12 +28,14 @@ def _trial(hand, obj, policy, seed=3, settings=PAPER):
     ],
 )
 def test_oracle_lifts_and_places_a_rigid_object(hand, objects, controller, expected):
-    r = _trial(hand, objects["chips_can"], "oracle", settings=ControllerSettings(controller=controller))
+    r = _trial(hand, objects["chips_can"], "oracle", settings=settings_for(controller))
     assert r.success, (r.reason, r.transitions, r.events)
     states = [b for _, _, b in r.transitions]
     assert states == expected
     assert r.max_object_z_m > 0.8 * objects["chips_can"].lift_height_m
-    assert r.peak_grip_true_n == pytest.approx(objects["chips_can"].tau_n, rel=0.25)
+    # grip_load's force-closure targets: the thumb pushes back what the index and middle push
+    peak = objects["chips_can"].tau_n * (2.0 if controller == "grip_load" else 1.0)
+    assert r.peak_grip_true_n == pytest.approx(peak, rel=0.25)
 
 
 def test_same_seed_repeats_exactly(hand, objects):

@@ -20,7 +20,7 @@ from hypothesis.extra import numpy as hnp
 from grasp_ctrl import jit
 from grasp_ctrl.controller import tick_kernels as tk
 from grasp_ctrl.controller.machine import GraspController, _distance
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.estimators import linear
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
@@ -92,7 +92,7 @@ def test_squeeze_state_ticks_equal_the_python_controller(
 ):
     """Whole trials (with the fused mock tick) with and without the compiled squeeze-state
     tick: the same record and tick log, bit for bit."""
-    s = ControllerSettings(controller="paper", stiffness_aware_squeeze=stiffness_aware)  # the compiled one
+    s = settings_for("paper", stiffness_aware_squeeze=stiffness_aware)  # the compiled one
     counts: dict[str, int] = {}
     _counting(monkeypatch, GraspController, "squeeze_done", counts)
     # the compiled tick takes one target for every fingertip: the heavy boxes at equal targets

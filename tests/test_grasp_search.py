@@ -15,6 +15,7 @@ from grasp_ctrl.cli import main
 from grasp_ctrl.config.checks import check_objects_for_hand
 from grasp_ctrl.config.objects import load_objects, profile_from_json, profile_json
 from grasp_ctrl.controller.machine import GraspController
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import ConfigError, UsageError
 from grasp_ctrl.paths import REPO_ROOT
@@ -171,7 +172,7 @@ def test_setting_and_posture_params_parse_and_apply(hand, objects):
     setting = {"posture.thumb.2": 0.05, "setting.grip_margin": 1.4, "approach_offset_m": -0.003}
     tuned = apply_setting(objects["cleanser"], setting, joints)
     assert tuned.posture_offsets() == {"thumb": (0.0, 0.0, 0.05, 0.0)} and tuned.approach_offset_m == -0.003
-    assert controller_settings(ControllerSettings(controller="grip_load"), setting).grip_margin == 1.4
+    assert controller_settings(settings_for("grip_load"), setting).grip_margin == 1.4
     for spec, said in [
         ("posture.pinky.0=0:0.1", "not a finger"),
         ("posture.index.4=0:0.1", "joints 0 to 3"),

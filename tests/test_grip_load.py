@@ -12,13 +12,13 @@ import pytest
 from grasp_ctrl.controller.grip_load import LOAD_STATES, GripLoadController
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.ramp_settle import RampSettle, TrendRampSettle
-from grasp_ctrl.controller.registry import CONTROLLER_NAMES, controller_class, make_controller
+from grasp_ctrl.controller.registry import CONTROLLER_NAMES, controller_class, make_controller, settings_for
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.errors import UsageError
 
 REACH = np.array([0.0, 0.0, 0.2])
-GRIP_LOAD = ControllerSettings(controller="grip_load")
+GRIP_LOAD = settings_for("grip_load")
 
 
 class Trace:
@@ -87,7 +87,7 @@ def test_registry_names_both_controllers_and_refuses_others(hand, mustard):
     assert controller_class("paper") is GraspController
     assert isinstance(make_controller(hand, mustard, REACH, GRIP_LOAD), GripLoadController)
     assert isinstance(make_controller(hand, mustard, REACH), GripLoadController)  # the default
-    paper = make_controller(hand, mustard, REACH, ControllerSettings(controller="paper"))
+    paper = make_controller(hand, mustard, REACH, settings_for("paper"))
     assert type(paper) is GraspController
     with pytest.raises(UsageError, match="one of paper, grip_load"):
         controller_class("pid")

@@ -1,6 +1,6 @@
 """grip_load in MuJoCo: the object's friction falls mid-lift and the grip rises and holds.
 
-The chips can's friction is lowered to 55 % of its value over 2 s once the lift has raised it
+The chips can's friction is lowered to 40 % of its value over 2 s once the lift has raised it
 2 cm (a film of oil on the skin, say). The paper's controller keeps its grip and the can slides
 out; grip_load feels the skin vibrate as the grasp starts to slide (PAC), lowers its friction
 estimate to what the grasp held, raises every grip along the friction cone and carries the can
@@ -12,12 +12,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial, trial_seed
 
 pytest.importorskip("mujoco")
 
-FRICTION_LEFT = 0.55
+FRICTION_LEFT = 0.4
 RAMP_S = 2.0
 
 
@@ -42,7 +42,7 @@ def _trial(hand, obj, controller: str, trial: int):
         trial_seed(0, obj.name, trial),
         "oracle",
         trial,
-        ControllerSettings(controller=controller),
+        settings_for(controller),
         backend="mujoco",
         on_tick=lower_friction,
     )

@@ -11,6 +11,7 @@ import pytest
 
 from grasp_ctrl.controller.grip_targets import GRAVITY_M_S2, grip_targets
 from grasp_ctrl.controller.machine import GraspController
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import ConfigError, UsageError
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
@@ -84,8 +85,8 @@ def _ramp_grips(hand, obj, settings):
 
 def test_in_the_mock_world_the_thumb_ramps_toward_twice_tau_with_force_closure(hand, objects):
     obj = dataclasses.replace(objects["chips_can"], tau_n=1.5)
-    equal = _ramp_grips(hand, obj, None)
-    closure = _ramp_grips(hand, obj, ControllerSettings(grip_targets="force_closure"))
+    equal = _ramp_grips(hand, obj, settings_for("paper"))
+    closure = _ramp_grips(hand, obj, settings_for("paper", grip_targets="force_closure"))
     assert equal[:, 3].max() < 1.5 + 0.5
     assert closure[:, 3].max() > 1.5 + 1.0  # toward 3 N while the index and middle aim at 1.5 N
 

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.sim.biotac_model import BioTacSensorModel
 from grasp_ctrl.sim.grip import solve_object_height, tangential_forces
@@ -19,7 +19,7 @@ from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 
 def _trial(hand, obj, policy="oracle", seed=7, on_tick=None):
     # the paper's controller: these check the world against its fixed grip
-    settings = ControllerSettings(controller="paper")
+    settings = settings_for("paper")
     return run_sim_trial(hand, obj, estimator_factory(policy, hand), seed, policy, settings=settings, on_tick=on_tick)
 
 
@@ -55,7 +55,8 @@ class _WrongShearSign:
 
 def test_an_early_release_drops_the_object(hand, objects):
     obj = objects["chips_can"]
-    r = run_sim_trial(hand, obj, _WrongShearSign, 7, "wrong_shear_sign")
+    # the paper's release rule (grip_load reads the index from where it pressed in hold)
+    r = run_sim_trial(hand, obj, _WrongShearSign, 7, "wrong_shear_sign", settings=settings_for("paper"))
     assert not r.success and r.reason == "dropped_early"
     assert any(e["kind"] == "fell" for e in r.events)
     released = [t for t, _, b in r.transitions if b == "release"][0]

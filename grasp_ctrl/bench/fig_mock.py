@@ -7,8 +7,7 @@ from collections.abc import Callable
 
 from grasp_ctrl.bench.figure import Figure, time_ms
 from grasp_ctrl.config import load_hand, load_objects
-from grasp_ctrl.controller.registry import make_controller
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.registry import make_controller, settings_for
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.loop.sensing import SensingPipeline
@@ -33,7 +32,7 @@ class _Loop:
         self.arm = MockArm(self.world, self.hand)
         self.sensors = MockSensors(self.world)
         self.pipeline = SensingPipeline(self.hand, kin, estimator_for_world(self.world))
-        settings = ControllerSettings(controller=controller)
+        settings = settings_for(controller)
         self.ctrl = make_controller(self.hand, obj, self.world.reach_pose_world(), settings, kin)
 
     def control(self) -> None:

@@ -220,8 +220,7 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
         if backend != "dynamixel":
             raise UsageError("--emulate: only with --backend dynamixel (it emulates the real hand's links)")
         backend = EMULATED
-    from grasp_ctrl.controller.registry import DEFAULT_CONTROLLER, controller_class
-    from grasp_ctrl.controller.settings import ControllerSettings
+    from grasp_ctrl.controller.registry import DEFAULT_CONTROLLER, controller_class, settings_for
 
     controller = args.controller or (preset.controller if preset else DEFAULT_CONTROLLER)
     controller_class(controller)  # an unknown name: one line listing the controllers
@@ -233,7 +232,7 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     drawn = None if backend == "dynamixel" else variation(args.variation or DEFAULT_VARIATION)
     manifest = RunManifest(
         variation=drawn,
-        settings=ControllerSettings(controller=controller),
+        settings=settings_for(controller),
         backend=backend,
         hand=hand.name,
         seed=args.seed if args.seed is not None else 0,

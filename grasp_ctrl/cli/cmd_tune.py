@@ -195,12 +195,9 @@ def _variation(args: argparse.Namespace) -> Any:
 
 def _settings(args: argparse.Namespace) -> Any:
     """The controller settings every setting starts from: ``--controller``'s (default the registry's)."""
-    from grasp_ctrl.controller.registry import DEFAULT_CONTROLLER, controller_class
-    from grasp_ctrl.controller.settings import ControllerSettings
+    from grasp_ctrl.controller.registry import DEFAULT_CONTROLLER, settings_for
 
-    name = args.controller or DEFAULT_CONTROLLER
-    controller_class(name)
-    return ControllerSettings(controller=name)
+    return settings_for(args.controller or DEFAULT_CONTROLLER)
 
 
 def _executor(args: argparse.Namespace, hand: Any, trial_fn: Any) -> Any:

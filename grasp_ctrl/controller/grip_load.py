@@ -83,11 +83,22 @@ class GripLoadController(GraspController):
     STATES = LOAD_STATES
     TRANSITIONS = LOAD_TRANSITIONS
     reads_vibration = True
+    NAME = "grip_load"
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self._compiled = False  # targets change every tick: the Python tick (the reference)
         self.ramp_settle = TrendRampSettle(self.s, self.dt)  # holds under quantised goals and noise
+        limit = self.hand.safety.max_fingertip_force_n * self.s.grip_cap_fraction
+        if self.obj.deformable and self.obj.crush_force_n is not None:
+            limit = min(limit, self.obj.crush_force_n * self.s.grip_cap_fraction)
+        self.grip_cap_n = limit
+        # the targets keep their proportions under the cap (force closure asks the thumb for what
+        # the index and middle push together: 4 N on the paper cup, whose crush force is 3.2 N)
+        peak = float(np.max(self.grip_targets, initial=0.0))
+        if peak > limit:
+            self.grip_targets = self.grip_targets * (limit / peak)
+            self._targets = self.grip_targets.tolist()
         self.base_targets = self.grip_targets.copy()
         self._base = self.base_targets.tolist()
         self.scale = 1.0  # the common factor on the base targets
@@ -106,11 +117,7 @@ class GripLoadController(GraspController):
         self._load_start_z: float | None = None
         self._load_top: np.ndarray | None = None
         self.pause_ticks = 0
-        self._hold_sum, self._hold_n = 0.0, 0
-        limit = self.hand.safety.max_fingertip_force_n * self.s.grip_cap_fraction
-        if self.obj.deformable and self.obj.crush_force_n is not None:
-            limit = min(limit, self.obj.crush_force_n * self.s.grip_cap_fraction)
-        self.grip_cap_n = limit
+        self._hold_sum, self._hold_index_sum, self._hold_n = 0.0, 0.0, 0
         self.wide_q = self._wide_posture()
         self._alpha = [0.0] * len(self.names)  # each finger's way from the wide to the closing preshape
 
@@ -182,13 +189,18 @@ class GripLoadController(GraspController):
         support pushes back. The sum, not one fingertip: the fingers' vertical forces also hold a
         couple (on the lego the index and middle push up 0.8 N each, the thumb down 0.9 N), which
         shifts as the arm moves; the sum is the object's weight however the couple shifts."""
-        if self.release_force_n(snap) < -self.obj.release_threshold_n:
-            return True
+        index_n = self.release_force_n(snap)
         carried = self._carried(snap)
         if self.state == "hold":
             self._hold_sum += carried
+            self._hold_index_sum += index_n
             self._hold_n += 1
             return False
+        # an index that pressed down while the object hung (a couple: on the lego the thumb lifts
+        # 1.4 N while the index and middle press 0.45 N each) counts from what it pressed then
+        pressed = min(self._hold_index_sum / self._hold_n, 0.0) if self._hold_n else 0.0
+        if index_n - pressed < -self.obj.release_threshold_n:
+            return True
         if self.state != "lower" or not self.s.release_relative or not self._hold_n:
             return False
         near = snap.p_palm_world[2] - self.reach_pose[2] < self.s.lower_slow_zone_m

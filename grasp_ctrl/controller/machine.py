@@ -24,6 +24,7 @@ from grasp_ctrl.controller import tick_kernels as tk
 from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES, grip_targets
 from grasp_ctrl.controller.motion import FingertipMotion
 from grasp_ctrl.controller.ramp_settle import RampSettle
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import ConfigError
@@ -141,6 +142,7 @@ class GraspController:
     TRANSITIONS: list[tuple[str, str, str, str | None]] = TRANSITIONS
     #: Whether the tick gives it each fingertip's PAC spread (``Snapshot.pac_spread``).
     reads_vibration = False
+    NAME = "paper"  # its name in controller/registry.py (the settings it starts from without any)
 
     def __init__(
         self,
@@ -152,7 +154,7 @@ class GraspController:
     ) -> None:
         self.hand = hand
         self.obj = obj
-        self.s = settings or ControllerSettings()
+        self.s = settings or settings_for(self.NAME)
         self.dt = hand.dt
         self.kin = kin or HandKinematics(hand)
         self.motion = FingertipMotion(hand, self.kin, self.s.stiffness_aware_squeeze)

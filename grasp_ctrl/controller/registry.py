@@ -15,9 +15,17 @@ from grasp_ctrl.errors import UsageError
 
 if TYPE_CHECKING:
     from grasp_ctrl.controller.machine import GraspController
+    from grasp_ctrl.controller.settings import ControllerSettings
 
 CONTROLLER_NAMES: tuple[str, ...] = ("paper", "grip_load")
 DEFAULT_CONTROLLER = "grip_load"  # it measures better under both variation profiles (docs/results.md)
+
+# Each controller's own choices where ControllerSettings' defaults (grip_load's) are not its own:
+# the paper's controller squeezes along the closing vectors toward tau on every fingertip.
+CONTROLLER_CHOICES: dict[str, dict[str, Any]] = {
+    "paper": {"stiffness_aware_squeeze": False, "grip_targets": "equal"},
+    "grip_load": {},
+}
 
 
 def controller_class(name: str) -> type[GraspController]:
@@ -31,6 +39,17 @@ def controller_class(name: str) -> type[GraspController]:
 
         return GripLoadController
     raise UsageError(f"--controller {name!r}: unknown (one of {', '.join(CONTROLLER_NAMES)})")
+
+
+def settings_for(name: str, **overrides: Any) -> ControllerSettings:
+    """The settings a run of controller ``name`` starts from: ``ControllerSettings``' defaults
+    with the controller's own choices (``CONTROLLER_CHOICES``), then ``overrides``."""
+    import dataclasses
+
+    from grasp_ctrl.controller.settings import ControllerSettings
+
+    controller_class(name)  # one line naming the controllers when unknown
+    return dataclasses.replace(ControllerSettings(controller=name), **{**CONTROLLER_CHOICES[name], **overrides})
 
 
 def make_controller(

@@ -36,11 +36,14 @@ class ControllerSettings:
     retreat_m: float = 0.05
     preshape: bool = True  # reach in a posture whose pads face the object, close along
     preshape_standoff_m: float = 0.01  #   its surface normals (kinematics/preshape.py), this far off
-    stiffness_aware_squeeze: bool = False  # True: move the pads' goals so the joints' springs push along the
-    #   closing vectors (controller/motion.py); off: on MuJoCo it
-    #   does not help yet (docs/mujoco.md)
-    grip_targets: str = "equal"  # "force_closure": per-fingertip targets whose closing forces cancel,
-    #   the smallest tau (controller/grip_targets.py)
+    # The next two are grip_load's choices; the paper's controller runs with False and "equal"
+    # (controller/registry.py settings_for).
+    stiffness_aware_squeeze: bool = True  # move the pads' goals so the joints' springs push along the
+    #   closing vectors (controller/motion.py); off: along the closing vectors, and the LEAP thumb's
+    #   pad slides down a box's face as it squeezes, pressing the box into the table (docs/controller.md)
+    grip_targets: str = "force_closure"  # per-fingertip targets whose closing forces cancel (the thumb
+    #   pushes back what the index and middle push), the smallest tau; "equal": tau each
+    #   (controller/grip_targets.py)
     grip_weight_margin: float = 0.0  # > 0: scale the targets so mu x their sum >= this x the object's
     #   weight (objects.toml mass_kg); 0: tau_n as tuned
     # grip_load only (controller/grip_load.py, docs/controller.md)

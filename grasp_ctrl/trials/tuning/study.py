@@ -42,6 +42,7 @@ from optuna.samplers import GridSampler, TPESampler
 from optuna.trial import FrozenTrial, TrialState
 
 from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.sim.variation import NOMINAL, Variation
@@ -128,7 +129,7 @@ class StudyPlan:
         # Likewise the controller settings where they differ from the paper controller's defaults
         # (what every study ran before --controller), and the objective where it is not the success
         # rate (a study stored before --rank ranked by it: --rank mean).
-        defaults = dataclasses.asdict(dataclasses.replace(ControllerSettings(), controller="paper"))
+        defaults = dataclasses.asdict(settings_for("paper"))
         changed = {k: v for k, v in dataclasses.asdict(self.settings).items() if v != defaults[k]}
         if changed:
             out["settings"] = changed
