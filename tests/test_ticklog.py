@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from grasp_ctrl.controller.snapshot import Command, Snapshot
-from grasp_ctrl.loop.ticklog import TickLog, read_tick_log, rounded_float32, tick_columns
+from grasp_ctrl.loop.ticklog import TickLog, raw_frame_columns, read_tick_log, rounded_float32, tick_columns
 
 FINGERS = ["index", "thumb"]
 
@@ -25,6 +25,7 @@ def _tick(log: TickLog, k: int, rng: np.random.Generator) -> dict[str, float]:
         grip_n=np.hypot(f[:, 0], f[:, 1]),
     )
     raw = rng.integers(0, 4096, (2, 44)).astype(float)
+    current = rng.normal(0, 0.3, 3)
     log.append(
         "ramp" if k % 3 else "lift",
         snap,
@@ -35,6 +36,7 @@ def _tick(log: TickLog, k: int, rng: np.random.Generator) -> dict[str, float]:
         table_force=1.5,
         raw=raw,
         grip_target_n=2.0,
+        current_a=current,
     )
     return {
         "index_fx_sensor": f[0, 0],
@@ -42,6 +44,7 @@ def _tick(log: TickLog, k: int, rng: np.random.Generator) -> dict[str, float]:
         "q2": snap.q[2],
         "index_raw_pdc": raw[0, 19],
         "object_z_world": 0.001 * k,
+        "current1": current[1],
     }
 
 
@@ -88,3 +91,70 @@ def test_a_file_that_is_not_a_tick_log_is_a_usage_error(tmp_path):
     bad.write_bytes(b"not parquet")
     with pytest.raises(UsageError, match="x_ticks.parquet"):
         read_tick_log(bad)
+
+
+def test_currents_are_the_hands_and_nan_where_it_reported_none(tmp_path):
+    path = tmp_path / "c_ticks.parquet"
+    log = TickLog(path, FINGERS, 3, truth=False)
+    rng = np.random.default_rng(2)
+    for k in range(4):
+        _tick(log, k, rng)
+    log.set_current(np.array([0.25, -1.5, 0.0]))  # replaces the last row's
+    log.set_current(np.ones(4))  # another length: ignored, the log is no place to fail a trial
+    log.append("done", *_row(rng), raw=None)  # no currents, no frame
+    log.close()
+    header, cols = read_tick_log(path)
+    assert [c for c in header if c.startswith("current")] == ["current0", "current1", "current2"]
+    assert [cols[f"current{j}"][3] for j in range(3)] == [0.25, -1.5, 0.0]
+    assert all(np.isnan(cols[f"current{j}"][4]) for j in range(3)) and np.isfinite(cols["current0"][:4]).all()
+
+
+def _row(rng: np.random.Generator) -> tuple:
+    """(snapshot, command, tared) of one tick, for ``TickLog.append``."""
+    f = rng.normal(0, 2, (2, 3))
+    snap = Snapshot(
+        t=1.0,
+        q=rng.normal(0, 1, 3),
+        p_palm_world=np.zeros(3),
+        tare_ready=True,
+        in_contact=np.array([True, False]),
+        f_sensor=f,
+        f_hand=f,
+        f_world=f,
+        grip_n=np.zeros(2),
+    )
+    return snap, Command(q_goal=snap.q, p_palm_world=np.zeros(3)), np.zeros((2, 44))
+
+
+def test_raw_frames_keep_every_channel_as_counts_beside_the_summary(tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    rng = np.random.default_rng(3)
+    path = tmp_path / "r_ticks.parquet"
+    log = TickLog(path, FINGERS, 3, truth=True, raw_frames=True)
+    frames = rng.integers(0, 4096, (2100, 2, 44))  # more than one buffer chunk
+    for k, frame in enumerate(frames):
+        snap, cmd, tared = _row(rng)
+        log.append("lift", snap, cmd, tared, np.zeros((2, 3)), raw=None if k == 7 else frame.astype(float))
+    log.close()
+    table = pq.read_table(path)
+    assert table.column_names == tick_columns(FINGERS, 3, truth=True, raw_frames=True)
+    summary = set(tick_columns(FINGERS, 3, truth=True))
+    assert summary < set(table.column_names)  # the summary stays, whatever reads it
+    added = [c for c in table.column_names if c not in summary]
+    assert len(added) == 2 * 42 and all(table.schema.field(c).type == pa.uint16() for c in added)
+    header, cols = read_tick_log(path)
+    for i, f in enumerate(FINGERS):
+        names = raw_frame_columns(f)
+        assert names[:2] == [f"{f}_raw_e1", f"{f}_raw_e2"] and names[-1] == f"{f}_raw_tac" and len(names) == 44
+        got = np.stack([cols[c] for c in names], axis=1)
+        assert np.isnan(got[7]).all()  # a tick without a frame: null, read as NaN
+        keep = np.arange(len(frames)) != 7
+        assert np.array_equal(got[keep], frames[keep, i])
+    plain = tmp_path / "p_ticks.parquet"
+    log = TickLog(plain, FINGERS, 3, truth=True)
+    snap, cmd, tared = _row(rng)
+    log.append("lift", snap, cmd, tared, np.zeros((2, 3)), raw=frames[0].astype(float))
+    log.close()
+    assert read_tick_log(plain)[0] == tick_columns(FINGERS, 3, truth=True) and "index_raw_e1" not in summary

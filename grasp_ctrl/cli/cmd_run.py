@@ -51,6 +51,7 @@ PLAN_FLAGS = (
     "seed",
     "preset",
     "no_tick_logs",
+    "raw_frames",
     "controller",
     "variation",
 )
@@ -175,7 +176,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help="also write a Rerun recording of every trial, DIR/POLICY/OBJECT/trial_NNN.rrd (the viz extra)",
     )
+    p.add_argument(
+        "--mcap",
+        default=None,
+        metavar="DIR",
+        help="also write every trial as a ROS 2 bag, DIR/POLICY/OBJECT/trial_NNN.mcap (the ros extra; "
+        "docs/ros_bags.md); a new run's tick logs then keep the raw frames (--raw-frames), for /biotac_pub",
+    )
     p.add_argument("--no-tick-logs", action="store_true", default=None, help="skip the per-tick logs (faster)")
+    p.add_argument(
+        "--raw-frames",
+        action="store_true",
+        default=None,
+        help="the tick logs keep every fingertip's whole raw frame each tick (42 more uint16 columns per "
+        "fingertip beside the summary; recorded in run.json, kept on --resume); --mcap turns it on",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
     p.add_argument(
         "--port",
@@ -212,6 +227,8 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     hand = load_hand(hand_file)
     objects_spec = args.objects if args.objects is not None else (",".join(preset.objects) if preset else None)
     objects = select_objects(object_file, objects_spec)
+    if args.raw_frames and args.no_tick_logs:
+        raise UsageError("--raw-frames: the frames go into the tick logs; drop --no-tick-logs")
     policies = args.policy or (list(preset.policies) if preset else [DEFAULT_POLICY])
     if len(set(policies)) != len(policies):
         raise UsageError("--policy: each policy once")
@@ -240,6 +257,8 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
         policies=policies,
         objects=objects,
         tick_logs=not args.no_tick_logs,
+        # the bags of --mcap carry the raw frames, so its trials keep them
+        raw_frames=(bool(args.raw_frames) or args.mcap is not None) and not args.no_tick_logs,
         hand_file=str(hand_file.resolve()),
         hand_sha256=file_sha256(hand_file),
         object_file=str(object_file.resolve()),
@@ -282,7 +301,13 @@ def _hardware_trial_fn(hand: Any, manifest: Any, threads: int, port: str | None,
     from grasp_ctrl.trials.episode.labelling import OperatorLabeller, labelled
 
     trial_fn = hardware_trial_fn(
-        hand, manifest.policies, manifest.settings, threads, port=port, sensor_port=sensor_port
+        hand,
+        manifest.policies,
+        manifest.settings,
+        threads,
+        port=port,
+        sensor_port=sensor_port,
+        raw_frames=manifest.raw_frames,
     )
     return labelled(trial_fn, OperatorLabeller())
 
@@ -371,17 +396,34 @@ def run(args: argparse.Namespace) -> int:
             backend=EMULATED,
             make_world=make_world,
             variation=manifest.variation,
+            raw_frames=manifest.raw_frames,
         )
     elif manifest.backend == "mujoco" and args.record_video:
         from grasp_ctrl.trials.episode.mujoco_video import video_trial_fn
 
         trial_fn = video_trial_fn(
-            hand, manifest.policies, manifest.settings, args.threads, Path(args.record_video), manifest.variation
+            hand,
+            manifest.policies,
+            manifest.settings,
+            args.threads,
+            Path(args.record_video),
+            manifest.variation,
+            raw_frames=manifest.raw_frames,
         )
     if args.rrd is not None:
         from grasp_ctrl.trials.analysis.rerun_log import check_run_rrd
 
         check_run_rrd(args.rrd, manifest.tick_logs)
+    if args.mcap is not None:
+        from grasp_ctrl.bags.export import check_run_mcap
+
+        check_run_mcap(args.mcap, manifest.tick_logs)
+        if not manifest.raw_frames:  # a resumed run that started without them
+            print(
+                f"note: --mcap: {run_dir}/run.json keeps no raw frames (raw_frames: false); "
+                "its bags have no /biotac_pub",
+                file=sys.stderr,
+            )
     if args.executor == "ray":
         jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
     else:
@@ -398,6 +440,7 @@ def run(args: argparse.Namespace) -> int:
             settings=manifest.settings,
             progress=not args.quiet and manifest.backend != "dynamixel",
             tick_logs=manifest.tick_logs,
+            raw_frames=manifest.raw_frames,
             threads=args.threads,
             resume=bool(args.resume),
             manifest=manifest,
@@ -435,6 +478,11 @@ def run(args: argparse.Namespace) -> int:
         from grasp_ctrl.trials.analysis.rerun_log import record_run
 
         print(f"recordings: {len(record_run(run_dir, Path(args.rrd)))} in {args.rrd}  (open: rerun FILE.rrd)")
+    if args.mcap is not None:
+        from grasp_ctrl.bags.export import export_run
+
+        bags = export_run(run_dir, Path(args.mcap), flag="--mcap")
+        print(f"bags: {len(bags)} in {args.mcap}  (open in Foxglove, or: ros2 bag play FILE.mcap)")
     if args.json:
         write_output(args.json, json.dumps(summary, indent=2) + "\n")
         print(f"summary: {args.json}")

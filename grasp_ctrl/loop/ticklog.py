@@ -1,6 +1,7 @@
 """Per-tick log of a trial as one compressed Parquet file: state, raw-signal
-summary, tared pdc, contacts, estimated forces (sensor and world frames),
-targets, joint state and, on the mock, the true forces and object height.
+summary (optionally every raw frame whole), tared pdc, contacts, estimated forces
+(sensor and world frames), targets, joint angles, goals and currents and, in
+simulation, the true forces and object height.
 
 Every tick only copies its arrays into preallocated column buffers (a few
 microseconds); the raw-signal summaries are computed for all ticks at once and
@@ -11,7 +12,8 @@ final one, fsyncing the folder, just before it writes the trial's JSON record).
 Signals are stored as float32 rounded to 15 mantissa bits (a relative error of
 at most 1.5e-5, about the decimals of the CSV logs this replaces; the cleared low
 bits compress away), the time as float64, the state as a dictionary-encoded
-string, contacts as booleans. pandas reads it with
+string, contacts as booleans, whole raw frames (``raw_frames``) as uint16 counts
+(null where a tick had no frame). pandas reads it with
 ``pandas.read_parquet``; ``read_tick_log`` reads it (and older CSV logs) here.
 """
 
@@ -19,23 +21,32 @@ from __future__ import annotations
 
 import csv
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from grasp_ctrl import jit
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.hardware.base import JointState
 from grasp_ctrl.loop.tick_kernels import log_row
 from grasp_ctrl.storage import atomic_writer
-from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PAC, PDC, TDC
+from grasp_ctrl.tactile.layout import CHANNEL_NAMES, ELECTRODES, FRAME_LEN, PAC, PDC, TDC
 
 # Per-fingertip raw-signal summary columns (raw counts, before tare).
 RAW_COLUMNS = ("raw_pdc", "raw_tdc", "raw_pac_std", "raw_e_mean")
+# A whole raw frame's channels (``raw_frames``): the summary's raw_pdc and raw_tdc are two of them
+# already, so these are the other 42, FINGER_raw_e1 .. FINGER_raw_tac (uint16 counts).
+FRAME_CHANNELS = tuple((k, f"raw_{c}") for k, c in enumerate(CHANNEL_NAMES) if f"raw_{c}" not in RAW_COLUMNS)
+_COUNT_MAX = np.iinfo(np.uint16).max
 TICKS_SUFFIX = "_ticks.parquet"
 LEGACY_TICKS_SUFFIX = "_ticks.csv"
 _COMPRESSION = "zstd"
 _CHUNK = 2048  # ticks per buffer growth (20 s at 100 Hz)
 MANTISSA_BITS = 15  # rounding error <= 2^-16 = 1.5e-5 relative
+# Byte-stream split makes float32 signals compress several times better; the raw frames' counts
+# compress best as deltas (a seventh smaller than plain, a little better than byte-stream split).
+_ENCODING = {"float": "BYTE_STREAM_SPLIT", "uint16": "DELTA_BINARY_PACKED"}
 
 
 def rounded_float32(values: np.ndarray, bits: int = MANTISSA_BITS) -> np.ndarray:
@@ -55,27 +66,63 @@ def raw_summary(raw: np.ndarray) -> np.ndarray:
     )
 
 
-def tick_columns(fingers: list[str], n_joints: int, truth: bool) -> list[str]:
+def raw_frame_columns(finger: str) -> list[str]:
+    """A fingertip's whole raw frame in a tick log, in the frame's channel order:
+    ``FINGER_raw_e1 .. _raw_e19, _raw_pdc, _raw_pac1 .. _raw_pac22, _raw_tdc, _raw_tac``."""
+    return [f"{finger}_raw_{c}" for c in CHANNEL_NAMES]
+
+
+def tick_columns(fingers: list[str], n_joints: int, truth: bool, raw_frames: bool = False) -> list[str]:
     """The log's column names, in file order."""
     cols = ["t", "state", "palm_x_world", "palm_y_world", "palm_z_world", "palm_target_z_world", "grip_target_n"]
     for f in fingers:
         cols += [f"{f}_{c}" for c in RAW_COLUMNS]
+        if raw_frames:
+            cols += [f"{f}_{c}" for _, c in FRAME_CHANNELS]
         cols += [f"{f}_contact", f"{f}_pdc_tared", f"{f}_grip_n"]
         cols += [f"{f}_f{a}_sensor" for a in "xyz"] + [f"{f}_f{a}_world" for a in "xyz"]
         if truth:
             cols += [f"{f}_true_f{a}_sensor" for a in "xyz"]
     cols += [f"q{j}" for j in range(n_joints)] + [f"q_goal{j}" for j in range(n_joints)]
+    cols += [f"current{j}" for j in range(n_joints)]
     if truth:
         cols += ["object_z_world", "table_force_n"]
     return cols
 
 
+class CurrentTap:
+    """A hand backend that keeps the joint currents of its last ``read`` for the tick log:
+    ``control_tick`` reads the hand once a tick and returns no currents, and a second read
+    would cost a real (or emulated) hand a bus transaction. Everything else is the hand's."""
+
+    def __init__(self, hand: Any) -> None:
+        self.hand = hand
+        self.current_a: np.ndarray | None = None
+
+    def read(self) -> JointState:
+        state = self.hand.read()
+        self.current_a = state.current_a
+        return state
+
+    def take(self) -> np.ndarray | None:
+        """The currents read since the last ``take`` (None when the tick read none)."""
+        current, self.current_a = self.current_a, None
+        return current
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.hand, name)
+
+
 class TickLog:
-    def __init__(self, path: Path, fingers: list[str], n_joints: int, truth: bool) -> None:
+    """``raw_frames``: also write every fingertip's whole raw frame (42 more columns per
+    fingertip); the frames are kept in memory either way, for the summary."""
+
+    def __init__(self, path: Path, fingers: list[str], n_joints: int, truth: bool, raw_frames: bool = False) -> None:
         self.path = Path(path)
         self.fingers = list(fingers)
         self.truth = truth
-        self.columns = tick_columns(self.fingers, n_joints, truth)
+        self.raw_frames = raw_frames
+        self.columns = tick_columns(self.fingers, n_joints, truth, raw_frames)
         self._closed = False
         self._n = 0
         self._states: list[str] = []
@@ -106,6 +153,9 @@ class TickLog:
             width += size
         self._block = np.empty((_CHUNK, width))  # every field of a row is written when it is appended
         self._buf = self._views(self._block)
+        # Joint currents beside the block, not in it: the compiled row writers (log_row, the mock's
+        # fused tick) keep their layout, and a row whose currents never come stays NaN.
+        self._current = np.full((_CHUNK, n_joints), np.nan)
         self._compiled = jit.JIT and truth
 
     def _views(self, rows: np.ndarray) -> dict[str, np.ndarray]:
@@ -118,6 +168,17 @@ class TickLog:
     def _grow(self) -> None:
         self._block = np.concatenate([self._block, np.empty((_CHUNK, self._block.shape[1]))])
         self._buf = self._views(self._block)
+        self._current = np.concatenate([self._current, np.full((_CHUNK, self._current.shape[1]), np.nan)])
+
+    def set_current(self, current_a: np.ndarray | None) -> None:
+        """The joint currents (A, the hand file's joint order) of the row appended last, as the
+        hand backend reported them in that tick. None, or a vector of another length, leaves
+        them NaN: the log is no place to fail a trial."""
+        if current_a is None or self._n == 0:
+            return
+        a = np.asarray(current_a, dtype=float)
+        if a.shape == self._current.shape[1:]:
+            self._current[self._n - 1] = a
 
     def append(
         self,
@@ -130,7 +191,9 @@ class TickLog:
         table_force: float = float("nan"),
         raw: np.ndarray | None = None,
         grip_target_n: float = float("nan"),
+        current_a: np.ndarray | None = None,
     ) -> None:
+        """One tick's row; ``current_a``: the joint currents the hand reported (``set_current``)."""
         i = self._n
         if i == len(self._block):
             self._grow()
@@ -170,6 +233,7 @@ class TickLog:
         ):
             self._states.append(state)
             self._n = i + 1
+            self.set_current(current_a)
             return
         b = self._buf
         b["t"][i] = snap.t
@@ -191,6 +255,7 @@ class TickLog:
             b["table_force"][i] = table_force
         self._states.append(state)
         self._n = i + 1
+        self.set_current(current_a)
 
     def _table(self):  # -> pyarrow.Table
         import pyarrow as pa
@@ -223,6 +288,10 @@ class TickLog:
             for j in range(b[key].shape[1]):
                 f32_names.append(label.format(j))
                 f32_values.append(b[key][:, j])
+        current = self._current[:n]
+        for j in range(current.shape[1]):
+            f32_names.append(f"current{j}")
+            f32_values.append(current[:, j])
         if self.truth:
             f32_names += ["object_z_world", "table_force_n"]
             f32_values += [b["object_z"], b["table_force"]]
@@ -231,6 +300,7 @@ class TickLog:
             stacked[k] = values
         rounded = rounded_float32(stacked)
         f32 = dict(zip(f32_names, rounded))
+        frames = self._frame_columns(b["raw"]) if self.raw_frames else {}
         data: dict[str, pa.Array] = {}
         for name in self.columns:
             if name == "t":
@@ -239,10 +309,32 @@ class TickLog:
                 data[name] = pa.array(self._states, type=pa.string()).dictionary_encode()
             elif name.endswith("_contact"):
                 data[name] = pa.array(b["contact"][:, self.fingers.index(name[: -len("_contact")])] > 0.5)
+            elif name in frames:
+                data[name] = frames.pop(name)
+            elif name.startswith("current"):
+                # null where the hand reported no current (readers see NaN): a missing value, as in the frames
+                values = f32.pop(name)
+                gone = np.isnan(values)
+                data[name] = pa.array(values, mask=gone if gone.any() else None)
             else:
                 data[name] = pa.array(f32.pop(name))
-        assert not f32, sorted(f32)  # every rounded column has its place in the file
+        assert not f32 and not frames, sorted(f32) + sorted(frames)  # every column has its place in the file
         return pa.table(data)
+
+    def _frame_columns(self, raw: np.ndarray):  # -> dict[str, pyarrow.Array]
+        """The whole frames' channels (``FRAME_CHANNELS``) of (ticks, fingers, 44) ``raw`` as
+        uint16 counts, null where a tick had no frame (NaN). A frame holds integer counts
+        (12-bit on the BioTac), so the rounding and the clip change nothing on a real one."""
+        import pyarrow as pa
+
+        missing = ~np.isfinite(raw)
+        counts = np.clip(np.rint(np.where(missing, 0.0, raw)), 0, _COUNT_MAX).astype(np.uint16)
+        out = {}
+        for i, f in enumerate(self.fingers):
+            for k, c in FRAME_CHANNELS:
+                gone = missing[:, i, k]
+                out[f"{f}_{c}"] = pa.array(counts[:, i, k], mask=gone if gone.any() else None)
+        return out
 
     def close(self) -> None:
         """Write the file (temporary name, fsync, rename); once only."""
@@ -252,13 +344,12 @@ class TickLog:
         import pyarrow.parquet as pq
 
         table = self._table()
-        float_cols = [c for c, f in zip(table.column_names, table.schema) if str(f.type) == "float"]
+        encoding = {c: _ENCODING.get(str(f.type)) for c, f in zip(table.column_names, table.schema)}
         # Unique temporary name, fsync, rename. The folder is not fsynced here: the trial runner
         # writes the log under a temporary name of its own and fsyncs the folder when it moves
         # the log onto its final name (commit_temp), so a second folder fsync per trial (a few
         # milliseconds on this project's machine) would buy nothing.
         with atomic_writer(self.path, "wb", sync_dir=False) as fh:
-            # Byte-stream split makes float32 signals compress several times better.
             # (no column statistics: nothing reads them, and they cost a tenth of the write)
             pq.write_table(
                 table,
@@ -266,7 +357,7 @@ class TickLog:
                 compression=_COMPRESSION,
                 use_dictionary=["state"],
                 write_statistics=False,
-                column_encoding={c: "BYTE_STREAM_SPLIT" for c in float_cols},
+                column_encoding={c: e for c, e in encoding.items() if e},
             )
 
 

@@ -32,7 +32,7 @@ from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.tick import control_tick
-from grasp_ctrl.loop.ticklog import TickLog
+from grasp_ctrl.loop.ticklog import CurrentTap, TickLog
 from grasp_ctrl.sim.oracle import is_oracle
 from grasp_ctrl.trials.episode.rig import HardwareRig, open_rig
 from grasp_ctrl.trials.episode.runner import MAX_TRIAL_S, SETTLE_S, controller_view, state_timings, trial_settings
@@ -57,13 +57,16 @@ def run_hardware_trial(
     log_path: Path | None = None,
     max_trial_s: float = MAX_TRIAL_S,
     sleep: Callable[[float], None] | None = None,
+    raw_frames: bool = False,
 ) -> dict[str, Any]:
-    """One trial on real (or emulated) hardware; returns the controller's view and timings."""
+    """One trial on real (or emulated) hardware; returns the controller's view and timings.
+    ``raw_frames``: the tick log keeps every raw frame whole."""
     kin = kin or HandKinematics(hand)
     sleep = sleep or _sleep
     pipeline = SensingPipeline(hand, kin, estimator)
     ctrl = make_controller(hand, obj, reach_pose_world(hand, obj), settings, kin)
-    log = TickLog(log_path, pipeline.names, len(hand.joints), truth=False) if log_path else None
+    log = TickLog(log_path, pipeline.names, len(hand.joints), truth=False, raw_frames=raw_frames) if log_path else None
+    hand_io = CurrentTap(rig.hand)  # keeps the currents of the tick's one read, for the log
     wait = getattr(rig.sensors, "wait_for_frames", None)
     if wait is not None:
         wait(SENSOR_WAIT_S, min_frames=1)
@@ -80,11 +83,13 @@ def run_hardware_trial(
         while True:
             try:
                 now = rig.clock.now()
-                snap, cmd, raw = control_tick(rig.hand, rig.arm, rig.sensors, pipeline, ctrl, now)
+                snap, cmd, raw = control_tick(hand_io, rig.arm, rig.sensors, pipeline, ctrl, now)
                 np.maximum(peak, np.linalg.norm(snap.f_sensor, axis=1), out=peak)
                 peak_grip = max(peak_grip, float(np.max(snap.grip_n[grasp], initial=0.0)))
                 if log:
-                    log.append(ctrl.state, snap, cmd, pipeline.tared, raw=raw, grip_target_n=ctrl.tau)
+                    log.append(
+                        ctrl.state, snap, cmd, pipeline.tared, raw=raw, grip_target_n=ctrl.tau, current_a=hand_io.take()
+                    )
                 if ctrl.terminal:
                     settle_ticks -= 1
                     if settle_ticks <= 0:
@@ -138,8 +143,10 @@ def hardware_trial_fn(
     open_rig_fn: RigOpener | None = None,
     port: str | None = None,
     sensor_port: str | None = None,
+    raw_frames: bool = False,
 ) -> Callable[..., dict[str, Any]]:
-    """The ``run_series`` trial function for the real hand (policies loaded up front)."""
+    """The ``run_series`` trial function for the real hand (policies loaded up front);
+    ``raw_frames``: its tick logs keep every raw frame whole."""
     for p in policies:
         if is_oracle(p):
             raise UsageError(f"--policy {p}: oracle policies need the mock world's ground truth")
@@ -150,7 +157,9 @@ def hardware_trial_fn(
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
         rig = opener(hand)
         try:
-            record = run_hardware_trial(hand, obj, rig, estimators[policy], settings, kin, log_path)
+            record = run_hardware_trial(
+                hand, obj, rig, estimators[policy], settings, kin, log_path, raw_frames=raw_frames
+            )
         finally:
             rig.close()
         record.update({"policy": policy, "trial": trial, "seed": seed})

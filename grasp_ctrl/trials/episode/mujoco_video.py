@@ -119,9 +119,11 @@ def video_trial_fn(
     threads: int,
     video_dir: Path,
     variation: Any = None,
+    raw_frames: bool = False,
 ) -> Any:
     """The mujoco trial runner with each trial recorded to VIDEO_DIR/POLICY-OBJECT-TRIAL.(mp4|gif);
-    ``variation``: the world's per-trial draws (sim/variation.py; None: nominal)."""
+    ``variation``: the world's per-trial draws (sim/variation.py; None: nominal); ``raw_frames``:
+    the tick logs keep each fingertip's whole raw frame (run --raw-frames)."""
     choose_gl_backend()
     from grasp_ctrl.sim.mujoco_backends import mujoco_backends
     from grasp_ctrl.trials.episode.runner import sim_trial_fn
@@ -140,6 +142,7 @@ def video_trial_fn(
         backend="mujoco",
         make_world=make_world,
         variation=variation,
+        raw_frames=raw_frames,
     )
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:

@@ -42,7 +42,7 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.tick import control_tick
 from grasp_ctrl.loop.tick_kernels import track_peaks
-from grasp_ctrl.loop.ticklog import TickLog
+from grasp_ctrl.loop.ticklog import CurrentTap, TickLog
 from grasp_ctrl.sim.backends import MockArm
 from grasp_ctrl.sim.mujoco_log import set_log_dir as set_engine_log_dir
 from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
@@ -198,7 +198,9 @@ def run_sim_trial(
     make_backends: BackendFactory | None = None,
     backend: str = "mock",
     make_world: WorldFactory | None = None,
+    raw_frames: bool = False,
 ) -> TrialResult:
+    """One trial; ``raw_frames``: the tick log at ``log_path`` keeps every raw frame whole."""
     wall0 = time.perf_counter()
     kin = kin or HandKinematics(hand)
     make_world, make_backends = world_for_backend(backend, make_world, make_backends)
@@ -217,7 +219,8 @@ def run_sim_trial(
     ctrl = make_controller(hand, obj, world.reach_pose_world(), settings, kin)
     names = pipeline.names
     grasp = np.array([f.grasp for f in hand.fingers])
-    log = TickLog(log_path, names, len(hand.joints), truth=True) if log_path else None
+    log = TickLog(log_path, names, len(hand.joints), truth=True, raw_frames=raw_frames) if log_path else None
+    tap = CurrentTap(hand_backend)  # the generic tick's reads, for the log's currents
     n = len(names)
     peaks = np.zeros((3, n))
     # the peak of |f_sensor|^2 (its root at the end is the peak of |f_sensor|), of the grip and the true force
@@ -233,10 +236,14 @@ def run_sim_trial(
         while world.t < MAX_TRIAL_S:
             if fast is not None:  # the same step and tick, peaks and log row
                 fast.tick(ctrl)
+                if log:
+                    # The fused tick reads no JointState. The mock hand's read is what the tick saw:
+                    # the world has not stepped since, and its velocity estimate is already at q.
+                    log.set_current(hand_backend.read().current_a)
             else:
                 world.step()
                 world.set_phase(ctrl.state)
-                snap, cmd, raw = control_tick(hand_backend, arm, sensors, pipeline, ctrl, world.t)
+                snap, cmd, raw = control_tick(tap, arm, sensors, pipeline, ctrl, world.t)
                 if jit.JIT:
                     track_peaks(snap.f_sensor, snap.grip_n, world.normal_n, tip_force_sq, tip_grip, tip_true)
                 else:
@@ -255,6 +262,7 @@ def run_sim_trial(
                         world.table_n,
                         raw=raw,
                         grip_target_n=ctrl.tau,
+                        current_a=tap.take(),
                     )
             if on_tick:
                 on_tick(world, ctrl)
@@ -334,9 +342,11 @@ def sim_trial_fn(
     backend: str = "mock",
     make_world: WorldFactory | None = None,
     variation: Variation | None = None,
+    raw_frames: bool = False,
 ) -> TrialFn:
     """Policies are loaded up front, so a bad one fails before the first trial. ``variation``:
-    the world's per-trial draws (sim/variation.py; None: the world's own, nominal)."""
+    the world's per-trial draws (sim/variation.py; None: the world's own, nominal);
+    ``raw_frames``: the tick logs keep every raw frame whole."""
     factories = {p: estimator_factory(p, hand, threads) for p in policies}
     kin = HandKinematics(hand)
     make_world, make_backends = world_for_backend(backend, make_world, make_backends)
@@ -357,6 +367,7 @@ def sim_trial_fn(
             make_backends=make_backends,
             backend=backend,
             make_world=make_world,
+            raw_frames=raw_frames,
         ).to_json()
 
     return run
@@ -373,10 +384,13 @@ def _init_worker(
     threads: int,
     backend: str = "mock",
     variation: Variation | None = None,
+    raw_frames: bool = False,
 ) -> None:
     global _WORKER_TRIAL_FN
     ignore_interrupts()
-    _WORKER_TRIAL_FN = sim_trial_fn(hand, policies, settings, threads, backend=backend, variation=variation)
+    _WORKER_TRIAL_FN = sim_trial_fn(
+        hand, policies, settings, threads, backend=backend, variation=variation, raw_frames=raw_frames
+    )
 
 
 def _worker_trial(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
@@ -396,6 +410,7 @@ def parallel_trials(
     tasks: Sequence[TrialTask],
     backend: str = "mock",
     variation: Variation | None = None,
+    raw_frames: bool = False,
 ) -> Iterator[tuple[int, dict[str, Any]]]:
     """Simulated trials in ``jobs`` processes: yields (task index, record) as each finishes."""
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -406,7 +421,7 @@ def parallel_trials(
         jobs,
         mp_context=ctx,
         initializer=_init_worker,
-        initargs=(hand, list(policies), settings or ControllerSettings(), threads, backend, variation),
+        initargs=(hand, list(policies), settings or ControllerSettings(), threads, backend, variation, raw_frames),
     )
     finished_cleanly = False
     try:
@@ -483,6 +498,7 @@ def run_series(
     executor: str = "local",
     address: str | None = None,
     variation: Variation | None = None,
+    raw_frames: bool = False,
 ) -> dict[str, Any]:
     """objects x policies x trials with shared seeds; returns the summary (docs/design.md 5.2).
 
@@ -494,6 +510,8 @@ def run_series(
     Ray tasks instead (``address``: a running cluster; else a local instance of
     ``jobs`` CPUs), see ray_executor.py. ``variation``: the simulated world's per-trial
     draws of a new run without ``manifest`` (default: nominal, the worlds' own).
+    ``raw_frames``: the tick logs of a new run without ``manifest`` keep every raw frame
+    whole (a manifest's own ``raw_frames`` rules otherwise; a ``trial_fn`` is made with it).
     """
     if len(set(safe_name(p) for p in policies)) != len(policies):
         raise UsageError("--policy: two policies would share one log directory; give each once")
@@ -513,6 +531,7 @@ def run_series(
         policies=list(policies),
         objects=list(objects),
         tick_logs=tick_logs,
+        raw_frames=raw_frames,
         settings=settings or ControllerSettings(),
         variation=variation or NOMINAL,
     )
@@ -530,7 +549,7 @@ def run_series(
             raise ConfigError(source, f"object {obj.name!r}: {exc.key}", exc.expected) from None
     other_world = {} if plan.backend == "mock" else {"backend": plan.backend}  # e.g. mujoco
     run_trial = trial_fn or sim_trial_fn(
-        hand, policies, plan.settings, threads, **other_world, variation=plan.variation
+        hand, policies, plan.settings, threads, **other_world, variation=plan.variation, raw_frames=plan.raw_frames
     )  # bad policies fail here
 
     created = not run_dir.exists()
@@ -645,7 +664,18 @@ def _run_locked(
             from grasp_ctrl.trials.runs.ray_executor import ray_trials
 
             with contextlib.closing(
-                ray_trials(address, jobs, hand, policies, plan.settings, threads, pending, plan.backend, plan.variation)
+                ray_trials(
+                    address,
+                    jobs,
+                    hand,
+                    policies,
+                    plan.settings,
+                    threads,
+                    pending,
+                    plan.backend,
+                    plan.variation,
+                    plan.raw_frames,
+                )
             ) as results:
                 for _, rec in results:
                     finish(rec)
@@ -662,6 +692,7 @@ def _run_locked(
                         pending,
                         plan.backend,
                         plan.variation,
+                        plan.raw_frames,
                     )
                 ) as results:
                     for _, rec in results:

@@ -50,6 +50,9 @@ class RunManifest:
     policies: list[str]
     objects: list[ObjectProfile]
     tick_logs: bool = True
+    # The tick logs keep every raw tactile frame whole (run --raw-frames, --mcap). Not part of
+    # the plan or the fingerprint: it changes what is logged, never a trial.
+    raw_frames: bool = False
     hand_file: str | None = None
     hand_sha256: str | None = None
     object_file: str | None = None
@@ -82,6 +85,7 @@ class RunManifest:
             "policies": list(self.policies),
             "objects": [profile_json(o) for o in self.objects],
             "tick_logs": self.tick_logs,
+            "raw_frames": self.raw_frames,
             "controller": self.settings.controller,
             "settings": dataclasses.asdict(self.settings),
             "fingerprint": self.fingerprint,
@@ -133,6 +137,9 @@ class RunManifest:
         tick_logs = doc.get("tick_logs", True)
         if not isinstance(tick_logs, bool):
             raise bad("tick_logs", "true or false")
+        raw_frames = doc.get("raw_frames", False)  # a run from before the option kept summaries only
+        if not isinstance(raw_frames, bool):
+            raise bad("raw_frames", "true or false")
         for key in ("hand_file", "hand_sha256", "object_file", "preset"):
             if doc.get(key) is not None and not isinstance(doc[key], str):
                 raise bad(key, "a string or null")
@@ -154,6 +161,7 @@ class RunManifest:
             policies=list(policies),
             objects=objects,
             tick_logs=tick_logs,
+            raw_frames=raw_frames,
             hand_file=doc.get("hand_file"),
             hand_sha256=doc.get("hand_sha256"),
             object_file=doc.get("object_file"),

@@ -76,16 +76,20 @@ def _trial_in_worker(
     threads: int,
     backend: str,
     variation: Any,
+    raw_frames: bool,
     task: tuple,
 ) -> dict[str, Any]:
-    """One trial on the simulated ``backend`` under ``variation`` in a Ray worker; its policies
-    are loaded once per worker and sweep (``token``)."""
+    """One trial on the simulated ``backend`` under ``variation`` in a Ray worker (``raw_frames``:
+    its tick log keeps every raw frame whole); its policies are loaded once per worker and sweep
+    (``token``)."""
     from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
     key = ("trial", token)
     if key not in _CACHE:
         _CACHE.clear()  # a worker of a long-lived cluster keeps only the current sweep's
-        _CACHE[key] = sim_trial_fn(hand, policies, settings, threads, backend=backend, variation=variation)
+        _CACHE[key] = sim_trial_fn(
+            hand, policies, settings, threads, backend=backend, variation=variation, raw_frames=raw_frames
+        )
     return _CACHE[key](*task)
 
 
@@ -127,12 +131,22 @@ def ray_trials(
     tasks: Sequence[tuple],
     backend: str = "mock",
     variation: Any = None,
+    raw_frames: bool = False,
 ) -> Iterator[tuple[int, dict[str, Any]]]:
-    """Trials on a simulated ``backend`` (under ``variation``, sim/variation.py) as Ray tasks:
-    yields (task index, record) as each finishes."""
+    """Trials on a simulated ``backend`` (under ``variation``, sim/variation.py; ``raw_frames``:
+    tick logs with every raw frame whole) as Ray tasks: yields (task index, record) as each finishes."""
     with ray_session(address, jobs) as ray:
         remote = ray.remote(num_cpus=1)(_trial_in_worker)
-        shared = (uuid.uuid4().hex, ray.put(hand), list(policies), ray.put(settings), threads, backend, variation)
+        shared = (
+            uuid.uuid4().hex,
+            ray.put(hand),
+            list(policies),
+            ray.put(settings),
+            threads,
+            backend,
+            variation,
+            raw_frames,
+        )
         parallel = jobs or int(ray.cluster_resources().get("CPU", 1))
         yield from _fan_out(ray, remote, [(*shared, task) for task in tasks], 2 * max(parallel, 1))
 
