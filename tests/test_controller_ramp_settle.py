@@ -7,11 +7,12 @@ import pytest
 
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.ramp_settle import RampSettle
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.controller.snapshot import Snapshot
 
 DT = 0.01
-S = ControllerSettings()
+S = settings_for("paper")  # the paper controller's, which these tests build
 
 
 def ticks(seconds: float) -> int:

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from grasp_ctrl.controller.machine import ACTIVE, STATES, TERMINAL, TRANSITIONS
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.controller.settings import ControllerSettings
 
 # Faults raised outside the guards, from any active state (GraspController.tick, the
@@ -30,8 +31,9 @@ RUNTIME_FAULTS = (
 
 def guard_conditions(s: ControllerSettings | None = None) -> dict[str, str]:
     """Each guard's condition in words, with the default settings' numbers (object
-    parameters by name: they live in the object profile)."""
-    s = s or ControllerSettings()
+    parameters by name: they live in the object profile); the paper's controller's by default,
+    whose state machine the diagram draws."""
+    s = s or settings_for("paper")
     return {
         "tare_done": "tare frames collected",
         "at_reach_pose": f"palm within {s.reach_tolerance_m * 1000:g} mm of the reach pose",

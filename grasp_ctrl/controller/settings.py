@@ -31,8 +31,11 @@ class ControllerSettings:
     lower_slow_speed_m_s: float = 0.005
     grip_lost_fraction: float = 0.3  # grip below this fraction of tau = slipping
     contact_lost_s: float = 0.05
-    open_s: float = 0.4  # time to open the fingers on release
-    release_back_off_m_s: float = 0.05  # release: pads back off along their closing vectors
+    # grip_load's release (the paper's controller: 0.4 s at 0.05 m/s; controller/registry.py): the
+    # same 20 mm, slower, so an object that touches down tilted settles as the grip fades instead
+    # of dropping flat from a corner (the lego landed at 0.13 m/s)
+    open_s: float = 1.0  # time to open the fingers on release
+    release_back_off_m_s: float = 0.02  # release: pads back off along their closing vectors
     retreat_m: float = 0.05
     preshape: bool = True  # reach in a posture whose pads face the object, close along
     preshape_standoff_m: float = 0.01  #   its surface normals (kinematics/preshape.py), this far off
