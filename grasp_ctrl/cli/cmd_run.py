@@ -54,6 +54,7 @@ PLAN_FLAGS = (
     "raw_frames",
     "controller",
     "variation",
+    "realtime",
 )
 DEFAULT_BACKEND = "mujoco"  # the reference world (docs/mujoco.md)
 EMULATED = "dynamixel-emulated"  # the run's backend with --emulate (= manifest.EMULATED_BACKEND; lazy imports)
@@ -99,6 +100,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="with --backend dynamixel: the servo chain (Protocol 2.0) and the fingertip stream "
         "(protocol v1) are emulated on pseudo-terminals with the MuJoCo world's physics behind "
         "them, so the whole hardware path runs without hardware; scored from that world",
+    )
+    p.add_argument(
+        "--realtime",
+        action="store_true",
+        default=None,
+        help="with --emulate: a wall-clock dry run: the loop ticks every 10 ms of wall time on a deadline "
+        "schedule against emulators that take the bus's real time (baud rate, return delay, the hand "
+        "file's USB latency_timer_ms) and the bridge's 10 ms frames; each trial record keeps the "
+        "loop's cycle-time percentiles and deadline misses (timings.loop). One trial at a time; "
+        "kept in run.json for --resume",
     )
     p.add_argument(
         "--yes",
@@ -237,6 +248,10 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
         if backend != "dynamixel":
             raise UsageError("--emulate: only with --backend dynamixel (it emulates the real hand's links)")
         backend = EMULATED
+    if args.realtime and not args.emulate:
+        raise UsageError(
+            "--realtime: only with --backend dynamixel --emulate (a wall-clock dry run of the emulated hand)"
+        )
     from grasp_ctrl.controller.registry import DEFAULT_CONTROLLER, controller_class, settings_for
 
     controller = args.controller or (preset.controller if preset else DEFAULT_CONTROLLER)
@@ -263,6 +278,7 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
         hand_sha256=file_sha256(hand_file),
         object_file=str(object_file.resolve()),
         preset=args.preset,
+        realtime=bool(args.realtime),
     )
     return hand, manifest
 
@@ -319,9 +335,10 @@ def _preflight(hand: Any, manifest: Any, args: argparse.Namespace) -> None:
 
     if manifest.backend == EMULATED:
         obj = manifest.objects[0]
-        report = preflight_emulated(hand, obj, trial_seed(manifest.seed, obj.name, 0), manifest.variation)
+        seed = trial_seed(manifest.seed, obj.name, 0)
+        report = preflight_emulated(hand, obj, seed, manifest.variation, manifest.realtime, manifest.hand_file)
     else:
-        report = preflight_hardware(hand, args.port, args.sensor_port)
+        report = preflight_hardware(hand, args.port, args.sensor_port, manifest.hand_file)
     say = lambda text: print(text, file=sys.stderr, flush=True)  # noqa: E731
     say(report.summary())
     confirm_start(args.yes, ask=lambda q: input(q), say=say)
@@ -366,6 +383,8 @@ def run(args: argparse.Namespace) -> int:
         check_output_dir(args.record_video, "--record-video")
     if args.record_video is not None and manifest.backend != "mujoco":
         raise UsageError("--record-video: only with --backend mujoco")
+    if manifest.realtime and args.jobs not in (None, 1):
+        raise UsageError("--jobs: a --realtime dry run keeps one trial at a time on the wall clock; drop --jobs")
     from grasp_ctrl.trials.episode.capacity_check import preflight_capacity
     from grasp_ctrl.trials.runs.summary_flags import MOCK_NOTE, flag_summary
 
@@ -383,7 +402,7 @@ def run(args: argparse.Namespace) -> int:
     if manifest.backend == "dynamixel":
         trial_fn = _hardware_trial_fn(hand, manifest, args.threads, args.port, args.sensor_port)
     elif manifest.backend == EMULATED:
-        from grasp_ctrl.emulators.world_rig import emulated_backends
+        from grasp_ctrl.emulators.world_rig import emulated_backends, realtime_backends
         from grasp_ctrl.sim.mujoco_backends import make_world
         from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
@@ -392,11 +411,12 @@ def run(args: argparse.Namespace) -> int:
             manifest.policies,
             manifest.settings,
             args.threads,
-            make_backends=emulated_backends,
+            make_backends=realtime_backends if manifest.realtime else emulated_backends,
             backend=EMULATED,
             make_world=make_world,
             variation=manifest.variation,
             raw_frames=manifest.raw_frames,
+            realtime=manifest.realtime,
         )
     elif manifest.backend == "mujoco" and args.record_video:
         from grasp_ctrl.trials.episode.mujoco_video import video_trial_fn

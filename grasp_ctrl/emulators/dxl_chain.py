@@ -7,6 +7,17 @@ runs: missing servos, corrupted or dropped replies, hardware error bits, a
 blocked joint that overloads. Everything received is recorded so tests can
 assert on what the host really sent (e.g. that no goal left the limits).
 
+With ``timing`` (a ``BusTiming``: baud rate and USB latency timer) the chain takes the bus's
+real time (bus_timing.py): a reply starts once the request's last byte is on the wire and the
+first answering servo's Return Delay Time has passed, goes out at the baud rate and reaches
+the host in USB packets as an FTDI adapter sends them (a full packet, or the latency timer's
+expiry). The reply is written in one piece when its last packet would arrive: the host cannot
+use a reply before its end, and one write a reply keeps the emulator's own wake-ups (CPU time
+a real bus does not cost the host) out of the measurement. A request acts on the servos when
+it arrives. Without ``timing`` every reply is written at once (lockstep with a simulated
+clock). ``replies`` keeps the recent timed replies (request end, first and last USB packet,
+bytes).
+
 Run standalone (another process, like a real bus):
     python -m grasp_ctrl.emulators.dxl_chain --ids 0-15
 prints the pty path on the first line and serves until SIGINT/SIGTERM.
@@ -22,20 +33,45 @@ import sys
 import threading
 import time
 import tty
-from collections import Counter
+from collections import Counter, deque
 from collections.abc import Iterable, Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 if TYPE_CHECKING:
     from grasp_ctrl.config.hand import HandConfig
 
 from grasp_ctrl.emulators import dxl_protocol as p
-from grasp_ctrl.emulators.dxl_servo import EmulatedServo
+from grasp_ctrl.emulators.bus_timing import (
+    PACKET_OVERHEAD,
+    BusTiming,
+    FtdiReceiveBuffer,
+    reply_schedule,
+    return_delay_s,
+    wire_time_s,
+)
+from grasp_ctrl.emulators.dxl_servo import RETURN_DELAY, EmulatedServo
+
+# How long the serving thread waits for a request when nothing is due (bounds the reaction to stop()).
+IDLE_WAIT_S = 0.05
+
+
+class TimedReply(NamedTuple):
+    """One reply of a timed chain: when its request ended on the wire, when its first and
+    last USB packet reached the host, its size."""
+
+    t_request_end: float
+    t_first: float
+    t_last: float
+    n_bytes: int
 
 
 class DynamixelChainEmulator:
     def __init__(
-        self, ids: Iterable[int], model_number: int = 1240, initial_counts: dict[int, float] | None = None
+        self,
+        ids: Iterable[int],
+        model_number: int = 1240,
+        initial_counts: dict[int, float] | None = None,
+        timing: BusTiming | None = None,
     ) -> None:
         self.servos: dict[int, EmulatedServo] = {}
         for i in ids:
@@ -59,10 +95,18 @@ class DynamixelChainEmulator:
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._last_step = time.monotonic()
+        self.timing = timing
+        self.replies: deque[TimedReply] = deque(maxlen=4096)
+        self._adapter: FtdiReceiveBuffer | None = None
+        self._bus_free = 0.0  # when the line is free for the next request (timed)
+        self._outbox: deque[tuple[float, bytes]] = deque()  # (reaches the host at, bytes), in time order
 
     @classmethod
-    def for_hand(cls, hand: HandConfig, q_rad: Sequence[float] | None = None) -> DynamixelChainEmulator:
-        """A chain with the hand's servo ids and model, resting at ``q_rad`` (default: the open posture)."""
+    def for_hand(
+        cls, hand: HandConfig, q_rad: Sequence[float] | None = None, timing: BusTiming | None = None
+    ) -> DynamixelChainEmulator:
+        """A chain with the hand's servo ids and model, resting at ``q_rad`` (default: the open
+        posture); ``timing``: take the bus's real time (e.g. ``BusTiming.for_hand(hand)``)."""
         from grasp_ctrl.hardware.dynamixel.calibration import Calibration
 
         joints = hand.joints
@@ -73,6 +117,7 @@ class DynamixelChainEmulator:
             [j.servo_id for j in joints],
             model_number=model.model_number if model else 1240,
             initial_counts={j.servo_id: float(c) for j, c in zip(joints, counts)},
+            timing=timing,
         )
 
     # ---- lifecycle -------------------------------------------------------------
@@ -82,7 +127,13 @@ class DynamixelChainEmulator:
         self.port = os.ttyname(self._slave)
         self._stop.clear()
         self._last_step = time.monotonic()
-        self._thread = threading.Thread(target=self._serve, name="dxl-emulator", daemon=True)
+        if self.timing is not None:
+            # the adapter's timer has been ticking since it was plugged in
+            self._adapter = FtdiReceiveBuffer(self.timing, anchor=self._last_step)
+            self._bus_free = self._last_step
+            self._outbox.clear()
+        serve = self._serve if self.timing is None else self._serve_timed
+        self._thread = threading.Thread(target=serve, name="dxl-emulator", daemon=True)
         self._thread.start()
         return self
 
@@ -170,6 +221,64 @@ class DynamixelChainEmulator:
                             os.write(self._master, reply)
                         except OSError:
                             return
+
+    def _serve_timed(self) -> None:
+        """As ``_serve``, but each reply is written when the bus and the USB adapter would
+        have delivered it."""
+        while not self._stop.is_set():
+            wait = IDLE_WAIT_S
+            if self._outbox:
+                wait = min(wait, max(0.0, self._outbox[0][0] - time.monotonic()))
+            try:
+                ready, _, _ = select.select([self._master], [], [], wait)
+            except (OSError, ValueError):
+                return
+            with self.lock:
+                self._step_physics()
+            if ready:
+                try:
+                    data = os.read(self._master, 4096)
+                except OSError:
+                    return
+                if data:
+                    self._receive(data, time.monotonic())
+            now = time.monotonic()
+            while self._outbox and self._outbox[0][0] <= now:
+                _, chunk = self._outbox.popleft()
+                try:
+                    os.write(self._master, chunk)
+                except OSError:
+                    return
+
+    def _receive(self, data: bytes, t: float) -> None:
+        """Handle the packets in ``data`` (arrived at ``t``); schedule their replies from when
+        each request's last byte is on the wire."""
+        assert self.timing is not None
+        for pkt, dxl_id in self.parser.feed(data):
+            n = PACKET_OVERHEAD + (len(pkt.params) if pkt is not None else 0)
+            self._bus_free = max(t, self._bus_free) + wire_time_s(n, self.timing.baud)
+            with self.lock:
+                reply = self._handle(pkt, dxl_id)
+                delay = self._return_delay(pkt, dxl_id)
+            if reply:
+                self._schedule_reply(self._bus_free, reply, delay)
+
+    def _return_delay(self, pkt: p.Packet | None, dxl_id: int) -> float:
+        """The Return Delay Time of the servo that answers first (a sync read's first id)."""
+        first = dxl_id
+        if pkt is not None and pkt.inst in (p.INST_SYNC_READ, p.INST_FAST_SYNC_READ) and len(pkt.params) > 4:
+            first = pkt.params[4]
+        elif pkt is not None and pkt.dxl_id == p.BROADCAST_ID and self.servos:
+            first = min(self.servos)
+        s = self.servos.get(first)
+        return return_delay_s(s.get(RETURN_DELAY)) if s is not None else 0.0
+
+    def _schedule_reply(self, t_request_end: float, reply: bytes, return_delay: float) -> None:
+        assert self.timing is not None and self._adapter is not None
+        flushes = reply_schedule(self.timing, self._adapter, t_request_end, len(reply), return_delay)
+        self._bus_free = max(self._bus_free, t_request_end + return_delay + len(reply) * self.timing.byte_s)
+        self._outbox.append((flushes[-1][0], reply))
+        self.replies.append(TimedReply(t_request_end, flushes[0][0], flushes[-1][0], len(reply)))
 
     def _step_physics(self) -> None:
         now = time.monotonic()
@@ -330,13 +439,31 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--model-number", type=int, default=1240, help="model number the servos report (default 1240)")
     ap.add_argument("--missing", default="", help="ids that do not answer")
     ap.add_argument("--hand", help="hand file: use its ids and model, start at its open posture (overrides --ids)")
+    ap.add_argument(
+        "--realtime",
+        action="store_true",
+        help="take the bus's real time: wire time at the baud rate (the hand file's, else --baud), "
+        "return delay, the USB latency timer (the hand file's latency_timer_ms, else --latency-timer-ms)",
+    )
+    ap.add_argument("--baud", type=int, default=4_000_000, help="with --realtime and no --hand (default 4000000)")
+    ap.add_argument("--latency-timer-ms", type=int, default=None, help="with --realtime: the USB latency timer")
     args = ap.parse_args(argv)
+    if args.latency_timer_ms is not None and not 1 <= args.latency_timer_ms <= 255:
+        ap.error("--latency-timer-ms: from 1 to 255")
+    if args.baud <= 0:
+        ap.error("--baud: a positive baud rate")
     if args.hand:
         from grasp_ctrl.config.hand import load_hand
 
-        emu = DynamixelChainEmulator.for_hand(load_hand(args.hand)).start()
+        hand = load_hand(args.hand)
+        timing = BusTiming.for_hand(hand) if args.realtime else None
+        if timing is not None and args.latency_timer_ms is not None:
+            timing = BusTiming(timing.baud, args.latency_timer_ms / 1000.0)
+        emu = DynamixelChainEmulator.for_hand(hand, timing=timing).start()
     else:
-        emu = DynamixelChainEmulator(parse_ids(args.ids), model_number=args.model_number).start()
+        latency_ms = args.latency_timer_ms if args.latency_timer_ms is not None else 1
+        timing = BusTiming(args.baud, latency_ms / 1000.0) if args.realtime else None
+        emu = DynamixelChainEmulator(parse_ids(args.ids), model_number=args.model_number, timing=timing).start()
     for i in parse_ids(args.missing):
         emu.set_missing(i)
     print(emu.port, flush=True)

@@ -11,6 +11,8 @@ Faults: per-frame bit flips (1..3 bits, always caught by the CRC) and truncation
 garbage bursts between frames, pauses of some fingertips (``pause``), unplugging
 (``disconnect``) and plugging back (``replug``). ``sent`` logs every frame put on
 the wire with whether it went out intact, so tests can check what the reader lost.
+``wire_baud``: each frame reaches the reader when its last byte would on a UART at that
+rate (10 bits a byte, the frames of one sample back to back), not all at once.
 POSIX only (pseudo-terminals).
 """
 
@@ -28,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from grasp_ctrl.emulators.bus_timing import wire_time_s
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.sim.biotac_model import BioTacSensorModel
 from grasp_ctrl.tactile.layout import COUNT_MAX, ELECTRODES, FRAME_LEN, PAC, PDC, TAC, TDC
@@ -169,9 +172,13 @@ class TactileBridgeEmulator:
         seed: int = 0,
         link_dir: str | Path | None = None,
         link_name: str = "tactile0",
+        wire_baud: int | None = None,
     ) -> None:
         if mode not in ("binary", "text"):
             raise ValueError(f"mode must be binary or text, got {mode!r}")
+        if wire_baud is not None and wire_baud <= 0:
+            raise ValueError(f"wire_baud must be positive, got {wire_baud!r}")
+        self.wire_baud = wire_baud
         self.sensor_ids = tuple(sensor_ids)
         self.source: FrameSource = source or SyntheticSource(seed=seed, rate_hz=rate_hz)
         self.rate_hz = float(rate_hz)
@@ -312,7 +319,16 @@ class TactileBridgeEmulator:
             pieces.insert(int(rng.integers(0, len(pieces) + 1)), burst)
         if not pieces:
             return
-        ok = self._write(b"".join(pieces))
+        if self.wire_baud is None:
+            ok = self._write(b"".join(pieces))
+        else:  # each piece when its last byte is off the wire
+            ok, sent = True, 0
+            for piece in pieces:
+                sent += len(piece)
+                wait = now + wire_time_s(sent, self.wire_baud) - time.monotonic()
+                if wait > 0 and self._stop.wait(wait):
+                    return
+                ok = self._write(piece) and ok
         self.sent.extend(SentFrame(sid, seq, intact and ok, now) for sid, seq, intact in frames)
 
     def _write(self, data: bytes) -> bool:

@@ -12,6 +12,14 @@ calibration, clamping, the step limit and the bus exactly as on a real hand.
 On the MuJoCo world (``run --backend dynamixel --emulate``) the servos publish the
 angles its joint calibration offsets leave them (``q_measured``) and their goals
 go back through ``command_goal``: the offsets stay inside the world.
+
+``realtime=True`` (``run --backend dynamixel --emulate --realtime``): the chain takes the bus's
+real time (baud rate, return delay, USB latency timer: bus_timing.py) and the hand no longer
+waits on the world. The trial runner steps the world on the wall clock and calls
+``before_world_step`` (the goals the servos hold now move the world) and ``after_world_step``
+(the servos report the world's new state); ``read`` and ``write_goals`` are the bus
+transactions alone, as on a real hand. Joint states are stamped with the trial's wall clock
+(``clock``, a ``TrialClock``), not the world's step.
 """
 
 from __future__ import annotations
@@ -23,7 +31,9 @@ from typing import Any
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.emulators.bus_timing import BusTiming
 from grasp_ctrl.emulators.dxl_chain import DynamixelChainEmulator
+from grasp_ctrl.emulators.wall_clock import TrialClock
 from grasp_ctrl.errors import HardwareError
 from grasp_ctrl.hardware.base import JointState
 from grasp_ctrl.hardware.dynamixel import DynamixelHand
@@ -65,13 +75,20 @@ def _command(world: Any, q_goal: np.ndarray) -> None:
         command(q_goal)
 
 
+# The reply deadline of the emulated hand: the emulator is a thread on a possibly busy host.
+RELAXED_TIMEOUT_MS = 50.0
+
+
 class EmulatedDynamixelHand:
-    def __init__(self, world: Any, hand: HandConfig) -> None:
+    def __init__(self, world: Any, hand: HandConfig, realtime: bool = False, clock: TrialClock | None = None) -> None:
         self.world = world
         self.hand = hand
+        self.realtime = realtime
+        self.trial_clock = (clock or TrialClock(world.t)) if realtime else None
+        self.timing = BusTiming.for_hand(hand) if realtime else None
         self.cal = Calibration.from_joints(hand.joints)
         self.ids = [j.servo_id for j in hand.joints]
-        self.emu = DynamixelChainEmulator.for_hand(hand, _measured_q(world))
+        self.emu = DynamixelChainEmulator.for_hand(hand, _measured_q(world), timing=self.timing)
         self.emu.external_physics = True
         self.dxl: DynamixelHand | None = None
         self._q_prev = _measured_q(world).copy()
@@ -82,13 +99,18 @@ class EmulatedDynamixelHand:
         # The emulator is a thread on a possibly busy host, not a servo answering in
         # microseconds: give it a generous reply deadline so a trial is not aborted
         # by the scheduler (the timing path itself is covered by the backend's tests).
+        # In realtime the deadline also outlasts two latency-timer periods, so a long timer
+        # shows as slow ticks and deadline misses (what the dry run measures), not as
+        # retries; the pre-flight names a packet_timeout_ms shorter than the timer.
+        d = self.hand.dynamixel
+        timeout_ms = max(RELAXED_TIMEOUT_MS, d.packet_timeout_ms)
+        if self.realtime:
+            timeout_ms = max(timeout_ms, 2.0 * d.latency_timer_ms + RELAXED_TIMEOUT_MS)
         relaxed = dataclasses.replace(
-            self.hand,
-            dynamixel=dataclasses.replace(
-                self.hand.dynamixel, packet_timeout_ms=max(50.0, self.hand.dynamixel.packet_timeout_ms), retries=5
-            ),
+            self.hand, dynamixel=dataclasses.replace(d, packet_timeout_ms=timeout_ms, retries=5)
         )
-        self.dxl = DynamixelHand(relaxed, self.emu.port, clock=_WorldClock(self.world), handle_signals=False)
+        clock = self.trial_clock if self.trial_clock is not None else _WorldClock(self.world)
+        self.dxl = DynamixelHand(relaxed, self.emu.port, clock=clock, handle_signals=False)
         self.dxl.connect()
         self._pull_goals()
 
@@ -117,13 +139,32 @@ class EmulatedDynamixelHand:
                 raise HardwareError("emulator did not receive the sync write")
             time.sleep(2e-5)
 
+    # ---- realtime: the runner steps the world on the wall clock -------------------------
+    def bus_figures(self) -> dict[str, float]:
+        """The bus a realtime record was measured on (the trial runner's ``timings.loop``)."""
+        d = self.hand.dynamixel
+        return {"latency_timer_ms": d.latency_timer_ms, "baud": d.baud}
+
+    def before_world_step(self) -> None:
+        """The goals (and torque) the servos hold now drive the world's next step."""
+        self._pull_goals()
+
+    def after_world_step(self) -> None:
+        """The servos report the world's state from now on."""
+        self._publish()
+
+    # ---- HandBackend --------------------------------------------------------------------
     def read(self) -> JointState:
         assert self.dxl is not None, "connect() first"
-        self._publish()
+        if not self.realtime:
+            self._publish()
         return self.dxl.read()
 
     def write_goals(self, q_goal: np.ndarray) -> None:
         assert self.dxl is not None, "connect() first"
+        if self.realtime:  # a sync write has no reply: the servos take it off the wire
+            self.dxl.write_goals(q_goal)
+            return
         before = self.emu.sync_write_count
         self.dxl.write_goals(q_goal)
         self._wait_for_sync_write(before)
@@ -132,7 +173,8 @@ class EmulatedDynamixelHand:
     def set_torque(self, enabled: bool) -> None:
         assert self.dxl is not None, "connect() first"
         self.dxl.set_torque(enabled)
-        self._pull_goals()
+        if not self.realtime:
+            self._pull_goals()
 
     def check_health(self) -> None:
         assert self.dxl is not None, "connect() first"

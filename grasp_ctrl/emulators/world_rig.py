@@ -13,6 +13,14 @@ Both run on the world's simulated clock: each control tick publishes the world's
 state to the emulators and waits until the backends have it, so a trial is as
 reproducible as on the mock, scored from the world's ground truth, and logged the
 same way. The arm is the world's (a real arm is another program's business).
+
+``realtime=True`` (``run --backend dynamixel --emulate --realtime``): a wall-clock dry run.
+The servo chain takes the bus's real time (world_hand.py, bus_timing.py) and the bridge
+streams a frame per fingertip every 10 ms of wall time from its own thread, each frame
+reaching the reader after its bytes' time on a UART at the hand file's tactile baud rate; the
+trial runner steps the world to keep up with the wall clock and calls each backend's
+``before_world_step`` / ``after_world_step``. Both backends stamp with one ``TrialClock``
+(``trial_clock``): the world's time base, on the wall clock once the loop starts it.
 """
 
 from __future__ import annotations
@@ -24,6 +32,7 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.emulators.tactile_bridge import TactileBridgeEmulator
+from grasp_ctrl.emulators.wall_clock import TrialClock
 from grasp_ctrl.emulators.world_hand import EmulatedDynamixelHand, _WorldClock
 from grasp_ctrl.hardware.base import TactileFrame
 from grasp_ctrl.tactile.layout import COUNT_MAX
@@ -31,20 +40,39 @@ from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 
 # How long (real time) a tick waits for the reader thread to decode the frames it sent.
 FRAME_WAIT_S = 0.5
+# Realtime: how long the start waits for the streaming bridge's first frames (a busy host).
+FIRST_FRAMES_S = 2.0
 
 
 class EmulatedTactileSensors:
-    """``SerialSensors`` over a pty, fed one sample of the world's frames per control tick."""
+    """``SerialSensors`` over a pty, fed one sample of the world's frames per control tick
+    (``realtime``: the bridge streams the world's latest frames every 10 ms of wall time)."""
 
-    def __init__(self, world: Any, hand: HandConfig) -> None:
+    def __init__(self, world: Any, hand: HandConfig, realtime: bool = False, clock: TrialClock | None = None) -> None:
         self.world = world
+        self.realtime = realtime
+        self.trial_clock = (clock or TrialClock(world.t)) if realtime else None
         self.row = {sid: i for i, sid in enumerate(world.sensor_ids)}
-        self.bridge = TactileBridgeEmulator(list(world.sensor_ids), source=self._frame, mode=hand.tactile.mode)
-        self.serial = SerialSensors.from_hand(hand, port=self.bridge.port, clock=_WorldClock(world), reconnect=False)
+        self._raw = np.array(world.raw, dtype=float)  # the frames the bridge sends (realtime: as published)
+        self.bridge = TactileBridgeEmulator(
+            list(world.sensor_ids),
+            source=self._frame,
+            mode=hand.tactile.mode,
+            rate_hz=hand.rate_hz,
+            wire_baud=hand.tactile.baud if realtime else None,
+        )
+        clock = self.trial_clock if self.trial_clock is not None else _WorldClock(world)
+        self.serial = SerialSensors.from_hand(hand, port=self.bridge.port, clock=clock, reconnect=False)
         self._k = 0
 
     def _frame(self, sensor_id: int, _k: int) -> np.ndarray:
-        return np.clip(np.rint(self.world.raw[self.row[sensor_id]]), 0, COUNT_MAX)
+        raw = self._raw if self.realtime else self.world.raw
+        return np.clip(np.rint(raw[self.row[sensor_id]]), 0, COUNT_MAX)
+
+    def after_world_step(self) -> None:
+        """Realtime: the bridge's thread sends these frames from now on (one reference swap,
+        so it never reads a half-written array)."""
+        self._raw = np.array(self.world.raw, dtype=float)
 
     def send(self) -> None:
         """Put the world's current frames on the wire and wait until they are decoded
@@ -61,10 +89,15 @@ class EmulatedTactileSensors:
 
     def start(self) -> None:
         self.serial.start()
-        self.send()
+        if self.realtime:
+            self.bridge.start()
+            self.serial.wait_for_frames(FIRST_FRAMES_S, min_frames=1)
+        else:
+            self.send()
 
     def read_latest(self) -> dict[int, TactileFrame]:
-        self.send()
+        if not self.realtime:
+            self.send()
         return self.serial.read_latest()
 
     def check_stale(self, now: float | None = None) -> None:
@@ -86,6 +119,15 @@ class EmulatedTactileSensors:
             self.bridge.close()
 
 
-def emulated_backends(world: Any, hand: HandConfig) -> tuple[EmulatedDynamixelHand, EmulatedTactileSensors]:
-    """The hand and sensor backends of one emulated trial (runner.run_sim_trial's ``make_backends``)."""
-    return EmulatedDynamixelHand(world, hand), EmulatedTactileSensors(world, hand)
+def emulated_backends(
+    world: Any, hand: HandConfig, realtime: bool = False
+) -> tuple[EmulatedDynamixelHand, EmulatedTactileSensors]:
+    """The hand and sensor backends of one emulated trial (runner.run_sim_trial's ``make_backends``);
+    ``realtime``: on the bus's and the bridge's real time (the runner steps the world on the wall clock)."""
+    clock = TrialClock(world.t) if realtime else None  # one clock for both
+    return EmulatedDynamixelHand(world, hand, realtime, clock), EmulatedTactileSensors(world, hand, realtime, clock)
+
+
+def realtime_backends(world: Any, hand: HandConfig) -> tuple[EmulatedDynamixelHand, EmulatedTactileSensors]:
+    """``emulated_backends`` on real time (a module-level function: picklable, unlike a partial of a lambda)."""
+    return emulated_backends(world, hand, realtime=True)

@@ -8,13 +8,21 @@ threshold of the window's mean (the baseline taring would set: a fingertip whose
 pdc moves more, pressed or knocked while taring, would read as in contact). A failure
 is one line naming the servo or fingertip. Only then is the operator asked to
 confirm the arm's start pose (``--yes`` answers for scripted use).
+
+It also budgets the servo bus from the hand file (emulators/bus_timing.py): a tick's worst
+bus time (state sync read, goal sync write, health poll, each read's tail held up to the USB
+adapter's latency timer) that takes more than half of the control tick leaves too little for
+sensing and the controller, and a warning names the problem and the fix (``latency_timer_ms
+= 1``, or its sysfs file); the run goes on, and a realtime dry run shows the deadline misses.
 """
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -25,6 +33,9 @@ from grasp_ctrl.tactile.frames import validate_frames
 from grasp_ctrl.tactile.layout import PDC
 
 FRAME_TIMEOUT_S = 2.0
+# The share of a control tick the servo bus may take; the rest is sensing, estimator, controller.
+BUS_SHARE = 0.5
+SYSFS_USB_SERIAL = "/sys/bus/usb-serial/devices"
 
 
 class NotConfirmed(GraspCtrlError):
@@ -35,12 +46,82 @@ class NotConfirmed(GraspCtrlError):
 class PreflightReport:
     servos: list[str]  # "name (id N)"
     fingertips: list[str]  # "name (sensor N): pdc within +-X"
+    warnings: tuple[str, ...] = ()  # problems that do not stop the run (the bus budget)
 
     def summary(self) -> str:
-        return (
+        line = (
             f"pre-flight: {len(self.servos)} servos answered, no hardware errors; "
             f"{len(self.fingertips)} fingertips streaming and tareable ({'; '.join(self.fingertips)})"
         )
+        return "\n".join([line, *(f"pre-flight: warning: {w}" for w in self.warnings)])
+
+
+def _sysfs_file(port: str) -> str:
+    """The latency_timer file to name in a fix (the port's own where it is a ttyUSB name)."""
+    name = Path(port).name
+    return f"{SYSFS_USB_SERIAL}/{name if name.startswith('ttyUSB') else 'ttyUSB0'}/latency_timer"
+
+
+def bus_budget_warning(hand: HandConfig, hand_file: str | None = None, adapter_ms: int | None = None) -> str | None:
+    """One line naming why the servo bus cannot keep the control tick, and the fix; None when it
+    can. ``adapter_ms``: the adapter's own latency timer where it differs from the hand file's
+    and cannot be set (the real hand's sysfs file)."""
+    from grasp_ctrl.emulators.bus_timing import tick_bus_time_s
+
+    d = hand.dynamixel
+    latency_ms = adapter_ms if adapter_ms is not None else d.latency_timer_ms
+    bus = tick_bus_time_s(len(hand.joints), d.baud, latency_ms / 1000.0, d.fast_sync_read)
+    tick_ms = hand.dt * 1000.0
+    problems = []
+    if bus.worst_s > BUS_SHARE * hand.dt:
+        wire_ms = (bus.worst_s - 2 * bus.latency_timer_s) * 1000.0  # a health-poll tick reads twice
+        where = f"[dynamixel] latency_timer_ms in {hand_file}" if hand_file else "[dynamixel] latency_timer_ms"
+        if adapter_ms is not None:
+            where = f"{_sysfs_file(d.port)}, which could not be set to the hand file's {d.latency_timer_ms}"
+        cause = f"{wire_ms:.1f} ms on the wire at {d.baud} baud"
+        if latency_ms > 1:
+            cause += (
+                f", plus up to {latency_ms} ms in the USB adapter per sync read: latency timer {latency_ms} ms, {where}"
+            )
+        if bus.worst_s >= hand.dt:
+            verdict = "more than the tick itself, so the loop will miss its deadlines"
+        else:
+            rest_ms = tick_ms - bus.worst_s * 1000.0
+            verdict = f"more than half the tick, leaving {rest_ms:.1f} ms for sensing and the controller: expect deadline misses"
+        if latency_ms > 1:
+            fix = (
+                f"set latency_timer_ms = 1 in the hand file (written to the adapter on connect), or on Linux: "
+                f"echo 1 | sudo tee {_sysfs_file(d.port)} (or the udev rule in docs/hardware.md)"
+            )
+        else:
+            fix = "a faster bus: set the servos' Baud Rate and [dynamixel] baud to 4000000"
+        problems.append(
+            f"servo bus too slow for the {tick_ms:g} ms control tick: up to {bus.worst_s * 1000:.1f} ms of bus time "
+            f"a tick ({cause}), {verdict}; fix: {fix}"
+        )
+    if latency_ms > d.packet_timeout_ms:
+        problems.append(
+            f"replies held up to {latency_ms} ms by the USB adapter outlast packet_timeout_ms = "
+            f"{d.packet_timeout_ms:g}, so reads time out and are retried; fix: latency_timer_ms = 1"
+        )
+    return "; ".join(problems) or None
+
+
+def adapter_latency_ms(port: str, configured_ms: int, sysfs_root: str = SYSFS_USB_SERIAL) -> int | None:
+    """The USB adapter's latency timer where it differs from ``configured_ms`` and its sysfs file
+    is not writable (so connecting will not set it); None otherwise (or no such file)."""
+    from grasp_ctrl.hardware.dynamixel.port import latency_timer_path
+
+    path = latency_timer_path(port, sysfs_root)
+    if path is None:
+        return None
+    try:
+        current = int(path.read_text().strip())
+    except (OSError, ValueError):
+        return None
+    if current == configured_ms or os.access(path, os.W_OK):
+        return None
+    return current
 
 
 def check_servos(dxl: Any) -> list[str]:
@@ -86,8 +167,11 @@ def check_fingertips(
     return out
 
 
-def preflight_hardware(hand: HandConfig, port: str | None = None, sensor_port: str | None = None) -> PreflightReport:
-    """The real hand: servos on the bus (torque untouched), fingertips on their ports."""
+def preflight_hardware(
+    hand: HandConfig, port: str | None = None, sensor_port: str | None = None, hand_file: str | None = None
+) -> PreflightReport:
+    """The real hand: servos on the bus (torque untouched), fingertips on their ports; the bus
+    budget from the hand file and the adapter's latency timer (``hand_file``: named in a warning)."""
     from grasp_ctrl.hardware.dynamixel import DynamixelHand
     from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 
@@ -104,33 +188,54 @@ def preflight_hardware(hand: HandConfig, port: str | None = None, sensor_port: s
         tips = check_fingertips(sensors, hand, lambda: time.sleep(hand.dt))
     finally:
         sensors.close()
-    return PreflightReport(servos, tips)
+    adapter = adapter_latency_ms(dxl.port_name, hand.dynamixel.latency_timer_ms)
+    warning = bus_budget_warning(hand, hand_file, adapter)
+    return PreflightReport(servos, tips, (warning,) if warning else ())
 
 
-def preflight_emulated(hand: HandConfig, obj: Any, seed: int, variation: Any = None) -> PreflightReport:
+def preflight_emulated(
+    hand: HandConfig,
+    obj: Any,
+    seed: int,
+    variation: Any = None,
+    realtime: bool = False,
+    hand_file: str | None = None,
+) -> PreflightReport:
     """The emulated rig of ``run --emulate``, on a world of the first object (before any trial),
-    drawn under ``variation`` (sim/variation.py; None: nominal) as its first trial is."""
+    drawn under ``variation`` (sim/variation.py; None: nominal) as its first trial is;
+    ``realtime``: on the bus's and the bridge's real time, the world stepped every tick of
+    wall time. The bus budget is the hand file's (``hand_file``: named in a warning)."""
     from grasp_ctrl.emulators.world_rig import emulated_backends
     from grasp_ctrl.sim.mujoco_backends import make_world
     from grasp_ctrl.sim.registry import world_params
 
     world = make_world(hand, obj, seed, world_params("mujoco", variation))
-    hand_backend, sensors = emulated_backends(world, hand)
+    hand_backend, sensors = emulated_backends(world, hand, realtime)
     try:
         hand_backend.connect()
         sensors.start()
         servos = check_servos(hand_backend.dxl)
 
         def next_sample() -> None:
+            if not realtime:
+                world.step()
+                return
+            hand_backend.before_world_step()
             world.step()
+            hand_backend.after_world_step()
+            sensors.after_world_step()
+            time.sleep(hand.dt)  # the bridge sends the new frames on its own clock
 
+        if hand_backend.trial_clock is not None:
+            hand_backend.trial_clock.start()
         tips = check_fingertips(sensors, hand, next_sample)
     finally:
         try:
             sensors.close()
         finally:
             hand_backend.close()
-    return PreflightReport(servos, tips)
+    warning = bus_budget_warning(hand, hand_file)
+    return PreflightReport(servos, tips, (warning,) if warning else ())
 
 
 def confirm_start(yes: bool, ask: Callable[[str], str] = input, say: Callable[[str], None] | None = None) -> None:

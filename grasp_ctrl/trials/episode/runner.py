@@ -35,6 +35,7 @@ from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.motion import squeeze_mode
 from grasp_ctrl.controller.registry import make_controller
 from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.emulators.wall_clock import TimedHand, TrialClock, WallClockLoop
 from grasp_ctrl.errors import ConfigError, GraspCtrlError, UsageError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
@@ -199,8 +200,13 @@ def run_sim_trial(
     backend: str = "mock",
     make_world: WorldFactory | None = None,
     raw_frames: bool = False,
+    realtime: bool = False,
 ) -> TrialResult:
-    """One trial; ``raw_frames``: the tick log at ``log_path`` keeps every raw frame whole."""
+    """One trial; ``raw_frames``: the tick log at ``log_path`` keeps every raw frame whole.
+    ``realtime``: the loop runs on the wall clock (emulators/wall_clock.py): a tick every
+    ``hand.dt`` on a deadline schedule, the world stepped to keep up, each backend's
+    ``before_world_step`` / ``after_world_step`` called around each step; the record's
+    ``timings.loop`` holds the loop's cycle times and deadline misses."""
     wall0 = time.perf_counter()
     kin = kin or HandKinematics(hand)
     make_world, make_backends = world_for_backend(backend, make_world, make_backends)
@@ -220,7 +226,14 @@ def run_sim_trial(
     names = pipeline.names
     grasp = np.array([f.grasp for f in hand.fingers])
     log = TickLog(log_path, names, len(hand.joints), truth=True, raw_frames=raw_frames) if log_path else None
-    tap = CurrentTap(hand_backend)  # the generic tick's reads, for the log's currents
+    # realtime: the backends' clock (or one of the world's time base) paces the loop and stamps the ticks
+    clock: TrialClock | None = None
+    if realtime:
+        clock = getattr(hand_backend, "trial_clock", None) or TrialClock(world.t)
+    loop = WallClockLoop(hand.dt, world.dt, clock=clock.now) if clock is not None else None
+    # the generic tick's reads, for the log's currents (realtime: its bus time too)
+    tap = CurrentTap(hand_backend if loop is None else TimedHand(hand_backend, loop))
+    step_world = _world_stepper(world, hand_backend, sensors)
     n = len(names)
     peaks = np.zeros((3, n))
     # the peak of |f_sensor|^2 (its root at the end is the peak of |f_sensor|), of the grip and the true force
@@ -228,10 +241,13 @@ def run_sim_trial(
     # On the mock world's own backends the tick's input and output halves run fused (mock_tick.py).
     fast = (
         MockTick(world, hand_backend, sensors, arm, pipeline, log, peaks)
-        if MockTick.usable(world, hand_backend, sensors, arm, pipeline, log)
+        if loop is None and MockTick.usable(world, hand_backend, sensors, arm, pipeline, log)
         else None
     )
     settle_ticks = int(round(SETTLE_S / hand.dt))
+    if clock is not None and loop is not None:  # the trial's time runs on the wall clock from here
+        clock.start()
+        loop.start()
     try:
         while world.t < MAX_TRIAL_S:
             if fast is not None:  # the same step and tick, peaks and log row
@@ -241,9 +257,15 @@ def run_sim_trial(
                     # the world has not stepped since, and its velocity estimate is already at q.
                     log.set_current(hand_backend.read().current_a)
             else:
-                world.step()
+                if loop is None:
+                    world.step()
+                    now = world.t
+                else:  # sleep until the tick's release, then the world catches up with the wall clock
+                    loop.wait_for_release()
+                    loop.step_world(step_world)
+                    now = loop.clock()
                 world.set_phase(ctrl.state)
-                snap, cmd, raw = control_tick(tap, arm, sensors, pipeline, ctrl, world.t)
+                snap, cmd, raw = control_tick(tap, arm, sensors, pipeline, ctrl, now)
                 if jit.JIT:
                     track_peaks(snap.f_sensor, snap.grip_n, world.normal_n, tip_force_sq, tip_grip, tip_true)
                 else:
@@ -264,6 +286,8 @@ def run_sim_trial(
                         grip_target_n=ctrl.tau,
                         current_a=tap.take(),
                     )
+                if loop is not None:
+                    loop.tick_done()
             if on_tick:
                 on_tick(world, ctrl)
             if ctrl.terminal:
@@ -285,6 +309,9 @@ def run_sim_trial(
     success, reason = judge(world, ctrl)
     wall = time.perf_counter() - wall0
     timings = state_timings(ctrl.history, world.t)
+    if loop is not None:
+        bus = getattr(hand_backend, "bus_figures", None)
+        timings["loop"] = {**loop.figures(), **(bus() if bus is not None else {})}
     return TrialResult(
         object=obj.name,
         policy=policy_name,
@@ -317,6 +344,21 @@ def run_sim_trial(
     )
 
 
+def _world_stepper(world: World, *backends: Any) -> Callable[[], None]:
+    """One world step with the backends' realtime hooks around it (those that have them)."""
+    before = [f for b in backends if (f := getattr(b, "before_world_step", None)) is not None]
+    after = [f for b in backends if (f := getattr(b, "after_world_step", None)) is not None]
+
+    def step() -> None:
+        for f in before:
+            f()
+        world.step()
+        for f in after:
+            f()
+
+    return step
+
+
 def _close_all(*parts: Any, raise_error: bool = True) -> None:
     """Close every backend even when one fails; the first error is raised after (if asked)."""
     error: BaseException | None = None
@@ -343,10 +385,12 @@ def sim_trial_fn(
     make_world: WorldFactory | None = None,
     variation: Variation | None = None,
     raw_frames: bool = False,
+    realtime: bool = False,
 ) -> TrialFn:
     """Policies are loaded up front, so a bad one fails before the first trial. ``variation``:
     the world's per-trial draws (sim/variation.py; None: the world's own, nominal);
-    ``raw_frames``: the tick logs keep every raw frame whole."""
+    ``raw_frames``: the tick logs keep every raw frame whole; ``realtime``: each trial's loop
+    runs on the wall clock (``run_sim_trial``), one trial at a time."""
     factories = {p: estimator_factory(p, hand, threads) for p in policies}
     kin = HandKinematics(hand)
     make_world, make_backends = world_for_backend(backend, make_world, make_backends)
@@ -368,6 +412,7 @@ def sim_trial_fn(
             backend=backend,
             make_world=make_world,
             raw_frames=raw_frames,
+            realtime=realtime,
         ).to_json()
 
     return run

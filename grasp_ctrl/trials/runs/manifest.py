@@ -62,6 +62,8 @@ class RunManifest:
     forced: list[dict[str, Any]] = field(default_factory=list)  # resumes with --force despite changes
     # The simulated world's per-trial draws (sim/variation.py); None on the real hand.
     variation: Variation | None = NOMINAL
+    # The emulated hand on the wall clock (run --emulate --realtime): a resume keeps it.
+    realtime: bool = False
 
     @property
     def object_names(self) -> list[str]:
@@ -91,6 +93,7 @@ class RunManifest:
             "fingerprint": self.fingerprint,
             "forced": list(self.forced),
             "variation": self.variation.to_json() if self.variation is not None else None,
+            "realtime": self.realtime,
         }
 
     @classmethod
@@ -153,6 +156,11 @@ class RunManifest:
         # A run from before the variation profiles drew the nominal ones; null: the real hand.
         raw_variation = doc.get("variation", NOMINAL.to_json())
         variation = None if raw_variation is None else variation_from_json(raw_variation, where)
+        realtime = doc.get("realtime", False)  # a run from before the realtime dry run ran in lockstep
+        if not isinstance(realtime, bool):
+            raise bad("realtime", "true or false")
+        if realtime and backend != EMULATED_BACKEND:
+            raise bad("realtime", f"true only with backend {EMULATED_BACKEND} (got backend {backend!r})")
         return cls(
             backend=backend,
             hand=hand,
@@ -170,12 +178,24 @@ class RunManifest:
             fingerprint=fingerprint,
             forced=forced,
             variation=variation,
+            realtime=realtime,
         )
 
     def same_plan(self, other: RunManifest) -> bool:
         """Would both produce the same trials? (paths and presets may differ)"""
         a, b = self.to_json(), other.to_json()
-        keys = ("backend", "hand", "seed", "trials", "policies", "objects", "tick_logs", "settings", "variation")
+        keys = (
+            "backend",
+            "hand",
+            "seed",
+            "trials",
+            "policies",
+            "objects",
+            "tick_logs",
+            "settings",
+            "variation",
+            "realtime",
+        )
         return all(a[k] == b[k] for k in keys)
 
 

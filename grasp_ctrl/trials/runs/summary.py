@@ -1,10 +1,62 @@
-"""The run summary (docs/design.md 5.2) from per-trial records."""
+"""The run summary (docs/design.md 5.2) from per-trial records.
+
+Trials of a realtime dry run (``run --emulate --realtime``) carry their loop's figures under
+``timings.loop``; the summary gives each object those of its trials together (``loop``:
+ticks and deadline misses summed, cycle-time p50 the median of the trials' p50, p90/p99/max
+the worst trial's) and the table prints them under the success rates.
+"""
 
 from __future__ import annotations
 
+import math
+import statistics
 from collections import Counter, defaultdict
 from collections.abc import Iterable, Mapping
 from typing import Any
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _loop_of(record: Mapping[str, Any]) -> Mapping[str, Any] | None:
+    """A record's ``timings.loop`` when it is well formed (a hand-edited one is left out)."""
+    timings = record.get("timings")
+    loop = timings.get("loop") if isinstance(timings, Mapping) else None
+    if not isinstance(loop, Mapping):
+        return None
+    cycle = loop.get("cycle_ms")
+    ok = (
+        isinstance(loop.get("ticks"), int)
+        and isinstance(loop.get("deadline_misses"), int)
+        and isinstance(cycle, Mapping)
+        and all(_number(cycle.get(k)) for k in ("p50", "p90", "p99", "max"))
+    )
+    return loop if ok else None
+
+
+def loop_summary(trials: Iterable[Mapping[str, Any]]) -> dict[str, Any] | None:
+    """The wall-clock loop figures of one object's trials together; None when none has them."""
+    loops = [lp for lp in (_loop_of(t) for t in trials) if lp is not None]
+    if not loops:
+        return None
+    cycles = [lp["cycle_ms"] for lp in loops]
+    out: dict[str, Any] = {
+        "trials": len(loops),
+        "ticks": sum(lp["ticks"] for lp in loops),
+        "deadline_misses": sum(lp["deadline_misses"] for lp in loops),
+        "cycle_ms": {
+            "p50": round(statistics.median(c["p50"] for c in cycles), 3),
+            "p90": max(c["p90"] for c in cycles),
+            "p99": max(c["p99"] for c in cycles),
+            "max": max(c["max"] for c in cycles),
+        },
+    }
+    for key in ("period_ms", "latency_timer_ms", "baud"):
+        values = {lp.get(key) for lp in loops if _number(lp.get(key))}
+        if len(values) == 1:
+            out[key] = values.pop()
+    return out
 
 
 def summarize(records: Iterable[Mapping[str, Any]], run_dir: str, backend: str, hand: str, seed: int) -> dict[str, Any]:
@@ -26,6 +78,9 @@ def summarize(records: Iterable[Mapping[str, Any]], run_dir: str, backend: str, 
                 "success_rate": s / n if n else 0.0,
                 "failures": dict(sorted(failures.items())),
             }
+            loop = loop_summary(trials)
+            if loop is not None:
+                obj_out[obj]["loop"] = loop
             total += n
             succ += s
         policies[policy] = {
@@ -70,4 +125,34 @@ def format_table(summary: Mapping[str, Any]) -> str:
     if failures:
         lines.append("failures:")
         lines.extend(failures)
+    lines.extend(format_loops(summary))
     return "\n".join(lines)
+
+
+def format_loops(summary: Mapping[str, Any]) -> list[str]:
+    """The wall-clock loop lines of a realtime dry run (none for other runs)."""
+    rows = []
+    for p, entry in summary["policies"].items():
+        for o, e in entry["objects"].items():
+            loop = e.get("loop")
+            if not isinstance(loop, Mapping):
+                continue
+            c = loop["cycle_ms"]
+            timer = f", latency timer {loop['latency_timer_ms']:g} ms" if "latency_timer_ms" in loop else ""
+            rows.append(
+                f"  {p} / {o}: cycle p50 {c['p50']:.1f} ms, p99 {c['p99']:.1f} ms, max {c['max']:.1f} ms; "
+                f"deadline misses {loop['deadline_misses']} of {loop['ticks']} ticks{timer}"
+            )
+    if not rows:
+        return []
+    period = next(
+        (
+            e["loop"].get("period_ms")
+            for p in summary["policies"].values()
+            for e in p["objects"].values()
+            if "loop" in e
+        ),
+        None,
+    )
+    budget = f", {period:g} ms budget" if isinstance(period, (int, float)) else ""
+    return [f"wall-clock loop (realtime dry run{budget}):", *rows]
