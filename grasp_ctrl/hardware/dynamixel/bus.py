@@ -12,6 +12,7 @@ damaged reply is reported instead of crashing the SDK's own parser.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 from dynamixel_sdk import COMM_SUCCESS, GroupSyncRead, GroupSyncWrite, PacketHandler
@@ -81,7 +82,14 @@ class DynamixelBus:
         packet_timeout_ms: float = 8.0,
         retries: int = 2,
         fast_sync_read: bool = True,
+        drain_s: float = 0.0,
     ) -> None:
+        if not drain_s >= 0.0:
+            raise ValueError(f"drain_s: the adapter's latency timer in seconds, >= 0 (got {drain_s!r})")
+        # After a failed transaction a late reply may still be in the USB adapter, which holds a
+        # short reply up to its latency timer: wait that long before dropping the input, or it
+        # arrives while the next request waits and is taken for its answer.
+        self.drain_s = drain_s
         self.port_name = port
         self.baud = baud
         self.names = names
@@ -127,6 +135,12 @@ class DynamixelBus:
     def _comm_failed(self, result: int) -> None:
         self.stats.comm_errors += 1
         self.port.is_using = False
+        self._drop_late_replies()
+
+    def _drop_late_replies(self) -> None:
+        """Wait out the adapter's latency timer, then drop whatever arrived (``drain_s``)."""
+        if self.drain_s > 0.0:
+            time.sleep(self.drain_s)
         self.port.clearPort()
 
     # ---- single-servo transactions ---------------------------------------------------
@@ -219,7 +233,7 @@ class DynamixelBus:
             last_problem = problem
             self.stats.comm_errors += 1
             self.port.is_using = False
-            self.port.clearPort()
+            self._drop_late_replies()
             if attempt < self.retries:
                 self.stats.retries += 1
         raise HardwareError(f"sync read of address {address} failed after {self.retries + 1} tries: {last_problem}")

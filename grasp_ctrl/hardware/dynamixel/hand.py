@@ -70,6 +70,7 @@ class DynamixelHand:
             packet_timeout_ms=self.cfg.packet_timeout_ms,
             retries=self.cfg.retries,
             fast_sync_read=self.cfg.fast_sync_read,
+            drain_s=self.cfg.latency_timer_ms / 1000.0,
         )
         self.handle_signals = handle_signals
         self.health_poll_s = health_poll_s
