@@ -28,8 +28,9 @@ from grasp_ctrl.storage import file_sha256
 
 PLAN_KEYS = ("backend", "hand", "seed", "trials", "policies", "tick_logs", "settings")
 # Plan keys hashed only when they differ from what every run drew before they existed, so that
-# such a run resumes with its fingerprint: the variation profile (nominal; null on the real hand).
-OPTIONAL_PLAN_KEYS = ("variation",)
+# such a run resumes with its fingerprint: the variation profile (nominal; null on the real hand)
+# and the wall-clock dry run (false).
+OPTIONAL_PLAN_KEYS = ("variation", "realtime")
 RECORD_KEY = "fingerprint"
 
 
@@ -73,6 +74,8 @@ def settings_digests(plan: dict[str, Any]) -> dict[str, str]:
     variation = plan.get("variation")
     if variation is not None and variation != NOMINAL.to_json():
         out["variation"] = sha256_json(variation)
+    if plan.get("realtime"):
+        out["realtime"] = sha256_json(plan["realtime"])
     for obj in plan.get("objects") or []:
         name = obj.get("name") if isinstance(obj, dict) else None
         out[f"objects.{name}"] = sha256_json(obj)
