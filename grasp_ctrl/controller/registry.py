@@ -23,7 +23,13 @@ DEFAULT_CONTROLLER = "grip_load"  # it measures better under both variation prof
 # Each controller's own choices where ControllerSettings' defaults (grip_load's) are not its own:
 # the paper's controller squeezes along the closing vectors toward tau on every fingertip.
 CONTROLLER_CHOICES: dict[str, dict[str, Any]] = {
-    "paper": {"stiffness_aware_squeeze": False, "grip_targets": "equal", "open_s": 0.4, "release_back_off_m_s": 0.05},
+    "paper": {
+        "stiffness_aware_squeeze": False,
+        "grip_targets": "equal",
+        "open_s": 0.4,
+        "release_back_off_m_s": 0.05,
+        "lower_speed_m_s": 0.015,
+    },
     "grip_load": {},
 }
 

@@ -25,7 +25,8 @@ class ControllerSettings:
     reach_tolerance_m: float = 0.001
     reach_timeout_s: float = 10.0
     lift_speed_m_s: float = 0.04
-    lower_speed_m_s: float = 0.015
+    lower_speed_m_s: float = 0.03  # grip_load's (the paper's controller: 0.015; controller/registry.py):
+    #   a light, soft object (the plastic bottle) turns in the grasp over a long lower and a grip fades
     lower_overshoot_m: float = 0.03  # how far below the grasp height lowering may go
     lower_slow_zone_m: float = 0.015  # approach the support surface slowly from this high
     lower_slow_speed_m_s: float = 0.005
