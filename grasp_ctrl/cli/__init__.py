@@ -73,6 +73,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if threading.current_thread() is threading.main_thread():
         handlers = (signal.signal(signal.SIGTERM, _raise_terminated), signal.signal(signal.SIGINT, _raise_interrupted))
     _signalled.clear()
+    status = None
     try:
         status = _main(argv)
         if _signalled and status not in (130, 143):  # an interrupt something swallowed (an ImportError, say)
@@ -86,9 +87,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         terminated = isinstance(exc, Terminated) or (_signalled and _signalled[-1] == signal.SIGTERM)
         return 143 if terminated else 130
     finally:
+        _stop_processes(everything=status != 0 or bool(_signalled))
         if handlers is not None:
             signal.signal(signal.SIGTERM, handlers[0])
             signal.signal(signal.SIGINT, handlers[1])
+
+
+def _stop_processes(everything: bool) -> None:
+    """None of the command's processes outlives it: the fork server and the resource tracker are
+    stopped and reaped, and ``everything`` (after an interrupt or an error) any worker pool still
+    open too; a signal meanwhile is only noted. Nothing to do unless the command started
+    worker processes (then process_cleanup is loaded)."""
+    cleanup = sys.modules.get("grasp_ctrl.trials.runs.process_cleanup")
+    if cleanup is not None and everything:
+        cleanup.stop_all()
+    elif cleanup is not None:
+        cleanup.stop_idle_helpers()
 
 
 def _main(argv: Sequence[str] | None = None) -> int:

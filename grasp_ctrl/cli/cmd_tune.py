@@ -310,8 +310,8 @@ def run(args: argparse.Namespace) -> int:
     docs = []
     for plan in plans:
         doc = _tune_one(plan, args, hand, trial_fn)
-        if doc is None:
-            return 130
+        if isinstance(doc, int):  # interrupted: 130 (Ctrl-C) or 143 (SIGTERM)
+            return doc
         docs.append(doc)
     if args.json:
         from grasp_ctrl.safe_write import write_output
@@ -323,8 +323,9 @@ def run(args: argparse.Namespace) -> int:
     return _write(args, docs, plans)
 
 
-def _tune_one(plan: Any, args: argparse.Namespace, hand: Any, trial_fn: Any) -> dict[str, Any] | None:
-    """One object's study: run what it lacks, print and return the ranked settings (None: Ctrl-C)."""
+def _tune_one(plan: Any, args: argparse.Namespace, hand: Any, trial_fn: Any) -> dict[str, Any] | int:
+    """One object's study: run what it lacks, print and return the ranked settings (after Ctrl-C
+    or SIGTERM: the exit status, 130 or 143)."""
     from grasp_ctrl.trials.runs.progress import Progress
     from grasp_ctrl.trials.tuning.study import open_study, remaining, run_study
     from grasp_ctrl.trials.tuning.study_report import report
@@ -341,7 +342,9 @@ def _tune_one(plan: Any, args: argparse.Namespace, hand: Any, trial_fn: Any) -> 
         executor = _executor(args, hand, trial_fn)
         try:
             ran = run_study(study, plan, executor, args.jobs, on_trial)
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as exc:
+            # run_study stopped the workers, unless its bookkeeping was cut short first
+            executor.close(abort=True)
             progress.close()
             from grasp_ctrl.trials.tuning.study import finished_settings
 
@@ -354,7 +357,9 @@ def _tune_one(plan: Any, args: argparse.Namespace, hand: Any, trial_fn: Any) -> 
                 else "nothing is kept without --storage"
             )
             print(f"interrupted: {plan.obj.name}: {kept}", file=sys.stderr)
-            return None
+            from grasp_ctrl.errors import Terminated
+
+            return 143 if isinstance(exc, Terminated) else 130
         finally:
             progress.close()
     text, doc = report(study, plan, ran)

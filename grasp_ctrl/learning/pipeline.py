@@ -3,6 +3,7 @@ run with its test metrics, the Fig. 3 experiment."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import time
 from collections.abc import Callable, Sequence
@@ -221,38 +222,40 @@ def run_experiment(
 
     out_dir.mkdir(parents=True, exist_ok=True)
     done: dict[int, dict[str, Any]] = {}
-    for i, info in trained:
-        combo, sources, model_name, arch, _beta = plan[i]
-        stem = f"{combo}__{model_name.replace('+', '_')}"
-        if arch == "analytic":
-            from grasp_ctrl.learning.export import analytic_policy
+    # closing: Ray's processes end at once on Ctrl-C or an error, not when the generator is collected
+    with contextlib.closing(trained):
+        for i, info in trained:
+            combo, sources, model_name, arch, _beta = plan[i]
+            stem = f"{combo}__{model_name.replace('+', '_')}"
+            if arch == "analytic":
+                from grasp_ctrl.learning.export import analytic_policy
 
-            (out_dir / f"{stem}.json").write_text(
-                json.dumps(
-                    analytic_policy(stem, info["gains"], {**data_info, "sources": list(sources)}, info["metrics"]),
-                    indent=2,
+                (out_dir / f"{stem}.json").write_text(
+                    json.dumps(
+                        analytic_policy(stem, info["gains"], {**data_info, "sources": list(sources)}, info["metrics"]),
+                        indent=2,
+                    )
+                    + "\n"
                 )
-                + "\n"
+                info["gains"] = [float(g) for g in info["gains"]]
+            else:
+                result = info.pop("result")
+                save_checkpoint(
+                    str(out_dir / f"{stem}.pt"),
+                    result,
+                    {
+                        "data": {**data_info, "sources": list(sources), "n_train": info["n_train"]},
+                        "metrics": info["metrics"],
+                    },
+                )
+                info["best_epoch"] = result.best_epoch
+            m = info["metrics"]["mixed"]
+            done[i] = info
+            report(
+                f"{model_name} on {combo} ({len(done)}/{len(plan)}): angle "
+                f"{m['angle_deg']['median']:.1f} deg, magnitude {m['magnitude_error_n']['median']:.3f} N "
+                f"(median on the mixed test set), {info['seconds']:.0f} s"
             )
-            info["gains"] = [float(g) for g in info["gains"]]
-        else:
-            result = info.pop("result")
-            save_checkpoint(
-                str(out_dir / f"{stem}.pt"),
-                result,
-                {
-                    "data": {**data_info, "sources": list(sources), "n_train": info["n_train"]},
-                    "metrics": info["metrics"],
-                },
-            )
-            info["best_epoch"] = result.best_epoch
-        m = info["metrics"]["mixed"]
-        done[i] = info
-        report(
-            f"{model_name} on {combo} ({len(done)}/{len(plan)}): angle "
-            f"{m['angle_deg']['median']:.1f} deg, magnitude {m['magnitude_error_n']['median']:.3f} N "
-            f"(median on the mixed test set), {info['seconds']:.0f} s"
-        )
     results: dict[str, dict[str, dict[str, Any]]] = {combo: {} for combo in COMBOS}
     for i, (combo, _, model_name, _, _) in enumerate(plan):  # the table's order, whatever finished first
         results[combo][model_name] = done[i]

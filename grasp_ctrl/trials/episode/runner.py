@@ -72,7 +72,7 @@ from grasp_ctrl.trials.runs.progress import Progress
 from grasp_ctrl.trials.runs.records import canonical_order, load_records, record_files
 from grasp_ctrl.trials.runs.runlock import RunLock
 from grasp_ctrl.trials.runs.summary import summarize
-from grasp_ctrl.trials.runs.workers import ignore_interrupts, interrupts_deferred, worker_context
+from grasp_ctrl.trials.runs.workers import ignore_interrupts
 
 MAX_TRIAL_S = 60.0
 SETTLE_S = 0.5
@@ -458,22 +458,22 @@ def parallel_trials(
     raw_frames: bool = False,
 ) -> Iterator[tuple[int, dict[str, Any]]]:
     """Simulated trials in ``jobs`` processes: yields (task index, record) as each finishes."""
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures import FIRST_COMPLETED, wait
     from concurrent.futures.process import BrokenProcessPool
 
-    ctx = worker_context()
-    pool = ProcessPoolExecutor(
+    from grasp_ctrl.trials.runs.process_cleanup import spawn_guard, start_pool
+
+    pool = start_pool(
         jobs,
-        mp_context=ctx,
-        initializer=_init_worker,
-        initargs=(hand, list(policies), settings or ControllerSettings(), threads, backend, variation, raw_frames),
+        _init_worker,
+        (hand, list(policies), settings or ControllerSettings(), threads, backend, variation, raw_frames),
     )
     finished_cleanly = False
     try:
         todo = iter(enumerate(tasks))
         running: dict[Any, int] = {}
         for i, task in itertools.islice(todo, 2 * jobs):  # a short queue: Ctrl-C loses little
-            with interrupts_deferred():  # a submit may start a worker: never half-way
+            with spawn_guard():  # a submit may start a worker (process_cleanup.spawn_guard)
                 running[pool.submit(_worker_trial, *task)] = i
         while running:
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
@@ -486,31 +486,28 @@ def parallel_trials(
                 yield i, rec
                 nxt = next(todo, None)
                 if nxt is not None:
-                    with interrupts_deferred():
+                    with spawn_guard():
                         running[pool.submit(_worker_trial, *nxt[1])] = nxt[0]
         finished_cleanly = True
     finally:
         if finished_cleanly:
-            pool.shutdown(wait=True)
+            try:
+                pool.shutdown(wait=True)
+            except BaseException:  # Ctrl-C while the workers finish: they are stopped
+                _stop_workers(pool)
+                raise
         else:
             _stop_workers(pool)
 
 
 def _stop_workers(pool: Any) -> None:
     """After Ctrl-C or an error: the trials in progress are abandoned (they run again on
-    resume), so the workers are stopped now rather than waited for; none is left behind.
-    They are stopped before the pool shuts down: the shutdown lets go of the pool's
-    queues, whose semaphores a worker still starting up must find."""
-    processes = list((getattr(pool, "_processes", None) or {}).values())
-    for proc in processes:
-        if proc.is_alive():
-            proc.terminate()
-    for proc in processes:
-        proc.join(timeout=5.0)
-        if proc.is_alive():
-            proc.kill()
-            proc.join(timeout=5.0)
-    pool.shutdown(wait=False, cancel_futures=True)
+    resume), so the workers are stopped now rather than waited for, and with them the fork
+    server, a worker it forked that the pool never recorded (a start cut short) and the
+    resource tracker; each is reaped before this returns (process_cleanup.abort_pool)."""
+    from grasp_ctrl.trials.runs.process_cleanup import abort_pool
+
+    abort_pool(pool)
 
 
 class WorkerError(GraspCtrlError):

@@ -45,27 +45,36 @@ def check_executor(executor: str, address: str | None) -> None:
 @contextlib.contextmanager
 def ray_session(address: str | None, cpus: int | None) -> Iterator[Any]:
     """Ray connected (to ``address``, or a local instance of ``cpus`` CPUs started here)."""
+    from grasp_ctrl.trials.runs.process_cleanup import interrupts_held
+
     ray = require_ray()
     started = not ray.is_initialized()
-    if started:
-        kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "logging_level": logging.WARNING}
-        if address:
-            kwargs["address"] = address
-        else:
-            kwargs["num_cpus"] = cpus or os.cpu_count() or 1
-        try:
-            ray.init(**kwargs)
-        except (ConnectionError, RuntimeError, ValueError) as exc:
-            raise UsageError(
-                f"--address {address}: cannot connect to Ray ({exc})"
-                if address
-                else f"cannot start a local Ray instance ({exc})"
-            ) from None
     try:
+        if started:
+            kwargs: dict[str, Any] = {
+                "include_dashboard": False,
+                "log_to_driver": False,
+                "logging_level": logging.WARNING,
+            }
+            if address:
+                kwargs["address"] = address
+            else:
+                kwargs["num_cpus"] = cpus or os.cpu_count() or 1
+            try:
+                ray.init(**kwargs)
+            except (ConnectionError, RuntimeError, ValueError) as exc:
+                raise UsageError(
+                    f"--address {address}: cannot connect to Ray ({exc})"
+                    if address
+                    else f"cannot start a local Ray instance ({exc})"
+                ) from None
         yield ray
     finally:
+        # Also after Ctrl-C inside ray.init: the local instance's processes may have started.
+        # A second Ctrl-C does not cut the shutdown short.
         if started:
-            ray.shutdown()
+            with interrupts_held():
+                ray.shutdown()
 
 
 def _trial_in_worker(
@@ -117,8 +126,11 @@ def _fan_out(ray: Any, remote_fn: Any, args_list: Sequence[tuple], in_flight: in
             if nxt is not None:
                 running[remote_fn.remote(*nxt[1])] = nxt[0]
     finally:
-        for ref in running:
-            ray.cancel(ref, force=True)
+        from grasp_ctrl.trials.runs.process_cleanup import interrupts_held
+
+        with interrupts_held():
+            for ref in running:
+                ray.cancel(ref, force=True)
 
 
 def ray_trials(

@@ -7,14 +7,22 @@ trial on the default hand, with a stand-in policy and a tick log that is never
 written, and the kernels those ticks do not reach), and the reach postures of the
 default objects with a cap are fitted (scipy's least squares, kept per hand); no
 policy is loaded, so no inference session or thread is shared by the forked workers.
+
+First of all the server asks to die with the command that started it, and each worker
+with the server (process_cleanup.forkserver_dies_with_command): a command killed
+outright leaves no fork server still importing, nor workers waiting for work.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
+from grasp_ctrl.trials.runs.process_cleanup import forkserver_dies_with_command
+
+if TYPE_CHECKING:
+    import numpy as np
 
 
 class _NoForce:
@@ -24,12 +32,16 @@ class _NoForce:
     has_variance = False
 
     def estimate(self, tared: np.ndarray, fingers: Sequence[str]):  # noqa: ANN201
+        import numpy as np
+
         from grasp_ctrl.estimators.base import Estimate
 
         return Estimate(f_sensor=np.zeros((len(fingers), 3)))
 
 
 def warm_kernels() -> None:
+    import numpy as np
+
     from grasp_ctrl.config import load_hand, load_objects
     from grasp_ctrl.controller.machine import GraspController, raised_reach_posture
     from grasp_ctrl.controller.motion import FingertipMotion
@@ -95,6 +107,7 @@ def warm_kernels() -> None:
     scatter_rows(np.zeros((1, 3)), 1, np.zeros((n, 3)))  # some fingertips in contact
 
 
+forkserver_dies_with_command()  # before the seconds of importing and compiling below
 try:
     warm_kernels()
 except Exception:  # a missing default file, say: the workers then load the kernels themselves

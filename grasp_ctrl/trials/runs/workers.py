@@ -5,17 +5,20 @@ loaded the compiled kernels (worker_preload.py), so each starts at once; where
 there is no fork server (Windows) they are spawned. Never forked from the
 command's own process: no inherited inference sessions or threads.
 
-Ctrl-C is the command's to handle, not the workers': a terminal sends SIGINT to
-the whole process group, and a fork server or worker interrupted while importing
-numba or scipy would print a traceback and leave the pool half-built. So the fork
-server starts with SIGINT ignored (its workers inherit that), and the command
-stops the workers itself (runner._stop_workers).
+Ctrl-C and SIGTERM are the command's to handle, not the workers': a terminal sends
+SIGINT to the whole process group (``kill -TERM -PGID`` SIGTERM), and a fork server
+or worker interrupted while importing numba or scipy would print a traceback and
+leave the pool half-built; a worker ended by the group's SIGTERM before the command
+took its own would make the interrupt a "worker ended abruptly" error. So the fork
+server starts with both ignored (its workers inherit that), and the command stops
+the workers, the fork server and the resource tracker itself (process_cleanup.py),
+as multiprocessing's resource tracker, which ignores both too, expects. The fork
+server and its workers die with the command if it is killed outright (Linux).
 """
 
 from __future__ import annotations
 
 import atexit
-import contextlib
 import multiprocessing
 import os
 import shlex
@@ -24,7 +27,6 @@ import signal
 import sys
 import tempfile
 import threading
-from collections.abc import Iterator
 from typing import Any
 
 PRELOAD = ["grasp_ctrl.trials.runs.worker_preload"]
@@ -40,16 +42,17 @@ def worker_context() -> Any:
 
 
 def _start_forkserver_without_sigint() -> None:
-    """Start the fork server now with SIGINT ignored from its first instruction: it is launched
-    through a two-line shell script (``trap '' INT; exec python ...``); an ignored signal stays
-    ignored across exec, Python then installs no KeyboardInterrupt handler, and the workers the
-    server forks keep the disposition. This process's own handling is never touched, so no
-    Ctrl-C is lost meanwhile. Where no POSIX shell exists, the server starts as Python starts it."""
-    from multiprocessing import forkserver, spawn
+    """Start the fork server now with SIGINT and SIGTERM ignored from its first instruction: it
+    is launched through a two-line shell script (``trap '' INT TERM; exec python ...``); an
+    ignored signal stays ignored across exec, Python then installs no KeyboardInterrupt handler,
+    and the workers the server forks keep the dispositions. This process's own handling is never
+    touched, so no Ctrl-C is lost meanwhile. Where no POSIX shell exists, the server starts as
+    Python starts it."""
+    from multiprocessing import spawn
 
     shell = shutil.which("sh")
     if shell is None or not hasattr(os, "fork"):
-        forkserver.ensure_running()
+        _ensure_running()
         return
     python = spawn.get_executable()
     python = os.fsdecode(python) if python is not None else sys.executable
@@ -58,16 +61,38 @@ def _start_forkserver_without_sigint() -> None:
     atexit.register(shutil.rmtree, folder, True)
     launcher = os.path.join(folder, "python")
     with open(launcher, "w", encoding="utf-8") as fh:
-        fh.write(f"#!{shell}\ntrap '' INT\nexec {shlex.quote(python)} \"$@\"\n")
+        fh.write(f"#!{shell}\ntrap '' INT TERM\nexec {shlex.quote(python)} \"$@\"\n")
     os.chmod(launcher, 0o700)
     if not _runs(launcher):  # a temporary folder mounted noexec, say
-        forkserver.ensure_running()
+        _ensure_running()
         return
     spawn.set_executable(launcher)
     try:
-        forkserver.ensure_running()
+        _ensure_running()
     finally:
         spawn.set_executable(python)
+
+
+def _ensure_running() -> None:
+    """Start the resource tracker and the fork server (if not running) with Ctrl-C held, so
+    that both are recorded, and so stopped, whenever it lands. The fork server learns this
+    process's pid, to die with it (process_cleanup.forkserver_dies_with_command): only when
+    started from the main thread, as the kernel's death signal follows the starting thread."""
+    from multiprocessing import forkserver
+
+    from grasp_ctrl.trials.runs.process_cleanup import FORKSERVER_ENV, interrupts_held
+
+    main = threading.current_thread() is threading.main_thread()
+    before = os.environ.get(FORKSERVER_ENV)
+    with interrupts_held():
+        os.environ[FORKSERVER_ENV] = str(os.getpid() if main else 0)
+        try:
+            forkserver.ensure_running()
+        finally:
+            if before is None:
+                os.environ.pop(FORKSERVER_ENV, None)
+            else:
+                os.environ[FORKSERVER_ENV] = before
 
 
 def _runs(launcher: str) -> bool:
@@ -79,33 +104,8 @@ def _runs(launcher: str) -> bool:
         return False
 
 
-@contextlib.contextmanager
-def interrupts_deferred() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM until the block ends, then raise them as usual. Around
-    starting a worker: an interrupt inside ``Process.start`` would leave a forked worker
-    the pool never recorded, so never stopped. (A signal mask would not do: any thread,
-    an inference pool's say, may take the signal, and Python then raises it in the main
-    thread wherever it is; a Python handler always runs in the main thread.)"""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    held: list[int] = []
-
-    def hold(signum: int, frame: object) -> None:
-        held.append(signum)
-
-    old_int = signal.signal(signal.SIGINT, hold)
-    old_term = signal.signal(signal.SIGTERM, hold)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, old_int)
-        signal.signal(signal.SIGTERM, old_term)
-        if held:
-            signal.raise_signal(held[0])
-
-
 def ignore_interrupts() -> None:
-    """In a worker: Ctrl-C belongs to the command (for spawned workers, which do not
-    inherit the fork server's mask)."""
+    """In a worker: Ctrl-C and SIGTERM belong to the command (for spawned workers, which do not
+    inherit the fork server's dispositions); the command stops its workers with SIGKILL."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)

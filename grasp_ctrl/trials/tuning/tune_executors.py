@@ -98,22 +98,19 @@ class ProcessExecutor:
     def __init__(
         self, jobs: int, hand: Any, policy: str, backend: str, variation: Any = None, settings: Any = None
     ) -> None:
-        from concurrent.futures import ProcessPoolExecutor
-
         from grasp_ctrl.controller.settings import ControllerSettings
-        from grasp_ctrl.trials.runs.workers import worker_context
+        from grasp_ctrl.trials.runs.process_cleanup import start_pool
 
         self.settings = settings or ControllerSettings()
-        self.pool = ProcessPoolExecutor(
-            jobs,
-            mp_context=worker_context(),
-            initializer=_init_tune_worker,
-            initargs=(hand, policy, backend, variation, self.settings),
-        )
+        self.pool = start_pool(jobs, _init_tune_worker, (hand, policy, backend, variation, self.settings))
         self.running: dict[Any, Hashable] = {}
+        self.closed = False
 
     def submit(self, key: Hashable, task: TrialTask, settings: Any = None) -> None:
-        self.running[self.pool.submit(_tune_worker_trial, settings or self.settings, *task)] = key
+        from grasp_ctrl.trials.runs.process_cleanup import spawn_guard
+
+        with spawn_guard():  # a submit may start a worker (process_cleanup.spawn_guard)
+            self.running[self.pool.submit(_tune_worker_trial, settings or self.settings, *task)] = key
 
     def next_done(self) -> tuple[Hashable, dict[str, Any]]:
         from concurrent.futures import FIRST_COMPLETED, wait
@@ -130,12 +127,21 @@ class ProcessExecutor:
             raise WorkerError("a trial worker process ended abruptly (killed, or out of memory?)") from None
 
     def close(self, abort: bool) -> None:
-        from grasp_ctrl.trials.episode.runner import _stop_workers
+        """Stop the workers (at once with ``abort``, and with them the fork server:
+        process_cleanup.abort_pool); closing again does nothing."""
+        from grasp_ctrl.trials.runs.process_cleanup import abort_pool
 
+        if self.closed:
+            return
+        self.closed = True
         if abort:
-            _stop_workers(self.pool)
-        else:
+            abort_pool(self.pool)
+            return
+        try:
             self.pool.shutdown(wait=True)
+        except BaseException:  # Ctrl-C while the workers finish: they are stopped
+            abort_pool(self.pool)
+            raise
 
 
 def _tune_trial_in_worker(
@@ -171,7 +177,7 @@ class RayExecutor:
         from grasp_ctrl.trials.runs.ray_executor import ray_session
 
         self.settings = settings
-        self._session = ray_session(address, jobs)
+        self._session: Any = ray_session(address, jobs)
         self.ray = self._session.__enter__()
         self.remote = self.ray.remote(num_cpus=1)(_tune_trial_in_worker)
         self.shared = (uuid.uuid4().hex, self.ray.put(hand), policy, backend, variation)
@@ -189,7 +195,15 @@ class RayExecutor:
             raise exc.as_instanceof_cause() from None
 
     def close(self, abort: bool) -> None:
-        for ref in self.running:
-            self.ray.cancel(ref, force=True)
-        self.running.clear()
-        self._session.__exit__(None, None, None)
+        from grasp_ctrl.trials.runs.process_cleanup import interrupts_held
+
+        if self._session is None:
+            return
+        session, self._session = self._session, None
+        with interrupts_held():  # a second Ctrl-C does not cut the shutdown short
+            try:
+                for ref in self.running:
+                    self.ray.cancel(ref, force=True)
+                self.running.clear()
+            finally:
+                session.__exit__(None, None, None)
