@@ -7,6 +7,11 @@ within a tick, the grip drops by a third to a half and the object slips. This co
 the force *vectors* the estimators give, as a human grasp does (Johansson and Westling 1984;
 Romano et al. 2011, "Load"):
 
+- **squeeze and targets** (its settings' defaults; the paper's controller runs without them,
+  ``registry.settings_for``): the squeeze moves each goal so the joints' springs push along the
+  closing vector (``stiffness_aware_squeeze``: a goal moved along it slides the LEAP thumb's pad
+  down a box's face, pressing the box into the table), to force-closure targets (the thumb pushes
+  back what the index and middle push); a deformable object's targets stay under its crush cap.
 - **reach and preshape**: the pads reach backed off ``reach_standoff_m`` along their closing
   vectors, then each finger returns to its closing preshape and stops at its own contact.
 - **load** (between ramp and lift): the arm rises slowly (``load_speed_m_s``) while the grip loop
@@ -183,7 +188,7 @@ class GripLoadController(GraspController):
 
     def _support_took_load(self, snap: Snapshot) -> bool:
         """The paper's release rule (the index's force on the object along the support normal below
-        -``release_threshold_n``), or, near the support (within ``lower_slow_zone_m`` of the grasp
+        -``release_threshold_n``, counted from what the index pressed down in hold), or, near the support (within ``lower_slow_zone_m`` of the grasp
         height), the load the fingertips carry together falling ``release_threshold_n`` (or half of
         it, when more) below its mean while the object hung in the grasp (the hold state): the
         support pushes back. The sum, not one fingertip: the fingers' vertical forces also hold a
