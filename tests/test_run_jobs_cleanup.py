@@ -19,35 +19,10 @@ from pathlib import Path
 
 import pytest
 from conftest import sigint_as_at_a_terminal
+from proc_session import handlers_installed, session
 
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
-
-
-def _session(sid: int) -> dict[int, int]:
-    """pid -> parent pid of the live processes in session ``sid``."""
-    found = {}
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            stat = (entry / "stat").read_text()
-        except OSError:
-            continue
-        fields = stat[stat.rindex(")") + 2 :].split()
-        if fields[0] != "Z" and int(fields[3]) == sid:  # state, ppid, pgrp, session
-            found[int(entry.name)] = int(fields[1])
-    return found
-
-
-def _handlers_installed(pid: int) -> bool:
-    """Whether the command has installed its SIGTERM handler (cli.main's first step)."""
-    try:
-        status = Path(f"/proc/{pid}/status").read_text()
-    except OSError:
-        return False
-    caught = next(line for line in status.splitlines() if line.startswith("SigCgt:"))
-    return bool(int(caught.split()[1], 16) & (1 << (signal.SIGTERM - 1)))
 
 
 def _start(out: Path, trials: int = 4) -> subprocess.Popen:
@@ -90,9 +65,9 @@ def _assert_session_empty(sid: int) -> None:
     """Right after the command's exit: everything it started was reaped before (the grace only
     lets the kernel finish an exit under way)."""
     t0 = time.monotonic()
-    while _session(sid) and time.monotonic() - t0 < 0.2:
+    while session(sid) and time.monotonic() - t0 < 0.2:
         time.sleep(0.01)
-    left = _session(sid)
+    left = session(sid)
     for pid in left:  # nothing of a failed check lingers into the next test
         with contextlib.suppress(ProcessLookupError):
             os.kill(pid, signal.SIGKILL)
@@ -103,7 +78,7 @@ def test_ctrl_c_stops_every_worker(tmp_path):
     out = tmp_path / "run"
     proc = _start(out, trials=30)  # long enough that it cannot finish before the Ctrl-C on a busy host
     _wait_for_records(proc, out)
-    assert len(_session(proc.pid)) >= 3  # the command, its fork server and workers
+    assert len(session(proc.pid)) >= 3  # the command, its fork server and workers
     os.killpg(proc.pid, signal.SIGINT)
     err = _finish(proc, out)
     assert proc.returncode == 130, err
@@ -115,7 +90,7 @@ def test_a_dead_worker_is_a_one_line_error_and_the_rest_stop(tmp_path):
     out = tmp_path / "run"
     proc = _start(out, trials=30)  # 12 trials can all end between the first record and the kill on a busy host
     _wait_for_records(proc, out)
-    procs = _session(proc.pid)
+    procs = {p.pid: p.ppid for p in session(proc.pid).values()}
     # Workers are forked from the fork server: their parent is not the command itself.
     workers = [pid for pid, parent in procs.items() if pid != proc.pid and parent != proc.pid]
     assert workers, procs
@@ -135,7 +110,7 @@ def _interrupt_after(delay_s: float, sig: int, tmp_path: Path, when_run_dir: boo
     out = tmp_path / "run"
     proc = _start(out, trials=30)
     t0 = time.monotonic()
-    while not _handlers_installed(proc.pid) and proc.poll() is None and time.monotonic() - t0 < 120.0:
+    while not handlers_installed(proc.pid) and proc.poll() is None and time.monotonic() - t0 < 120.0:
         time.sleep(0.002)
     if when_run_dir:  # the moment the run directory appears: the worker pool is starting
         while not (out / "run.json").exists() and proc.poll() is None and time.monotonic() - t0 < 120.0:
