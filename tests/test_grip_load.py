@@ -208,6 +208,35 @@ def test_the_ramp_scales_down_below_the_safety_limit(hand, mustard):
     assert ctrl.scale == pytest.approx(max(ctrl.s.min_grip_scale, ctrl.grip_cap_n / f))
 
 
+@pytest.mark.parametrize("state", ["ramp", "load"])
+def test_a_pad_near_the_safety_limit_unwinds_its_fingers_goal_to_the_measured_angles(hand, mustard, state):
+    """The scripted hand never moves (its joints stay open), so every closed goal is wound far past
+    them: a pad above ``unwind_fraction`` of the limit brings its own finger's goal back to the
+    measured angles (then one squeeze step), and leaves the other fingers' goals alone."""
+    tr = Trace(hand, mustard)
+    if state == "load":
+        _to_load(tr)
+    else:
+        tr.run_until("close", contact=False)
+        tr.tick(grips=np.full(tr.n, 0.5))
+    assert tr.ctrl.state == state
+    ctrl = tr.ctrl
+    thumb = ctrl.names.index("thumb")
+    rows_thumb, rows_index = ctrl.kin.slices["thumb"], ctrl.kin.slices["index"]
+    limit = hand.safety.max_fingertip_force_n
+    grips = tr.at_target()
+    grips[thumb] = 0.85 * limit  # above the cap, below the unwind share: the goal stays wound
+    tr.tick(grips=grips)
+    assert np.max(np.abs(ctrl.motion.q_goal[rows_thumb] - tr.q[rows_thumb])) > 0.1
+    index_goal = ctrl.motion.q_goal[rows_index].copy()
+    grips[thumb] = 0.95 * limit
+    tr.tick(grips=grips)
+    step = ctrl.s.ramp_max_speed_m_s * hand.dt * 50  # one squeeze step, in rad, generously
+    assert np.max(np.abs(ctrl.motion.q_goal[rows_thumb] - tr.q[rows_thumb])) < step
+    assert np.max(np.abs(ctrl.motion.q_goal[rows_index] - index_goal)) < step
+    assert np.max(np.abs(ctrl.motion.q_goal[rows_index] - tr.q[rows_index])) > 0.1
+
+
 def test_release_near_the_support_reads_the_carried_sum_not_one_fingertip(hand, objects):
     lego = objects["lego"]
     tr = Trace(hand, lego)

@@ -173,11 +173,30 @@ class GripLoadController(GraspController):
         states that carry."""
         super()._update_counters(snap)
         if self.state in COORDINATED:
+            self._unwind(snap)
             self._coordinate(snap)
 
     def _ramp_tick(self, snap: Snapshot) -> None:
+        self._unwind(snap)
         self._limit_to_safety(snap)
         super()._ramp_tick(snap)
+
+    def _unwind(self, snap: Snapshot) -> None:
+        """A grasping pad whose |f_sensor| passes ``unwind_fraction`` of the safety limit: its
+        finger's goal is set to its measured joint angles. A goal wound past a stalled joint
+        (on the mustard bottle the thumb's IPL link rests on the box's top and its distal joint
+        stalls 0.12 rad short of its goal, at its 0.55 A limit) keeps that servo at its limit
+        while the ramp retreats the pad at its rate limit, and the pad's force rises into the
+        over-force fault; from the measured angles the retreat acts at once."""
+        fraction = self.s.unwind_fraction
+        if fraction >= 1.0:
+            return
+        f = np.asarray(snap.f_sensor, dtype=float)
+        limit = fraction * self.hand.safety.max_fingertip_force_n
+        over = self.grasp_mask & (np.einsum("ij,ij->i", f, f) > limit * limit)
+        if over.any():
+            q = np.asarray(snap.q, dtype=float)
+            self.motion.hold_at(q, [self.kin.slices[self.names[i]] for i in np.flatnonzero(over)])
 
     def _lost_floor(self) -> list[float]:
         """The tuned targets: a raised target must not turn a steady grip into a slip."""

@@ -143,6 +143,14 @@ class FingertipMotion:
         self._posture = None
         self._reset_targets()
 
+    def hold_at(self, q_measured: np.ndarray, joints: list[slice]) -> None:
+        """Set the goal of the ``joints`` (slices of the hand's joints) to their measured angles
+        (within the joint limits); the goal sent still moves toward it at most ``max_step`` a tick."""
+        for sl in joints:
+            self.q_goal[sl] = np.clip(q_measured[sl], self.lower[sl], self.upper[sl])
+        self._posture = None
+        self._reset_targets()
+
     def advance(self, finger: str, distance_m: float) -> None:
         """Move one fingertip's goal along its closing vector (negative = open)."""
         distances = np.zeros(len(self.names))

@@ -80,5 +80,8 @@ class ControllerSettings:
     grip_relax_per_s: float = 0.5  # the grip scale falls back toward the load's need at this rate
     min_grip_scale: float = 0.6  # the safety limit may scale the ramp's targets down to this share
     grip_cap_fraction: float = 0.8  # grips stay below this share of the safety limit and the crush force
+    unwind_fraction: float = 0.9  # a pad above this share of the safety limit: its finger's goal is
+    #   set to where its joints are (a goal wound past a stalled joint keeps the servo at its
+    #   current limit, and a retreat has to undo the wind-up first); 1 or more: never
     low_confidence_slowdown: bool = False  # slow the ramp when the policy's variance is high
     variance_scale_n2: float = 0.05  # variance at which the ramp runs at half speed
