@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from grasp_ctrl.config import load_hand, load_objects
-from grasp_ctrl.paths import REPO_ROOT
+from grasp_ctrl.files.paths import REPO_ROOT
 
 SHARED_DATA = REPO_ROOT.parent / "shared" / "data"
 
@@ -45,7 +45,7 @@ def copy_policy(tmp_path: Path, edit, name: str = "icra19_official") -> Path:
     import json
     import shutil
 
-    from grasp_ctrl.paths import policies_dir
+    from grasp_ctrl.files.paths import policies_dir
 
     shutil.copy(policies_dir() / f"{name}.onnx", tmp_path / f"{name}.onnx")
     meta = json.loads((policies_dir() / f"{name}.json").read_text())

@@ -93,3 +93,71 @@ def test_the_control_loop_sits_beneath_the_trials():
     for low in ("loop", "controller", "sim", "hardware", "estimators", "tactile", "kinematics"):
         assert "trials" not in graph.get(low, {}), f"{low} imports trials: {graph[low]['trials'][:3]}"
         assert "cli" not in graph.get(low, {}), f"{low} imports cli"
+
+
+def _module_of(dotted: str) -> str | None:
+    """The package's module that ``dotted`` names (a package is its __init__), or None."""
+    if not dotted.startswith("grasp_ctrl"):
+        return None
+    path = PACKAGE.parent.joinpath(*dotted.split("."))
+    if path.with_suffix(".py").is_file():
+        return dotted
+    if (path / "__init__.py").is_file():
+        return f"{dotted}.__init__"
+    return None
+
+
+def _runtime_imports(tree: ast.AST) -> list[ast.Import | ast.ImportFrom]:
+    """Every import statement, inside functions too, except under ``if TYPE_CHECKING:``."""
+    found: list[ast.Import | ast.ImportFrom] = []
+
+    def visit(node: ast.AST) -> None:
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            for child in node.orelse:
+                visit(child)
+            return
+        if isinstance(node, ast.Import | ast.ImportFrom):
+            found.append(node)
+        for child in ast.iter_child_nodes(node):
+            visit(child)
+
+    visit(tree)
+    return found
+
+
+def module_graph() -> dict[str, dict[str, list[str]]]:
+    """module -> imported module -> the lines that import it (a package's __init__ is a module)."""
+    graph: dict[str, dict[str, list[str]]] = defaultdict(lambda: defaultdict(list))
+    for path in PACKAGE.rglob("*.py"):
+        rel = path.relative_to(PACKAGE.parent).with_suffix("")
+        me = ".".join(rel.parts)
+        package = rel.parts[:-1] if rel.name != "__init__" else rel.parts[:-1]
+        for node in _runtime_imports(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            else:
+                base = node.module or ""
+                if node.level:
+                    up = package[: len(package) - (node.level - 1)]
+                    base = ".".join(up + ((base,) if base else ()))
+                targets = [f"{base}.{a.name}" if _module_of(f"{base}.{a.name}") else base for a in node.names]
+            for target in targets:
+                module = _module_of(target)
+                if module and module != me:
+                    graph[me][module].append(f"{rel}.py:{node.lineno}")
+    return graph
+
+
+def test_no_import_cycle_between_modules():
+    """No circle of imports between modules, counting imports inside functions (a lazy import
+    hides a circle from the interpreter, not from the reader)."""
+    graph = module_graph()
+    found = cycles(graph)
+    detail = [f"{a} -> {b}: {graph[a][b][:2]}" for c in found for a in c for b in c if b in graph.get(a, {})]
+    assert not found, "\n".join(detail)
+
+
+def test_the_module_graph_reads_relative_and_package_imports():
+    graph = module_graph()
+    assert "grasp_ctrl.controller.machine" in graph["grasp_ctrl.controller.grip_load"]
+    assert any(m.startswith("grasp_ctrl.numeric.") for m in graph["grasp_ctrl.controller.machine"])

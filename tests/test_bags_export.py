@@ -22,10 +22,10 @@ from grasp_ctrl.bags.recording import read_recording
 from grasp_ctrl.bags.trial_messages import raw_frame_columns
 from grasp_ctrl.cli import main
 from grasp_ctrl.config.hand import load_hand
+from grasp_ctrl.files.paths import default_hand_file
 from grasp_ctrl.hardware.base import TactileFrame
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.loop.ticklog import read_tick_log
-from grasp_ctrl.paths import default_hand_file
 from grasp_ctrl.tactile_link.recorder import FrameRecorder
 
 FINGERS = ("index", "middle", "ring", "thumb")

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from grasp_ctrl.cli import main
-from grasp_ctrl.paths import default_hand_file
+from grasp_ctrl.files.paths import default_hand_file
 from grasp_ctrl.trials.episode.capacity_check import (
     CapacityRefused,
     check_object,

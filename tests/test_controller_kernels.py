@@ -13,11 +13,11 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from grasp_ctrl.controller.machine import GraspController
-from grasp_ctrl.controller.registry import settings_for
+from grasp_ctrl.controller.settings import settings_for
 from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.pad_ik import PadIK
-from grasp_ctrl.vec3 import norm3
+from grasp_ctrl.numeric.vec3 import norm3
 
 edge = st.sampled_from([0.0, -0.0, 1.0, -1.0, 0.25, 2.0, 3e-9, -7.5, 14.9, 40.0, np.nan, np.inf, -np.inf])
 values = st.one_of(edge, st.floats(-30.0, 30.0))

@@ -7,8 +7,7 @@ import pytest
 
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.ramp_settle import RampSettle
-from grasp_ctrl.controller.registry import settings_for
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.settings import ControllerSettings, settings_for
 from grasp_ctrl.controller.snapshot import Snapshot
 
 DT = 0.01

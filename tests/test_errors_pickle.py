@@ -22,7 +22,7 @@ def test_an_unreachable_reach_posture_fails_the_run_before_any_trial(tmp_path):
     # worker processes of --jobs 2, where the unpicklable error broke the pool ("a worker
     # ended abruptly") after 9 trials were written; run_series now checks it up front.
     from grasp_ctrl.cli import main
-    from grasp_ctrl.paths import default_hand_file
+    from grasp_ctrl.files.paths import default_hand_file
 
     text = default_hand_file().read_text()
     first = 'origin_rpy = [1.5707963, 1.5707963, 0.0]'

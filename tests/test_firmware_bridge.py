@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from grasp_ctrl.paths import REPO_ROOT
+from grasp_ctrl.files.paths import REPO_ROOT
 from grasp_ctrl.tactile_link.decoder import BinaryDecoder, TextDecoder
 from grasp_ctrl.tactile_link.protocol import SYNC
 

@@ -13,7 +13,7 @@ from grasp_ctrl.cli import main
 from grasp_ctrl.config import load_hand, load_objects
 from grasp_ctrl.config.objects import default_set
 from grasp_ctrl.errors import ConfigError
-from grasp_ctrl.paths import REPO_ROOT
+from grasp_ctrl.files.paths import REPO_ROOT
 
 LEAP = REPO_ROOT / "hand_configs" / "leap_hand.toml"
 OBJECTS = REPO_ROOT / "hand_configs" / "objects.toml"

@@ -17,18 +17,18 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from grasp_ctrl import jit
 from grasp_ctrl.controller import tick_kernels as tk
 from grasp_ctrl.controller.machine import GraspController, _distance
-from grasp_ctrl.controller.registry import settings_for
+from grasp_ctrl.controller.settings import settings_for
 from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.estimators import linear
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.limits import clipped_equals
+from grasp_ctrl.numeric import jit
+from grasp_ctrl.numeric.limits import clipped_equals
+from grasp_ctrl.numeric.vec3 import dot3, norm3
 from grasp_ctrl.sim import world as world_mod
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
-from grasp_ctrl.vec3 import dot3, norm3
 
 edge = st.sampled_from([0.0, -0.0, 1.0, -1.0, 0.25, 2.0, 3e-9, -7.5, 14.9, np.nan, np.inf, -np.inf])
 values = st.one_of(edge, st.floats(-30.0, 30.0))

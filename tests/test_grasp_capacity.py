@@ -11,7 +11,7 @@ from grasp_ctrl.cli import main
 from grasp_ctrl.config.hand import load_hand
 from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.controller.grasp_capacity import GRAVITY_M_S2, liftable_weight, object_capacity
-from grasp_ctrl.paths import default_hand_file, default_objects_file
+from grasp_ctrl.files.paths import default_hand_file, default_objects_file
 
 
 @pytest.fixture(scope="module")

@@ -15,10 +15,9 @@ from grasp_ctrl.cli import main
 from grasp_ctrl.config.checks import check_objects_for_hand
 from grasp_ctrl.config.objects import load_objects, profile_from_json, profile_json
 from grasp_ctrl.controller.machine import GraspController
-from grasp_ctrl.controller.registry import settings_for
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.settings import ControllerSettings, settings_for
 from grasp_ctrl.errors import ConfigError, UsageError
-from grasp_ctrl.paths import REPO_ROOT
+from grasp_ctrl.files.paths import REPO_ROOT
 from grasp_ctrl.trials.tuning.toml_edit import CHOSEN_BY, set_object_value
 from grasp_ctrl.trials.tuning.tune import SweepRow, apply_setting, controller_settings, rank, wilson_lower
 

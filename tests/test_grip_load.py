@@ -12,8 +12,8 @@ import pytest
 from grasp_ctrl.controller.grip_load import LOAD_STATES, GripLoadController
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.ramp_settle import RampSettle, TrendRampSettle
-from grasp_ctrl.controller.registry import CONTROLLER_NAMES, controller_class, make_controller, settings_for
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.registry import controller_class, make_controller
+from grasp_ctrl.controller.settings import CONTROLLER_NAMES, ControllerSettings, settings_for
 from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.errors import UsageError
 

@@ -11,8 +11,7 @@ import pytest
 
 from grasp_ctrl.controller.grip_targets import GRAVITY_M_S2, grip_targets
 from grasp_ctrl.controller.machine import GraspController
-from grasp_ctrl.controller.registry import settings_for
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.settings import ControllerSettings, settings_for
 from grasp_ctrl.errors import ConfigError, UsageError
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 from grasp_ctrl.trials.runs.manifest import settings_from_json
@@ -104,7 +103,7 @@ def test_a_profile_chooses_its_own_mode(hand, objects):
 def test_an_object_file_grip_targets_key_is_checked_and_round_trips(tmp_path, objects):
     from grasp_ctrl.config.objects import load_objects, profile_table, revalidate
     from grasp_ctrl.errors import ConfigError
-    from grasp_ctrl.paths import default_objects_file
+    from grasp_ctrl.files.paths import default_objects_file
 
     text = default_objects_file().read_text()
     bad = tmp_path / "objects.toml"

@@ -21,7 +21,7 @@ from grasp_ctrl.cli import main
 from grasp_ctrl.config.hand import load_hand
 from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.errors import ConfigError, UsageError
-from grasp_ctrl.paths import default_hand_file, default_objects_file
+from grasp_ctrl.files.paths import default_hand_file, default_objects_file
 
 HAND_TOML = Path(default_hand_file()).read_text()
 OBJECTS_TOML = Path(default_objects_file()).read_text()
@@ -141,7 +141,7 @@ def test_number_flags_are_checked_for_type_and_range(tmp_path, monkeypatch, caps
 
 
 def test_number_helpers_name_the_flag_and_range():
-    from grasp_ctrl.numbers import parse_float, parse_int
+    from grasp_ctrl.numeric.numbers import parse_float, parse_int
 
     with pytest.raises(UsageError, match=r"^--param tau: a finite number >= 0.1 and <= 20 \(got 'inf'\)$"):
         parse_float("inf", "--param tau", 0.1, 20.0)
@@ -172,7 +172,7 @@ def test_a_corrupt_or_absurdly_nested_run_json_is_one_line(tmp_path, capsys, con
 
 
 def test_a_json_file_over_the_size_limit_is_not_read(tmp_path):
-    from grasp_ctrl.json_limits import JsonFileError, read_json
+    from grasp_ctrl.files.json_limits import JsonFileError, read_json
 
     path = tmp_path / "big.json"
     path.write_text('{"a": "' + "x" * 2000 + '"}')
@@ -368,7 +368,7 @@ def test_calibrate_refuses_a_degenerate_correction_unless_allowed(tmp_path, caps
 
 @pytest.mark.parametrize("spec", ["1:inf:1", "1:20:1e-320", "nan", "1,2,1e999", "3:1:1", "1:2", "0:1:0.1"])
 def test_sweep_values_are_checked_before_the_list_is_built(spec):
-    from grasp_ctrl.numbers import parse_values
+    from grasp_ctrl.numeric.numbers import parse_values
 
     with pytest.raises(UsageError, match=r"^--param tau_n"):
         parse_values(spec, "--param tau_n", 0.1, 20.0)

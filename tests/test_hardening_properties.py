@@ -29,7 +29,7 @@ from grasp_ctrl.config.hand import HandConfig, load_hand
 from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.errors import GraspCtrlError, PolicyError
 from grasp_ctrl.estimators.registry import load_policy
-from grasp_ctrl.paths import default_hand_file, default_objects_file, policies_dir
+from grasp_ctrl.files.paths import default_hand_file, default_objects_file, policies_dir
 
 HAND_TOML = Path(default_hand_file()).read_text()
 OBJECTS_TOML = Path(default_objects_file()).read_text()
@@ -96,7 +96,7 @@ def sandbox() -> Iterator[Path]:
 
 
 def _stub_trials(monkeypatch: pytest.MonkeyPatch) -> None:
-    import grasp_ctrl.trials.episode.runner as runner
+    import grasp_ctrl.trials.runs.series as series
 
     def fake_trial_fn(hand, policies, settings=None, threads=1, **kwargs):
         def run(p, obj, k, seed, log):
@@ -113,7 +113,7 @@ def _stub_trials(monkeypatch: pytest.MonkeyPatch) -> None:
 
         return run
 
-    monkeypatch.setattr(runner, "sim_trial_fn", fake_trial_fn)
+    monkeypatch.setattr(series, "sim_trial_fn", fake_trial_fn)
 
 
 def _call(argv: list[str]) -> tuple[int, str, str]:

@@ -19,12 +19,12 @@ from pathlib import Path
 import pytest
 
 from grasp_ctrl.cli import main
-from grasp_ctrl.paths import default_hand_file, default_objects_file, policies_dir
+from grasp_ctrl.files.paths import default_hand_file, default_objects_file, policies_dir
 from grasp_ctrl.trials.runs.manifest import read_manifest
 
 
 def _stub_trials(monkeypatch: pytest.MonkeyPatch) -> None:
-    from grasp_ctrl.trials.episode import runner
+    from grasp_ctrl.trials.runs import series
 
     def fake_trial_fn(hand, policies, settings=None, threads=1, **_kw):
         def run(p, obj, k, seed, log):
@@ -41,7 +41,7 @@ def _stub_trials(monkeypatch: pytest.MonkeyPatch) -> None:
 
         return run
 
-    monkeypatch.setattr(runner, "sim_trial_fn", fake_trial_fn)
+    monkeypatch.setattr(series, "sim_trial_fn", fake_trial_fn)
 
 
 def _err(capsys: pytest.CaptureFixture[str]) -> str:
@@ -270,9 +270,9 @@ def test_plot_and_compare_check_the_output_format_first(tmp_path, files, monkeyp
 
 def test_save_figure_replaces_a_symlink_and_checks_the_format(tmp_path):
     pytest.importorskip("matplotlib")
+    from grasp_ctrl.display.plotting import pyplot
     from grasp_ctrl.errors import UsageError
-    from grasp_ctrl.plotting import pyplot
-    from grasp_ctrl.safe_write import save_figure
+    from grasp_ctrl.files.safe_write import save_figure
 
     plt = pyplot()
     fig = plt.figure()
@@ -289,7 +289,7 @@ def test_save_figure_replaces_a_symlink_and_checks_the_format(tmp_path):
 
 
 def test_replace_in_place_keeps_mode_and_follows_a_symlink_to_its_target(tmp_path):
-    from grasp_ctrl.safe_write import replace_in_place
+    from grasp_ctrl.files.safe_write import replace_in_place
 
     target = tmp_path / "real" / "objects.toml"
     target.parent.mkdir()
@@ -332,12 +332,12 @@ def test_mujoco_warnings_go_to_the_run_directory_or_nowhere(tmp_path, monkeypatc
 
 
 def test_ctrl_c_before_the_run_exists_does_not_offer_a_resume(tmp_path, files, monkeypatch, capsys):
-    from grasp_ctrl.trials.episode import runner
+    from grasp_ctrl.trials.runs import series
 
     def interrupted(*_a, **_kw):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(runner, "run_series", interrupted)
+    monkeypatch.setattr(series, "run_series", interrupted)
     assert main(_start(tmp_path / "never", files)) == 130
     err = _err(capsys)
     assert "--resume" not in err and "nothing was recorded" in err
@@ -392,7 +392,7 @@ def test_a_run_tree_with_a_symlinked_folder_is_refused(tmp_path, files, monkeypa
 
 
 def test_an_output_that_replaces_a_file_keeps_its_mode(tmp_path):
-    from grasp_ctrl.safe_write import write_output
+    from grasp_ctrl.files.safe_write import write_output
 
     path = tmp_path / "out.json"
     path.write_text("{}")

@@ -305,7 +305,7 @@ def test_stopping_a_pool_joins_its_manager_thread():
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
-    from grasp_ctrl.trials.episode.runner import _stop_workers
+    from grasp_ctrl.trials.runs.series import _stop_workers
 
     for _ in range(3):
         pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))

@@ -10,7 +10,7 @@ import pytest
 
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
-from grasp_ctrl.paths import policies_dir
+from grasp_ctrl.files.paths import policies_dir
 from grasp_ctrl.sim.presses import pad_presses, skin_presses
 
 

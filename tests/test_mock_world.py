@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from grasp_ctrl.controller.registry import settings_for
+from grasp_ctrl.controller.settings import settings_for
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.sim.biotac_model import BioTacSensorModel
 from grasp_ctrl.sim.grip import solve_object_height, tangential_forces

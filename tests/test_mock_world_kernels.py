@@ -15,10 +15,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from grasp_ctrl import jit
+from grasp_ctrl.files.paths import REPO_ROOT
 from grasp_ctrl.kinematics.chain import FingerChain, HandKinematics
 from grasp_ctrl.kinematics.multilinear import MultilinearKinematics
-from grasp_ctrl.paths import REPO_ROOT
+from grasp_ctrl.numeric import jit
 from grasp_ctrl.sim.shapes import penetration, shape_params
 
 unit = st.floats(0.0, 1.0)
@@ -125,9 +125,9 @@ def test_held_object_is_in_equilibrium(hand, objects):
 _DIGEST = """
 import json, sys
 import numpy as np
-from grasp_ctrl import jit
+from grasp_ctrl.numeric import jit
 from grasp_ctrl.config import load_hand, load_objects
-from grasp_ctrl.paths import default_hand_file, default_objects_file
+from grasp_ctrl.files.paths import default_hand_file, default_objects_file
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 hand = load_hand(default_hand_file())
 obj = load_objects(default_objects_file())[sys.argv[1]]

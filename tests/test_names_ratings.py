@@ -23,8 +23,8 @@ from grasp_ctrl.config.identifiers import (
 from grasp_ctrl.config.servos import MODELS
 from grasp_ctrl.errors import ConfigError, PolicyError, UsageError
 from grasp_ctrl.estimators.registry import load_policy, resolve_policy_path
-from grasp_ctrl.paths import REPO_ROOT, default_objects_file, policies_dir
-from grasp_ctrl.storage import check_object_name
+from grasp_ctrl.files.paths import REPO_ROOT, default_objects_file, policies_dir
+from grasp_ctrl.files.storage import check_object_name
 
 LEAP = REPO_ROOT / "hand_configs" / "leap_hand.toml"
 OBJECTS_TOML = Path(default_objects_file()).read_text()

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from grasp_ctrl.paths import policies_dir
+from grasp_ctrl.files.paths import policies_dir
 from grasp_ctrl.policy_tools import icra19_net
 from grasp_ctrl.policy_tools.convert_icra19 import random_inputs, scaled_error
 

@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 
 from grasp_ctrl.cli import main
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.safe_write import (
+from grasp_ctrl.files.safe_write import (
     check_new_file,
     check_output,
     check_output_dir,

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from grasp_ctrl.config import load_hand
+from grasp_ctrl.files.paths import default_hand_file
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.pad_ik import Facing, PadIK, shared_pad_ik
-from grasp_ctrl.paths import default_hand_file
 
 
 @pytest.fixture(scope="module")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import io
 
-from grasp_ctrl.progress_bar import StatusLine, progress_bar, shown
+from grasp_ctrl.display.progress_bar import StatusLine, progress_bar, shown
 from grasp_ctrl.trials.runs.progress import Progress
 
 

@@ -10,8 +10,8 @@ import pytest
 ray = pytest.importorskip("ray")
 
 from grasp_ctrl.cli import main  # noqa: E402
-from grasp_ctrl.storage import record_path, ticks_path  # noqa: E402
-from grasp_ctrl.trials.episode.runner import run_series  # noqa: E402
+from grasp_ctrl.files.storage import record_path, ticks_path  # noqa: E402
+from grasp_ctrl.trials.runs.series import run_series  # noqa: E402
 
 OBJECTS = ["lego", "chips_can"]
 

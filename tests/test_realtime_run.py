@@ -18,7 +18,7 @@ from grasp_ctrl.emulators.wall_clock import WallClockLoop, percentiles_ms
 from grasp_ctrl.emulators.world_rig import realtime_backends
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY
-from grasp_ctrl.paths import REPO_ROOT
+from grasp_ctrl.files.paths import REPO_ROOT
 from grasp_ctrl.trials.episode import runner
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial, trial_seed
 from grasp_ctrl.trials.runs.manifest import RunManifest, read_manifest

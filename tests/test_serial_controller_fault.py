@@ -19,10 +19,10 @@ from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.emulators.tactile_bridge import TactileBridgeEmulator
 from grasp_ctrl.errors import HardwareError
 from grasp_ctrl.estimators.analytic import AnalyticEstimator
+from grasp_ctrl.files.paths import default_hand_file, default_objects_file
 from grasp_ctrl.hardware.base import JointState
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.loop.sensing import SensingPipeline
-from grasp_ctrl.paths import default_hand_file, default_objects_file
 from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="the emulator needs POSIX pseudo-terminals")

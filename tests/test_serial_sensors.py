@@ -13,8 +13,8 @@ import pytest
 from grasp_ctrl.config.hand import load_hand
 from grasp_ctrl.emulators.tactile_bridge import FaultConfig, RecordingSource, SyntheticSource, TactileBridgeEmulator
 from grasp_ctrl.errors import ConfigError, HardwareError, SensorStaleError
+from grasp_ctrl.files.paths import default_hand_file
 from grasp_ctrl.hardware.base import SensorBackend
-from grasp_ctrl.paths import default_hand_file
 from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="the emulator needs POSIX pseudo-terminals")

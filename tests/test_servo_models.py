@@ -47,7 +47,7 @@ def test_a_model_without_facts_has_no_stiffness_and_says_why(hand):
 
 def test_an_unknown_model_in_the_hand_file_is_one_line(tmp_path):
     from grasp_ctrl.config import load_hand
-    from grasp_ctrl.paths import default_hand_file
+    from grasp_ctrl.files.paths import default_hand_file
 
     text = default_hand_file().read_text().replace('model = "XC330-M288-T"', 'model = "XC331"', 1)
     path = tmp_path / "hand.toml"

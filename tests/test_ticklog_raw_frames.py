@@ -85,7 +85,7 @@ def test_without_the_option_the_log_keeps_the_summary_and_the_currents(tmp_path,
 
 def test_run_json_from_before_the_option_resumes_without_frames(tmp_path) -> None:
     from grasp_ctrl.config.objects import load_objects
-    from grasp_ctrl.paths import default_objects_file
+    from grasp_ctrl.files.paths import default_objects_file
 
     lego = load_objects(default_objects_file())["lego"]
     doc = RunManifest("mock", "leap", 0, 1, ["oracle"], [lego], raw_frames=True).to_json()

@@ -8,9 +8,9 @@ import json
 import pytest
 
 from grasp_ctrl.trials.episode.labelling import FAILURE_REASONS, Label, OperatorLabeller, OperatorQuit, labelled
-from grasp_ctrl.trials.episode.runner import run_series
 from grasp_ctrl.trials.runs.records import check_record, load_records
 from grasp_ctrl.trials.runs.scoring import score_run
+from grasp_ctrl.trials.runs.series import run_series
 
 
 def _observed(success: bool, reason: str | None = None) -> dict:

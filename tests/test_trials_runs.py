@@ -13,12 +13,13 @@ from hypothesis import strategies as st
 from grasp_ctrl.cli import main
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY
+from grasp_ctrl.files.storage import record_path, ticks_path
 from grasp_ctrl.loop.ticklog import read_tick_log
-from grasp_ctrl.storage import record_path, ticks_path
-from grasp_ctrl.trials.episode.runner import run_series, trial_seed
+from grasp_ctrl.trials.episode.runner import trial_seed
 from grasp_ctrl.trials.runs.manifest import read_manifest
 from grasp_ctrl.trials.runs.records import load_records
 from grasp_ctrl.trials.runs.scoring import score_run
+from grasp_ctrl.trials.runs.series import run_series
 
 # Two quick objects x an honest and an under-reading oracle: a mix of successes
 # and failure reasons (which ones is the mock world's business, not asserted here).
@@ -225,7 +226,7 @@ def test_preset_paper_is_six_objects_five_trials_two_policies():
 
 def test_ctrl_c_keeps_finished_trials_and_resume_completes(tmp_path, monkeypatch, capsys):
     """The CLI path: interrupted after one trial, then 'run --resume' finishes the plan."""
-    import grasp_ctrl.trials.episode.runner as runner
+    import grasp_ctrl.trials.runs.series as series
 
     calls = []
 
@@ -245,7 +246,7 @@ def test_ctrl_c_keeps_finished_trials_and_resume_completes(tmp_path, monkeypatch
 
         return run
 
-    monkeypatch.setattr(runner, "sim_trial_fn", fake_trial_fn)
+    monkeypatch.setattr(series, "sim_trial_fn", fake_trial_fn)
     run_dir = tmp_path / "run"
     assert (
         main(["run", "--backend", "mock", "--objects", "lego", "--trials", "3", "--out", str(run_dir), "--quiet"])

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from grasp_ctrl.cli import main
 from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.paths import REPO_ROOT
+from grasp_ctrl.files.paths import REPO_ROOT
 from grasp_ctrl.trials.tuning.toml_edit import set_object_value, update_object_file
 from grasp_ctrl.trials.tuning.tune import (
     SweepRow,

@@ -14,7 +14,7 @@ import pytest
 from grasp_ctrl.cli import main
 from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.paths import REPO_ROOT
+from grasp_ctrl.files.paths import REPO_ROOT
 from grasp_ctrl.trials.tuning.search_space import corner_settings, parse_params, parse_space
 from grasp_ctrl.trials.tuning.toml_edit import update_objects_file
 from grasp_ctrl.trials.tuning.tune import wilson_interval

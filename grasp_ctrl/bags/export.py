@@ -14,7 +14,7 @@ from pathlib import Path
 from grasp_ctrl.bags import require_ros, topics
 from grasp_ctrl.bags.writer import SUFFIX, check_bag_path, write_bag
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.safe_write import check_new_file, check_output, check_output_dir
+from grasp_ctrl.files.safe_write import check_new_file, check_output, check_output_dir
 
 NO_FRAMES_NOTE = (
     f"the tick log keeps a summary of each raw tactile frame, not the frame: no {topics.BIOTAC} in the bag "

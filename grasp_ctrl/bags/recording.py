@@ -92,7 +92,7 @@ def is_recording(path: Path) -> bool:
 def read_recording(path: str | Path, skip_bad_rows: bool = False) -> Recording:
     """A ``sensors --record`` file (label columns, where present, are not read: the bag
     carries frames only). A bad row is one line naming it (``csv_rows``)."""
-    from grasp_ctrl.csv_rows import Column, read_rows
+    from grasp_ctrl.files.csv_rows import Column, read_rows
 
     hi = float(BIOTAC.count_max)
     numeric = [Column("t_recv"), Column("finger", 0, MAX_FINGER), Column("seq", 0, MAX_SEQ)]
@@ -116,7 +116,7 @@ def _cells(frame_t_ns: int, finger: int, seq: int, values: np.ndarray) -> list[o
 
 def write_recording(path: str | Path, rec: Recording) -> Path:
     """``rec`` as a recording file (a stream gets the bytes; a file is replaced whole)."""
-    from grasp_ctrl.safe_write import output_file
+    from grasp_ctrl.files.safe_write import output_file
 
     with output_file(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)

@@ -14,7 +14,7 @@ from typing import Any
 
 from grasp_ctrl.bags.messages import Message
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.safe_write import destination, output_file
+from grasp_ctrl.files.safe_write import destination, output_file
 
 SUFFIX = ".mcap"
 

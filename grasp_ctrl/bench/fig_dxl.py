@@ -22,7 +22,7 @@ import numpy as np
 
 from grasp_ctrl.bench.figure import Figure, time_ms
 from grasp_ctrl.config.hand import load_hand
-from grasp_ctrl.paths import REPO_ROOT, default_hand_file
+from grasp_ctrl.files.paths import REPO_ROOT, default_hand_file
 
 
 @contextmanager

@@ -7,12 +7,13 @@ from collections.abc import Callable
 
 from grasp_ctrl.bench.figure import Figure, time_ms
 from grasp_ctrl.config import load_hand, load_objects
-from grasp_ctrl.controller.registry import make_controller, settings_for
+from grasp_ctrl.controller.registry import make_controller
+from grasp_ctrl.controller.settings import settings_for
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
+from grasp_ctrl.files.paths import default_hand_file, default_objects_file
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.tick import control_tick
-from grasp_ctrl.paths import default_hand_file, default_objects_file
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
 from grasp_ctrl.sim.oracle import OracleEstimator
 from grasp_ctrl.sim.world import MockWorld
@@ -103,7 +104,7 @@ def _simulate_trial(sim_s: float) -> float:
 def mock_realtime_factor(quick: bool) -> Figure:
     """Simulated seconds per wall-clock second of the world's physics over a 10 s
     trial (4 fingertips, oracle control so the controller's cost is not counted),
-    after a warm-up world has loaded (or compiled) the kernels (grasp_ctrl/jit.py).
+    after a warm-up world has loaded (or compiled) the kernels (grasp_ctrl/numeric/jit.py).
     The median over 5 trials: one trial's 40 ms of physics is easily disturbed (a
     garbage collection of the controller's objects that lands in a step, the VM)."""
     warm_up = _Loop(lambda world: OracleEstimator(world), seed=1)

@@ -11,10 +11,10 @@ import numpy as np
 from grasp_ctrl.bench.figure import Figure
 from grasp_ctrl.config import load_hand, load_objects
 from grasp_ctrl.controller.machine import GraspController
+from grasp_ctrl.files.paths import default_hand_file, default_objects_file
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.tick import control_tick
-from grasp_ctrl.paths import default_hand_file, default_objects_file
 from grasp_ctrl.sim.oracle import OracleEstimator
 
 BENCH_OBJECT = "chips_can"

@@ -19,8 +19,8 @@ from pathlib import Path
 from grasp_ctrl.bench.figure import Figure
 from grasp_ctrl.config import load_hand
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY
+from grasp_ctrl.files.paths import default_hand_file, default_objects_file
 from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.paths import default_hand_file, default_objects_file
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial, trial_seed
 from grasp_ctrl.trials.runs.selection import select_objects
 

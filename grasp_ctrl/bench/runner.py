@@ -24,7 +24,7 @@ def all_figures() -> dict[str, Callable[[bool], Figure]]:
 def machine_description() -> str:
     import os
 
-    from grasp_ctrl import jit
+    from grasp_ctrl.numeric import jit
 
     return (
         f"{platform.node()} {platform.machine()} {os.cpu_count()} cpu {platform.python_implementation()} "
@@ -34,7 +34,7 @@ def machine_description() -> str:
 
 def run_figures(only: list[str] | None, quick: bool, progress: bool = False) -> dict[str, Figure]:
     """The figures by name; ``progress``: a one-line bar on a terminal (the figure being measured)."""
-    from grasp_ctrl.progress_bar import progress_bar
+    from grasp_ctrl.display.progress_bar import progress_bar
 
     figures = all_figures()
     names = list(figures) if not only else only

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import argparse
 
-from grasp_ctrl.numbers import float_type, int_type
+from grasp_ctrl.numeric.numbers import float_type, int_type
 
 SEED = (0, 2**63 - 1)
 THREADS = (1, 1024)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
+from grasp_ctrl.files.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "bench"
 HELP = "measure the performance figures (docs/design.md 5.6)"

@@ -6,7 +6,7 @@ import argparse
 import json
 from dataclasses import asdict
 
-from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
+from grasp_ctrl.files.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "biotac-anchors"
 HELP = "measure the simulated BioTac against real recordings and the authors' real-data network"

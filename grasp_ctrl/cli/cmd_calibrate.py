@@ -75,7 +75,7 @@ def _ids(text: str | None) -> list[str]:
 
 def _out_path(spec: str) -> Path:
     from grasp_ctrl.config.identifiers import check_identifier_arg
-    from grasp_ctrl.paths import policies_dir
+    from grasp_ctrl.files.paths import policies_dir
 
     if spec.endswith(".json"):
         return Path(spec)
@@ -91,8 +91,8 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.evaluation.calibration import calibrate, load_data
     from grasp_ctrl.evaluation.calibration_checks import fit_problems
     from grasp_ctrl.evaluation.direction import policy_directions
-    from grasp_ctrl.paths import policies_dir
-    from grasp_ctrl.safe_write import check_new_file, check_output, write_output
+    from grasp_ctrl.files.paths import policies_dir
+    from grasp_ctrl.files.safe_write import check_new_file, check_output, write_output
 
     if args.ridge < 0 or args.threads < 1 or (args.tare_frames is not None and args.tare_frames < 1):
         raise UsageError("--ridge must be >= 0, --threads and --tare-frames >= 1")

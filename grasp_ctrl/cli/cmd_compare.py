@@ -28,7 +28,7 @@ def run(args: argparse.Namespace) -> int:
     import importlib.util
     import sys
 
-    from grasp_ctrl.safe_write import IMAGE_FORMATS, check_output
+    from grasp_ctrl.files.safe_write import IMAGE_FORMATS, check_output
     from grasp_ctrl.trials.analysis.compare import fig6_table, format_paired, ordered_names, paired_counts
     from grasp_ctrl.trials.runs.scoring import report_problems, score_run
 

@@ -29,7 +29,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.config.identifiers import check_identifier_arg
-    from grasp_ctrl.paths import policies_dir
+    from grasp_ctrl.files.paths import policies_dir
 
     try:
         from grasp_ctrl.policy_tools.convert_icra19 import convert

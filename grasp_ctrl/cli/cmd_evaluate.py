@@ -11,7 +11,7 @@ import numpy as np
 
 from grasp_ctrl.cli._learning_args import add_data_arguments, data_spec
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
+from grasp_ctrl.files.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "evaluate"
 HELP = "force-estimation metrics of a checkpoint or policy on a test set"
@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
 
     check_output(args.json, "--json")
     if args.plot:
-        from grasp_ctrl.safe_write import IMAGE_FORMATS
+        from grasp_ctrl.files.safe_write import IMAGE_FORMATS
 
         check_output(args.plot, "--plot", formats=IMAGE_FORMATS)
     ds, _ = load_data(data_spec(args), report=print)
@@ -98,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
         ds = ds.subset(split_by_trials(ds, seed=args.seed, test_per_source=args.test_per_source).test)
     if len(ds) == 0:
         raise UsageError("no samples to evaluate (use --split all for a small recording)")
-    from grasp_ctrl.progress_bar import progress_bar
+    from grasp_ctrl.display.progress_bar import progress_bar
 
     doc, per_model = {}, {}
     for spec in args.model:

@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
+from grasp_ctrl.files.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "evaluate-direction"
 HELP = "angle between estimated force directions and labelled plate normals on real BioTac data"

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from grasp_ctrl.cli._learning_args import require_torch
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
+from grasp_ctrl.files.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "export"
 HELP = "export a trained model as a policy (ONNX + metadata JSON, checked against torch)"
@@ -29,8 +29,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.config.identifiers import check_identifier_arg
-    from grasp_ctrl.paths import policies_dir
-    from grasp_ctrl.safe_write import check_output_dir
+    from grasp_ctrl.files.paths import policies_dir
+    from grasp_ctrl.files.safe_write import check_output_dir
 
     out_dir = check_output_dir(args.out_dir, "--out-dir") if args.out_dir is not None else policies_dir()
     check_identifier_arg(args.name, "--name")  # it names NAME.json and NAME.onnx

@@ -63,7 +63,7 @@ def _kind(source: Path) -> str:
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.bags import export, require_ros
     from grasp_ctrl.errors import UsageError
-    from grasp_ctrl.safe_write import destination
+    from grasp_ctrl.files.safe_write import destination
 
     require_ros()
     source = Path(args.source)

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
+from grasp_ctrl.files.safe_write import check_output, write_output  # noqa: F401
 
 if TYPE_CHECKING:
     from grasp_ctrl.sim.grasp_contacts import GraspContacts
@@ -31,7 +31,7 @@ ORDER = 80
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from grasp_ctrl.paths import policies_dir
+    from grasp_ctrl.files.paths import policies_dir
 
     p.add_argument("--samples", type=int, default=20000, help="simulated presses (default 20000)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")

@@ -21,7 +21,7 @@ ORDER = 40
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from grasp_ctrl.paths import default_hand_file
+    from grasp_ctrl.files.paths import default_hand_file
 
     p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE", help="hand config TOML")
     p.add_argument(

@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.bags.import_ import DEFAULT_MIN_FORCE_N, import_bags
     from grasp_ctrl.bags.recording import write_recording
     from grasp_ctrl.errors import UsageError
-    from grasp_ctrl.safe_write import check_new_file, check_output, destination
+    from grasp_ctrl.files.safe_write import check_new_file, check_output, destination
 
     require_ros()
     if args.min_force is not None and args.wrench is None:

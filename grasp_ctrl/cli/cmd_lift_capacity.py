@@ -28,7 +28,7 @@ ORDER = 45
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from grasp_ctrl.paths import default_hand_file, default_objects_file
+    from grasp_ctrl.files.paths import default_hand_file, default_objects_file
 
     p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE", help="hand config TOML")
     p.add_argument("--objects-file", default=str(default_objects_file()), metavar="FILE", help="object profiles TOML")

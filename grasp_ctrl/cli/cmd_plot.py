@@ -67,7 +67,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from grasp_ctrl.safe_write import IMAGE_FORMATS, check_output
+    from grasp_ctrl.files.safe_write import IMAGE_FORMATS, check_output
     from grasp_ctrl.trials.analysis.plots import force_traces
     from grasp_ctrl.trials.analysis.trial_plot import trial_figure
     from grasp_ctrl.trials.analysis.trial_view import hand_for_replay, load_trial

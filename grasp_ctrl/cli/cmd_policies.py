@@ -6,7 +6,7 @@ import argparse
 import json
 from typing import Any
 
-from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
+from grasp_ctrl.files.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "policies"
 HELP = "list the force-estimator policies (policies/*.json) with their metadata"
@@ -40,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.errors import GraspCtrlError
     from grasp_ctrl.estimators.registry import list_policy_names, load_policy, read_metadata, resolve_policy_path
-    from grasp_ctrl.paths import default_hand_file
+    from grasp_ctrl.files.paths import default_hand_file
 
     names = list_policy_names()
     hand = load_hand(default_hand_file()) if args.check else None

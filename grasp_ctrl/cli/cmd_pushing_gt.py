@@ -49,11 +49,11 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from grasp_ctrl.errors import UsageError
+    from grasp_ctrl.files.safe_write import check_output
     from grasp_ctrl.pushing.box import load_box
     from grasp_ctrl.pushing.io import read_push_csv, write_forces_csv
     from grasp_ctrl.pushing.kinematics import planar_motion
     from grasp_ctrl.pushing.solver import pusher_forces
-    from grasp_ctrl.safe_write import check_output
 
     if args.particles < 1:
         raise UsageError(f"--particles: a positive integer (got {args.particles})")

@@ -71,7 +71,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--object-file", default=None, metavar="FILE", help="object profiles TOML (default: hand_configs/objects.toml)"
     )
-    from grasp_ctrl.controller.registry import CONTROLLER_NAMES, DEFAULT_CONTROLLER
+    from grasp_ctrl.controller.settings import CONTROLLER_NAMES, DEFAULT_CONTROLLER
 
     p.add_argument(
         "--controller",
@@ -222,7 +222,7 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.estimators.registry import DEFAULT_POLICY
-    from grasp_ctrl.paths import default_hand_file, default_objects_file
+    from grasp_ctrl.files.paths import default_hand_file, default_objects_file
     from grasp_ctrl.trials.runs.manifest import MAX_TRIALS, RunManifest, file_sha256
     from grasp_ctrl.trials.runs.presets import get_preset
     from grasp_ctrl.trials.runs.selection import select_objects
@@ -252,7 +252,8 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
         raise UsageError(
             "--realtime: only with --backend dynamixel --emulate (a wall-clock dry run of the emulated hand)"
         )
-    from grasp_ctrl.controller.registry import DEFAULT_CONTROLLER, controller_class, settings_for
+    from grasp_ctrl.controller.registry import controller_class
+    from grasp_ctrl.controller.settings import DEFAULT_CONTROLLER, settings_for
 
     controller = args.controller or (preset.controller if preset else DEFAULT_CONTROLLER)
     controller_class(controller)  # an unknown name: one line listing the controllers
@@ -286,7 +287,7 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
 def _resumed(args: argparse.Namespace, run_dir: Path) -> tuple[Any, Any]:
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.errors import UsageError
-    from grasp_ctrl.paths import default_hand_file
+    from grasp_ctrl.files.paths import default_hand_file
     from grasp_ctrl.trials.runs.fingerprint import check_resume
     from grasp_ctrl.trials.runs.manifest import read_manifest
 
@@ -346,10 +347,10 @@ def _preflight(hand: Any, manifest: Any, args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.errors import Terminated, UsageError
-    from grasp_ctrl.safe_write import check_output, check_run_tree, write_output
+    from grasp_ctrl.files.safe_write import check_output, check_run_tree, write_output
     from grasp_ctrl.trials.episode.labelling import OperatorQuit
-    from grasp_ctrl.trials.episode.runner import run_series
     from grasp_ctrl.trials.runs.records import load_records
+    from grasp_ctrl.trials.runs.series import run_series
     from grasp_ctrl.trials.runs.summary import format_table
 
     if args.threads < 1:
@@ -378,7 +379,7 @@ def run(args: argparse.Namespace) -> int:
         )
     trial_fn = None
     if args.record_video is not None:
-        from grasp_ctrl.safe_write import check_output_dir
+        from grasp_ctrl.files.safe_write import check_output_dir
 
         check_output_dir(args.record_video, "--record-video")
     if args.record_video is not None and manifest.backend != "mujoco":
@@ -484,7 +485,7 @@ def run(args: argparse.Namespace) -> int:
         return 143 if isinstance(exc, Terminated) else 130
     flagged = flag_summary(summary, short)
     if flagged != summary:  # short objects, the mock's test-double flag: written into summary.json
-        from grasp_ctrl.storage import SUMMARY_FILE, write_json
+        from grasp_ctrl.files.storage import SUMMARY_FILE, write_json
 
         summary = flagged
         write_json(run_dir / SUMMARY_FILE, summary)

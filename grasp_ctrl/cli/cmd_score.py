@@ -22,7 +22,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from grasp_ctrl.safe_write import check_output, write_output
+    from grasp_ctrl.files.safe_write import check_output, write_output
     from grasp_ctrl.trials.runs.scoring import report_problems, score_run
     from grasp_ctrl.trials.runs.summary import format_table
 

@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.errors import PolicyError, UsageError
     from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
-    from grasp_ctrl.paths import default_hand_file
+    from grasp_ctrl.files.paths import default_hand_file
     from grasp_ctrl.tactile_link.monitor import Monitor
     from grasp_ctrl.tactile_link.recorder import FrameRecorder
     from grasp_ctrl.tactile_link.serial_sensors import SerialSensors

@@ -46,9 +46,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.cli._learning_args import parse_sources
+    from grasp_ctrl.files.safe_write import check_new_file
     from grasp_ctrl.learning.dataset import SOURCES, Dataset, write_csv, write_raw_csv
     from grasp_ctrl.learning.synthetic import generate_trials
-    from grasp_ctrl.safe_write import check_new_file
 
     chosen = set(parse_sources(args.sources))
     sources = tuple(s for s in SOURCES if s in chosen)

@@ -9,7 +9,7 @@ from typing import Any
 
 from grasp_ctrl.cli._learning_args import add_data_arguments, data_spec, parse_sources, require_torch
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
+from grasp_ctrl.files.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "train"
 HELP = "train a force model on recorded or synthetic data (needs the train extra)"
@@ -90,7 +90,7 @@ def _init_state(spec: str, arch: str):
             raise UsageError(f"--init-from: {exc}") from None
         init_arch, state = ckpt["arch"], ckpt["state_dict"]
     else:
-        from grasp_ctrl.paths import policies_dir
+        from grasp_ctrl.files.paths import policies_dir
 
         onnx_path = path.with_suffix(".onnx") if path.suffix in (".onnx", ".json") else policies_dir() / f"{spec}.onnx"
         if not onnx_path.is_file():
@@ -110,14 +110,14 @@ def _init_state(spec: str, arch: str):
 
 
 def run(args: argparse.Namespace) -> int:
-    from grasp_ctrl.progress_bar import StatusLine
+    from grasp_ctrl.display.progress_bar import StatusLine
 
     require_torch()
     spec = data_spec(args)
     if args.epochs < 1 or args.batch_size < 1 or args.threads < 1:
         raise UsageError("--epochs, --batch-size and --threads must be positive")
     if args.experiment:
-        from grasp_ctrl.safe_write import check_output_dir
+        from grasp_ctrl.files.safe_write import check_output_dir
 
         check_output_dir(args.out_dir, "--out-dir")
     from grasp_ctrl.trials.runs.ray_executor import check_executor

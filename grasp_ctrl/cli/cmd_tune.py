@@ -32,7 +32,7 @@ ORDER = 5
 def add_arguments(p: argparse.ArgumentParser) -> None:
     from grasp_ctrl.config.objects import TUNABLE
     from grasp_ctrl.estimators.registry import DEFAULT_POLICY
-    from grasp_ctrl.paths import default_hand_file, default_objects_file
+    from grasp_ctrl.files.paths import default_hand_file, default_objects_file
     from grasp_ctrl.trials.tuning.study_defaults import DEFAULT_BUDGET
 
     which = p.add_mutually_exclusive_group(required=True)
@@ -71,7 +71,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--policy", default=DEFAULT_POLICY, metavar="NAME|PATH", help=f"force estimator (default {DEFAULT_POLICY})"
     )
-    from grasp_ctrl.controller.registry import CONTROLLER_NAMES, DEFAULT_CONTROLLER
+    from grasp_ctrl.controller.settings import CONTROLLER_NAMES, DEFAULT_CONTROLLER
 
     p.add_argument(
         "--controller",
@@ -159,11 +159,11 @@ def _check_args(args: argparse.Namespace) -> None:
     _settings(args)  # an unknown controller: one line listing them
     if args.trials < 1:
         raise UsageError("--trials: must be at least 1")
-    from grasp_ctrl.safe_write import check_output
+    from grasp_ctrl.files.safe_write import check_output
 
     check_output(args.json, "--json")  # before any trial: a bad path costs nothing
     if args.plots is not None:
-        from grasp_ctrl.safe_write import check_output_dir
+        from grasp_ctrl.files.safe_write import check_output_dir
 
         check_output_dir(args.plots, "--plots")
     if args.jobs < 1:
@@ -195,7 +195,7 @@ def _variation(args: argparse.Namespace) -> Any:
 
 def _settings(args: argparse.Namespace) -> Any:
     """The controller settings every setting starts from: ``--controller``'s (default the registry's)."""
-    from grasp_ctrl.controller.registry import DEFAULT_CONTROLLER, settings_for
+    from grasp_ctrl.controller.settings import DEFAULT_CONTROLLER, settings_for
 
     return settings_for(args.controller or DEFAULT_CONTROLLER)
 
@@ -314,7 +314,7 @@ def run(args: argparse.Namespace) -> int:
             return doc
         docs.append(doc)
     if args.json:
-        from grasp_ctrl.safe_write import write_output
+        from grasp_ctrl.files.safe_write import write_output
 
         out = docs[0] if args.object is not None else {"objects": docs}
         write_output(args.json, json.dumps(out, indent=2) + "\n")

@@ -6,7 +6,7 @@ import argparse
 import os
 import sys
 
-from grasp_ctrl.safe_write import check_output, write_output  # noqa: F401
+from grasp_ctrl.files.safe_write import check_output, write_output  # noqa: F401
 
 NAME = "view"
 HELP = "look at the MuJoCo scene of one object (hand at its start pose) in MuJoCo's viewer"
@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.config.objects import load_objects
     from grasp_ctrl.errors import UsageError
-    from grasp_ctrl.paths import default_hand_file, default_objects_file
+    from grasp_ctrl.files.paths import default_hand_file, default_objects_file
     from grasp_ctrl.sim.mujoco_world import MuJoCoWorld
 
     hand = load_hand(Path(args.hand or default_hand_file()))

@@ -13,8 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from grasp_ctrl.controller.machine import ACTIVE, STATES, TERMINAL, TRANSITIONS
-from grasp_ctrl.controller.registry import settings_for
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.settings import ControllerSettings, settings_for
 
 # Faults raised outside the guards, from any active state (GraspController.tick, the
 # sensing pipeline, control_tick, the runner; docs/safety.md).
@@ -114,7 +113,7 @@ _LAYOUT = {
 
 def draw(path: Path, settings: ControllerSettings | None = None) -> Path:
     """The state machine as SVG or PNG (by the file's suffix); needs matplotlib."""
-    from grasp_ctrl.plotting import pyplot
+    from grasp_ctrl.display.plotting import pyplot
 
     plt = pyplot()
     all_edges = edges(settings)
@@ -181,7 +180,7 @@ def draw(path: Path, settings: ControllerSettings | None = None) -> Path:
     )
     ax.set_title("grasp_ctrl lift-and-place controller", fontsize=12)
     fig.tight_layout()
-    from grasp_ctrl.safe_write import save_figure
+    from grasp_ctrl.files.safe_write import save_figure
 
     try:
         save_figure(fig, path)  # a symlink there is replaced, a stream gets the bytes

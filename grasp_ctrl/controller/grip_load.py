@@ -8,7 +8,7 @@ the force *vectors* the estimators give, as a human grasp does (Johansson and We
 Romano et al. 2011, "Load"):
 
 - **squeeze and targets** (its settings' defaults; the paper's controller runs without them,
-  ``registry.settings_for``): the squeeze moves each goal so the joints' springs push along the
+  ``settings.settings_for``): the squeeze moves each goal so the joints' springs push along the
   closing vector (``stiffness_aware_squeeze``: a goal moved along it slides the LEAP thumb's pad
   down a box's face, pressing the box into the table), to force-closure targets (the thumb pushes
   back what the index and middle push); a deformable object's targets stay under its crush cap.

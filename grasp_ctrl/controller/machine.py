@@ -17,23 +17,22 @@ from typing import Any
 import numpy as np
 from transitions import Machine
 
-from grasp_ctrl import jit
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller import tick_kernels as tk
 from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES, grip_targets
 from grasp_ctrl.controller.motion import FingertipMotion
 from grasp_ctrl.controller.ramp_settle import RampSettle
-from grasp_ctrl.controller.registry import settings_for
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.settings import ControllerSettings, settings_for
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import ConfigError
-from grasp_ctrl.finite import all_finite
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR
 from grasp_ctrl.kinematics.pad_ik import Facing
 from grasp_ctrl.kinematics.preshape import preshape
-from grasp_ctrl.vec3 import norm3
+from grasp_ctrl.numeric import jit
+from grasp_ctrl.numeric.finite import all_finite
+from grasp_ctrl.numeric.vec3 import norm3
 
 STATES = ["tare", "reach", "close", "ramp", "lift", "hold", "lower", "release", "retreat", "done", "fault"]
 ACTIVE = STATES[:-2]
@@ -84,7 +83,7 @@ def _distance(a: np.ndarray, b: np.ndarray) -> float:
         and a.shape == b.shape == (3,)
     ):
         return tk.distance3(a, b)  # the same, compiled
-    return norm3(a - b)  # fixed-order sum: the kernel's bits on any CPU (grasp_ctrl/vec3.py)
+    return norm3(a - b)  # fixed-order sum: the kernel's bits on any CPU (grasp_ctrl/numeric/vec3.py)
 
 
 def build_machine(
@@ -142,7 +141,7 @@ class GraspController:
     TRANSITIONS: list[tuple[str, str, str, str | None]] = TRANSITIONS
     #: Whether the tick gives it each fingertip's PAC spread (``Snapshot.pac_spread``).
     reads_vibration = False
-    NAME = "paper"  # its name in controller/registry.py (the settings it starts from without any)
+    NAME = "paper"  # its name in controller/settings.py (the settings it starts from without any)
 
     def __init__(
         self,
@@ -667,7 +666,7 @@ class GraspController:
             tk.move_palm_toward(p, target, speed * self.dt)  # the same, compiled, in place (p is our own)
             return
         delta = target - self.palm_target
-        dist = norm3(delta)  # fixed-order sum, as the kernel (grasp_ctrl/vec3.py)
+        dist = norm3(delta)  # fixed-order sum, as the kernel (grasp_ctrl/numeric/vec3.py)
         step = speed * self.dt
         self.palm_target = target.copy() if dist <= step else self.palm_target + delta * (step / dist)
 

@@ -19,14 +19,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from grasp_ctrl import jit
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.controller.joint_stiffness import joint_stiffness
 from grasp_ctrl.controller.tick_kernels import squeeze_pads
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.pad_ik import Facing, shared_pad_ik
-from grasp_ctrl.limits import clipped_equals, step_toward
+from grasp_ctrl.numeric import jit
+from grasp_ctrl.numeric.limits import clipped_equals, step_toward
 
 _FLOAT64 = np.dtype(np.float64)
 

@@ -11,27 +11,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from grasp_ctrl.errors import UsageError
+from grasp_ctrl.controller.settings import unknown_controller
 
 if TYPE_CHECKING:
     from grasp_ctrl.controller.machine import GraspController
-    from grasp_ctrl.controller.settings import ControllerSettings
-
-CONTROLLER_NAMES: tuple[str, ...] = ("paper", "grip_load")
-DEFAULT_CONTROLLER = "grip_load"  # it measures better under both variation profiles (docs/results.md)
-
-# Each controller's own choices where ControllerSettings' defaults (grip_load's) are not its own:
-# the paper's controller squeezes along the closing vectors toward tau on every fingertip.
-CONTROLLER_CHOICES: dict[str, dict[str, Any]] = {
-    "paper": {
-        "stiffness_aware_squeeze": False,
-        "grip_targets": "equal",
-        "open_s": 0.4,
-        "release_back_off_m_s": 0.05,
-        "lower_speed_m_s": 0.015,
-    },
-    "grip_load": {},
-}
 
 
 def controller_class(name: str) -> type[GraspController]:
@@ -44,18 +27,7 @@ def controller_class(name: str) -> type[GraspController]:
         from grasp_ctrl.controller.grip_load import GripLoadController
 
         return GripLoadController
-    raise UsageError(f"--controller {name!r}: unknown (one of {', '.join(CONTROLLER_NAMES)})")
-
-
-def settings_for(name: str, **overrides: Any) -> ControllerSettings:
-    """The settings a run of controller ``name`` starts from: ``ControllerSettings``' defaults
-    with the controller's own choices (``CONTROLLER_CHOICES``), then ``overrides``."""
-    import dataclasses
-
-    from grasp_ctrl.controller.settings import ControllerSettings
-
-    controller_class(name)  # one line naming the controllers when unknown
-    return dataclasses.replace(ControllerSettings(controller=name), **{**CONTROLLER_CHOICES[name], **overrides})
+    raise unknown_controller(name)
 
 
 def make_controller(

@@ -1,8 +1,34 @@
-"""Controller gains, speeds and time-outs (hand-independent defaults)."""
+"""Controller gains, speeds and time-outs (hand-independent defaults), and each controller's own
+choices among them (``settings_for``). The classes behind the names: controller/registry.py."""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
+from typing import Any
+
+from grasp_ctrl.errors import UsageError
+
+CONTROLLER_NAMES: tuple[str, ...] = ("paper", "grip_load")
+DEFAULT_CONTROLLER = "grip_load"  # it measures better under both variation profiles (docs/results.md)
+
+# Each controller's own choices where ControllerSettings' defaults (grip_load's) are not its own:
+# the paper's controller squeezes along the closing vectors toward tau on every fingertip.
+CONTROLLER_CHOICES: dict[str, dict[str, Any]] = {
+    "paper": {
+        "stiffness_aware_squeeze": False,
+        "grip_targets": "equal",
+        "open_s": 0.4,
+        "release_back_off_m_s": 0.05,
+        "lower_speed_m_s": 0.015,
+    },
+    "grip_load": {},
+}
+
+
+def unknown_controller(name: str) -> UsageError:
+    """The one-line error for a controller name that is not one of ``CONTROLLER_NAMES``."""
+    return UsageError(f"--controller {name!r}: unknown (one of {', '.join(CONTROLLER_NAMES)})")
 
 
 @dataclass(frozen=True)
@@ -25,14 +51,14 @@ class ControllerSettings:
     reach_tolerance_m: float = 0.001
     reach_timeout_s: float = 10.0
     lift_speed_m_s: float = 0.04
-    lower_speed_m_s: float = 0.03  # grip_load's (the paper's controller: 0.015; controller/registry.py):
+    lower_speed_m_s: float = 0.03  # grip_load's (the paper's controller: 0.015; CONTROLLER_CHOICES):
     #   a light, soft object (the plastic bottle) turns in the grasp over a long lower and a grip fades
     lower_overshoot_m: float = 0.03  # how far below the grasp height lowering may go
     lower_slow_zone_m: float = 0.015  # approach the support surface slowly from this high
     lower_slow_speed_m_s: float = 0.005
     grip_lost_fraction: float = 0.3  # grip below this fraction of tau = slipping
     contact_lost_s: float = 0.05
-    # grip_load's release (the paper's controller: 0.4 s at 0.05 m/s; controller/registry.py): the
+    # grip_load's release (the paper's controller: 0.4 s at 0.05 m/s; CONTROLLER_CHOICES): the
     # same 20 mm, slower, so an object that touches down tilted settles as the grip fades instead
     # of dropping flat from a corner (the lego landed at 0.13 m/s)
     open_s: float = 1.0  # time to open the fingers on release
@@ -41,7 +67,7 @@ class ControllerSettings:
     preshape: bool = True  # reach in a posture whose pads face the object, close along
     preshape_standoff_m: float = 0.01  #   its surface normals (kinematics/preshape.py), this far off
     # The next two are grip_load's choices; the paper's controller runs with False and "equal"
-    # (controller/registry.py settings_for).
+    # (settings_for below).
     stiffness_aware_squeeze: bool = True  # move the pads' goals so the joints' springs push along the
     #   closing vectors (controller/motion.py); off: along the closing vectors, and the LEAP thumb's
     #   pad slides down a box's face as it squeezes, pressing the box into the table (docs/controller.md)
@@ -85,3 +111,11 @@ class ControllerSettings:
     #   current limit, and a retreat has to undo the wind-up first); 1 or more: never
     low_confidence_slowdown: bool = False  # slow the ramp when the policy's variance is high
     variance_scale_n2: float = 0.05  # variance at which the ramp runs at half speed
+
+
+def settings_for(name: str, **overrides: Any) -> ControllerSettings:
+    """The settings a run of controller ``name`` starts from: ``ControllerSettings``' defaults
+    with the controller's own choices (``CONTROLLER_CHOICES``), then ``overrides``."""
+    if name not in CONTROLLER_NAMES:
+        raise unknown_controller(name)
+    return dataclasses.replace(ControllerSettings(controller=name), **{**CONTROLLER_CHOICES[name], **overrides})

@@ -1,4 +1,4 @@
-"""The controller's per-tick arithmetic as compiled loops (grasp_ctrl/jit.py).
+"""The controller's per-tick arithmetic as compiled loops (grasp_ctrl/numeric/jit.py).
 
 Each replaces Python list arithmetic and several numpy calls on 4-element
 arrays (the fingertips) in ``GraspController``, whose own code stays the
@@ -14,9 +14,9 @@ import math
 
 import numpy as np
 
-from grasp_ctrl.jit import njit
 from grasp_ctrl.kinematics.pad_ik import advance_pads_kernel, squeeze_targets_kernel, step_pads_kernel
-from grasp_ctrl.limits import step_toward
+from grasp_ctrl.numeric.jit import njit
+from grasp_ctrl.numeric.limits import step_toward
 
 #: ``tick_checks`` result bits.
 WITHIN_TOLERANCE = 1  # every grasping grip within the ramp tolerance of tau

@@ -105,8 +105,8 @@ class RecordingSource:
     def __init__(
         self, path: str | Path, seed: int = 0, max_rows: int | None = None, skip_bad_rows: bool = False
     ) -> None:
-        from grasp_ctrl.csv_rows import Column, read_rows
         from grasp_ctrl.errors import UsageError
+        from grasp_ctrl.files.csv_rows import Column, read_rows
 
         cols = [Column(f"e{i}", 0.0, 4095.0) for i in range(1, 20)] + [Column("pdc", 0.0, 4095.0)]
         try:

@@ -10,9 +10,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from grasp_ctrl import jit
 from grasp_ctrl.estimators.base import Estimate
-from grasp_ctrl.jit import njit
+from grasp_ctrl.numeric import jit
+from grasp_ctrl.numeric.jit import njit
 from grasp_ctrl.tactile.layout import ELECTRODES
 
 _FLOAT64 = np.dtype(np.float64)

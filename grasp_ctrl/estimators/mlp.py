@@ -4,7 +4,7 @@ The policy file holds everything (``kind = "mlp"``): the input channels (indices
 the 44-channel tared frame), their mean and scale, and the layers, tanh between them
 and a linear output in N. No ONNX session: for a net this small, onnxruntime's call
 overhead is ten times the arithmetic, and the mock world's default policy runs every
-tick of every trial. With numba (grasp_ctrl/jit.py) the forward pass is one compiled
+tick of every trial. With numba (grasp_ctrl/numeric/jit.py) the forward pass is one compiled
 call (``mlp_forward``, within 1e-9 N of numpy's: its sums and tanh are rounded
 differently); without it, numpy's calls.
 """
@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from grasp_ctrl import jit
 from grasp_ctrl.estimators.base import Estimate
-from grasp_ctrl.jit import njit
+from grasp_ctrl.numeric import jit
+from grasp_ctrl.numeric.jit import njit
 from grasp_ctrl.tactile.layout import FRAME_LEN
 
 _FLOAT64 = np.dtype(np.float64)

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from grasp_ctrl.errors import PolicyError
-from grasp_ctrl.storage import file_sha256
+from grasp_ctrl.files.storage import file_sha256
 
 SHA256_HEX = re.compile(r"^[0-9a-f]{64}$")
 # metadata dtype -> onnxruntime's type string

@@ -19,8 +19,8 @@ from grasp_ctrl.config.identifiers import check_identifier_arg, check_policy_ide
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.analytic import AnalyticEstimator
 from grasp_ctrl.estimators.base import ForceEstimator
-from grasp_ctrl.json_limits import JsonFileError, read_json
-from grasp_ctrl.paths import policies_dir
+from grasp_ctrl.files.json_limits import JsonFileError, read_json
+from grasp_ctrl.files.paths import policies_dir
 
 DEFAULT_POLICY = "mlp_mock"
 

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from grasp_ctrl.jit import njit
+from grasp_ctrl.numeric.jit import njit
 
 PAD_POINT_SENSOR = np.array([-0.003, 0.0, -5.5e-3])
 PAD_NORMAL_SENSOR = np.array([0.0, 0.0, -1.0])

@@ -22,8 +22,8 @@ import itertools
 
 import numpy as np
 
-from grasp_ctrl.jit import njit
 from grasp_ctrl.kinematics.chain import FingerChain, HandKinematics
+from grasp_ctrl.numeric.jit import njit
 
 #: Largest chain handled (3^n monomials per finger).
 MAX_JOINTS = 7
@@ -83,7 +83,7 @@ def _pose_table(chain: FingerChain, n: int) -> np.ndarray:
 def contract(q: np.ndarray, take: np.ndarray, W: np.ndarray, rows: np.ndarray) -> None:
     """Rows (F, C) of all fingers at joint angles q: the monomials of (1, cos q_i,
     sin q_i) gathered by ``take`` (n, F, 3^n) and contracted with W (F, 3^n, C).
-    Compiled into the mock world's step (grasp_ctrl/jit.py)."""
+    Compiled into the mock world's step (grasp_ctrl/numeric/jit.py)."""
     J = q.shape[0]
     vals = np.empty(2 * J + 2)
     vals[0] = 1.0

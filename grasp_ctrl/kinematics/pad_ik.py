@@ -18,11 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grasp_ctrl import jit
-from grasp_ctrl.jit import njit
 from grasp_ctrl.kinematics.batched import BatchedKinematics
 from grasp_ctrl.kinematics.chain import FingerChain, HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
+from grasp_ctrl.numeric import jit
+from grasp_ctrl.numeric.jit import njit
 
 
 @njit

@@ -359,7 +359,7 @@ def _cells(values: np.ndarray) -> list[str]:
 @contextlib.contextmanager
 def _text_output(path: str | Path) -> Iterator[io.StringIO]:
     """Collect the text, then write it as a new file (a symlink there is replaced, not followed)."""
-    from grasp_ctrl.safe_write import write_output
+    from grasp_ctrl.files.safe_write import write_output
 
     buf = io.StringIO(newline="")
     yield buf

@@ -22,9 +22,9 @@ from typing import Any
 import numpy as np
 import torch
 
+from grasp_ctrl.files.safe_write import output_file, write_output
 from grasp_ctrl.learning.features import model_inputs
 from grasp_ctrl.learning.models import ARCHS, build_model, input_shapes
-from grasp_ctrl.safe_write import output_file, write_output
 
 STATE_DICT_KEY = "grasp_ctrl.torch_state_dict"
 ARCH_KEY = "grasp_ctrl.arch"

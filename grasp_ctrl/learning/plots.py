@@ -33,7 +33,7 @@ def box_plots(
         ax.set_xlabel(metric.replace("_", " "))
         ax.grid(axis="x", alpha=0.3)
     fig.tight_layout()
-    from grasp_ctrl.safe_write import save_figure
+    from grasp_ctrl.files.safe_write import save_figure
 
     try:
         save_figure(fig, path, "--plot", dpi=120)  # a symlink there is replaced, a stream gets the bytes

@@ -204,7 +204,7 @@ def train(
 
 
 def save_checkpoint(path: str, result: TrainResult, extra: dict[str, Any] | None = None) -> None:
-    from grasp_ctrl.safe_write import output_file
+    from grasp_ctrl.files.safe_write import output_file
 
     with output_file(path) as tmp:  # a symlink at ``path`` is replaced, never written through
         _save(tmp, result, extra)

@@ -11,11 +11,11 @@ from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.errors import FrameError, SensorStaleError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.pipeline import TactilePipeline
-from grasp_ctrl.finite import all_finite
 from grasp_ctrl.hardware.base import JointState, SensorBackend, TactileFrame
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.pad_ik import shared_pad_ik
 from grasp_ctrl.loop.tick_kernels import place_forces, sense_forces, sense_inputs
+from grasp_ctrl.numeric.finite import all_finite
 
 _FLOAT64 = np.dtype(np.float64)
 

@@ -12,9 +12,9 @@ import numpy as np
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import FrameError, HardwareError
-from grasp_ctrl.finite import both_finite
 from grasp_ctrl.hardware.base import ArmBackend, HandBackend, SensorBackend
 from grasp_ctrl.loop.sensing import SensingPipeline
+from grasp_ctrl.numeric.finite import both_finite
 from grasp_ctrl.tactile.layout import PAC
 
 

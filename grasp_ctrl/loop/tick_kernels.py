@@ -1,4 +1,4 @@
-"""Compiled per-tick bookkeeping of a trial (grasp_ctrl/jit.py): the tick log's row
+"""Compiled per-tick bookkeeping of a trial (grasp_ctrl/numeric/jit.py): the tick log's row
 and the running force peaks of the record.
 
 Each replaces a dozen numpy calls on 3- to 176-element arrays, whose call overhead
@@ -12,9 +12,9 @@ import math
 
 import numpy as np
 
-from grasp_ctrl.jit import njit
 from grasp_ctrl.kinematics.pad_ik import sensor_forces_kernel
-from grasp_ctrl.limits import _maximum
+from grasp_ctrl.numeric.jit import njit
+from grasp_ctrl.numeric.limits import _maximum
 from grasp_ctrl.tactile.layout import FRAME_LEN, PDC
 from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate_bits
 

@@ -30,9 +30,9 @@ from typing import Any
 
 import numpy as np
 
+from grasp_ctrl.files.safe_write import write_output
+from grasp_ctrl.files.storage import file_sha256
 from grasp_ctrl.policy_tools import icra19_net
-from grasp_ctrl.safe_write import write_output
-from grasp_ctrl.storage import file_sha256
 from grasp_ctrl.tactile.voxel import GRID_SHAPE, VoxelGrid
 
 OPSET = 17

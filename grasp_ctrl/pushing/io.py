@@ -11,11 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
-from grasp_ctrl.csv_rows import Column, read_rows
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.files.csv_rows import Column, read_rows
+from grasp_ctrl.files.safe_write import write_output
 from grasp_ctrl.pushing.simulate import SimulatedPush
 from grasp_ctrl.pushing.solver import PushForces
-from grasp_ctrl.safe_write import write_output
 
 PUSH_COLUMNS = ("t", "x", "y", "theta", "contact_x", "contact_y", "in_contact")
 FORCE_COLUMNS = ("t", "fx_world", "fy_world", "fx_object", "fy_object", "moving")

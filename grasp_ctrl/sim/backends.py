@@ -6,13 +6,13 @@ import math
 
 import numpy as np
 
-from grasp_ctrl import jit
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import HardwareError
-from grasp_ctrl.finite import all_finite
 from grasp_ctrl.hardware.base import JointState, TactileFrame
-from grasp_ctrl.jit import njit
-from grasp_ctrl.limits import limit_goal
+from grasp_ctrl.numeric import jit
+from grasp_ctrl.numeric.finite import all_finite
+from grasp_ctrl.numeric.jit import njit
+from grasp_ctrl.numeric.limits import limit_goal
 from grasp_ctrl.sim.world import MockWorld
 
 _FLOAT64 = np.dtype(np.float64)

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grasp_ctrl.jit import njit
+from grasp_ctrl.numeric.jit import njit
 from grasp_ctrl.tactile.geometry import ELECTRODE_NORMALS_SENSOR, ELECTRODE_POSITIONS_SENSOR
 from grasp_ctrl.tactile.layout import COUNT_MAX, ELECTRODES, FRAME_LEN, PAC, PDC, TAC, TDC
 

@@ -27,7 +27,7 @@ def _number(path: Path, name: str, value: object) -> float:
 def load_biotac_params(path: str | Path) -> BioTacParams:
     """The defaults with the file's overrides; ValueError naming the file and field on bad input."""
     path = Path(path)
-    from grasp_ctrl.json_limits import JsonFileError, read_json
+    from grasp_ctrl.files.json_limits import JsonFileError, read_json
 
     try:
         doc = read_json(path)

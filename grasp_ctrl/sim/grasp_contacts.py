@@ -89,8 +89,8 @@ def load_contacts(path: str | Path | None, skip_bad_rows: bool = False) -> Grasp
 
 def read_csv(path: str | Path, skip_bad_rows: bool = False) -> GraspContacts:
     """A file of ``csv_text`` (the ``grasp-contacts`` command); a bad row is reported by its line."""
-    from grasp_ctrl.csv_rows import Column, read_rows
     from grasp_ctrl.errors import UsageError
+    from grasp_ctrl.files.csv_rows import Column, read_rows
 
     p = Path(path)
     numeric = [Column("t_s", 0.0, 1e6)]

@@ -8,7 +8,7 @@ downward), and a slipping contact drags its anchor. The object's height is the
 equilibrium of the finger forces, its weight and the table (which can only push up).
 
 Loops over the few contacts of one hand, compiled with the world step
-(grasp_ctrl/jit.py).
+(grasp_ctrl/numeric/jit.py).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from grasp_ctrl.jit import njit
+from grasp_ctrl.numeric.jit import njit
 
 # A surface facing down steeply enough wedges the fingertip (no friction limit
 # upward); the finger's own limits then bound the force, so cap the factor.

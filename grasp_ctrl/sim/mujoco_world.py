@@ -368,7 +368,7 @@ class MuJoCoWorld:
 
     def _slip_at(self, i: int, p_world: np.ndarray, n_world: np.ndarray) -> float:
         """Tangential speed of the skin over the object at the contact point (m/s)."""
-        # On Python floats, dot products summed left to right (as grasp_ctrl/vec3.py: the
+        # On Python floats, dot products summed left to right (as grasp_ctrl/numeric/vec3.py: the
         # same bits on any CPU), at a fraction of the cost of numpy calls.
         mj, m, d = self._mj, self.model, self.data
         v = self._vel6

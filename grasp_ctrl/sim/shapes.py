@@ -2,7 +2,7 @@
 topped by a domed cap (the mustard bottle's).
 
 ``shape_params`` packs a profile into a float array so that ``penetration``
-can run inside the compiled world step (grasp_ctrl/jit.py).
+can run inside the compiled world step (grasp_ctrl/numeric/jit.py).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 from grasp_ctrl.config.objects import ObjectProfile
-from grasp_ctrl.jit import njit
+from grasp_ctrl.numeric.jit import njit
 
 # Layout of the parameter array.
 CYLINDER, RADIUS, HALF_X, HALF_Y, BODY_H, HAS_CAP, CAP_R, CAP_CZ, CAP_DX, CAP_DY, TOP = range(11)

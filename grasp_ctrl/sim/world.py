@@ -22,7 +22,7 @@ Model (quasi-static, documented in docs/mock_world.md):
 Speed: a step must cost tens of microseconds (``bench``'s
 ``mock_realtime_factor``), so the physics is one kernel over arrays
 (sim/world_step.py), compiled by numba when the ``sim`` extra is installed
-(grasp_ctrl/jit.py). The kinematics of all fingers are one tensor contraction
+(grasp_ctrl/numeric/jit.py). The kinematics of all fingers are one tensor contraction
 (kinematics/multilinear.py) at the servo positions; the contact solve, linear
 in the deflection, then moves each contact point and sensor frame to first
 order (the deflections are hundredths of a radian).
@@ -36,15 +36,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from grasp_ctrl import jit
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
-from grasp_ctrl.finite import all_finite
-from grasp_ctrl.jit import njit
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.multilinear import MultilinearKinematics, contract
-from grasp_ctrl.limits import clamp
+from grasp_ctrl.numeric import jit
+from grasp_ctrl.numeric.finite import all_finite
+from grasp_ctrl.numeric.jit import njit
+from grasp_ctrl.numeric.limits import clamp
 from grasp_ctrl.sim import world_step as ws
 from grasp_ctrl.sim.biotac_model import BioTacParams, BioTacSensorModel
 from grasp_ctrl.sim.shapes import shape_params

@@ -1,5 +1,5 @@
 """One step of the mock world (arm, servos, contacts, object, sensor frames), as
-a kernel over plain arrays that numba compiles when installed (grasp_ctrl/jit.py).
+a kernel over plain arrays that numba compiles when installed (grasp_ctrl/numeric/jit.py).
 
 The model is documented in sim/world.py and docs/mock_world.md. Array layouts:
 ``c`` holds the constants (indices below), ``obj`` the object's state
@@ -13,9 +13,9 @@ import math
 
 import numpy as np
 
-from grasp_ctrl.jit import njit
 from grasp_ctrl.kinematics.fingertip import skin_contact_point
 from grasp_ctrl.kinematics.multilinear import contract
+from grasp_ctrl.numeric.jit import njit
 from grasp_ctrl.sim.biotac_model import frames_kernel
 from grasp_ctrl.sim.grip import friction_limits, solve_object_height, tangential_forces
 from grasp_ctrl.sim.shapes import penetration

@@ -10,10 +10,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from grasp_ctrl.display.plotting import pyplot
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.files.safe_write import save_figure
 from grasp_ctrl.loop.ticklog import read_tick_log
-from grasp_ctrl.plotting import pyplot
-from grasp_ctrl.safe_write import save_figure
 from grasp_ctrl.trials.analysis.compare import ordered_names, success_matrix
 
 # One colour per controller state, for the shaded bands behind force traces.

@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.display.plotting import pyplot
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.files.safe_write import output_file
 from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.plotting import pyplot
-from grasp_ctrl.safe_write import output_file
 from grasp_ctrl.trials.analysis.trial_view import TrialView
 
 ARROW_MM_PER_N = 15.0

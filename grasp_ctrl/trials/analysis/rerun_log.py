@@ -32,7 +32,7 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.safe_write import check_output_dir, destination, output_file
+from grasp_ctrl.files.safe_write import check_output_dir, destination, output_file
 from grasp_ctrl.trials.analysis.trial_view import TrialView
 
 ARROW_M_PER_N = 0.015

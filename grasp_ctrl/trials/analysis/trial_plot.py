@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.safe_write import save_figure
+from grasp_ctrl.files.safe_write import save_figure
 from grasp_ctrl.trials.analysis.plots import STATE_COLOURS, pyplot, state_spans
 from grasp_ctrl.trials.analysis.trial_view import TrialView
 

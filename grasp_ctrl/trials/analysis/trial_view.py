@@ -136,7 +136,7 @@ def load_trial(trial: Path) -> TrialView:
 def hand_for_replay(view: TrialView, hand_file: Path | None) -> HandConfig:
     """The hand the trial ran on (``--hand`` overrides run.json's); its joints must match the log's."""
     from grasp_ctrl.config.hand import load_hand
-    from grasp_ctrl.paths import default_hand_file
+    from grasp_ctrl.files.paths import default_hand_file
 
     hand = load_hand(hand_file) if hand_file else (view.hand or load_hand(default_hand_file()))
     n_logged = sum(1 for c in view.columns if c.startswith("q") and c[1:].isdigit())

@@ -1,4 +1,4 @@
-"""The mock trial's tick, the world's step included, in few compiled calls (grasp_ctrl/jit.py).
+"""The mock trial's tick, the world's step included, in few compiled calls (grasp_ctrl/numeric/jit.py).
 
 The runner's generic tick steps the world, then ``control_tick`` (loop/tick.py)
 reads the backends, builds the snapshot, runs the controller and writes the
@@ -36,15 +36,15 @@ from typing import Any
 
 import numpy as np
 
-from grasp_ctrl import jit
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.controller.tick_kernels import C_TAU, TICK_DONE, squeeze_state_tick
-from grasp_ctrl.jit import njit
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.tick import control_tick, pac_spread, send_command
 from grasp_ctrl.loop.tick_kernels import log_row, place_forces, sense_inputs, track_peaks
 from grasp_ctrl.loop.ticklog import TickLog
+from grasp_ctrl.numeric import jit
+from grasp_ctrl.numeric.jit import njit
 from grasp_ctrl.sim import world_step as ws
 from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
 from grasp_ctrl.sim.world import PACKED, MockWorld, _clamped_target, _limited_goal, _part, step_packed

@@ -20,8 +20,8 @@ import numpy as np
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.files.storage import safe_name
 from grasp_ctrl.sim.mujoco_world import MuJoCoParams, MuJoCoWorld
-from grasp_ctrl.storage import safe_name
 
 FPS = 15
 WIDTH, HEIGHT = 320, 240

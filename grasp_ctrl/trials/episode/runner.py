@@ -1,34 +1,26 @@
-"""Run lift-and-place trials on the mock world and series of them.
+"""One lift-and-place trial in a simulated world (or, through ``trial_fn``, on the hand).
 
 One trial: tare in free space, then the controller runs until done or fault,
 then the world settles for a moment under the safe action so consequences
 (a dropped object) are seen; the outcome comes from the world's ground truth.
-
-A series writes ``run.json`` first, then one fsynced record per finished trial,
-so an interrupted series loses at most the trial in progress and
-``run_series(..., resume=True)`` continues it: every trial's seed depends only
-on the base seed, the object and the trial index, so the resumed run scores
-exactly like an uninterrupted one.
+Every trial's seed depends only on the base seed, the object and the trial index
+(``trial_seed``), so a resumed series (trials/runs/series.py) scores exactly like an
+uninterrupted one.
 """
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import itertools
-import shutil
 import sys
 import time
 import zlib
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from grasp_ctrl import jit
-from grasp_ctrl.config.checks import check_objects_for_hand
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.machine import GraspController
@@ -36,7 +28,6 @@ from grasp_ctrl.controller.motion import squeeze_mode
 from grasp_ctrl.controller.registry import make_controller
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.emulators.wall_clock import TimedHand, TrialClock, WallClockLoop
-from grasp_ctrl.errors import ConfigError, GraspCtrlError, UsageError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
@@ -44,35 +35,15 @@ from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.tick import control_tick
 from grasp_ctrl.loop.tick_kernels import track_peaks
 from grasp_ctrl.loop.ticklog import CurrentTap, TickLog
+from grasp_ctrl.numeric import jit
 from grasp_ctrl.sim.backends import MockArm
-from grasp_ctrl.sim.mujoco_log import set_log_dir as set_engine_log_dir
 from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
 from grasp_ctrl.sim.registry import BackendFactory, WorldFactory, simulated_backend, world_params
-from grasp_ctrl.sim.variation import NOMINAL, Variation
+from grasp_ctrl.sim.variation import Variation
 from grasp_ctrl.sim.world import WorldParams
 from grasp_ctrl.sim.world_api import World
-from grasp_ctrl.storage import (
-    RUN_FILE,
-    SUMMARY_FILE,
-    check_object_name,
-    commit_temp,
-    is_temp_file,
-    record_path,
-    safe_name,
-    temp_path,
-    ticks_path,
-    write_json,
-)
 from grasp_ctrl.trials.episode.mock_tick import MockTick
 from grasp_ctrl.trials.episode.outcome import judge
-from grasp_ctrl.trials.runs.fingerprint import stamp, sync_manifest
-from grasp_ctrl.trials.runs.manifest import RunManifest, read_manifest
-from grasp_ctrl.trials.runs.planned import why_unplanned
-from grasp_ctrl.trials.runs.progress import Progress
-from grasp_ctrl.trials.runs.records import canonical_order, load_records, record_files
-from grasp_ctrl.trials.runs.runlock import RunLock
-from grasp_ctrl.trials.runs.summary import summarize
-from grasp_ctrl.trials.runs.workers import ignore_interrupts
 
 MAX_TRIAL_S = 60.0
 SETTLE_S = 0.5
@@ -416,343 +387,3 @@ def sim_trial_fn(
         ).to_json()
 
     return run
-
-
-# Worker-process side of ``run_series(jobs=N)``: each worker loads the policies once.
-_WORKER_TRIAL_FN: TrialFn | None = None
-
-
-def _init_worker(
-    hand: HandConfig,
-    policies: list[str],
-    settings: ControllerSettings,
-    threads: int,
-    backend: str = "mock",
-    variation: Variation | None = None,
-    raw_frames: bool = False,
-) -> None:
-    global _WORKER_TRIAL_FN
-    ignore_interrupts()
-    _WORKER_TRIAL_FN = sim_trial_fn(
-        hand, policies, settings, threads, backend=backend, variation=variation, raw_frames=raw_frames
-    )
-
-
-def _worker_trial(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
-    assert _WORKER_TRIAL_FN is not None
-    return _WORKER_TRIAL_FN(policy, obj, trial, seed, log_path)
-
-
-TrialTask = tuple[str, ObjectProfile, int, int, "Path | None"]  # policy, object, trial, seed, tick log
-
-
-def parallel_trials(
-    jobs: int,
-    hand: HandConfig,
-    policies: Sequence[str],
-    settings: ControllerSettings | None,
-    threads: int,
-    tasks: Sequence[TrialTask],
-    backend: str = "mock",
-    variation: Variation | None = None,
-    raw_frames: bool = False,
-) -> Iterator[tuple[int, dict[str, Any]]]:
-    """Simulated trials in ``jobs`` processes: yields (task index, record) as each finishes."""
-    from concurrent.futures import FIRST_COMPLETED, wait
-    from concurrent.futures.process import BrokenProcessPool
-
-    from grasp_ctrl.trials.runs.process_cleanup import spawn_guard, start_pool
-
-    pool = start_pool(
-        jobs,
-        _init_worker,
-        (hand, list(policies), settings or ControllerSettings(), threads, backend, variation, raw_frames),
-    )
-    finished_cleanly = False
-    try:
-        todo = iter(enumerate(tasks))
-        running: dict[Any, int] = {}
-        for i, task in itertools.islice(todo, 2 * jobs):  # a short queue: Ctrl-C loses little
-            with spawn_guard():  # a submit may start a worker (process_cleanup.spawn_guard)
-                running[pool.submit(_worker_trial, *task)] = i
-        while running:
-            finished, _ = wait(running, return_when=FIRST_COMPLETED)
-            for fut in finished:
-                i = running.pop(fut)
-                try:
-                    rec = fut.result()
-                except BrokenProcessPool:
-                    raise WorkerError("a trial worker process ended abruptly (killed, or out of memory?)") from None
-                yield i, rec
-                nxt = next(todo, None)
-                if nxt is not None:
-                    with spawn_guard():
-                        running[pool.submit(_worker_trial, *nxt[1])] = nxt[0]
-        finished_cleanly = True
-    finally:
-        if finished_cleanly:
-            try:
-                pool.shutdown(wait=True)
-            except BaseException:  # Ctrl-C while the workers finish: they are stopped
-                _stop_workers(pool)
-                raise
-        else:
-            _stop_workers(pool)
-
-
-def _stop_workers(pool: Any) -> None:
-    """After Ctrl-C or an error: the trials in progress are abandoned (they run again on
-    resume), so the workers are stopped now rather than waited for, and with them the fork
-    server, a worker it forked that the pool never recorded (a start cut short) and the
-    resource tracker; each is reaped before this returns (process_cleanup.abort_pool)."""
-    from grasp_ctrl.trials.runs.process_cleanup import abort_pool
-
-    abort_pool(pool)
-
-
-class WorkerError(GraspCtrlError):
-    """A worker process of ``run --jobs N`` died; the finished trials are on disk."""
-
-
-def _warn(msg: str) -> None:
-    print(f"warning: {msg}", file=sys.stderr, flush=True)
-
-
-def run_series(
-    hand: HandConfig,
-    objects: Sequence[ObjectProfile],
-    policies: Sequence[str],
-    trials: int,
-    seed: int,
-    run_dir: Path,
-    settings: ControllerSettings | None = None,
-    progress: bool | Progress = True,
-    tick_logs: bool = True,
-    threads: int = 1,
-    *,
-    resume: bool = False,
-    manifest: RunManifest | None = None,
-    trial_fn: TrialFn | None = None,
-    after_trial: Callable[[dict[str, Any]], None] | None = None,
-    backend: str = "mock",
-    warn: Callable[[str], None] = _warn,
-    jobs: int = 1,
-    executor: str = "local",
-    address: str | None = None,
-    variation: Variation | None = None,
-    raw_frames: bool = False,
-) -> dict[str, Any]:
-    """objects x policies x trials with shared seeds; returns the summary (docs/design.md 5.2).
-
-    ``resume``: keep the valid records already in ``run_dir`` (the run's
-    parameters must match its ``run.json``) and run only the missing trials.
-    ``after_trial(record)`` is called once each new record is on disk.
-    ``jobs``: simulated trials in that many worker processes (records arrive out of
-    order; the summary does not depend on it). ``executor="ray"``: the trials are
-    Ray tasks instead (``address``: a running cluster; else a local instance of
-    ``jobs`` CPUs), see ray_executor.py. ``variation``: the simulated world's per-trial
-    draws of a new run without ``manifest`` (default: nominal, the worlds' own).
-    ``raw_frames``: the tick logs of a new run without ``manifest`` keep every raw frame
-    whole (a manifest's own ``raw_frames`` rules otherwise; a ``trial_fn`` is made with it).
-    """
-    if len(set(safe_name(p) for p in policies)) != len(policies):
-        raise UsageError("--policy: two policies would share one log directory; give each once")
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise UsageError(f"--seed: a non-negative integer (got {seed!r})")
-    if jobs < 1:
-        raise UsageError("--jobs: must be at least 1")
-    if jobs > 1 and trial_fn is not None:
-        raise UsageError("--jobs: trials on real hardware run one at a time")
-    if executor != "local" and trial_fn is not None:
-        raise UsageError("--executor: trials on real hardware run here, one at a time")
-    plan = manifest or RunManifest(
-        backend=backend,
-        hand=hand.name,
-        seed=seed,
-        trials=trials,
-        policies=list(policies),
-        objects=list(objects),
-        tick_logs=tick_logs,
-        raw_frames=raw_frames,
-        settings=settings or ControllerSettings(),
-        variation=variation or NOMINAL,
-    )
-    # Everything that can be checked is checked before the first file is touched.
-    for obj in plan.objects:
-        check_object_name(obj.name)
-    # on resume the profiles come from run.json, on a new run from the object file
-    source = str(run_dir / RUN_FILE) if resume or not plan.object_file else plan.object_file
-    check_objects_for_hand(plan.objects, hand, source)
-    kin = HandKinematics(hand)
-    for obj in plan.objects:  # the reach postures (preshape, a cap the finger must reach) fit this hand
-        try:
-            make_controller(hand, obj, np.zeros(3), plan.settings, kin)
-        except ConfigError as exc:
-            raise ConfigError(source, f"object {obj.name!r}: {exc.key}", exc.expected) from None
-    other_world = {} if plan.backend == "mock" else {"backend": plan.backend}  # e.g. mujoco
-    run_trial = trial_fn or sim_trial_fn(
-        hand, policies, plan.settings, threads, **other_world, variation=plan.variation, raw_frames=plan.raw_frames
-    )  # bad policies fail here
-
-    created = not run_dir.exists()
-    if run_dir.exists() and not run_dir.is_dir():
-        raise UsageError(f"{run_dir}: exists and is not a directory; choose another --out")
-    started = False
-    try:
-        run_dir.mkdir(parents=True, exist_ok=True)
-        with RunLock(run_dir, warn):
-            existing = read_manifest(run_dir)
-            if existing is not None and not resume:
-                raise UsageError(
-                    f"{run_dir} already holds a run; continue it with 'run --resume {run_dir}' or choose another --out"
-                )
-            if existing is None and record_files(run_dir):
-                raise UsageError(f"{run_dir} holds trial records but no run.json; choose another --out")
-            if existing is not None and not existing.same_plan(plan):
-                raise UsageError(
-                    f"{run_dir}/run.json describes other trials than these parameters; resume with its own parameters"
-                )
-            for tmp in stale_temp_files(run_dir):  # left by a writer that died; we hold the lock
-                tmp.unlink(missing_ok=True)
-            sync_manifest(run_dir, plan, existing)  # new run, or a resume that recorded --force
-            started = True
-            return _run_locked(
-                hand,
-                plan,
-                policies,
-                trials,
-                seed,
-                run_dir,
-                progress,
-                resume,
-                run_trial,
-                after_trial,
-                warn,
-                jobs,
-                threads,
-                executor,
-                address,
-            )
-    except BaseException:
-        if created and not started:  # a failed start leaves nothing that blocks the retry
-            shutil.rmtree(run_dir, ignore_errors=True)
-        raise
-
-
-def stale_temp_files(run_dir: Path) -> list[Path]:
-    """Temporary files of interrupted writes (``.NAME.PID.RANDOM.tmp``) in the run's tree."""
-    return [p for p in run_dir.rglob(".*.tmp") if is_temp_file(p)]
-
-
-def _run_locked(
-    hand: HandConfig,
-    plan: RunManifest,
-    policies: Sequence[str],
-    trials: int,
-    seed: int,
-    run_dir: Path,
-    progress: bool | Progress,
-    resume: bool,
-    run_trial: TrialFn,
-    after_trial: Callable[[dict[str, Any]], None] | None,
-    warn: Callable[[str], None],
-    jobs: int,
-    threads: int,
-    executor: str = "local",
-    address: str | None = None,
-) -> dict[str, Any]:
-    done: dict[tuple[str, str, int], dict[str, Any]] = {}
-    if resume:
-        loaded = load_records(run_dir)
-        for path, why in loaded.problems:
-            warn(f"skipping {path}: {why}; that trial will run again")
-        for rec in loaded.records:
-            key = (rec["policy"], rec["object"], rec["trial"])
-            why = why_unplanned(rec, plan)
-            if why is None:
-                done[key] = rec
-            else:
-                warn(f"ignoring {record_path(run_dir, *key)}: not a trial of this run ({why})")
-
-    reporter = progress if isinstance(progress, Progress) else Progress(plan.total, enabled=bool(progress))
-    reporter.resumed(canonical_order(list(done.values()), list(policies), plan.object_names))
-    pending = []
-    tick_logs: dict[tuple[str, str, int], tuple[Path, Path]] = {}  # key -> (temporary, final) tick log
-    for policy in policies:
-        for obj in plan.objects:
-            for k in range(trials):
-                if (policy, obj.name, k) not in done:
-                    record_path(run_dir, policy, obj.name, k).parent.mkdir(parents=True, exist_ok=True)
-                    log = None
-                    if plan.tick_logs:
-                        final = ticks_path(run_dir, policy, obj.name, k)
-                        log = temp_path(final)  # renamed onto ``final`` just before the record is written
-                        tick_logs[(policy, obj.name, k)] = (log, final)
-                    pending.append((policy, obj, k, trial_seed(seed, obj.name, k), log))
-
-    def finish(rec: dict[str, Any]) -> None:
-        key = (rec["policy"], rec["object"], rec["trial"])
-        if key in tick_logs and tick_logs[key][0].exists():
-            commit_temp(*tick_logs[key])
-        write_json(record_path(run_dir, *key), stamp(rec, plan))
-        done[key] = rec
-        reporter.trial_done(rec)
-        if after_trial:
-            after_trial(rec)
-
-    set_engine_log_dir(run_dir)  # MuJoCo's warnings of in-process trials: the run directory, not ./
-    try:
-        if executor == "ray" and pending:
-            from grasp_ctrl.trials.runs.ray_executor import ray_trials
-
-            with contextlib.closing(
-                ray_trials(
-                    address,
-                    jobs,
-                    hand,
-                    policies,
-                    plan.settings,
-                    threads,
-                    pending,
-                    plan.backend,
-                    plan.variation,
-                    plan.raw_frames,
-                )
-            ) as results:
-                for _, rec in results:
-                    finish(rec)
-        elif jobs > 1 and len(pending) > 1:
-            try:
-                # closing: the workers are stopped at once on Ctrl-C or an error, not when collected.
-                with contextlib.closing(
-                    parallel_trials(
-                        min(jobs, len(pending)),
-                        hand,
-                        policies,
-                        plan.settings,
-                        threads,
-                        pending,
-                        plan.backend,
-                        plan.variation,
-                        plan.raw_frames,
-                    )
-                ) as results:
-                    for _, rec in results:
-                        finish(rec)
-            except WorkerError as exc:
-                raise WorkerError(
-                    f"{exc}; {len(done)} of {plan.total} trials are recorded in {run_dir}; "
-                    f"continue with: grasp-ctrl run --resume {run_dir}"
-                ) from None
-        else:
-            for args in pending:
-                finish(run_trial(*args))
-    finally:
-        set_engine_log_dir(None)
-        reporter.close()
-        for tmp, _final in tick_logs.values():  # the trial in progress when interrupted
-            tmp.unlink(missing_ok=True)
-    records = canonical_order(list(done.values()), list(policies), plan.object_names)
-    summary = summarize(records, str(run_dir), plan.backend, plan.hand, plan.seed)
-    write_json(run_dir / SUMMARY_FILE, summary)
-    return summary

@@ -24,7 +24,8 @@ from pathlib import Path
 from typing import Any
 
 from grasp_ctrl.errors import GraspCtrlError, UsageError
-from grasp_ctrl.storage import file_sha256
+from grasp_ctrl.files.storage import file_sha256
+from grasp_ctrl.trials.runs.manifest import write_manifest
 
 PLAN_KEYS = ("backend", "hand", "seed", "trials", "policies", "tick_logs", "settings")
 # Plan keys hashed only when they differ from what every run drew before they existed, so that
@@ -84,7 +85,7 @@ def settings_digests(plan: dict[str, Any]) -> dict[str, str]:
 
 def compute(manifest: Any) -> dict[str, Any]:
     """The fingerprint of ``manifest`` (a RunManifest) with the files as they are now."""
-    from grasp_ctrl.paths import default_hand_file
+    from grasp_ctrl.files.paths import default_hand_file
 
     files: dict[str, dict[str, Any]] = {"hand": _entry(Path(manifest.hand_file or default_hand_file()))}
     if manifest.object_file:
@@ -101,29 +102,6 @@ def compute(manifest: Any) -> dict[str, Any]:
     settings = settings_digests(plan)
     digest = sha256_json({"files": {k: v["sha256"] for k, v in files.items()}, "settings": settings})
     return {"sha256": digest, "files": files, "settings": settings}
-
-
-def check_shape(doc: Any, where: str) -> dict[str, Any] | None:
-    """run.json's ``fingerprint`` checked for shape (None when the run has none)."""
-    if doc is None:
-        return None
-    ok = (
-        isinstance(doc, dict)
-        and isinstance(doc.get("sha256"), str)
-        and isinstance(doc.get("files"), dict)
-        and isinstance(doc.get("settings"), dict)
-        and all(
-            isinstance(v, dict)
-            and isinstance(v.get("path"), str)
-            and "sha256" in v
-            and isinstance(v["sha256"], (str, type(None)))
-            for v in doc["files"].values()
-        )
-        and all(isinstance(v, str) for v in doc["settings"].values())
-    )
-    if not ok:
-        raise UsageError(f"{where}: fingerprint: a table of sha256, files and settings (as 'run' writes it)")
-    return doc
 
 
 def differences(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
@@ -208,14 +186,18 @@ def sync_manifest(run_dir: Path, plan: Any, existing: Any) -> None:
     """Write run.json for a new run (with its fingerprint), or again when a resume changed it
     (``--force`` recorded, or a fingerprint added to an older run). A resume through the
     Python API without a manifest takes the run's own fingerprint."""
-    from grasp_ctrl.trials.runs.manifest import write_manifest
-
     if existing is None:
-        write_manifest(run_dir, plan)
+        _write_with_fingerprint(run_dir, plan)
         return
     if plan.fingerprint is None:
         plan.fingerprint, plan.forced = existing.fingerprint, list(existing.forced)
         if plan.fingerprint is not None:
             return
     if plan.to_json() != existing.to_json():
-        write_manifest(run_dir, plan)
+        _write_with_fingerprint(run_dir, plan)
+
+
+def _write_with_fingerprint(run_dir: Path, plan: Any) -> None:
+    if plan.fingerprint is None:
+        plan.fingerprint = compute(plan)
+    write_manifest(run_dir, plan)

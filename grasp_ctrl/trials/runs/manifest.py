@@ -16,17 +16,16 @@ from typing import Any
 from grasp_ctrl.config.objects import ObjectProfile, profile_from_json, profile_json
 from grasp_ctrl.config.toml_reader import finite_number
 from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES
-from grasp_ctrl.controller.registry import CONTROLLER_NAMES
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.settings import CONTROLLER_NAMES, ControllerSettings
 from grasp_ctrl.errors import ConfigError, UsageError
-from grasp_ctrl.json_limits import JsonFileError, read_json
-from grasp_ctrl.sim.registry import SIMULATED
-from grasp_ctrl.sim.variation import NOMINAL, Variation, variation_from_json
-from grasp_ctrl.storage import (
+from grasp_ctrl.files.json_limits import JsonFileError, read_json
+from grasp_ctrl.files.storage import (
     RUN_FILE,
     file_sha256,  # noqa: F401  (run's plan hashes its files with it)
     write_json,
 )
+from grasp_ctrl.sim.registry import SIMULATED
+from grasp_ctrl.sim.variation import NOMINAL, Variation, variation_from_json
 
 FORMAT = 1
 EMULATED_BACKEND = "dynamixel-emulated"  # run --backend dynamixel --emulate (pty emulators, MuJoCo world)
@@ -147,9 +146,7 @@ class RunManifest:
             if doc.get(key) is not None and not isinstance(doc[key], str):
                 raise bad(key, "a string or null")
         settings = settings_from_json(doc.get("settings") or {}, where)
-        from grasp_ctrl.trials.runs.fingerprint import check_shape
-
-        fingerprint = check_shape(doc.get("fingerprint"), where)
+        fingerprint = check_fingerprint_shape(doc.get("fingerprint"), where)
         forced = doc.get("forced") or []
         if not isinstance(forced, list) or not all(isinstance(f, dict) for f in forced):
             raise bad("forced", "a list of tables (resumes with --force)")
@@ -232,16 +229,36 @@ def settings_from_json(d: Any, where: str) -> ControllerSettings:
     return ControllerSettings(**values)
 
 
+def check_fingerprint_shape(doc: Any, where: str) -> dict[str, Any] | None:
+    """run.json's ``fingerprint`` checked for shape (None when the run has none)."""
+    if doc is None:
+        return None
+    ok = (
+        isinstance(doc, dict)
+        and isinstance(doc.get("sha256"), str)
+        and isinstance(doc.get("files"), dict)
+        and isinstance(doc.get("settings"), dict)
+        and all(
+            isinstance(v, dict)
+            and isinstance(v.get("path"), str)
+            and "sha256" in v
+            and isinstance(v["sha256"], (str, type(None)))
+            for v in doc["files"].values()
+        )
+        and all(isinstance(v, str) for v in doc["settings"].values())
+    )
+    if not ok:
+        raise UsageError(f"{where}: fingerprint: a table of sha256, files and settings (as 'run' writes it)")
+    return doc
+
+
 def manifest_path(run_dir: Path) -> Path:
     return run_dir / RUN_FILE
 
 
 def write_manifest(run_dir: Path, m: RunManifest) -> None:
-    from grasp_ctrl.trials.runs.fingerprint import compute
-
+    """run.json for ``m`` (a new run gets its fingerprint from trials/runs/fingerprint.py first)."""
     run_dir.mkdir(parents=True, exist_ok=True)
-    if m.fingerprint is None:
-        m.fingerprint = compute(m)
     write_json(manifest_path(run_dir), m.to_json())
 
 

@@ -93,18 +93,9 @@ def spawn_guard() -> contextlib.AbstractContextManager[None]:
     return contextlib.nullcontext() if can_find_children() else interrupts_held()
 
 
-def start_pool(jobs: int, initializer: Any, initargs: tuple) -> Any:
-    """A ProcessPoolExecutor of ``jobs`` workers forked from the fork server (workers.py),
-    known to ``stop_all``."""
-    from concurrent.futures import ProcessPoolExecutor
-
-    from grasp_ctrl.trials.runs.workers import worker_context
-
-    ctx = worker_context()
-    with interrupts_held():  # no process starts here; the pool is known before Ctrl-C lands
-        pool = ProcessPoolExecutor(jobs, mp_context=ctx, initializer=initializer, initargs=initargs)
-        _POOLS.add(pool)
-    return pool
+def register_pool(pool: Any) -> None:
+    """Make a worker pool known to ``stop_all`` (workers.start_pool does, as it starts one)."""
+    _POOLS.add(pool)
 
 
 def abort_pool(pool: Any, timeout: float = STOP_TIMEOUT_S) -> None:

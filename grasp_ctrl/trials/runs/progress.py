@@ -10,7 +10,7 @@ from collections import defaultdict
 from collections.abc import Callable
 from typing import Any, TextIO
 
-from grasp_ctrl.progress_bar import progress_bar
+from grasp_ctrl.display.progress_bar import progress_bar
 
 
 def format_duration(seconds: float) -> str:

@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from grasp_ctrl.json_limits import JsonFileError, read_json
-from grasp_ctrl.storage import TRIALS_DIR, safe_name
+from grasp_ctrl.files.json_limits import JsonFileError, read_json
+from grasp_ctrl.files.storage import TRIALS_DIR, safe_name
 
 MAX_RECORD_BYTES = 4 * 1024 * 1024
 

@@ -17,8 +17,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.json_limits import JsonFileError, read_json
-from grasp_ctrl.storage import LOCK_FILE
+from grasp_ctrl.files.json_limits import JsonFileError, read_json
+from grasp_ctrl.files.storage import LOCK_FILE
 
 MAX_LOCK_BYTES = 64 * 1024
 MAX_PID = 2**31 - 1  # pid_t

@@ -8,8 +8,8 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.json_limits import JsonFileError, read_json
-from grasp_ctrl.storage import SUMMARY_FILE
+from grasp_ctrl.files.json_limits import JsonFileError, read_json
+from grasp_ctrl.files.storage import SUMMARY_FILE
 from grasp_ctrl.trials.runs.manifest import RunManifest, read_manifest
 from grasp_ctrl.trials.runs.records import LoadedRecords, canonical_order, load_records
 from grasp_ctrl.trials.runs.summary import summarize
@@ -72,7 +72,7 @@ def score_run(run_dir: Path) -> Scored:
 
 def only_planned(loaded: LoadedRecords, manifest: RunManifest, run_dir: Path) -> LoadedRecords:
     """The records of the run's plan; the others move to ``problems`` with the reason."""
-    from grasp_ctrl.storage import TRIALS_DIR, safe_name
+    from grasp_ctrl.files.storage import TRIALS_DIR, safe_name
     from grasp_ctrl.trials.runs.planned import run_fingerprints, why_unplanned
 
     known = run_fingerprints(manifest)

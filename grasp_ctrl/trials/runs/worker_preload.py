@@ -1,4 +1,4 @@
-"""Imported once by the fork server of ``run --jobs N`` (see runner.parallel_trials).
+"""Imported once by the fork server of ``run --jobs N`` (see series.parallel_trials).
 
 Importing the trial code and loading its compiled kernels take about as long as
 a few trials; done here once, every worker process forked from the server starts
@@ -45,14 +45,14 @@ def warm_kernels() -> None:
     from grasp_ctrl.config import load_hand, load_objects
     from grasp_ctrl.controller.machine import GraspController, raised_reach_posture
     from grasp_ctrl.controller.motion import FingertipMotion
-    from grasp_ctrl.finite import all_finite
+    from grasp_ctrl.files.paths import default_hand_file, default_objects_file
     from grasp_ctrl.kinematics.chain import HandKinematics
-    from grasp_ctrl.limits import limit_goal
     from grasp_ctrl.loop.sensing import SensingPipeline
     from grasp_ctrl.loop.tick import control_tick
     from grasp_ctrl.loop.tick_kernels import track_peaks
     from grasp_ctrl.loop.ticklog import TickLog
-    from grasp_ctrl.paths import default_hand_file, default_objects_file
+    from grasp_ctrl.numeric.finite import all_finite
+    from grasp_ctrl.numeric.limits import limit_goal
     from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
     from grasp_ctrl.sim.world import MockWorld
     from grasp_ctrl.tactile.layout import FRAME_LEN

@@ -29,6 +29,8 @@ import tempfile
 import threading
 from typing import Any
 
+from grasp_ctrl.trials.runs.process_cleanup import FORKSERVER_ENV, interrupts_held, register_pool
+
 PRELOAD = ["grasp_ctrl.trials.runs.worker_preload"]
 
 
@@ -80,8 +82,6 @@ def _ensure_running() -> None:
     started from the main thread, as the kernel's death signal follows the starting thread."""
     from multiprocessing import forkserver
 
-    from grasp_ctrl.trials.runs.process_cleanup import FORKSERVER_ENV, interrupts_held
-
     main = threading.current_thread() is threading.main_thread()
     before = os.environ.get(FORKSERVER_ENV)
     with interrupts_held():
@@ -109,3 +109,15 @@ def ignore_interrupts() -> None:
     inherit the fork server's dispositions); the command stops its workers with SIGKILL."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+
+def start_pool(jobs: int, initializer: Any, initargs: tuple) -> Any:
+    """A ProcessPoolExecutor of ``jobs`` workers forked from the fork server, known to
+    ``process_cleanup.stop_all``."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    ctx = worker_context()
+    with interrupts_held():  # no process starts here; the pool is known before Ctrl-C lands
+        pool = ProcessPoolExecutor(jobs, mp_context=ctx, initializer=initializer, initargs=initargs)
+        register_pool(pool)
+    return pool

@@ -42,8 +42,7 @@ from optuna.samplers import GridSampler, TPESampler
 from optuna.trial import FrozenTrial, TrialState
 
 from grasp_ctrl.config.objects import ObjectProfile
-from grasp_ctrl.controller.registry import settings_for
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.settings import ControllerSettings, settings_for
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.sim.variation import NOMINAL, Variation
 from grasp_ctrl.trials.episode.runner import trial_seed

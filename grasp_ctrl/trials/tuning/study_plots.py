@@ -8,7 +8,7 @@ from pathlib import Path
 import optuna
 from optuna.trial import TrialState
 
-from grasp_ctrl.plotting import pyplot
+from grasp_ctrl.display.plotting import pyplot
 
 
 def write_study_plots(study: optuna.Study, out_dir: Path, name: str) -> list[str]:

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.safe_write import replace_in_place
+from grasp_ctrl.files.safe_write import replace_in_place
 
 _HEADER = re.compile(r"^\s*\[\s*([^\]]+?)\s*\]")
 _KEY = re.compile(r"^(\s*)([A-Za-z0-9_\-]+)(\s*=\s*)([^#\n]*?)(\s*(#.*)?)$")
@@ -119,7 +119,7 @@ def update_objects_file(path: Path, values: dict[str, dict[str, Value]], comment
     if new == old:
         return ""
     _check_loads(new, path, values)
-    replace_in_place(path, new)  # follows a symlink; keeps the target's mode and owner (safe_write.py)
+    replace_in_place(path, new)  # follows a symlink; keeps the target's mode and owner (files/safe_write.py)
     return "".join(
         difflib.unified_diff(
             old.splitlines(keepends=True),

@@ -15,7 +15,7 @@ import uuid
 from collections.abc import Callable, Hashable
 from typing import Any, Protocol
 
-from grasp_ctrl.trials.episode.runner import TrialTask
+from grasp_ctrl.trials.runs.series import TrialTask
 
 _CACHE: dict[Any, Any] = {}  # per worker: the trial functions of the current study, per controller settings
 MAX_TRIAL_FNS = 8  # trial functions kept per worker (each holds its policy): one per settings in flight
@@ -93,13 +93,13 @@ def _tune_worker_trial(settings: Any, *task: Any) -> dict[str, Any]:
 
 
 class ProcessExecutor:
-    """Worker processes from the fork server of ``run --jobs N`` (runner.parallel_trials)."""
+    """Worker processes from the fork server of ``run --jobs N`` (series.parallel_trials)."""
 
     def __init__(
         self, jobs: int, hand: Any, policy: str, backend: str, variation: Any = None, settings: Any = None
     ) -> None:
         from grasp_ctrl.controller.settings import ControllerSettings
-        from grasp_ctrl.trials.runs.process_cleanup import start_pool
+        from grasp_ctrl.trials.runs.workers import start_pool
 
         self.settings = settings or ControllerSettings()
         self.pool = start_pool(jobs, _init_tune_worker, (hand, policy, backend, variation, self.settings))
@@ -116,7 +116,7 @@ class ProcessExecutor:
         from concurrent.futures import FIRST_COMPLETED, wait
         from concurrent.futures.process import BrokenProcessPool
 
-        from grasp_ctrl.trials.episode.runner import WorkerError
+        from grasp_ctrl.trials.runs.series import WorkerError
 
         done, _ = wait(list(self.running), return_when=FIRST_COMPLETED)
         fut = next(iter(done))

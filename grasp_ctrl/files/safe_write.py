@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any, BinaryIO, Literal
 
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.storage import fsync_dir, temp_path
+from grasp_ctrl.files.storage import fsync_dir, temp_path
 
 RUN_FILE = "run.json"  # = trials.storage.RUN_FILE (no import: storage is heavier and imports us)
 MANAGED_TOP = ("run.json", "summary.json", "run.lock")

@@ -2,7 +2,7 @@
 
 ``np.isfinite(a).all()`` costs two numpy calls of a few microseconds each, and
 the control loop makes several such checks per tick; with the ``sim`` extra a
-float64 array is checked by one compiled loop instead (grasp_ctrl/jit.py).
+float64 array is checked by one compiled loop instead (grasp_ctrl/numeric/jit.py).
 """
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import math
 
 import numpy as np
 
-from grasp_ctrl import jit
-from grasp_ctrl.jit import njit
+from grasp_ctrl.numeric import jit
+from grasp_ctrl.numeric.jit import njit
 
 _FLOAT64 = np.dtype(np.float64)  # native float64: a singleton, so an identity test finds it
 

@@ -46,7 +46,7 @@ JIT = _numba is not None
 
 #: Modules that define compiled kernels (relative to the package).
 KERNEL_SOURCES = (
-    "jit.py",
+    "numeric/jit.py",
     "sim/world_step.py",
     "sim/shapes.py",
     "sim/grip.py",
@@ -54,9 +54,9 @@ KERNEL_SOURCES = (
     "kinematics/fingertip.py",
     "kinematics/multilinear.py",
     "kinematics/pad_ik.py",
-    "limits.py",
+    "numeric/limits.py",
     "tactile/tare.py",
-    "finite.py",
+    "numeric/finite.py",
     "sim/backends.py",
     "loop/tick_kernels.py",
     "sim/world.py",
@@ -68,7 +68,7 @@ KERNEL_SOURCES = (
 
 
 def _cache_dir() -> Path:
-    package = Path(__file__).resolve().parent
+    package = Path(__file__).resolve().parents[1]  # grasp_ctrl/
     digest = hashlib.sha256()
     for rel in KERNEL_SOURCES:
         digest.update((package / rel).read_bytes())

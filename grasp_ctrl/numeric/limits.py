@@ -1,4 +1,4 @@
-"""Joint-goal limiting as compiled loops (grasp_ctrl/jit.py): the per-tick step and
+"""Joint-goal limiting as compiled loops (grasp_ctrl/numeric/jit.py): the per-tick step and
 range limits of the controller's goals and of the mock hand.
 
 Each computes exactly what ``np.minimum(np.maximum(x, low), high)`` computes per
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from grasp_ctrl.jit import njit
+from grasp_ctrl.numeric.jit import njit
 
 
 @njit

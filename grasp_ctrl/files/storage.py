@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from grasp_ctrl.config.identifiers import check_identifier_arg
-from grasp_ctrl.names import path_component
+from grasp_ctrl.files.names import path_component
 
 RUN_FILE = "run.json"
 LOCK_FILE = "run.lock"
