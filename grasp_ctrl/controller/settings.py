@@ -21,6 +21,7 @@ CONTROLLER_CHOICES: dict[str, dict[str, Any]] = {
         "open_s": 0.4,
         "release_back_off_m_s": 0.05,
         "lower_speed_m_s": 0.015,
+        "lower_slow_zone_m": 0.015,
     },
     "grip_load": {},
 }
@@ -54,7 +55,9 @@ class ControllerSettings:
     lower_speed_m_s: float = 0.03  # grip_load's (the paper's controller: 0.015; CONTROLLER_CHOICES):
     #   a light, soft object (the plastic bottle) turns in the grasp over a long lower and a grip fades
     lower_overshoot_m: float = 0.03  # how far below the grasp height lowering may go
-    lower_slow_zone_m: float = 0.015  # approach the support surface slowly from this high
+    lower_slow_zone_m: float = 0.008  # approach the support surface slowly from this high (grip_load's;
+    #   the paper's controller: 0.015): a plastic bottle set down 9 mm off centre turns in the grasp
+    #   over a 3 s slow approach until a grip fades
     lower_slow_speed_m_s: float = 0.005
     grip_lost_fraction: float = 0.3  # grip below this fraction of tau = slipping
     contact_lost_s: float = 0.05
