@@ -27,6 +27,7 @@ def test_oracle_trial_on_the_dynamixel_backend(hand, objects) -> None:
         "oracle",
         make_world=MockWorld,
         make_backends=backends,
+        backend="mock",
     )
     assert r.success, (r.reason, r.transitions)
     states = [b for _, _, b in r.transitions]

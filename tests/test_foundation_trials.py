@@ -14,7 +14,7 @@ PAPER = settings_for("paper")  # these trials check the paper's controller's beh
 
 
 def _trial(hand, obj, policy, seed=3, settings=PAPER):
-    return run_sim_trial(hand, obj, estimator_factory(policy, hand), seed, policy, settings=settings)
+    return run_sim_trial(hand, obj, estimator_factory(policy, hand), seed, policy, settings=settings, backend="mock")
 
 
 @pytest.mark.parametrize(

@@ -57,6 +57,7 @@ def _record(hand, obj, seed, path, settings=None, policy=DEFAULT_POLICY, disturb
         log_path=path,
         kin=HandKinematics(hand),
         on_tick=on_tick,
+        backend="mock",
     ).to_json()
     rec.pop("wall_duration_s")
     return rec

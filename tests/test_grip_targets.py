@@ -78,7 +78,9 @@ def _ramp_grips(hand, obj, settings):
         if ctrl.state == "ramp":
             grips.append(ctrl.snap.grip_n.copy())
 
-    run_sim_trial(hand, obj, estimator_factory("oracle", hand), 3, "oracle", settings=settings, on_tick=on_tick)
+    run_sim_trial(
+        hand, obj, estimator_factory("oracle", hand), 3, "oracle", settings=settings, on_tick=on_tick, backend="mock"
+    )
     return np.array(grips)
 
 

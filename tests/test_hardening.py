@@ -91,10 +91,12 @@ def test_2_non_finite_estimate_is_a_recorded_safe_fault(tmp_path, hand, objects,
     policy = _NanPolicy(inner, value, after=5)
 
     def trial_fn(pol, obj, trial, seed, log_path):
-        return run_sim_trial(hand, obj, lambda w: policy, seed, pol, trial, log_path=log_path).to_json()
+        return run_sim_trial(hand, obj, lambda w: policy, seed, pol, trial, log_path=log_path, backend="mock").to_json()
 
     run_dir = tmp_path / "run"
-    summary = run_series(hand, [objects["lego"]], ["linear_mock"], 1, 0, run_dir, progress=False, trial_fn=trial_fn)
+    summary = run_series(
+        hand, [objects["lego"]], ["linear_mock"], 1, 0, run_dir, progress=False, trial_fn=trial_fn, backend="mock"
+    )
     rec = json.loads(record_path(run_dir, "linear_mock", "lego", 0).read_text())
     assert rec["final_state"] == "fault" and rec["reason"] == "estimate_invalid"
     assert "non-finite force" in rec["fault_detail"] and rec["controller"]["detail"] == rec["fault_detail"]
@@ -166,7 +168,7 @@ def test_2_non_finite_goal_is_goal_invalid_and_never_sent(hand, objects, monkeyp
         return q
 
     monkeypatch.setattr(motion.FingertipMotion, "next_goal", broken_next_goal)
-    r = run_sim_trial(hand, objects["lego"], lambda w: load_policy("linear_mock", hand), 0)
+    r = run_sim_trial(hand, objects["lego"], lambda w: load_policy("linear_mock", hand), 0, backend="mock")
     assert r.final_state == "fault" and r.reason == "goal_invalid"
     assert "non-finite goal" in r.fault_detail
 
@@ -209,7 +211,7 @@ def test_3_run_series_refuses_an_unsafe_profile_name_before_touching_files(tmp_p
     evil = objects["lego"].with_params(name="../../escape")
     run_dir = tmp_path / "deep" / "run"
     with pytest.raises(UsageError, match="object name"):
-        run_series(hand, [evil], ["linear_mock"], 1, 0, run_dir, progress=False)
+        run_series(hand, [evil], ["linear_mock"], 1, 0, run_dir, progress=False, backend="mock")
     assert not (tmp_path / "deep").exists() and not (tmp_path / "escape").exists()
 
 
@@ -316,7 +318,7 @@ def test_5_a_stale_lock_is_taken_over_with_a_warning(tmp_path, capsys, monkeypat
 def test_5_tick_logs_are_written_under_a_unique_temporary_name_then_renamed(tmp_path, hand, objects, monkeypatch):
     seen = _fake_records(monkeypatch)
     run_dir = tmp_path / "run"
-    run_series(hand, [objects["lego"]], ["linear_mock"], 2, 0, run_dir, progress=False)
+    run_series(hand, [objects["lego"]], ["linear_mock"], 2, 0, run_dir, progress=False, backend="mock")
     finals = [ticks_path(run_dir, "linear_mock", "lego", k) for k in range(2)]
     assert all(log is not None and log not in finals and log.name.startswith(".") for log in seen)
     assert len(set(seen)) == 2
@@ -563,7 +565,9 @@ def test_9_a_mock_servo_fault_names_the_servo_in_the_record(hand, objects):
     mp = pytest.MonkeyPatch()
     mp.setattr(backends.MockHand, "__init__", spy_init)
     try:
-        r = run_sim_trial(hand, objects["lego"], lambda w: load_policy("linear_mock", hand), 0, on_tick=on_tick)
+        r = run_sim_trial(
+            hand, objects["lego"], lambda w: load_policy("linear_mock", hand), 0, on_tick=on_tick, backend="mock"
+        )
     finally:
         mp.undo()
     assert r.reason == "hardware_error"
@@ -574,7 +578,9 @@ def test_9_a_mock_servo_fault_names_the_servo_in_the_record(hand, objects):
 def test_9_overforce_names_the_fingertip_and_the_force(hand, objects):
     from grasp_ctrl.sim.oracle import OracleEstimator
 
-    r = run_sim_trial(hand, objects["lego"], lambda w: OracleEstimator(w, 100.0, name="oracle:scale=100"), 0)
+    r = run_sim_trial(
+        hand, objects["lego"], lambda w: OracleEstimator(w, 100.0, name="oracle:scale=100"), 0, backend="mock"
+    )
     assert r.reason == "overforce"
     assert "N >" in r.fault_detail and any(f.name in r.fault_detail for f in hand.fingers)
 

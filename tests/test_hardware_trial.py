@@ -13,9 +13,9 @@ from grasp_ctrl.hardware.arm_external import ExternalArm
 from grasp_ctrl.hardware.dynamixel import DynamixelHand
 from grasp_ctrl.hardware.dynamixel.hand import MonotonicClock
 from grasp_ctrl.loop.ticklog import read_tick_log
+from grasp_ctrl.rigs.hardware_rig import HardwareRig
 from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 from grasp_ctrl.trials.episode.hardware import hardware_trial_fn, reach_pose_world
-from grasp_ctrl.trials.episode.rig import HardwareRig
 
 pytestmark = pytest.mark.skipif(not hasattr(__import__("os"), "openpty"), reason="needs POSIX pseudo-terminals")
 

@@ -60,6 +60,7 @@ def _trial(hand, obj, seed, path, fused: bool, monkeypatch, disturb=None):
         kin=HandKinematics(hand),
         on_tick=on_tick,
         make_backends=backends,
+        backend="mock",
     ).to_json()
     rec.pop("wall_duration_s")
     monkeypatch.undo()

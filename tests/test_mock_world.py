@@ -20,7 +20,9 @@ from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 def _trial(hand, obj, policy="oracle", seed=7, on_tick=None):
     # the paper's controller: these check the world against its fixed grip
     settings = settings_for("paper")
-    return run_sim_trial(hand, obj, estimator_factory(policy, hand), seed, policy, settings=settings, on_tick=on_tick)
+    return run_sim_trial(
+        hand, obj, estimator_factory(policy, hand), seed, policy, settings=settings, on_tick=on_tick, backend="mock"
+    )
 
 
 def test_too_little_grip_lets_a_heavy_object_slip(hand, objects):
@@ -56,7 +58,7 @@ class _WrongShearSign:
 def test_an_early_release_drops_the_object(hand, objects):
     obj = objects["chips_can"]
     # the paper's release rule (grip_load reads the index from where it pressed in hold)
-    r = run_sim_trial(hand, obj, _WrongShearSign, 7, "wrong_shear_sign", settings=settings_for("paper"))
+    r = run_sim_trial(hand, obj, _WrongShearSign, 7, "wrong_shear_sign", settings=settings_for("paper"), backend="mock")
     assert not r.success and r.reason == "dropped_early"
     assert any(e["kind"] == "fell" for e in r.events)
     released = [t for t, _, b in r.transitions if b == "release"][0]
@@ -187,7 +189,13 @@ def test_oracle_succeeds_with_contacts_on_the_skin(hand, objects):
 
     obj = objects["chips_can"]
     r = run_sim_trial(
-        hand, obj, estimator_factory("oracle", hand), 7, "oracle", world_params=WorldParams(skin_contact=True)
+        hand,
+        obj,
+        estimator_factory("oracle", hand),
+        7,
+        "oracle",
+        world_params=WorldParams(skin_contact=True),
+        backend="mock",
     )
     assert r.success, (r.reason, r.events)
 

@@ -90,6 +90,7 @@ def _grasped_world(hand, objects, name="chips_can", skin_contact=True, state="ho
             "oracle",
             on_tick=grab,
             world_params=WorldParams(skin_contact=skin_contact),
+            backend="mock",
         )
     except _Stop:
         pass

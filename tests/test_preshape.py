@@ -117,6 +117,7 @@ def _shear_over_normal_at_ramp_end(hand, obj, preshape: bool) -> float:
         settings=ControllerSettings(preshape=preshape),
         on_tick=on_tick,
         world_params=WorldParams(skin_contact=False),
+        backend="mock",
     )
     assert r.success, (r.reason, r.events)
     return seen["ratio"]

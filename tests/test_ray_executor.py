@@ -37,8 +37,10 @@ def _records(run_dir, policies):
 def test_run_and_resume_on_ray_match_the_local_run(local_ray, tmp_path, hand, objects):
     policies = ["linear_mock", "oracle"]
     profiles = [objects[o] for o in OBJECTS]
-    local = run_series(hand, profiles, policies, 1, 5, tmp_path / "local", progress=False)
-    on_ray = run_series(hand, profiles, policies, 1, 5, tmp_path / "ray", progress=False, executor="ray", jobs=2)
+    local = run_series(hand, profiles, policies, 1, 5, tmp_path / "local", progress=False, backend="mock")
+    on_ray = run_series(
+        hand, profiles, policies, 1, 5, tmp_path / "ray", progress=False, executor="ray", jobs=2, backend="mock"
+    )
     assert {k: v for k, v in on_ray.items() if k != "run_dir"} == {k: v for k, v in local.items() if k != "run_dir"}
     assert _records(tmp_path / "ray", policies) == _records(tmp_path / "local", policies)
     assert (

@@ -35,7 +35,9 @@ class Crash(Exception):
 @pytest.fixture(scope="module")
 def full_run(tmp_path_factory, hand, objects):
     run_dir = tmp_path_factory.mktemp("runs") / "full"
-    summary = run_series(hand, [objects[o] for o in OBJECTS], POLICIES, 1, SEED, run_dir, progress=False)
+    summary = run_series(
+        hand, [objects[o] for o in OBJECTS], POLICIES, 1, SEED, run_dir, progress=False, backend="mock"
+    )
     return run_dir, summary
 
 
@@ -111,10 +113,23 @@ def test_resume_after_a_crash_gives_the_uninterrupted_summary(full_run, tmp_path
         raise Crash(rec["object"])
 
     with pytest.raises(Crash):  # crashes again, after one more trial
-        run_series(hand, profiles, POLICIES, 1, SEED, work, progress=False, resume=True, after_trial=crash_after_first)
+        run_series(
+            hand,
+            profiles,
+            POLICIES,
+            1,
+            SEED,
+            work,
+            progress=False,
+            resume=True,
+            after_trial=crash_after_first,
+            backend="mock",
+        )
     assert len(load_records(work).records) == 3
     ran = []
-    resumed = run_series(hand, profiles, POLICIES, 1, SEED, work, progress=False, resume=True, after_trial=ran.append)
+    resumed = run_series(
+        hand, profiles, POLICIES, 1, SEED, work, progress=False, resume=True, after_trial=ran.append, backend="mock"
+    )
     assert [(r["policy"], r["object"]) for r in ran] == [("oracle:scale=0.5", "paper_cup")]
     assert {k: v for k, v in resumed.items() if k != "run_dir"} == {k: v for k, v in summary.items() if k != "run_dir"}
     assert score_run(work).summary == resumed
@@ -123,9 +138,9 @@ def test_resume_after_a_crash_gives_the_uninterrupted_summary(full_run, tmp_path
 def test_a_finished_run_directory_is_not_overwritten(full_run, hand, objects):
     run_dir, _ = full_run
     with pytest.raises(UsageError, match="--resume"):
-        run_series(hand, [objects["lego"]], POLICIES, 1, SEED, run_dir, progress=False)
+        run_series(hand, [objects["lego"]], POLICIES, 1, SEED, run_dir, progress=False, backend="mock")
     with pytest.raises(UsageError, match="other trials"):
-        run_series(hand, [objects["lego"]], POLICIES, 1, SEED + 1, run_dir, progress=False, resume=True)
+        run_series(hand, [objects["lego"]], POLICIES, 1, SEED + 1, run_dir, progress=False, resume=True, backend="mock")
 
 
 def test_corrupt_and_truncated_records_are_named_and_skipped(full_run, tmp_path, capsys):
@@ -327,7 +342,9 @@ def test_parallel_jobs_give_the_same_records_and_summary(full_run, tmp_path, han
     for policy, obj in missing:
         record_path(par, policy, obj, 0).unlink()
         ticks_path(par, policy, obj, 0).unlink()
-    got = run_series(hand, [objects[o] for o in OBJECTS], POLICIES, 1, SEED, par, progress=False, jobs=2, resume=True)
+    got = run_series(
+        hand, [objects[o] for o in OBJECTS], POLICIES, 1, SEED, par, progress=False, jobs=2, resume=True, backend="mock"
+    )
     assert {k: v for k, v in got.items() if k != "run_dir"} == {k: v for k, v in summary.items() if k != "run_dir"}
     for policy, obj in missing:
         a, b = _json(record_path(run_dir, policy, obj, 0)), _json(record_path(par, policy, obj, 0))

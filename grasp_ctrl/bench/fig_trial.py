@@ -21,6 +21,7 @@ from grasp_ctrl.config import load_hand
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.files.paths import default_hand_file, default_objects_file
 from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.rigs.registry import TEST_WORLD
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial, trial_seed
 from grasp_ctrl.trials.runs.selection import select_objects
 
@@ -35,12 +36,20 @@ def trial_realtime_factor(quick: bool) -> Figure:
     with tempfile.TemporaryDirectory(prefix="grasp-bench-") as tmp:
         log = Path(tmp) / "trial_ticks.parquet"
         for obj in objects:  # warm-up: kernels, pyarrow, and each object's one-off set-up (a cap's posture fit)
-            run_sim_trial(hand, obj, make_estimator, 0, DEFAULT_POLICY, log_path=log, kin=kin)
+            run_sim_trial(hand, obj, make_estimator, 0, DEFAULT_POLICY, log_path=log, kin=kin, backend=TEST_WORLD)
         for k in range(rounds):
             for obj in objects:
                 t0 = time.perf_counter()
                 res = run_sim_trial(
-                    hand, obj, make_estimator, trial_seed(0, obj.name, k), DEFAULT_POLICY, k, log_path=log, kin=kin
+                    hand,
+                    obj,
+                    make_estimator,
+                    trial_seed(0, obj.name, k),
+                    DEFAULT_POLICY,
+                    k,
+                    log_path=log,
+                    kin=kin,
+                    backend=TEST_WORLD,
                 )
                 factors.append(res.sim_duration_s / (time.perf_counter() - t0))
     return Figure.rate(factors, "x")

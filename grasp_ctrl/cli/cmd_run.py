@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from grasp_ctrl.sim.registry import SIMULATED
+from grasp_ctrl.rigs.registry import BACKEND_FLAGS, DEFAULT_BACKEND
 
 NAME = "run"
 HELP = "run lift-and-place trials and score them (the main job)"
@@ -31,9 +31,9 @@ MAX_AUTO_JOBS = 8
 
 def auto_jobs(backend: str, trials: int, cpus: int | None = None) -> int:
     """The default --jobs: simulated trials spread over the CPU cores when there are enough."""
-    from grasp_ctrl.sim.registry import is_simulated
+    from grasp_ctrl.rigs.registry import backend as backend_entry
 
-    if not is_simulated(backend):
+    if not backend_entry(backend).parallel:
         return 1
     cpus = cpus or os.cpu_count() or 1
     return max(1, min(cpus, MAX_AUTO_JOBS, trials // MIN_TRIALS_PER_JOB))
@@ -56,8 +56,6 @@ PLAN_FLAGS = (
     "variation",
     "realtime",
 )
-DEFAULT_BACKEND = "mujoco"  # the reference world (docs/mujoco.md)
-EMULATED = "dynamixel-emulated"  # the run's backend with --emulate (= manifest.EMULATED_BACKEND; lazy imports)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -83,7 +81,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--backend",
-        choices=(*SIMULATED, "dynamixel"),
+        choices=BACKEND_FLAGS,
         default=None,
         help="mujoco (default): the reference world, a MuJoCo scene built from the hand and "
         "object files (docs/mujoco.md); mock: the hand-written world, a fast test double whose "
@@ -243,11 +241,10 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     policies = args.policy or (list(preset.policies) if preset else [DEFAULT_POLICY])
     if len(set(policies)) != len(policies):
         raise UsageError("--policy: each policy once")
-    backend = args.backend or DEFAULT_BACKEND
-    if args.emulate:
-        if backend != "dynamixel":
-            raise UsageError("--emulate: only with --backend dynamixel (it emulates the real hand's links)")
-        backend = EMULATED
+    from grasp_ctrl.rigs.registry import from_flags
+
+    entry = from_flags(args.backend or DEFAULT_BACKEND, bool(args.emulate))
+    backend = entry.name
     if args.realtime and not args.emulate:
         raise UsageError(
             "--realtime: only with --backend dynamixel --emulate (a wall-clock dry run of the emulated hand)"
@@ -260,9 +257,9 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     from grasp_ctrl.sim.variation import DEFAULT_VARIATION, variation
 
     # The world's per-trial draws (the paper preset too); the real hand has none to choose.
-    if backend == "dynamixel" and args.variation is not None:
+    if not entry.truth and args.variation is not None:
         raise UsageError("--variation: only for a simulated world (mujoco, mock, or --emulate)")
-    drawn = None if backend == "dynamixel" else variation(args.variation or DEFAULT_VARIATION)
+    drawn = variation(args.variation or DEFAULT_VARIATION) if entry.truth else None
     manifest = RunManifest(
         variation=drawn,
         settings=settings_for(controller),
@@ -331,10 +328,11 @@ def _hardware_trial_fn(hand: Any, manifest: Any, threads: int, port: str | None,
 
 def _preflight(hand: Any, manifest: Any, args: argparse.Namespace) -> None:
     """Check every servo and fingertip, then ask for the go-ahead (before any trial)."""
+    from grasp_ctrl.rigs.registry import backend as backend_entry
     from grasp_ctrl.trials.episode.preflight import confirm_start, preflight_emulated, preflight_hardware
     from grasp_ctrl.trials.episode.runner import trial_seed
 
-    if manifest.backend == EMULATED:
+    if backend_entry(manifest.backend).kind == "emulated":
         obj = manifest.objects[0]
         seed = trial_seed(manifest.seed, obj.name, 0)
         report = preflight_emulated(hand, obj, seed, manifest.variation, manifest.realtime, manifest.hand_file)
@@ -368,11 +366,12 @@ def run(args: argparse.Namespace) -> int:
         run_dir = Path(args.out) if args.out else Path("runs") / f"{stamp}{tag}-seed{manifest.seed}"
     check_output(args.json, "--json", run_dirs=[run_dir])
     check_run_tree(run_dir, "--resume" if args.resume else "--out")
-    from grasp_ctrl.sim.registry import is_simulated
+    from grasp_ctrl.rigs.registry import backend as backend_entry
     from grasp_ctrl.trials.runs.ray_executor import check_executor
 
+    entry = backend_entry(manifest.backend)
     check_executor(args.executor, args.address)
-    if args.executor != "local" and not is_simulated(manifest.backend):
+    if args.executor != "local" and not entry.parallel:
         raise UsageError(
             "--executor ray: only simulated trials (mujoco, mock); a (real or emulated) hand runs "
             "here, one trial at a time"
@@ -382,7 +381,7 @@ def run(args: argparse.Namespace) -> int:
         from grasp_ctrl.files.safe_write import check_output_dir
 
         check_output_dir(args.record_video, "--record-video")
-    if args.record_video is not None and manifest.backend != "mujoco":
+    if args.record_video is not None and not entry.video:
         raise UsageError("--record-video: only with --backend mujoco")
     if manifest.realtime and args.jobs not in (None, 1):
         raise UsageError("--jobs: a --realtime dry run keeps one trial at a time on the wall clock; drop --jobs")
@@ -393,18 +392,16 @@ def run(args: argparse.Namespace) -> int:
         hand,
         list(manifest.objects),
         manifest.settings,
-        on_hand=manifest.backend in ("dynamixel", EMULATED),
+        on_hand=entry.on_hand,
         force=args.force,
         say=lambda text: print(text, file=sys.stderr, flush=True),
         source=str(run_dir / "run.json") if args.resume else str(manifest.object_file),
     )
-    if manifest.backend in ("dynamixel", EMULATED):
+    if entry.on_hand:
         _preflight(hand, manifest, args)
-    if manifest.backend == "dynamixel":
+    if entry.kind == "real":
         trial_fn = _hardware_trial_fn(hand, manifest, args.threads, args.port, args.sensor_port)
-    elif manifest.backend == EMULATED:
-        from grasp_ctrl.emulators.world_rig import emulated_backends, realtime_backends
-        from grasp_ctrl.sim.mujoco_backends import make_world
+    elif entry.kind == "emulated":
         from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
         trial_fn = sim_trial_fn(
@@ -412,14 +409,12 @@ def run(args: argparse.Namespace) -> int:
             manifest.policies,
             manifest.settings,
             args.threads,
-            make_backends=realtime_backends if manifest.realtime else emulated_backends,
-            backend=EMULATED,
-            make_world=make_world,
+            backend=entry.name,
             variation=manifest.variation,
             raw_frames=manifest.raw_frames,
             realtime=manifest.realtime,
         )
-    elif manifest.backend == "mujoco" and args.record_video:
+    elif args.record_video:
         from grasp_ctrl.trials.episode.mujoco_video import video_trial_fn
 
         trial_fn = video_trial_fn(
@@ -459,7 +454,7 @@ def run(args: argparse.Namespace) -> int:
             run_dir,
             # On the real hand the operator's prompts own the terminal: no progress bar there.
             settings=manifest.settings,
-            progress=not args.quiet and manifest.backend != "dynamixel",
+            progress=not args.quiet and entry.kind != "real",
             tick_logs=manifest.tick_logs,
             raw_frames=manifest.raw_frames,
             threads=args.threads,

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from grasp_ctrl.sim.registry import SIMULATED
+from grasp_ctrl.rigs.registry import BACKEND_FLAGS, DEFAULT_BACKEND, REFERENCE_WORLD
 
 NAME = "tune"
 HELP = "tune an object's thresholds and grasp (tau, approach, standoff, posture, ...) with an Optuna study"
@@ -95,8 +95,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--object-file", default=str(default_objects_file()), metavar="FILE", help="object profiles TOML")
     p.add_argument(
         "--backend",
-        choices=(*SIMULATED, "dynamixel"),
-        default="mujoco",
+        choices=BACKEND_FLAGS,
+        default=DEFAULT_BACKEND,
         help="mujoco: the reference world (default); mock: the fast test-double world; "
         "dynamixel: the real hand, each trial labelled by the operator",
     )
@@ -144,16 +144,26 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
 
 
+def _entry(args: argparse.Namespace) -> Any:
+    from grasp_ctrl.rigs.registry import from_flags
+
+    return from_flags(args.backend)
+
+
+def _on_real_hand(args: argparse.Namespace) -> bool:
+    return _entry(args).kind == "real"
+
+
 def _check_args(args: argparse.Namespace) -> None:
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.trials.runs.ray_executor import check_executor
 
-    if args.backend == "dynamixel" and args.jobs != 1:
+    if _on_real_hand(args) and args.jobs != 1:
         raise UsageError("--jobs: the real hand runs one trial at a time")
     check_executor(args.executor, args.address)
-    if args.backend == "dynamixel" and args.executor != "local":
+    if _on_real_hand(args) and args.executor != "local":
         raise UsageError("--executor ray: the real hand runs here, one trial at a time")
-    if args.backend == "dynamixel" and args.variation is not None:
+    if _on_real_hand(args) and args.variation is not None:
         raise UsageError("--variation: only for a simulated world (mujoco, mock)")
     _variation(args)  # an unknown name: one line listing the profiles
     _settings(args)  # an unknown controller: one line listing them
@@ -186,7 +196,7 @@ def _check_args(args: argparse.Namespace) -> None:
 
 def _variation(args: argparse.Namespace) -> Any:
     """The simulated world's variation profile (sim/variation.py; default bench); None on the real hand."""
-    if args.backend == "dynamixel":
+    if _on_real_hand(args):
         return None
     from grasp_ctrl.sim.variation import DEFAULT_VARIATION, variation
 
@@ -208,7 +218,7 @@ def _executor(args: argparse.Namespace, hand: Any, trial_fn: Any) -> Any:
     )
 
     settings = _settings(args)
-    if args.backend == "dynamixel":
+    if _on_real_hand(args):
         # No ground truth on the real hand: the operator labels every trial.
         from grasp_ctrl.trials.episode.hardware import hardware_trial_fn
         from grasp_ctrl.trials.episode.labelling import OperatorLabeller, labelled
@@ -246,7 +256,7 @@ def run(args: argparse.Namespace) -> int:
 
     _check_args(args)
     require_optuna()
-    if args.backend == "mujoco":  # the sim extra, before any study is opened
+    if _entry(args).world == REFERENCE_WORLD:  # MuJoCo (the sim extra), before any study is opened
         from grasp_ctrl.sim.mujoco_world import _mujoco
 
         _mujoco()
@@ -303,7 +313,7 @@ def run(args: argparse.Namespace) -> int:
         for obj in objects
     ]
     trial_fn = None
-    if args.backend != "dynamixel":  # the policy and world load here, so a bad one fails before any study
+    if not _on_real_hand(args):  # the policy and world load here, so a bad one fails before any study
         from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
         trial_fn = sim_trial_fn(hand, [args.policy], settings, backend=args.backend, variation=_variation(args))

@@ -20,7 +20,11 @@ ORDER = 40
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--backend", choices=("mujoco",), default="mujoco", help="the world to show (only mujoco)")
+    from grasp_ctrl.rigs.registry import REFERENCE_WORLD
+
+    p.add_argument(
+        "--backend", choices=(REFERENCE_WORLD,), default=REFERENCE_WORLD, help="the world to show (only mujoco)"
+    )
     p.add_argument("--object", required=True, metavar="NAME", help="an object of the object file")
     p.add_argument(
         "--hand", default=None, metavar="FILE", help="hand config TOML (default: hand_configs/leap_hand.toml)"

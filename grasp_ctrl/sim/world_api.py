@@ -4,7 +4,7 @@ The runner steps a world and reads its clock and events, the judge (trials/episo
 outcome.py) its ground truth, the oracle policy its true forces, the tick log and the
 recorders its state. ``MockWorld`` (sim/world.py) and ``MuJoCoWorld`` (sim/mujoco_world.py)
 both satisfy it; a new simulator is added by writing a world that does, and a backend
-entry for it (sim/registry.py).
+entry for it (rigs/registry.py).
 """
 
 from __future__ import annotations

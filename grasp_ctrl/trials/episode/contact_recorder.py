@@ -8,6 +8,7 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.rigs.registry import REFERENCE_WORLD
 from grasp_ctrl.sim.grasp_contacts import DEFAULT_EVERY, DEFAULT_SEED, MIN_FORCE_N, GraspContacts
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial, trial_seed
 
@@ -46,7 +47,14 @@ def record_grasp_contacts(
                     rows["f"].append(forces[i])
 
             result = run_sim_trial(
-                hand, obj, oracle, trial_seed(seed, obj.name, trial), "oracle", trial, backend="mujoco", on_tick=keep
+                hand,
+                obj,
+                oracle,
+                trial_seed(seed, obj.name, trial),
+                "oracle",
+                trial,
+                backend=REFERENCE_WORLD,
+                on_tick=keep,
             )
             if progress is not None:
                 progress(

@@ -33,8 +33,8 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.tick import control_tick
 from grasp_ctrl.loop.ticklog import CurrentTap, TickLog
+from grasp_ctrl.rigs.hardware_rig import HardwareRig, open_rig
 from grasp_ctrl.sim.oracle import is_oracle
-from grasp_ctrl.trials.episode.rig import HardwareRig, open_rig
 from grasp_ctrl.trials.episode.runner import MAX_TRIAL_S, SETTLE_S, controller_view, state_timings, trial_settings
 
 RigOpener = Callable[[HandConfig], HardwareRig]

@@ -21,6 +21,7 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.files.storage import safe_name
+from grasp_ctrl.rigs.registry import REFERENCE_WORLD
 from grasp_ctrl.sim.mujoco_world import MuJoCoParams, MuJoCoWorld
 
 FPS = 15
@@ -139,7 +140,7 @@ def video_trial_fn(
         settings,
         threads,
         make_backends=mujoco_backends,
-        backend="mujoco",
+        backend=REFERENCE_WORLD,
         make_world=make_world,
         variation=variation,
         raw_frames=raw_frames,

@@ -205,12 +205,11 @@ def preflight_emulated(
     drawn under ``variation`` (sim/variation.py; None: nominal) as its first trial is;
     ``realtime``: on the bus's and the bridge's real time, the world stepped every tick of
     wall time. The bus budget is the hand file's (``hand_file``: named in a warning)."""
-    from grasp_ctrl.emulators.world_rig import emulated_backends
-    from grasp_ctrl.sim.mujoco_backends import make_world
-    from grasp_ctrl.sim.registry import world_params
+    from grasp_ctrl.rigs.registry import EMULATED_HAND, backend
 
-    world = make_world(hand, obj, seed, world_params("mujoco", variation))
-    hand_backend, sensors = emulated_backends(world, hand, realtime)
+    emulated = backend(EMULATED_HAND)
+    world = emulated.make_world()(hand, obj, seed, emulated.world_params(variation))
+    hand_backend, sensors = emulated.make_backends(realtime)(world, hand)
     try:
         hand_backend.connect()
         sensors.start()

@@ -36,9 +36,10 @@ from grasp_ctrl.loop.tick import control_tick
 from grasp_ctrl.loop.tick_kernels import track_peaks
 from grasp_ctrl.loop.ticklog import CurrentTap, TickLog
 from grasp_ctrl.numeric import jit
+from grasp_ctrl.rigs.registry import DEFAULT_BACKEND, BackendFactory, WorldFactory
+from grasp_ctrl.rigs.registry import backend as backend_entry
 from grasp_ctrl.sim.backends import MockArm
 from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
-from grasp_ctrl.sim.registry import BackendFactory, WorldFactory, simulated_backend, world_params
 from grasp_ctrl.sim.variation import Variation
 from grasp_ctrl.sim.world import WorldParams
 from grasp_ctrl.sim.world_api import World
@@ -67,7 +68,7 @@ class TrialResult:
     transitions: list[tuple[float, str, str]] = field(default_factory=list)
     events: list[dict[str, Any]] = field(default_factory=list)
     settings: dict[str, Any] = field(default_factory=dict)
-    backend: str = "mock"
+    backend: str = DEFAULT_BACKEND
     judged_by: str = "world"  # world (mock ground truth) | operator (label at the prompt)
     note: str = ""  # the operator's note
     controller: dict[str, Any] = field(default_factory=dict)  # the controller's own view
@@ -96,13 +97,17 @@ EstimatorFactory = Callable[[World], ForceEstimator]
 
 
 def world_for_backend(
-    backend: str, make_world: WorldFactory | None = None, make_backends: BackendFactory | None = None
+    backend: str,
+    make_world: WorldFactory | None = None,
+    make_backends: BackendFactory | None = None,
+    realtime: bool = False,
 ) -> tuple[WorldFactory, BackendFactory]:
-    """A trial's world and hand/sensor backends: those given, the rest from the simulated backend
-    ``backend`` names (sim/registry.py; a one-line error when it names none)."""
+    """A trial's world and hand/sensor backends: those given, the rest from the backend that
+    ``backend`` names (rigs/registry.py; a one-line error when it names none or has no world)."""
     if make_world is None or make_backends is None:
-        entry = simulated_backend(backend)
-        make_world, make_backends = make_world or entry.make_world, make_backends or entry.make_backends
+        entry = backend_entry(backend)
+        make_world = make_world or entry.make_world()
+        make_backends = make_backends or entry.make_backends(realtime)
     return make_world, make_backends
 
 
@@ -168,7 +173,7 @@ def run_sim_trial(
     kin: HandKinematics | None = None,
     on_tick: Callable[[World, GraspController], None] | None = None,
     make_backends: BackendFactory | None = None,
-    backend: str = "mock",
+    backend: str = DEFAULT_BACKEND,
     make_world: WorldFactory | None = None,
     raw_frames: bool = False,
     realtime: bool = False,
@@ -180,7 +185,7 @@ def run_sim_trial(
     ``timings.loop`` holds the loop's cycle times and deadline misses."""
     wall0 = time.perf_counter()
     kin = kin or HandKinematics(hand)
-    make_world, make_backends = world_for_backend(backend, make_world, make_backends)
+    make_world, make_backends = world_for_backend(backend, make_world, make_backends, realtime)
     world = make_world(hand, obj, seed, world_params)
     hand_backend, sensors = make_backends(world, hand)
     arm = MockArm(world, hand)
@@ -352,7 +357,7 @@ def sim_trial_fn(
     settings: ControllerSettings | None = None,
     threads: int = 1,
     make_backends: BackendFactory | None = None,
-    backend: str = "mock",
+    backend: str = DEFAULT_BACKEND,
     make_world: WorldFactory | None = None,
     variation: Variation | None = None,
     raw_frames: bool = False,
@@ -364,8 +369,8 @@ def sim_trial_fn(
     runs on the wall clock (``run_sim_trial``), one trial at a time."""
     factories = {p: estimator_factory(p, hand, threads) for p in policies}
     kin = HandKinematics(hand)
-    make_world, make_backends = world_for_backend(backend, make_world, make_backends)
-    params = world_params(backend, variation)
+    make_world, make_backends = world_for_backend(backend, make_world, make_backends, realtime)
+    params = backend_entry(backend).world_params(variation)
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
         return run_sim_trial(

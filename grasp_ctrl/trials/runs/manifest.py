@@ -24,12 +24,11 @@ from grasp_ctrl.files.storage import (
     file_sha256,  # noqa: F401  (run's plan hashes its files with it)
     write_json,
 )
-from grasp_ctrl.sim.registry import SIMULATED
+from grasp_ctrl.rigs.registry import BACKEND_NAMES
+from grasp_ctrl.rigs.registry import backend as backend_entry
 from grasp_ctrl.sim.variation import NOMINAL, Variation, variation_from_json
 
 FORMAT = 1
-EMULATED_BACKEND = "dynamixel-emulated"  # run --backend dynamixel --emulate (pty emulators, MuJoCo world)
-BACKENDS = (*SIMULATED, "dynamixel", EMULATED_BACKEND)
 MAX_TRIALS = 100_000
 # settings that may be zero (no slow zone, no overshoot, no retreat)
 SETTING_CHOICES = {
@@ -109,8 +108,8 @@ class RunManifest:
             if key not in doc:
                 raise bad(key, "required key is missing")
         backend, hand = doc["backend"], doc["hand"]
-        if backend not in BACKENDS:
-            raise bad("backend", f"one of {', '.join(BACKENDS)} (got {backend!r})")
+        if backend not in BACKEND_NAMES:
+            raise bad("backend", f"one of {', '.join(BACKEND_NAMES)} (got {backend!r})")
         if not isinstance(hand, str) or not hand:
             raise bad("hand", "a non-empty string")
         seed, trials = doc["seed"], doc["trials"]
@@ -156,8 +155,9 @@ class RunManifest:
         realtime = doc.get("realtime", False)  # a run from before the realtime dry run ran in lockstep
         if not isinstance(realtime, bool):
             raise bad("realtime", "true or false")
-        if realtime and backend != EMULATED_BACKEND:
-            raise bad("realtime", f"true only with backend {EMULATED_BACKEND} (got backend {backend!r})")
+        if realtime and backend_entry(backend).kind != "emulated":
+            emulated = ", ".join(n for n in BACKEND_NAMES if backend_entry(n).kind == "emulated")
+            raise bad("realtime", f"true only with backend {emulated} (got backend {backend!r})")
         return cls(
             backend=backend,
             hand=hand,

@@ -20,6 +20,7 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from grasp_ctrl.errors import UsageError
+from grasp_ctrl.rigs.registry import DEFAULT_BACKEND
 
 EXECUTORS = ("local", "ray")
 _CACHE: dict[Any, Any] = {}  # per Ray worker process: trial functions, built once
@@ -141,7 +142,7 @@ def ray_trials(
     settings: Any,
     threads: int,
     tasks: Sequence[tuple],
-    backend: str = "mock",
+    backend: str = DEFAULT_BACKEND,
     variation: Any = None,
     raw_frames: bool = False,
 ) -> Iterator[tuple[int, dict[str, Any]]]:

@@ -38,6 +38,7 @@ from grasp_ctrl.files.storage import (
     write_json,
 )
 from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.rigs.registry import DEFAULT_BACKEND
 from grasp_ctrl.sim.mujoco_log import set_log_dir as set_engine_log_dir
 from grasp_ctrl.sim.variation import NOMINAL, Variation
 from grasp_ctrl.trials.episode.runner import TrialFn, sim_trial_fn, trial_seed
@@ -59,7 +60,7 @@ def _init_worker(
     policies: list[str],
     settings: ControllerSettings,
     threads: int,
-    backend: str = "mock",
+    backend: str = DEFAULT_BACKEND,
     variation: Variation | None = None,
     raw_frames: bool = False,
 ) -> None:
@@ -85,7 +86,7 @@ def parallel_trials(
     settings: ControllerSettings | None,
     threads: int,
     tasks: Sequence[TrialTask],
-    backend: str = "mock",
+    backend: str = DEFAULT_BACKEND,
     variation: Variation | None = None,
     raw_frames: bool = False,
 ) -> Iterator[tuple[int, dict[str, Any]]]:
@@ -167,7 +168,7 @@ def run_series(
     manifest: RunManifest | None = None,
     trial_fn: TrialFn | None = None,
     after_trial: Callable[[dict[str, Any]], None] | None = None,
-    backend: str = "mock",
+    backend: str = DEFAULT_BACKEND,
     warn: Callable[[str], None] = _warn,
     jobs: int = 1,
     executor: str = "local",
@@ -222,9 +223,15 @@ def run_series(
             make_controller(hand, obj, np.zeros(3), plan.settings, kin)
         except ConfigError as exc:
             raise ConfigError(source, f"object {obj.name!r}: {exc.key}", exc.expected) from None
-    other_world = {} if plan.backend == "mock" else {"backend": plan.backend}  # e.g. mujoco
     run_trial = trial_fn or sim_trial_fn(
-        hand, policies, plan.settings, threads, **other_world, variation=plan.variation, raw_frames=plan.raw_frames
+        hand,
+        policies,
+        plan.settings,
+        threads,
+        backend=plan.backend,
+        variation=plan.variation,
+        raw_frames=plan.raw_frames,
+        realtime=plan.realtime,
     )  # bad policies fail here
 
     created = not run_dir.exists()

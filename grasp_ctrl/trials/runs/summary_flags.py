@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from grasp_ctrl.sim.registry import is_test_double
+from grasp_ctrl.rigs.registry import is_test_double
 from grasp_ctrl.trials.episode.capacity_check import CapacityVerdict
 
 MOCK_NOTE = (
