@@ -7,38 +7,30 @@ from collections.abc import Callable
 
 from grasp_ctrl.bench.figure import Figure, time_ms
 from grasp_ctrl.config import load_hand, load_objects
-from grasp_ctrl.controller.registry import make_controller
 from grasp_ctrl.controller.settings import settings_for
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
 from grasp_ctrl.files.paths import default_hand_file, default_objects_file
-from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.loop.sensing import SensingPipeline
-from grasp_ctrl.loop.tick import control_tick
-from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
+from grasp_ctrl.rigs.registry import TEST_WORLD
+from grasp_ctrl.rigs.trial_builder import build_trial
 from grasp_ctrl.sim.oracle import OracleEstimator
-from grasp_ctrl.sim.world import MockWorld
 
 BENCH_OBJECT = "chips_can"
 
 
 class _Loop:
-    """The mock trial loop with its parts exposed, for timing them separately."""
+    """A mock trial (rigs/trial_builder.py) with its parts exposed, for timing them separately."""
 
     def __init__(self, estimator_for_world, seed: int = 0, controller: str = "paper") -> None:
         self.hand = load_hand(default_hand_file())
         obj = load_objects(default_objects_file())[BENCH_OBJECT]
-        kin = HandKinematics(self.hand)
-        self.world = MockWorld(self.hand, obj, seed)
-        self.hand_backend = MockHand(self.world, self.hand)
-        self.arm = MockArm(self.world, self.hand)
-        self.sensors = MockSensors(self.world)
-        self.pipeline = SensingPipeline(self.hand, kin, estimator_for_world(self.world))
-        settings = settings_for(controller)
-        self.ctrl = make_controller(self.hand, obj, self.world.reach_pose_world(), settings, kin)
+        self.trial = build_trial(
+            self.hand, obj, seed, estimator_for_world, backend=TEST_WORLD, settings=settings_for(controller)
+        )
+        self.world, self.pipeline, self.ctrl = self.trial.world, self.trial.pipeline, self.trial.ctrl
 
     def control(self) -> None:
         """Everything of one tick except the world's physics step."""
-        control_tick(self.hand_backend, self.arm, self.sensors, self.pipeline, self.ctrl, self.world.t)
+        self.trial.tick(self.world.t)
 
     def run_until(self, state: str, limit_s: float = 30.0) -> None:
         while self.ctrl.state != state:

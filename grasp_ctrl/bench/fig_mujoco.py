@@ -10,11 +10,10 @@ import numpy as np
 
 from grasp_ctrl.bench.figure import Figure
 from grasp_ctrl.config import load_hand, load_objects
-from grasp_ctrl.controller.machine import GraspController
+from grasp_ctrl.controller.settings import settings_for
 from grasp_ctrl.files.paths import default_hand_file, default_objects_file
-from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.loop.sensing import SensingPipeline
-from grasp_ctrl.loop.tick import control_tick
+from grasp_ctrl.rigs.registry import REFERENCE_WORLD
+from grasp_ctrl.rigs.trial_builder import SimTrial, build_trial
 from grasp_ctrl.sim.oracle import OracleEstimator
 
 BENCH_OBJECT = "chips_can"
@@ -23,25 +22,42 @@ BENCH_OBJECT = "chips_can"
 def _simulate_trial(sim_s: float, seed: int) -> float:
     """Wall-clock seconds of the MuJoCo world's steps (physics, contacts, BioTac frames) over
     ``sim_s`` simulated seconds of an oracle trial; the controller's own time is not counted."""
-    from grasp_ctrl.sim.mujoco_backends import MockArm, mujoco_backends
-    from grasp_ctrl.sim.mujoco_world import MuJoCoWorld
-
-    hand = load_hand(default_hand_file())
-    obj = load_objects(default_objects_file())[BENCH_OBJECT]
-    kin = HandKinematics(hand)
-    world = MuJoCoWorld(hand, obj, seed)
-    hand_backend, sensors = mujoco_backends(world, hand)
-    arm = MockArm(world, hand)
-    pipeline = SensingPipeline(hand, kin, OracleEstimator(world))
-    ctrl = GraspController(hand, obj, world.reach_pose_world(), kin=kin)
+    trial = _trial(seed)
+    world, ctrl = trial.world, trial.ctrl
     spent = 0.0
-    for _ in range(round(sim_s / hand.dt)):
+    for _ in range(round(sim_s / trial.kin.hand.dt)):
         t0 = time.perf_counter()
         world.step()
         spent += time.perf_counter() - t0
         if not ctrl.terminal:
-            control_tick(hand_backend, arm, sensors, pipeline, ctrl, world.t)
+            trial.tick(world.t)
+    trial.close()
     return spent
+
+
+def _trial(seed: int, mujoco_module: Any = None) -> SimTrial:
+    """The benchmark's oracle trial of the paper's controller on MuJoCo (``mujoco_module``: the
+    module its world steps with)."""
+    hand = load_hand(default_hand_file())
+    obj = load_objects(default_objects_file())[BENCH_OBJECT]
+    make_world = None
+    if mujoco_module is not None:
+        from grasp_ctrl.sim.mujoco_world import MuJoCoWorld
+
+        def make_world(hand: Any, obj: Any, seed: int, params: Any) -> Any:
+            world = MuJoCoWorld(hand, obj, seed, params)
+            world._mj = mujoco_module
+            return world
+
+    return build_trial(
+        hand,
+        obj,
+        seed,
+        OracleEstimator,
+        backend=REFERENCE_WORLD,
+        settings=settings_for("paper"),
+        make_world=make_world,
+    )
 
 
 def mujoco_realtime_factor(quick: bool) -> Figure:
@@ -74,27 +90,18 @@ def _bare_steps(sim_s: float, seed: int) -> float:
     start state), without the world's contact reading, BioTac frames or bookkeeping."""
     import mujoco
 
-    from grasp_ctrl.sim.mujoco_backends import MockArm, mujoco_backends
-    from grasp_ctrl.sim.mujoco_world import MuJoCoWorld
-
-    hand = load_hand(default_hand_file())
-    obj = load_objects(default_objects_file())[BENCH_OBJECT]
-    kin = HandKinematics(hand)
-    world = MuJoCoWorld(hand, obj, seed)
-    m, d = world.model, world.data
+    recorder = _StepRecorder(mujoco)
+    trial = _trial(seed, recorder)
+    world, ctrl = trial.world, trial.ctrl
+    m, d = world.model, world.data  # type: ignore[attr-defined]
     spec = mujoco.mjtState.mjSTATE_INTEGRATION
     start = np.empty(mujoco.mj_stateSize(m, spec))
     mujoco.mj_getState(m, d, start, spec)
-    recorder = _StepRecorder(mujoco)
-    world._mj = recorder
-    hand_backend, sensors = mujoco_backends(world, hand)
-    arm = MockArm(world, hand)
-    pipeline = SensingPipeline(hand, kin, OracleEstimator(world))
-    ctrl = GraspController(hand, obj, world.reach_pose_world(), kin=kin)
-    for _ in range(round(sim_s / hand.dt)):
+    for _ in range(round(sim_s / trial.kin.hand.dt)):
         world.step()
         if not ctrl.terminal:
-            control_tick(hand_backend, arm, sensors, pipeline, ctrl, world.t)
+            trial.tick(world.t)
+    trial.close()
     mujoco.mj_setState(m, d, start, spec)
     step = mujoco.mj_step
     spent = 0.0

@@ -25,20 +25,16 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.motion import squeeze_mode
-from grasp_ctrl.controller.registry import make_controller
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.emulators.wall_clock import TimedHand, TrialClock, WallClockLoop
-from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.loop.sensing import SensingPipeline
-from grasp_ctrl.loop.tick import control_tick
 from grasp_ctrl.loop.tick_kernels import track_peaks
 from grasp_ctrl.loop.ticklog import CurrentTap, TickLog
 from grasp_ctrl.numeric import jit
 from grasp_ctrl.rigs.registry import DEFAULT_BACKEND, BackendFactory, WorldFactory
 from grasp_ctrl.rigs.registry import backend as backend_entry
-from grasp_ctrl.sim.backends import MockArm
+from grasp_ctrl.rigs.trial_builder import EstimatorFactory, build_trial, trial_factories
 from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
 from grasp_ctrl.sim.variation import Variation
 from grasp_ctrl.sim.world import WorldParams
@@ -90,25 +86,9 @@ def trial_seed(seed: int, obj_name: str, trial: int) -> int:
     return int(ss.generate_state(1)[0])
 
 
-EstimatorFactory = Callable[[World], ForceEstimator]
 # The hand and sensor backends of a trial on a world: the mock's own, or the real
 # backends on emulators (emulators/world_rig.py, ``run --backend dynamixel --emulate``).
 # The world of a trial: the mock world, or MuJoCo's (``run --backend mujoco``, sim/mujoco_world.py).
-
-
-def world_for_backend(
-    backend: str,
-    make_world: WorldFactory | None = None,
-    make_backends: BackendFactory | None = None,
-    realtime: bool = False,
-) -> tuple[WorldFactory, BackendFactory]:
-    """A trial's world and hand/sensor backends: those given, the rest from the backend that
-    ``backend`` names (rigs/registry.py; a one-line error when it names none or has no world)."""
-    if make_world is None or make_backends is None:
-        entry = backend_entry(backend)
-        make_world = make_world or entry.make_world()
-        make_backends = make_backends or entry.make_backends(realtime)
-    return make_world, make_backends
 
 
 def estimator_factory(spec: str, hand: HandConfig, threads: int = 1) -> EstimatorFactory:
@@ -184,21 +164,21 @@ def run_sim_trial(
     ``before_world_step`` / ``after_world_step`` called around each step; the record's
     ``timings.loop`` holds the loop's cycle times and deadline misses."""
     wall0 = time.perf_counter()
-    kin = kin or HandKinematics(hand)
-    make_world, make_backends = world_for_backend(backend, make_world, make_backends, realtime)
-    world = make_world(hand, obj, seed, world_params)
-    hand_backend, sensors = make_backends(world, hand)
-    arm = MockArm(world, hand)
-    try:
-        hand_backend.connect()
-        arm.connect()
-        sensors.start()
-    except BaseException:
-        _close_all(hand_backend, arm, sensors, raise_error=False)
-        raise
-    estimator = make_estimator(world)
-    pipeline = SensingPipeline(hand, kin, estimator)
-    ctrl = make_controller(hand, obj, world.reach_pose_world(), settings, kin)
+    parts = build_trial(
+        hand,
+        obj,
+        seed,
+        make_estimator,
+        backend=backend,
+        world_params=world_params,
+        settings=settings,
+        kin=kin,
+        make_world=make_world,
+        make_backends=make_backends,
+        realtime=realtime,
+    )
+    world, hand_backend, sensors, arm = parts.world, parts.hand_backend, parts.sensors, parts.arm
+    pipeline, ctrl = parts.pipeline, parts.ctrl
     names = pipeline.names
     grasp = np.array([f.grasp for f in hand.fingers])
     log = TickLog(log_path, names, len(hand.joints), truth=True, raw_frames=raw_frames) if log_path else None
@@ -234,14 +214,11 @@ def run_sim_trial(
                     log.set_current(hand_backend.read().current_a)
             else:
                 if loop is None:
-                    world.step()
-                    now = world.t
+                    snap, cmd, raw = parts.step(tap)
                 else:  # sleep until the tick's release, then the world catches up with the wall clock
                     loop.wait_for_release()
                     loop.step_world(step_world)
-                    now = loop.clock()
-                world.set_phase(ctrl.state)
-                snap, cmd, raw = control_tick(tap, arm, sensors, pipeline, ctrl, now)
+                    snap, cmd, raw = parts.tick(loop.clock(), tap)
                 if jit.JIT:
                     track_peaks(snap.f_sensor, snap.grip_n, world.normal_n, tip_force_sq, tip_grip, tip_true)
                 else:
@@ -277,7 +254,7 @@ def run_sim_trial(
         if log:
             log.close()
         # A close error must not hide the error that ended the trial.
-        _close_all(hand_backend, arm, sensors, raise_error=sys.exc_info()[0] is None)
+        parts.close(raise_error=sys.exc_info()[0] is None)
     # The peaks over the grasping fingers follow from the per-fingertip peaks.
     tip_force = np.sqrt(tip_force_sq)  # = np.linalg.norm(f, axis=1), at its peak
     peak_est = max(0.0, float(np.max(tip_grip[grasp], initial=0.0)))
@@ -335,18 +312,6 @@ def _world_stepper(world: World, *backends: Any) -> Callable[[], None]:
     return step
 
 
-def _close_all(*parts: Any, raise_error: bool = True) -> None:
-    """Close every backend even when one fails; the first error is raised after (if asked)."""
-    error: BaseException | None = None
-    for part in parts:
-        try:
-            part.close()
-        except Exception as exc:  # noqa: BLE001 - keep closing the rest
-            error = error or exc
-    if error is not None and raise_error:
-        raise error
-
-
 # A trial runner for one (policy, object, trial index, seed): returns the JSON record.
 TrialFn = Callable[[str, ObjectProfile, int, int, "Path | None"], dict[str, Any]]
 
@@ -369,7 +334,7 @@ def sim_trial_fn(
     runs on the wall clock (``run_sim_trial``), one trial at a time."""
     factories = {p: estimator_factory(p, hand, threads) for p in policies}
     kin = HandKinematics(hand)
-    make_world, make_backends = world_for_backend(backend, make_world, make_backends, realtime)
+    make_world, make_backends = trial_factories(backend, make_world, make_backends, realtime)
     params = backend_entry(backend).world_params(variation)
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:

@@ -43,18 +43,16 @@ def warm_kernels() -> None:
     import numpy as np
 
     from grasp_ctrl.config import load_hand, load_objects
-    from grasp_ctrl.controller.machine import GraspController, raised_reach_posture
+    from grasp_ctrl.controller.machine import raised_reach_posture
     from grasp_ctrl.controller.motion import FingertipMotion
+    from grasp_ctrl.controller.settings import settings_for
     from grasp_ctrl.files.paths import default_hand_file, default_objects_file
-    from grasp_ctrl.kinematics.chain import HandKinematics
-    from grasp_ctrl.loop.sensing import SensingPipeline
-    from grasp_ctrl.loop.tick import control_tick
     from grasp_ctrl.loop.tick_kernels import track_peaks
     from grasp_ctrl.loop.ticklog import TickLog
     from grasp_ctrl.numeric.finite import all_finite
     from grasp_ctrl.numeric.limits import limit_goal
-    from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
-    from grasp_ctrl.sim.world import MockWorld
+    from grasp_ctrl.rigs.registry import TEST_WORLD
+    from grasp_ctrl.rigs.trial_builder import build_trial
     from grasp_ctrl.tactile.layout import FRAME_LEN
     from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate
 
@@ -64,18 +62,14 @@ def warm_kernels() -> None:
     for capped in objects.values():  # the reach postures of capped objects: a scipy fit each, kept per hand
         if capped.cap is not None:
             raised_reach_posture(hand, capped.cap.finger, capped.cap.contact_height_m - capped.grasp_height_m)
-    kin = HandKinematics(hand)
-    world = MockWorld(hand, obj, 0)
-    hand_backend, sensors, arm = MockHand(world, hand), MockSensors(world), MockArm(world, hand)
-    sensors.start()
-    pipeline = SensingPipeline(hand, kin, _NoForce())
-    ctrl = GraspController(hand, obj, world.reach_pose_world(), kin=kin)
+    # the paper's controller: its compiled tick (grip_load's tick is Python)
+    trial = build_trial(hand, obj, 0, lambda world: _NoForce(), backend=TEST_WORLD, settings=settings_for("paper"))
+    world, pipeline, ctrl, kin = trial.world, trial.pipeline, trial.ctrl, trial.kin
     n = len(hand.fingers)
     log = TickLog(Path("unwritten_ticks.parquet"), pipeline.names, len(hand.joints), truth=True)  # never closed
     peaks = np.zeros((3, n))
     for _ in range(hand.tactile.tare_frames + 3):  # past the tare: the tick's compiled halves
-        world.step()
-        snap, cmd, raw = control_tick(hand_backend, arm, sensors, pipeline, ctrl, world.t)
+        snap, cmd, raw = trial.step()
         track_peaks(snap.f_sensor, snap.grip_n, world.normal_n, peaks[0], peaks[1], peaks[2])
         log.append(
             ctrl.state,
