@@ -13,7 +13,7 @@ import pytest
 
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.loop.tick_kernels import track_peaks
+from grasp_ctrl.loop.loop_kernels import track_peaks
 from grasp_ctrl.numeric import jit
 from grasp_ctrl.sim.backends import MockHand, MockSensors
 from grasp_ctrl.trials.episode import mock_tick

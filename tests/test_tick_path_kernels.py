@@ -17,8 +17,8 @@ from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
 from grasp_ctrl.hardware.base import JointState
 from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.loop.loop_kernels import log_row, place_forces, sense_forces, sense_inputs, track_peaks
 from grasp_ctrl.loop.sensing import SensingPipeline
-from grasp_ctrl.loop.tick_kernels import log_row, place_forces, sense_forces, sense_inputs, track_peaks
 from grasp_ctrl.loop.ticklog import TickLog
 from grasp_ctrl.sim.backends import MockSensors, checked_limit_goal, clamped_arm_target, joint_state_kernel
 from grasp_ctrl.sim.world import MockWorld, _clamped_target, _clip_into, _finite_copy, _limited_goal

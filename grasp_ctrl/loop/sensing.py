@@ -14,7 +14,7 @@ from grasp_ctrl.estimators.pipeline import TactilePipeline
 from grasp_ctrl.hardware.base import JointState, SensorBackend, TactileFrame
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.pad_ik import shared_pad_ik
-from grasp_ctrl.loop.tick_kernels import place_forces, sense_forces, sense_inputs
+from grasp_ctrl.loop.loop_kernels import place_forces, sense_forces, sense_inputs
 from grasp_ctrl.numeric.finite import all_finite
 
 _FLOAT64 = np.dtype(np.float64)
@@ -25,7 +25,7 @@ class SensingPipeline:
         self.hand = hand
         self.kin = kin
         self.fast_kin = shared_pad_ik(kin)  # sensor rotations, compiled with the sim extra
-        self._compiled = self.fast_kin.compiled  # the compiled halves of a snapshot (loop/tick_kernels.py)
+        self._compiled = self.fast_kin.compiled  # the compiled halves of a snapshot (loop/loop_kernels.py)
         self._geometry, self._layout = self.fast_kin.geometry, self.fast_kin.layout
         self.estimator = estimator
         self.names = [f.name for f in hand.fingers]

@@ -58,7 +58,7 @@ KERNEL_SOURCES = (
     "tactile/tare.py",
     "numeric/finite.py",
     "sim/backends.py",
-    "loop/tick_kernels.py",
+    "loop/loop_kernels.py",
     "sim/world.py",
     "controller/tick_kernels.py",
     "trials/episode/mock_tick.py",

@@ -39,9 +39,9 @@ import numpy as np
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.controller.tick_kernels import C_TAU, TICK_DONE, squeeze_state_tick
+from grasp_ctrl.loop.loop_kernels import log_row, place_forces, sense_inputs, track_peaks
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.tick import control_tick, pac_spread, send_command
-from grasp_ctrl.loop.tick_kernels import log_row, place_forces, sense_inputs, track_peaks
 from grasp_ctrl.loop.ticklog import TickLog
 from grasp_ctrl.numeric import jit
 from grasp_ctrl.numeric.jit import njit

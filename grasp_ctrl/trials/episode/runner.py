@@ -29,7 +29,7 @@ from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.emulators.wall_clock import TimedHand, TrialClock, WallClockLoop
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.loop.tick_kernels import track_peaks
+from grasp_ctrl.loop.loop_kernels import track_peaks
 from grasp_ctrl.loop.ticklog import CurrentTap, TickLog
 from grasp_ctrl.numeric import jit
 from grasp_ctrl.rigs.registry import DEFAULT_BACKEND, BackendFactory, WorldFactory

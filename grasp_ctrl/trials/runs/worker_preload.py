@@ -47,7 +47,7 @@ def warm_kernels() -> None:
     from grasp_ctrl.controller.motion import FingertipMotion
     from grasp_ctrl.controller.settings import settings_for
     from grasp_ctrl.files.paths import default_hand_file, default_objects_file
-    from grasp_ctrl.loop.tick_kernels import track_peaks
+    from grasp_ctrl.loop.loop_kernels import track_peaks
     from grasp_ctrl.loop.ticklog import TickLog
     from grasp_ctrl.numeric.finite import all_finite
     from grasp_ctrl.numeric.limits import limit_goal
