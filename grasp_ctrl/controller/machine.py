@@ -458,8 +458,8 @@ class GraspController:
         set) or retreat (its goal already set) with the compiled kernels, the torque on
         and a float64 (3,) palm target: every argument of ``tk.squeeze_state_tick`` after
         the snapshot's arrays and its palm height ``palm_z`` (a float) for this tick
-        (``ticks_in_state`` counting it), so that a caller can run it, in one compiled call
-        with more (trials/episode/mock_tick.py), before ``squeeze_done``. None otherwise. What
+        (``ticks_in_state`` counting it), so that ``_squeeze_state_tick`` can run it before
+        ``squeeze_done``. None otherwise. What
         stays within a state is made once (``_squeeze_statics``)."""
         state = _SQUEEZE_STATES.get(self.state)
         p = self.palm_target

@@ -137,33 +137,6 @@ class SensingPipeline:
             q, p_palm_world, fault, fault_detail = self._checked_pose(q, p_palm_world, fault, fault_detail)
         return self._snapshot(raw, q, p_palm_world, joints.t, gated, collecting_tare, fault, fault_detail)
 
-    def snapshot_gated(
-        self,
-        raw: np.ndarray,
-        q: np.ndarray,
-        p_palm_world: np.ndarray,
-        t: float,
-        tared: np.ndarray,
-        in_contact: np.ndarray,
-        bits: int,
-        touching: np.ndarray,
-    ) -> Snapshot:
-        """``snapshot`` after its first compiled half (``sense_inputs``, made by the caller:
-        finite float64 angles and palm position, frames tared and gated into ``tared``,
-        ``in_contact``, ``bits`` >= 0 and ``touching``), for the mock trial's fused inputs
-        (trials/episode/mock_tick.py)."""
-        gated = tared, in_contact, bits, touching
-        estimator = self.tactile.estimator
-        if not (bits and not estimator.has_variance and q.flags.c_contiguous):
-            return self._snapshot(raw, q, p_palm_world, t, gated, False, None, None)
-        # _snapshot's usual course without its branches: fingertips in contact, a policy without variance
-        self.raw, self._last_q, self._last_palm = raw, q, p_palm_world
-        f_sensor, f_hand, grip = self._estimate_and_turn(estimator, q, tared, touching, bits)
-        if f_hand is None:  # an odd or non-finite estimate: the rest of _snapshot (not estimating again)
-            return self._snapshot(raw, q, p_palm_world, t, gated, False, None, None, f_sensor)
-        self.tared = tared
-        return Snapshot(t, q, p_palm_world, True, in_contact, f_sensor, f_hand, f_hand, grip, None, None, None)
-
     def _snapshot(
         self,
         raw: np.ndarray,

@@ -153,8 +153,8 @@ class TickLog:
             width += size
         self._block = np.empty((_CHUNK, width))  # every field of a row is written when it is appended
         self._buf = self._views(self._block)
-        # Joint currents beside the block, not in it: the compiled row writers (log_row, the mock's
-        # fused tick) keep their layout, and a row whose currents never come stays NaN.
+        # Joint currents beside the block, not in it: the compiled row writer (log_row) keeps its
+        # layout, and a row whose currents never come stays NaN.
         self._current = np.full((_CHUNK, n_joints), np.nan)
         self._compiled = jit.JIT and truth
 

@@ -61,7 +61,6 @@ KERNEL_SOURCES = (
     "loop/loop_kernels.py",
     "sim/world.py",
     "controller/tick_kernels.py",
-    "trials/episode/mock_tick.py",
     "estimators/linear.py",
     "estimators/mlp.py",
 )

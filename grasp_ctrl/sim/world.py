@@ -568,8 +568,7 @@ class MockWorld:
         """``step``'s compiled path up to its kernel: the clock, this step's noisy sensor
         baselines and a new frame array (frames delivered earlier keep theirs); returns
         ``step_packed``'s arguments (the new frame array is the sixth). The caller runs
-        ``step_packed`` on them (trials/episode/mock_tick.py: with more in the same call), then
-        ``end_packed_step``."""
+        ``step_packed`` on them, then ``end_packed_step``."""
         self.t += self.dt
         sens = self.sensors
         frame_base = sens.advance(self.dt)

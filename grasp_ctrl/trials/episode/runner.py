@@ -39,7 +39,6 @@ from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
 from grasp_ctrl.sim.variation import Variation
 from grasp_ctrl.sim.world import WorldParams
 from grasp_ctrl.sim.world_api import World
-from grasp_ctrl.trials.episode.mock_tick import MockTick
 from grasp_ctrl.trials.episode.outcome import judge
 
 MAX_TRIAL_S = 60.0
@@ -177,7 +176,7 @@ def run_sim_trial(
         make_backends=make_backends,
         realtime=realtime,
     )
-    world, hand_backend, sensors, arm = parts.world, parts.hand_backend, parts.sensors, parts.arm
+    world, hand_backend, sensors = parts.world, parts.hand_backend, parts.sensors
     pipeline, ctrl = parts.pipeline, parts.ctrl
     names = pipeline.names
     grasp = np.array([f.grasp for f in hand.fingers])
@@ -194,53 +193,40 @@ def run_sim_trial(
     peaks = np.zeros((3, n))
     # the peak of |f_sensor|^2 (its root at the end is the peak of |f_sensor|), of the grip and the true force
     tip_force_sq, tip_grip, tip_true = peaks
-    # On the mock world's own backends the tick's input and output halves run fused (mock_tick.py).
-    fast = (
-        MockTick(world, hand_backend, sensors, arm, pipeline, log, peaks)
-        if loop is None and MockTick.usable(world, hand_backend, sensors, arm, pipeline, log)
-        else None
-    )
     settle_ticks = int(round(SETTLE_S / hand.dt))
     if clock is not None and loop is not None:  # the trial's time runs on the wall clock from here
         clock.start()
         loop.start()
     try:
         while world.t < MAX_TRIAL_S:
-            if fast is not None:  # the same step and tick, peaks and log row
-                fast.tick(ctrl)
-                if log:
-                    # The fused tick reads no JointState. The mock hand's read is what the tick saw:
-                    # the world has not stepped since, and its velocity estimate is already at q.
-                    log.set_current(hand_backend.read().current_a)
+            if loop is None:
+                snap, cmd, raw = parts.step(tap)
+            else:  # sleep until the tick's release, then the world catches up with the wall clock
+                loop.wait_for_release()
+                loop.step_world(step_world)
+                snap, cmd, raw = parts.tick(loop.clock(), tap)
+            if jit.JIT:
+                track_peaks(snap.f_sensor, snap.grip_n, world.normal_n, tip_force_sq, tip_grip, tip_true)
             else:
-                if loop is None:
-                    snap, cmd, raw = parts.step(tap)
-                else:  # sleep until the tick's release, then the world catches up with the wall clock
-                    loop.wait_for_release()
-                    loop.step_world(step_world)
-                    snap, cmd, raw = parts.tick(loop.clock(), tap)
-                if jit.JIT:
-                    track_peaks(snap.f_sensor, snap.grip_n, world.normal_n, tip_force_sq, tip_grip, tip_true)
-                else:
-                    f = snap.f_sensor
-                    np.maximum(tip_force_sq, np.add.reduce(f * f, axis=1), out=tip_force_sq)
-                    np.maximum(tip_grip, snap.grip_n, out=tip_grip)
-                    np.maximum(tip_true, world.normal_n, out=tip_true)
-                if log:
-                    log.append(
-                        ctrl.state,
-                        snap,
-                        cmd,
-                        pipeline.tared,
-                        world.f_sensor,
-                        world.obj_z,
-                        world.table_n,
-                        raw=raw,
-                        grip_target_n=ctrl.tau,
-                        current_a=tap.take(),
-                    )
-                if loop is not None:
-                    loop.tick_done()
+                f = snap.f_sensor
+                np.maximum(tip_force_sq, np.add.reduce(f * f, axis=1), out=tip_force_sq)
+                np.maximum(tip_grip, snap.grip_n, out=tip_grip)
+                np.maximum(tip_true, world.normal_n, out=tip_true)
+            if log:
+                log.append(
+                    ctrl.state,
+                    snap,
+                    cmd,
+                    pipeline.tared,
+                    world.f_sensor,
+                    world.obj_z,
+                    world.table_n,
+                    raw=raw,
+                    grip_target_n=ctrl.tau,
+                    current_a=tap.take(),
+                )
+            if loop is not None:
+                loop.tick_done()
             if on_tick:
                 on_tick(world, ctrl)
             if ctrl.terminal:
