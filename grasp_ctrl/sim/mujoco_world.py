@@ -21,14 +21,27 @@ the draw. See docs/mujoco.md.
 from __future__ import annotations
 
 import math
+import struct
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
-from grasp_ctrl.sim.biotac_model import BioTacParams, BioTacSensorModel
-from grasp_ctrl.sim.mujoco_contacts import read_contacts, skin_point_and_normal
+from grasp_ctrl.sim.biotac_model import (
+    GEOM_OBJECT,
+    NEW_CONTACT,
+    SUM_FLAGS,
+    SUM_ON_TABLE,
+    SUM_OTHER_N,
+    SUM_PEAK_OTHER_N,
+    SUM_TABLE_N,
+    BioTacParams,
+    BioTacSensorModel,
+    mj_tick_frames,
+    mj_tip_buffers,
+)
 from grasp_ctrl.sim.mujoco_scene import PlacedObject, SceneParams, build_scene
 from grasp_ctrl.sim.variation import NOMINAL, Variation, draw_extra, draw_object, draw_record, max_rotated_half_extents
 from grasp_ctrl.sim.world import GRAVITY, NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
@@ -38,8 +51,10 @@ AIRBORNE_M = 0.002  # above this the object has left the table
 TIPPED_RAD = math.radians(30.0)  # tipped over while handled
 UPRIGHT_RAD = math.radians(10.0)  # standing upright at the end of the trial
 
+_PACK3 = struct.Struct("3d").pack  # three floats' bits: equal bytes = the same position, zeros' signs too
 
-def mocap_step(mocap: list[float], tx: float, ty: float, tz: float, max_move: float) -> tuple[float, float, float]:
+
+def mocap_step(mocap: Sequence[float], tx: float, ty: float, tz: float, max_move: float) -> tuple[float, float, float]:
     """The wrist's mocap position moved toward the target (tx, ty, tz) by at most
     ``max_move``: ``delta = target - mocap; mocap += delta`` (or ``delta * (max_move / dist)``)
     with ``dist`` from ``vec3.norm3`` (squares summed left to right, the same bits on any
@@ -115,20 +130,37 @@ class MuJoCoWorld:
         self._vadr = np.array([m.jnt_dofadr[m.joint(j).id] for j in scene.joint_names])
         self._act = np.array([m.actuator(j).id for j in scene.joint_names])
         self._sites = np.array([m.site(s).id for s in scene.sensor_sites])
-        self._tip_bodies = np.array([m.geom_bodyid[m.geom(g).id] for g in scene.biotac_geoms])
+        self._tip_bodies = np.array([m.geom_bodyid[m.geom(g).id] for g in scene.biotac_geoms], dtype=np.int64)
         self._tip_geom_of = np.full(m.ngeom, -1, dtype=np.int64)
         for i, g in enumerate(scene.biotac_geoms):
             self._tip_geom_of[m.geom(g).id] = i
         self._object_geom = np.zeros(m.ngeom, dtype=bool)
         for g in scene.object_geoms:
             self._object_geom[m.geom(g).id] = True
-        self._tip_geom_list = self._tip_geom_of.tolist()
-        self._object_geom_list = self._object_geom.tolist()
         self._table = m.geom("table").id
         self._obj_body = m.body(scene.object_body).id
         self._hand_body = m.body(scene.hand_body).id
         self._mocap = m.body_mocapid[m.body(scene.mocap_body).id]
-        self._vel6 = np.empty(6)
+        # Views of MjData's arrays of fixed size (MuJoCo never moves them), made once rather
+        # than each tick; data.contact and data.efc_force change size and are read each tick.
+        self._opt = m.opt
+        self._no_actuation = int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
+        self._actuation_off = bool(m.opt.disableflags & self._no_actuation)  # as step last set it
+        self._ctrl = d.ctrl
+        self._mocap_pos = d.mocap_pos[self._mocap]
+        self._qvel = d.qvel
+        self._site_xmat = d.site_xmat
+        self._site_xpos = d.site_xpos
+        self._xpos = d.xpos
+        self._xipos = d.xipos
+        self._cvel = d.cvel
+        self._subtree_com = d.subtree_com
+        self._body_rootid = m.body_rootid
+        self._obj_xpos = d.xpos[self._obj_body]
+        self._obj_xmat = d.xmat[self._obj_body]
+        # mj_tick_frames's geom kinds and ids (sim/biotac_model.py)
+        self._geom_kind = np.where(self._object_geom, GEOM_OBJECT, self._tip_geom_of)
+        self._ids = np.array([self._table, self._obj_body, *self._sites, *self._tip_bodies], dtype=np.int64)
         hand_free = m.joint("hand_free")
         self._hand_qadr = m.jnt_qposadr[hand_free.id]
         obj_free = m.joint("object_free")
@@ -148,30 +180,30 @@ class MuJoCoWorld:
         self._palm_target = start.copy()
         self._place_hand(start)
         self._settle(p.settle_s)
-        self._z_rest = float(d.xpos[self._obj_body][2])
+        self._z_rest = self._obj_xpos.item(2)
         self.max_obj_z = 0.0
 
         self.sensors = BioTacSensorModel(n, rng, p.biotac, noise_block=NOISE_BLOCK)
-        self._f_world = np.zeros((n, 3))
-        self._f_sensor = np.zeros((n, 3))
-        self._normal_n = np.zeros(n)
-        self._in_contact = np.zeros(n, dtype=bool)
-        self._touch_obj = np.zeros(n, dtype=bool)
-        self._slip_speed = np.zeros(n)
-        self._contact_sensor = np.zeros((n, 3))
-        self._skin_normal_sensor = np.tile([0.0, 0.0, -1.0], (n, 1))
-        self._table_n = self._weight
-        self._on_table = True
+        # The per-fingertip state, views into the two buffers mj_tick_frames updates.
+        self._tip_f, self._tip_b, tip = mj_tip_buffers(n)
+        self._f_world = tip["f_world"]
+        self._f_sensor = tip["f_sensor"]
+        self._normal_n = tip["normal"]
+        self._in_contact = tip["touching"]
+        self._touch_obj = tip["touching_object"]
+        self._slip_speed = tip["slip"]
+        self._new_contacts = tip["new_contact"]
+        self._contact_sensor = tip["contact"]
+        self._skin_normal_sensor = tip["skin_normal"]
+        self._skin_normal_sensor[:] = (0.0, 0.0, -1.0)
+        self._sums = tip["sums"]
         self._airborne = False
         self._descent_speed = 0.0
-        self.other_hand_contact_n = 0.0
-        self.peak_other_hand_contact_n = 0.0
         self.seq = 0
         self.events: list[WorldEvent] = []
         self.crushed = False
         self._tipped = False
-        self._read()
-        self.raw = self._frames()
+        self.raw = self._sense()
 
     # ----- set-up ---------------------------------------------------------
     def _fit_grasp_height(self) -> None:
@@ -297,21 +329,30 @@ class MuJoCoWorld:
 
     @property
     def obj_xy(self) -> np.ndarray:
-        return self.data.xpos[self._obj_body][:2].copy()
+        return self._obj_xpos[:2].copy()
 
     @property
     def obj_z(self) -> float:
         """Height of the object above its resting pose on the table (m)."""
-        return max(0.0, float(self.data.xpos[self._obj_body][2]) - self._z_rest)
+        return max(0.0, self._obj_xpos.item(2) - self._z_rest)
 
     @property
     def obj_tilt_rad(self) -> float:
-        zz = float(self.data.xmat[self._obj_body][8])
+        zz = self._obj_xmat.item(8)
         return math.acos(min(max(zz, -1.0), 1.0))
 
     @property
     def table_n(self) -> float:
-        return self._table_n
+        return self._sums.item(SUM_TABLE_N)
+
+    @property
+    def other_hand_contact_n(self) -> float:
+        """Normal force of hand links other than the fingertips on the object (N)."""
+        return self._sums.item(SUM_OTHER_N)
+
+    @property
+    def peak_other_hand_contact_n(self) -> float:
+        return self._sums.item(SUM_PEAK_OTHER_N)
 
     def reach_pose_world(self) -> np.ndarray:
         """Nominal wrist position for grasping (the controller does not see the jitter)."""
@@ -326,84 +367,85 @@ class MuJoCoWorld:
     def step(self) -> None:
         mj, m, d = self._mj, self.model, self.data
         self.t += self.dt
-        if self.torque_on:
-            m.opt.disableflags &= ~int(mj.mjtDisableBit.mjDSBL_ACTUATION)
-        else:
-            m.opt.disableflags |= int(mj.mjtDisableBit.mjDSBL_ACTUATION)
-        d.ctrl[self._act] = self._q_goal
-        max_move = self.arm_speed * m.opt.timestep
-        mocap = d.mocap_pos[self._mocap]
+        opt = self._opt
+        if self.torque_on == self._actuation_off:  # switched since the last step: MuJoCo's flag follows
+            self._actuation_off = not self.torque_on
+            if self.torque_on:
+                opt.disableflags &= ~self._no_actuation
+            else:
+                opt.disableflags |= self._no_actuation
+        self._ctrl[self._act] = self._q_goal
+        # The substeps, the wrist's mocap moved toward the palm target before each (mocap_step;
+        # MuJoCo's step leaves the mocap where it is): the positions first, then the steps, so
+        # that little Python runs between MuJoCo's steps.
+        step = mj.mj_step  # through self._mj: the bench's recorder notes each step's inputs
+        mocap = self._mocap_pos
         tx, ty, tz = self._palm_target.tolist()
-        for _ in range(self._substeps):
-            mocap[:] = mocap_step(mocap.tolist(), tx, ty, tz, max_move)
-            mj.mj_step(m, d)
-        self._read()
-        self.raw = self._frames()
+        max_move = self.arm_speed * opt.timestep
+        p = mocap.tolist()
+        q = mocap_step(p, tx, ty, tz, max_move)
+        if _PACK3(*q) == _PACK3(*p):
+            # At the target already, bit for bit: every substep would write the same position.
+            for _ in range(self._substeps):
+                step(m, d)
+        else:
+            path = [q]
+            for _ in range(self._substeps - 1):
+                q = mocap_step(q, tx, ty, tz, max_move)
+                path.append(q)
+            for q in path:
+                mocap[:] = q
+                step(m, d)
+        self.raw = self._sense()
         self._record()
 
-    def _read(self) -> None:
-        """Contact forces and points of this step -> the sensor-frame quantities."""
-        m, d = self.model, self.data
-        c = read_contacts(m, d, self._tip_geom_list, self._object_geom_list, self._table, len(self.fingers))
-        was = self._touch_obj.copy()
-        self._f_world[:] = c.f_world
-        self._normal_n[:] = c.normal_from_object_n
-        self._in_contact[:] = c.touching
-        self._touch_obj[:] = c.touching_object
-        self._table_n = c.table_normal_on_object_n
-        self._on_table = c.object_on_table
-        self.other_hand_contact_n = c.other_hand_on_object_n
-        self.peak_other_hand_contact_n = max(self.peak_other_hand_contact_n, c.other_hand_on_object_n)
-        self._new_contacts = self._touch_obj & ~was
-        R_all = self.data.site_xmat[self._sites].reshape(-1, 3, 3)
-        o_all = self.data.site_xpos[self._sites]
-        np.einsum("nji,nj->ni", R_all, c.f_world, out=self._f_sensor)  # R^T f per fingertip
-        for i in np.flatnonzero(c.touching):
-            R, o = R_all[i], o_all[i]
-            p_s, n_s = skin_point_and_normal(R.T @ (c.point_world[i] - o))
-            self._contact_sensor[i] = p_s
-            self._skin_normal_sensor[i] = n_s
-            self._slip_speed[i] = self._slip_at(i, R @ p_s + o, R @ n_s) if c.touching_object[i] else 0.0
-        self._slip_speed[~c.touching] = 0.0
-
-    def _slip_at(self, i: int, p_world: np.ndarray, n_world: np.ndarray) -> float:
-        """Tangential speed of the skin over the object at the contact point (m/s)."""
-        # On Python floats, dot products summed left to right (as grasp_ctrl/numeric/vec3.py: the
-        # same bits on any CPU), at a fraction of the cost of numpy calls.
-        mj, m, d = self._mj, self.model, self.data
-        v = self._vel6
-        rel = [0.0, 0.0, 0.0]
-        px, py, pz = p_world.tolist()
-        for body, sign in ((int(self._tip_bodies[i]), 1.0), (self._obj_body, -1.0)):
-            mj.mj_objectVelocity(m, d, mj.mjtObj.mjOBJ_BODY, body, v, 0)
-            wx, wy, wz, v3, v4, v5 = v.tolist()
-            bx, by, bz = d.xpos[body].tolist()
-            rx, ry, rz = px - bx, py - by, pz - bz
-            rel[0] += sign * (v3 + wy * rz - wz * ry)
-            rel[1] += sign * (v4 + wz * rx - wx * rz)
-            rel[2] += sign * (v5 + wx * ry - wy * rx)
-        nx, ny, nz = n_world.tolist()
-        along = 0.0 + ((rel[0] * nx + rel[1] * ny) + rel[2] * nz)
-        tx, ty, tz = rel[0] - along * nx, rel[1] - along * ny, rel[2] - along * nz
-        return math.sqrt(0.0 + ((tx * tx + ty * ty) + tz * tz))
-
-    def _frames(self) -> np.ndarray:
-        self.seq = (self.seq + 1) & 0xFFFF
-        return self.sensors.frames(
-            self._contact_sensor, self._f_sensor, self._skin_normal_sensor, self._in_contact, self._slip_speed, self.dt
+    def _sense(self) -> np.ndarray:
+        """This step's contacts -> the sensors' inputs (sensor frame) -> their raw frames."""
+        # One kernel (sim/biotac_model.py) for what sim/mujoco_contacts.py's read_contacts and
+        # skin_point_and_normal define and the BioTac model's frames: calls cost most here.
+        d = self.data
+        con = d.contact
+        sensors = self.sensors
+        noisy_base = sensors.advance(self.dt)
+        frames = mj_tick_frames(
+            con.geom,
+            con.efc_address,
+            con.frame,
+            con.pos,
+            d.efc_force,
+            self._geom_kind,
+            self._ids,
+            self._body_rootid,
+            self._site_xmat,
+            self._site_xpos,
+            self._cvel,
+            self._xipos,
+            self._subtree_com,
+            self._xpos,
+            self._tip_f,
+            self._tip_b,
+            noisy_base,
+            sensors.state,
+            sensors.gain,
+            sensors.consts,
+            sensors.t,
+            self.dt,
         )
+        self.seq = (self.seq + 1) & 0xFFFF
+        return frames
 
     def _record(self) -> None:
         """Events and outcome flags from MuJoCo's state."""
-        z = self.obj_z
-        self.max_obj_z = max(self.max_obj_z, z)
-        for i in np.flatnonzero(self._new_contacts):
-            self.events.append(WorldEvent(self.t, "contact", self.fingers[i]))
-        vz = float(self.data.qvel[self._obj_vadr + 2])
+        z = max(0.0, self._obj_xpos.item(2) - self._z_rest)  # obj_z
+        if z > self.max_obj_z:
+            self.max_obj_z = z
+        if int(self._sums.item(SUM_FLAGS)) & NEW_CONTACT:
+            for i in np.flatnonzero(self._new_contacts):
+                self.events.append(WorldEvent(self.t, "contact", self.fingers[i]))
         if z > AIRBORNE_M:
             self._airborne = True
-            self._descent_speed = max(-vz, 0.0)
-        elif self._airborne and self._on_table:
+            self._descent_speed = max(-self._qvel.item(self._obj_vadr + 2), 0.0)
+        elif self._airborne and self._sums.item(SUM_ON_TABLE) > 0.0:
             # Back on the table: a drop if it came down faster than any placing does.
             self._airborne = False
             if self._descent_speed > FALL_SPEED_M_S:
@@ -411,17 +453,18 @@ class MuJoCoWorld:
                     WorldEvent(self.t, "fell", f"landed at {self._descent_speed:.2f} m/s while {self.phase}")
                 )
         obj = self.obj
-        worst = float(self._normal_n.max(initial=0.0))
-        if obj.deformable and not self.crushed and worst > obj.crush_force_n:  # type: ignore[operator]
-            self.crushed = True
-            self.events.append(WorldEvent(self.t, "crushed", f"grip {worst:.2f} N > {obj.crush_force_n} N"))
+        if obj.deformable and not self.crushed:
+            worst = float(self._normal_n.max(initial=0.0))
+            if worst > obj.crush_force_n:  # type: ignore[operator]
+                self.crushed = True
+                self.events.append(WorldEvent(self.t, "crushed", f"grip {worst:.2f} N > {obj.crush_force_n} N"))
         # Knocked over: MuJoCo simulates the tipping itself (the mock world's push-into-the-table
         # proxy is not needed); placed upright is checked again at the end (``knocked_over``).
-        if not self._tipped and self.obj_tilt_rad > TIPPED_RAD:
-            self._tipped = True
-            self.events.append(
-                WorldEvent(self.t, "knocked_over", f"tilted {math.degrees(self.obj_tilt_rad):.0f} degrees")
-            )
+        if not self._tipped:
+            tilt = math.acos(min(max(self._obj_xmat.item(8), -1.0), 1.0))  # obj_tilt_rad
+            if tilt > TIPPED_RAD:
+                self._tipped = True
+                self.events.append(WorldEvent(self.t, "knocked_over", f"tilted {math.degrees(tilt):.0f} degrees"))
 
     @property
     def knocked_over(self) -> bool:
