@@ -197,7 +197,7 @@ def rise_fit_report():
     not the default model: adopting it means retraining every policy."""
     if not SHARED_DATA.is_dir():
         pytest.skip("../shared/data is not present beside the checkout")
-    from grasp_ctrl.sim.biotac_params_file import load_biotac_params
+    from grasp_ctrl.sim.biotac.params_file import load_biotac_params
 
     return anchor_report(REAL_CSV, n_per_source=20000, seed=7, params=load_biotac_params(RISE_FIT))
 

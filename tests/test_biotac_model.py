@@ -1,4 +1,4 @@
-"""Physical properties of the simulated BioTac (grasp_ctrl/sim/biotac_model.py)."""
+"""Physical properties of the simulated BioTac (grasp_ctrl/sim/biotac/model.py)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from scipy.optimize import least_squares
 
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.learning.features import surface_point_and_normal
-from grasp_ctrl.sim.biotac_model import (
+from grasp_ctrl.sim.biotac.model import (
     DEFAULT_PARAMS,
     GAIN_PDC,
     BioTacSensorModel,

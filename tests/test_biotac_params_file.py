@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from grasp_ctrl.sim.biotac_model import DEFAULT_PARAMS, N_GAIN, pack_params, rise_weights_of, static_frames
-from grasp_ctrl.sim.biotac_params_file import load_biotac_params
+from grasp_ctrl.sim.biotac.model import DEFAULT_PARAMS, N_GAIN, pack_params, rise_weights_of, static_frames
+from grasp_ctrl.sim.biotac.params_file import load_biotac_params
 
 RISE_FIT = Path(__file__).resolve().parents[1] / "docs" / "biotac_params_rise_fit.json"
 

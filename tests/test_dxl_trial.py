@@ -7,8 +7,8 @@ import numpy as np
 import grasp_ctrl.trials.episode.runner as runner
 from grasp_ctrl.emulators.world_hand import EmulatedDynamixelHand
 from grasp_ctrl.hardware.dynamixel.calibration import Calibration
-from grasp_ctrl.sim.backends import MockSensors
-from grasp_ctrl.sim.world import MockWorld
+from grasp_ctrl.sim.mock.backends import MockSensors
+from grasp_ctrl.sim.mock.world import MockWorld
 
 
 def test_oracle_trial_on_the_dynamixel_backend(hand, objects) -> None:

@@ -11,7 +11,7 @@ import pytest
 from grasp_ctrl.cli import main
 from grasp_ctrl.estimators.linear import LinearEstimator
 from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M
-from grasp_ctrl.sim.presses import random_skin_points, skin_presses
+from grasp_ctrl.sim.biotac.presses import random_skin_points, skin_presses
 
 
 def test_skin_press_points_lie_on_the_skin_and_press_within_the_friction_cone():

@@ -27,7 +27,7 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.numeric import jit
 from grasp_ctrl.numeric.limits import clipped_equals
 from grasp_ctrl.numeric.vec3 import dot3, norm3
-from grasp_ctrl.sim import world as world_mod
+from grasp_ctrl.sim.mock import world as world_mod
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 
 edge = st.sampled_from([0.0, -0.0, 1.0, -1.0, 0.25, 2.0, 3e-9, -7.5, 14.9, np.nan, np.inf, -np.inf])
@@ -280,7 +280,7 @@ def test_palm_distance_kernel_equals_numpy(a, b):
 def test_mujoco_wrist_step_equals_the_numpy_step():
     """MuJoCoWorld's mocap wrist moved on Python floats: numpy's arithmetic with the distance
     summed left to right (vec3.norm3), bit for bit on any CPU."""
-    from grasp_ctrl.sim.mujoco_world import mocap_step
+    from grasp_ctrl.sim.mujoco.world import mocap_step
 
     rng = np.random.default_rng(5)
     for _ in range(3000):

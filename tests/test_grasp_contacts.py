@@ -18,8 +18,8 @@ from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.files.paths import default_hand_file, default_objects_file
 from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M
-from grasp_ctrl.sim.grasp_contacts import NUMERIC_COLUMNS, TEXT_COLUMNS, GraspContacts, csv_text, read_csv
-from grasp_ctrl.sim.presses import contact_presses, reverse_shear
+from grasp_ctrl.sim.biotac.grasp_contacts import NUMERIC_COLUMNS, TEXT_COLUMNS, GraspContacts, csv_text, read_csv
+from grasp_ctrl.sim.biotac.presses import contact_presses, reverse_shear
 
 pytest.importorskip("mujoco")
 

@@ -117,8 +117,8 @@ def test_a_posture_offset_moves_that_joint_clamped_to_its_limit(hand, objects):
 
 
 def test_an_approach_offset_moves_every_worlds_reach_pose_by_exactly_it(hand, objects):
-    from grasp_ctrl.sim.mujoco_world import MuJoCoWorld
-    from grasp_ctrl.sim.world import MockWorld
+    from grasp_ctrl.sim.mock.world import MockWorld
+    from grasp_ctrl.sim.mujoco.world import MuJoCoWorld
     from grasp_ctrl.trials.episode.hardware import reach_pose_world
 
     lego = objects["lego"]

@@ -548,7 +548,7 @@ def test_8_contact_threshold_zero_is_refused(tmp_path):
 
 # ---------------------------------------------------------------- 9. records name what failed
 def test_9_a_mock_servo_fault_names_the_servo_in_the_record(hand, objects):
-    from grasp_ctrl.sim import backends
+    from grasp_ctrl.sim.mock import backends
 
     def on_tick(world, ctrl):
         if ctrl.state == "close" and getattr(world, "_broke", False) is False:

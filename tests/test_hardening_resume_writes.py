@@ -305,7 +305,7 @@ def test_replace_in_place_keeps_mode_and_follows_a_symlink_to_its_target(tmp_pat
 
 def test_mujoco_warnings_go_to_the_run_directory_or_nowhere(tmp_path, monkeypatch):
     mujoco = pytest.importorskip("mujoco")
-    from grasp_ctrl.sim import mujoco_log
+    from grasp_ctrl.sim.mujoco import log as mujoco_log
 
     monkeypatch.chdir(tmp_path)
     mujoco_log.install(mujoco)

@@ -11,7 +11,7 @@ import pytest
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
 from grasp_ctrl.files.paths import policies_dir
-from grasp_ctrl.sim.presses import pad_presses, skin_presses
+from grasp_ctrl.sim.biotac.presses import pad_presses, skin_presses
 
 
 def _angles_deg(pred: np.ndarray, f: np.ndarray) -> np.ndarray:

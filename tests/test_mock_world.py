@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 
 from grasp_ctrl.controller.settings import settings_for
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
-from grasp_ctrl.sim.biotac_model import BioTacSensorModel
-from grasp_ctrl.sim.grip import solve_object_height, tangential_forces
+from grasp_ctrl.sim.biotac.model import BioTacSensorModel
+from grasp_ctrl.sim.mock.grip import solve_object_height, tangential_forces
 from grasp_ctrl.tactile.layout import ELECTRODES, PDC
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 
@@ -104,7 +104,7 @@ def test_friction_limits_put_the_contact_force_on_its_own_friction_cone(normal, 
     """At either limit the finger's whole force on the object (normal push plus
     vertical drag), split on the surface's own normal, is exactly mu times its
     compressive part; on a wall both limits are mu N."""
-    from grasp_ctrl.sim.grip import friction_limits
+    from grasp_ctrl.sim.mock.grip import friction_limits
 
     n = np.array([np.cos(tilt), 0.0, np.sin(tilt)])  # outward surface normal, tilted up or down
     up, down = friction_limits(normal, n[2], mu)
@@ -123,7 +123,7 @@ def test_friction_limits_put_the_contact_force_on_its_own_friction_cone(normal, 
 
 
 def test_friction_limits_of_a_wall_are_mu_n():
-    from grasp_ctrl.sim.grip import friction_limits
+    from grasp_ctrl.sim.mock.grip import friction_limits
 
     assert friction_limits(2.0, 0.0, 0.9) == pytest.approx((1.8, 1.8))
     assert friction_limits(0.0, 0.3, 0.9) == (0.0, 0.0)
@@ -185,7 +185,7 @@ def test_flat_press_lands_on_the_pad_centre():
 
 
 def test_oracle_succeeds_with_contacts_on_the_skin(hand, objects):
-    from grasp_ctrl.sim.world import WorldParams
+    from grasp_ctrl.sim.mock.world import WorldParams
 
     obj = objects["chips_can"]
     r = run_sim_trial(

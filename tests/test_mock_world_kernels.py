@@ -19,7 +19,7 @@ from grasp_ctrl.files.paths import REPO_ROOT
 from grasp_ctrl.kinematics.chain import FingerChain, HandKinematics
 from grasp_ctrl.kinematics.multilinear import MultilinearKinematics
 from grasp_ctrl.numeric import jit
-from grasp_ctrl.sim.shapes import penetration, shape_params
+from grasp_ctrl.sim.mock.shapes import penetration, shape_params
 
 unit = st.floats(0.0, 1.0)
 
@@ -71,7 +71,7 @@ def test_chains_of_different_lengths_are_padded_with_fixed_joints(hand):
 
 
 def _grasped_world(hand, objects, name="chips_can", skin_contact=True, state="hold"):
-    from grasp_ctrl.sim.world import WorldParams
+    from grasp_ctrl.sim.mock.world import WorldParams
     from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 
     seen = {}

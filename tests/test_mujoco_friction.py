@@ -13,7 +13,7 @@ import mujoco  # a run-time dependency: no skip
 import pytest
 
 from grasp_ctrl.kinematics.fingertip import SKIN_RADIUS_M  # noqa: E402
-from grasp_ctrl.sim.mujoco_scene import (  # noqa: E402
+from grasp_ctrl.sim.mujoco.scene import (  # noqa: E402
     HAND_COLLISION,
     WORLD_COLLISION,
     SceneParams,

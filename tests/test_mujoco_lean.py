@@ -1,5 +1,5 @@
-"""The MuJoCo world's one-call tick (sim/biotac_model.py's mj_tick_frames) against a
-straightforward reference: sim/mujoco_contacts.py's read_contacts and skin_point_and_normal,
+"""The MuJoCo world's one-call tick (sim/biotac/model.py's mj_tick_frames) against a
+straightforward reference: sim/mujoco/contacts.py's read_contacts and skin_point_and_normal,
 a loop per fingertip on Python floats and the BioTac model's own ``frames``."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.tick import control_tick
-from grasp_ctrl.sim.biotac_model import (
+from grasp_ctrl.sim.biotac.model import (
     NEW_CONTACT,
     SUM_FLAGS,
     SUM_ON_TABLE,
@@ -25,9 +25,9 @@ from grasp_ctrl.sim.biotac_model import (
     mj_body_velocity,
     mj_skin_point,
 )
-from grasp_ctrl.sim.mujoco_backends import MockArm, mujoco_backends
-from grasp_ctrl.sim.mujoco_contacts import read_contacts, skin_point_and_normal
-from grasp_ctrl.sim.mujoco_world import MuJoCoWorld, mocap_step
+from grasp_ctrl.sim.mujoco.backends import MockArm, mujoco_backends
+from grasp_ctrl.sim.mujoco.contacts import read_contacts, skin_point_and_normal
+from grasp_ctrl.sim.mujoco.world import MuJoCoWorld, mocap_step
 from grasp_ctrl.sim.oracle import OracleEstimator
 
 

@@ -8,7 +8,7 @@ import pytest
 
 from grasp_ctrl.controller.joint_stiffness import servo_kp_nm_per_rad, servo_kv_nm_s_per_rad  # noqa: E402
 from grasp_ctrl.kinematics.chain import HandKinematics  # noqa: E402
-from grasp_ctrl.sim.mujoco_scene import PlacedObject, SceneParams, build_scene  # noqa: E402
+from grasp_ctrl.sim.mujoco.scene import PlacedObject, SceneParams, build_scene  # noqa: E402
 
 
 def _model(hand, obj, mu=None):

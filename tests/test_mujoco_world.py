@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from grasp_ctrl.controller.settings import settings_for
-from grasp_ctrl.sim.mujoco_world import MuJoCoWorld  # noqa: E402
+from grasp_ctrl.sim.mujoco.world import MuJoCoWorld  # noqa: E402
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial  # noqa: E402
 
 PAPER = settings_for("paper")

@@ -14,7 +14,7 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.pad_ik import Facing, PadIK
 from grasp_ctrl.kinematics.preshape import side_gap, solve_preshape, surface_hit
-from grasp_ctrl.sim.world import WorldParams
+from grasp_ctrl.sim.mock.world import WorldParams
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 
 STANDOFF_M = 0.01

@@ -77,7 +77,7 @@ def test_the_loop_paces_on_deadlines_counts_misses_and_catches_the_world_up() ->
 def _short_realtime_trial(hand, objects, latency_ms: int, loop_s: float):
     """A realtime emulated trial stopped after ``loop_s`` of trial time (the controller faults
     'aborted' and settles)."""
-    from grasp_ctrl.sim.mujoco_backends import make_world
+    from grasp_ctrl.sim.mujoco.backends import make_world
 
     h = replace(hand, dynamixel=replace(hand.dynamixel, latency_timer_ms=latency_ms))
 

@@ -153,7 +153,7 @@ def test_an_overheating_servo_ends_the_trial_in_a_safe_stop_and_a_record(hand, o
     its Hardware Error Status mid-lift ends the trial: fault, reason hardware_error, the servo
     named in the record, the hand file's safe action (open) taken and the trial recorded."""
     from grasp_ctrl.emulators import world_rig
-    from grasp_ctrl.sim.mujoco_backends import make_world
+    from grasp_ctrl.sim.mujoco.backends import make_world
 
     rigs: list = []
 

@@ -20,8 +20,8 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.loop.loop_kernels import log_row, place_forces, sense_forces, sense_inputs, track_peaks
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.ticklog import TickLog
-from grasp_ctrl.sim.backends import MockSensors, checked_limit_goal, clamped_arm_target, joint_state_kernel
-from grasp_ctrl.sim.world import MockWorld, _clamped_target, _clip_into, _finite_copy, _limited_goal
+from grasp_ctrl.sim.mock.backends import MockSensors, checked_limit_goal, clamped_arm_target, joint_state_kernel
+from grasp_ctrl.sim.mock.world import MockWorld, _clamped_target, _clip_into, _finite_copy, _limited_goal
 from grasp_ctrl.tactile.layout import FRAME_LEN, PDC
 from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate_bits
 
@@ -288,7 +288,7 @@ def test_a_zero_force_turns_into_zeros(hand, seed):
 def test_mock_backends_write_like_the_long_way(hand, objects):
     """MockHand and MockArm through the world's one-pass writes and through the generic path."""
     from grasp_ctrl.errors import HardwareError
-    from grasp_ctrl.sim.backends import MockArm, MockHand
+    from grasp_ctrl.sim.mock.backends import MockArm, MockHand
 
     worlds = [MockWorld(hand, objects["chips_can"], 1) for _ in range(2)]
     hands = [MockHand(w, hand) for w in worlds]

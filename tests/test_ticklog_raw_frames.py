@@ -13,7 +13,7 @@ import pytest
 from grasp_ctrl.cli import main
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.loop.ticklog import raw_frame_columns, read_tick_log, rounded_float32
-from grasp_ctrl.sim.world import MockWorld
+from grasp_ctrl.sim.mock.world import MockWorld
 from grasp_ctrl.trials.runs.manifest import RunManifest
 
 FINGERS = ("index", "middle", "ring", "thumb")

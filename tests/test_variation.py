@@ -11,8 +11,9 @@ import pytest
 
 from grasp_ctrl.cli import main
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.sim.mujoco_backends import MuJoCoHand
-from grasp_ctrl.sim.mujoco_world import MuJoCoParams, MuJoCoWorld
+from grasp_ctrl.sim.mock.world import MockWorld, WorldParams
+from grasp_ctrl.sim.mujoco.backends import MuJoCoHand
+from grasp_ctrl.sim.mujoco.world import MuJoCoParams, MuJoCoWorld
 from grasp_ctrl.sim.variation import (
     BENCH,
     NOMINAL,
@@ -22,7 +23,6 @@ from grasp_ctrl.sim.variation import (
     variation,
     variation_from_json,
 )
-from grasp_ctrl.sim.world import MockWorld, WorldParams
 from grasp_ctrl.trials.runs.manifest import RunManifest
 
 SEEDS = (0, 1, 7, 12345)

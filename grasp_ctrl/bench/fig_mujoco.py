@@ -42,7 +42,7 @@ def _trial(seed: int, mujoco_module: Any = None) -> SimTrial:
     obj = load_objects(default_objects_file())[BENCH_OBJECT]
     make_world = None
     if mujoco_module is not None:
-        from grasp_ctrl.sim.mujoco_world import MuJoCoWorld
+        from grasp_ctrl.sim.mujoco.world import MuJoCoWorld
 
         def make_world(hand: Any, obj: Any, seed: int, params: Any) -> Any:
             world = MuJoCoWorld(hand, obj, seed, params)

@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
         format_report,
         pad_press_ratios,
     )
-    from grasp_ctrl.sim.biotac_params_file import load_biotac_params
+    from grasp_ctrl.sim.biotac.params_file import load_biotac_params
 
     if args.n < 50:
         raise UsageError("--n: at least 50 samples per source")

@@ -23,7 +23,7 @@ import numpy as np
 from grasp_ctrl.files.safe_write import check_output, write_output  # noqa: F401
 
 if TYPE_CHECKING:
-    from grasp_ctrl.sim.grasp_contacts import GraspContacts
+    from grasp_ctrl.sim.biotac.grasp_contacts import GraspContacts
 
 NAME = "fit-mock-policies"
 HELP = "fit the analytic, linear and MLP policies on simulated presses and write their JSON into policies/"
@@ -91,14 +91,14 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.estimators.analytic import AnalyticEstimator, fit_gains
     from grasp_ctrl.estimators.linear import LinearEstimator, fit_linear
-    from grasp_ctrl.sim.presses import pad_presses, skin_presses
+    from grasp_ctrl.sim.biotac.presses import pad_presses, skin_presses
 
     if args.samples < 100:
         raise UsageError("--samples: at least 100")
     out_dir = Path(args.out_dir)
     if not out_dir.is_dir():
         raise UsageError(f"--out-dir: {out_dir} is not a directory")
-    from grasp_ctrl.sim.grasp_contacts import load_contacts
+    from grasp_ctrl.sim.biotac.grasp_contacts import load_contacts
 
     contacts = load_contacts(args.grasp_contacts)
     tared, f = pad_presses(args.samples, args.seed)
@@ -176,7 +176,7 @@ def _fit_mlp(
     import sys
 
     from grasp_ctrl.estimators.mlp import MlpEstimator
-    from grasp_ctrl.sim.presses import skin_presses
+    from grasp_ctrl.sim.biotac.presses import skin_presses
 
     try:
         from grasp_ctrl.learning.mlp_fit import fit_mlp
@@ -186,7 +186,7 @@ def _fit_mlp(
     skin_tared, skin_f = skin_presses(2 * samples, seed + 2)
     parts_x, parts_f = [pad_tared, skin_tared[n_test:]], [pad_f, skin_f[n_test:]]
     if contacts is not None:
-        from grasp_ctrl.sim.presses import contact_presses
+        from grasp_ctrl.sim.biotac.presses import contact_presses
 
         grasp_tared, grasp_f = contact_presses(contacts, 2 * samples, seed + 3)
         parts_x.append(grasp_tared[n_test:])

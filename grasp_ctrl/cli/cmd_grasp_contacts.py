@@ -19,7 +19,7 @@ ORDER = 78
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     from grasp_ctrl.files.paths import default_hand_file, default_objects_file
-    from grasp_ctrl.sim.grasp_contacts import DEFAULT_EVERY, DEFAULT_SEED
+    from grasp_ctrl.sim.biotac.grasp_contacts import DEFAULT_EVERY, DEFAULT_SEED
 
     p.add_argument("--out", required=True, metavar="FILE.csv", help="contacts CSV to write")
     p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE", help="hand config TOML")
@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.files.safe_write import check_new_file, check_output, write_output
-    from grasp_ctrl.sim.grasp_contacts import csv_text
+    from grasp_ctrl.sim.biotac.grasp_contacts import csv_text
     from grasp_ctrl.trials.episode.contact_recorder import record_grasp_contacts
     from grasp_ctrl.trials.runs.selection import select_objects
 

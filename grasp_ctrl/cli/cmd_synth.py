@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     if out.suffix.lower() != ".csv":
         raise UsageError(f"--out: {out}: a .csv file name expected")
     check_new_file(out, "--out", args.force)
-    from grasp_ctrl.sim.grasp_contacts import load_contacts
+    from grasp_ctrl.sim.biotac.grasp_contacts import load_contacts
 
     trials = generate_trials(args.n, seed=args.seed, sources=sources, contacts=load_contacts(args.grasp_contacts))
     samples = Dataset.concat([tr.dataset() for tr in trials if tr.keep.any()])

@@ -257,7 +257,7 @@ def run(args: argparse.Namespace) -> int:
     _check_args(args)
     require_optuna()
     if _entry(args).world == REFERENCE_WORLD:  # MuJoCo (the sim extra), before any study is opened
-        from grasp_ctrl.sim.mujoco_world import _mujoco
+        from grasp_ctrl.sim.mujoco.world import _mujoco
 
         _mujoco()
     from grasp_ctrl.config.checks import check_objects_for_hand

@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.config.objects import load_objects
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.files.paths import default_hand_file, default_objects_file
-    from grasp_ctrl.sim.mujoco_world import MuJoCoWorld
+    from grasp_ctrl.sim.mujoco.world import MuJoCoWorld
 
     hand = load_hand(Path(args.hand or default_hand_file()))
     objects = load_objects(Path(args.object_file or default_objects_file()))

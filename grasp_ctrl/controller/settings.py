@@ -97,7 +97,7 @@ class ControllerSettings:
     slip_rate_n_s: float = 25.0  # slip: a tangential force changing faster than this
     slip_filter_s: float = 0.03  # the rates are read over this long
     slip_pac_counts: float = 20.0  # slip: a fingertip's PAC spread this far above its usual level (raw counts;
-    #   the sensor model's noise is 6, sim/biotac_model.py: 20 is sliding at about 1.5 mm/s more than usual)
+    #   the sensor model's noise is 6, sim/biotac/model.py: 20 is sliding at about 1.5 mm/s more than usual)
     slip_pac_window_s: float = 0.5  # the usual level: the spread averaged over this long
     slip_pac_ticks: int = 2  #   for this many ticks
     slip_boost: float = 0.15  # each slip raises the grip scale by this

@@ -32,7 +32,7 @@ import numpy as np
 
 from grasp_ctrl.emulators.bus_timing import wire_time_s
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
-from grasp_ctrl.sim.biotac_model import BioTacSensorModel
+from grasp_ctrl.sim.biotac.model import BioTacSensorModel
 from grasp_ctrl.tactile.layout import COUNT_MAX, ELECTRODES, FRAME_LEN, PAC, PDC, TAC, TDC
 from grasp_ctrl.tactile_link.protocol import SEQ_MODULO, encode_binary, encode_text
 
@@ -53,7 +53,7 @@ def _to_counts(frame: np.ndarray) -> np.ndarray:
 
 class SyntheticSource:
     """Slow presses on each fingertip's pad through the simulated BioTac (the same forward
-    model as the mock world and the synthetic training data, ``sim/biotac_model.py``):
+    model as the mock world and the synthetic training data, ``sim/biotac/model.py``):
     electrodes under the pad drop, the ones away from it rise, pdc rises. Each fingertip is
     its own simulated sensor (baselines, gains, noise), stepped once per call."""
 

@@ -217,7 +217,7 @@ ANCHOR_SOURCES = ("rigid-ft", "ball-ft")
 
 def rest_noise_sd(params: object | None = None, frames: int = 200, seed: int = 0) -> float:
     """Electrode noise sd (counts) of simulated sensors at rest, measured as on the real data."""
-    from grasp_ctrl.sim.biotac_model import DEFAULT_PARAMS, BioTacSensorModel
+    from grasp_ctrl.sim.biotac.model import DEFAULT_PARAMS, BioTacSensorModel
 
     model = BioTacSensorModel(4, np.random.default_rng(seed), params or DEFAULT_PARAMS)  # type: ignore[arg-type]
     zeros = np.zeros((4, 3))
@@ -312,7 +312,7 @@ def pad_press_ratios(
     average it over the press locations of the training sources."""
     from grasp_ctrl.estimators.registry import load_policy
     from grasp_ctrl.kinematics.fingertip import SKIN_RADIUS_M
-    from grasp_ctrl.sim.biotac_model import DEFAULT_PARAMS, BioTacSensorModel
+    from grasp_ctrl.sim.biotac.model import DEFAULT_PARAMS, BioTacSensorModel
 
     net = load_policy(policy)
     model = BioTacSensorModel(1, np.random.default_rng(seed), params or DEFAULT_PARAMS)  # type: ignore[arg-type]
@@ -381,8 +381,8 @@ def location_shares(real_a: np.ndarray, params: object | None = None, seed: int 
     anchor figure pools the training sources' press locations; this splits it by where the skin
     is pressed."""
     from grasp_ctrl.learning.features import surface_point_and_normal
-    from grasp_ctrl.sim.biotac_model import DEFAULT_PARAMS, N_GAIN, pack_params, static_frames
-    from grasp_ctrl.sim.presses import sheared_forces
+    from grasp_ctrl.sim.biotac.model import DEFAULT_PARAMS, N_GAIN, pack_params, static_frames
+    from grasp_ctrl.sim.biotac.presses import sheared_forces
     from grasp_ctrl.tactile.geometry import SURFACE_RADIUS_M
 
     components = top_components(real_a)

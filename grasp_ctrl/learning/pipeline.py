@@ -53,7 +53,7 @@ def load_data(spec: DataSpec, report: Callable[[str], None] = print) -> tuple[Da
             report(f"skipped bad row: {note}")
         return ds, {"files": [str(f) for f in spec.files], "skipped_rows": len(notes)}
     from grasp_ctrl.learning.synthetic import generate
-    from grasp_ctrl.sim.grasp_contacts import load_contacts
+    from grasp_ctrl.sim.biotac.grasp_contacts import load_contacts
 
     contacts = load_contacts(spec.grasp_contacts, skip_bad_rows=spec.skip_bad)
     t0 = time.perf_counter()
@@ -65,7 +65,7 @@ def load_data(spec: DataSpec, report: Callable[[str], None] = print) -> tuple[Da
     info: dict[str, Any] = {
         "synthetic_per_source": spec.synthetic_per_source,
         "seed": spec.seed,
-        "forward_model": "grasp_ctrl.sim.biotac_model (mock world)",
+        "forward_model": "grasp_ctrl.sim.biotac.model (mock world)",
     }
     if contacts is not None:
         info["ball_ft_grasp_contacts"] = {"file": Path(spec.grasp_contacts).name, "contacts": contacts.summary()}

@@ -9,7 +9,7 @@ Character of each source (paper II-B, III-A):
   plus force/torque-sensor noise with a per-trial standard deviation of 0.01-0.1 N;
 - ball-ft: contacts all over the sensor (random sensor orientations relative to the ball), large
   tangential parts; labels are rotated by a small per-trial orientation error (tracking) plus F/T
-  noise. Given recorded grasp contacts (``sim/grasp_contacts.py``: where the LEAP Hand's grasps
+  noise. Given recorded grasp contacts (``sim/biotac/grasp_contacts.py``: where the LEAP Hand's grasps
   load a fingertip in MuJoCo), half of the ball-ft trials press at one of those contacts along its
   force's direction (or with its shear reversed) instead: the paper's robot pressed the ball with
   its own hand, so its contacts were the hand's;
@@ -36,8 +36,8 @@ from grasp_ctrl.learning.gate import GateRule, contact_gate
 from grasp_ctrl.pushing.kinematics import planar_motion
 from grasp_ctrl.pushing.simulate import PAPER_BOX, simulate_push
 from grasp_ctrl.pushing.solver import plane_force_to_sensor, pusher_forces
-from grasp_ctrl.sim.grasp_contacts import GraspContacts
-from grasp_ctrl.sim.presses import reverse_shear
+from grasp_ctrl.sim.biotac.grasp_contacts import GraspContacts
+from grasp_ctrl.sim.biotac.presses import reverse_shear
 from grasp_ctrl.tactile.geometry import SURFACE_RADIUS_M
 from grasp_ctrl.tactile.layout import PDC
 
@@ -97,9 +97,9 @@ class SimTrial:
 
 
 def mock_biotac_forward(params: object | None = None) -> ForwardModel:
-    """The mock world's BioTac model (grasp_ctrl.sim.biotac_model) as a forward callable:
+    """The mock world's BioTac model (grasp_ctrl.sim.biotac.model) as a forward callable:
     a fresh simulated sensor (own baselines and gains) per call, stepped at 100 Hz."""
-    from grasp_ctrl.sim.biotac_model import DEFAULT_PARAMS, BioTacSensorModel
+    from grasp_ctrl.sim.biotac.model import DEFAULT_PARAMS, BioTacSensorModel
 
     def forward(p_sensor: np.ndarray, f_sensor: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         model = BioTacSensorModel(1, rng, params or DEFAULT_PARAMS)  # type: ignore[arg-type]

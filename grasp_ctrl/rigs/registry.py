@@ -82,13 +82,13 @@ class Backend:
 
 
 def _mock_world() -> WorldFactory:
-    from grasp_ctrl.sim.world import MockWorld
+    from grasp_ctrl.sim.mock.world import MockWorld
 
     return MockWorld
 
 
 def _mock_backends(realtime: bool) -> BackendFactory:
-    from grasp_ctrl.sim.backends import MockHand, MockSensors
+    from grasp_ctrl.sim.mock.backends import MockHand, MockSensors
 
     def backends(world: Any, hand: HandConfig) -> tuple[Any, Any]:
         return MockHand(world, hand), MockSensors(world)
@@ -97,25 +97,25 @@ def _mock_backends(realtime: bool) -> BackendFactory:
 
 
 def _mock_params(v: Variation) -> Any:
-    from grasp_ctrl.sim.world import WorldParams
+    from grasp_ctrl.sim.mock.world import WorldParams
 
     return WorldParams(variation=v)
 
 
 def _mujoco_world() -> WorldFactory:
-    from grasp_ctrl.sim.mujoco_backends import make_world
+    from grasp_ctrl.sim.mujoco.backends import make_world
 
     return make_world
 
 
 def _mujoco_backends(realtime: bool) -> BackendFactory:
-    from grasp_ctrl.sim.mujoco_backends import mujoco_backends
+    from grasp_ctrl.sim.mujoco.backends import mujoco_backends
 
     return mujoco_backends
 
 
 def _mujoco_params(v: Variation) -> Any:
-    from grasp_ctrl.sim.mujoco_world import MuJoCoParams
+    from grasp_ctrl.sim.mujoco.world import MuJoCoParams
 
     return MuJoCoParams(variation=v)
 

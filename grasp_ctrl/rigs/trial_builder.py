@@ -28,7 +28,7 @@ from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.tick import control_tick
 from grasp_ctrl.rigs.registry import DEFAULT_BACKEND, BackendFactory, WorldFactory
 from grasp_ctrl.rigs.registry import backend as backend_entry
-from grasp_ctrl.sim.backends import MockArm
+from grasp_ctrl.sim.mock.backends import MockArm
 from grasp_ctrl.sim.world_api import World
 
 EstimatorFactory = Callable[[World], ForceEstimator]

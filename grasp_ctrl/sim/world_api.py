@@ -2,7 +2,7 @@
 
 The runner steps a world and reads its clock and events, the judge (trials/episode/
 outcome.py) its ground truth, the oracle policy its true forces, the tick log and the
-recorders its state. ``MockWorld`` (sim/world.py) and ``MuJoCoWorld`` (sim/mujoco_world.py)
+recorders its state. ``MockWorld`` (sim/mock/world.py) and ``MuJoCoWorld`` (sim/mujoco/world.py)
 both satisfy it; a new simulator is added by writing a world that does, and a backend
 entry for it (rigs/registry.py).
 """
@@ -30,7 +30,7 @@ class World(Protocol):
     def close(self) -> None:
         """End of the trial (e.g. finish a video); idempotent."""
 
-    # what the backends read and write (sim/backends.py)
+    # what the backends read and write (sim/mock/backends.py)
     q: np.ndarray  # joint angles (rad)
     q_goal: np.ndarray  # joint goals the hand backend writes (rad)
     torque_on: bool

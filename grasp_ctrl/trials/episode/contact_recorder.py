@@ -9,7 +9,7 @@ import numpy as np
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.rigs.registry import REFERENCE_WORLD
-from grasp_ctrl.sim.grasp_contacts import DEFAULT_EVERY, DEFAULT_SEED, MIN_FORCE_N, GraspContacts
+from grasp_ctrl.sim.biotac.grasp_contacts import DEFAULT_EVERY, DEFAULT_SEED, MIN_FORCE_N, GraspContacts
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial, trial_seed
 
 

@@ -22,7 +22,7 @@ from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.files.storage import safe_name
 from grasp_ctrl.rigs.registry import REFERENCE_WORLD
-from grasp_ctrl.sim.mujoco_world import MuJoCoParams, MuJoCoWorld
+from grasp_ctrl.sim.mujoco.world import MuJoCoParams, MuJoCoWorld
 
 FPS = 15
 WIDTH, HEIGHT = 320, 240
@@ -126,7 +126,7 @@ def video_trial_fn(
     ``variation``: the world's per-trial draws (sim/variation.py; None: nominal); ``raw_frames``:
     the tick logs keep each fingertip's whole raw frame (run --raw-frames)."""
     choose_gl_backend()
-    from grasp_ctrl.sim.mujoco_backends import mujoco_backends
+    from grasp_ctrl.sim.mujoco.backends import mujoco_backends
     from grasp_ctrl.trials.episode.runner import sim_trial_fn
 
     current: dict[str, Path] = {}

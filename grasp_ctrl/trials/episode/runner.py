@@ -35,9 +35,9 @@ from grasp_ctrl.numeric import jit
 from grasp_ctrl.rigs.registry import DEFAULT_BACKEND, BackendFactory, WorldFactory
 from grasp_ctrl.rigs.registry import backend as backend_entry
 from grasp_ctrl.rigs.trial_builder import EstimatorFactory, build_trial, trial_factories
+from grasp_ctrl.sim.mock.world import WorldParams
 from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
 from grasp_ctrl.sim.variation import Variation
-from grasp_ctrl.sim.world import WorldParams
 from grasp_ctrl.sim.world_api import World
 from grasp_ctrl.trials.episode.outcome import judge
 
@@ -87,7 +87,7 @@ def trial_seed(seed: int, obj_name: str, trial: int) -> int:
 
 # The hand and sensor backends of a trial on a world: the mock's own, or the real
 # backends on emulators (emulators/world_rig.py, ``run --backend dynamixel --emulate``).
-# The world of a trial: the mock world, or MuJoCo's (``run --backend mujoco``, sim/mujoco_world.py).
+# The world of a trial: the mock world, or MuJoCo's (``run --backend mujoco``, sim/mujoco/world.py).
 
 
 def estimator_factory(spec: str, hand: HandConfig, threads: int = 1) -> EstimatorFactory:

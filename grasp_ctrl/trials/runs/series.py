@@ -39,7 +39,7 @@ from grasp_ctrl.files.storage import (
 )
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.rigs.registry import DEFAULT_BACKEND
-from grasp_ctrl.sim.mujoco_log import set_log_dir as set_engine_log_dir
+from grasp_ctrl.sim.mujoco.log import set_log_dir as set_engine_log_dir
 from grasp_ctrl.sim.variation import NOMINAL, Variation
 from grasp_ctrl.trials.episode.runner import TrialFn, sim_trial_fn, trial_seed
 from grasp_ctrl.trials.runs.fingerprint import stamp, sync_manifest

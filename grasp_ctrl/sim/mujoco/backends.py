@@ -12,8 +12,8 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.hardware.base import JointState
-from grasp_ctrl.sim.backends import MockArm, MockHand, MockSensors
-from grasp_ctrl.sim.mujoco_world import MuJoCoWorld
+from grasp_ctrl.sim.mock.backends import MockArm, MockHand, MockSensors
+from grasp_ctrl.sim.mujoco.world import MuJoCoWorld
 
 __all__ = ["MuJoCoHand", "MuJoCoSensors", "MockArm", "mujoco_backends"]
 

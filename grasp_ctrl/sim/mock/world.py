@@ -21,7 +21,7 @@ Model (quasi-static, documented in docs/mock_world.md):
 
 Speed: a step must cost tens of microseconds (``bench``'s
 ``mock_realtime_factor``), so the physics is one kernel over arrays
-(sim/world_step.py), compiled by numba when the ``sim`` extra is installed
+(sim/mock/world_step.py), compiled by numba when the ``sim`` extra is installed
 (grasp_ctrl/numeric/jit.py). The kinematics of all fingers are one tensor contraction
 (kinematics/multilinear.py) at the servo positions; the contact solve, linear
 in the deflection, then moves each contact point and sensor frame to first
@@ -45,9 +45,9 @@ from grasp_ctrl.numeric import jit
 from grasp_ctrl.numeric.finite import all_finite
 from grasp_ctrl.numeric.jit import njit
 from grasp_ctrl.numeric.limits import clamp
-from grasp_ctrl.sim import world_step as ws
-from grasp_ctrl.sim.biotac_model import BioTacParams, BioTacSensorModel
-from grasp_ctrl.sim.shapes import shape_params
+from grasp_ctrl.sim.biotac.model import BioTacParams, BioTacSensorModel
+from grasp_ctrl.sim.mock import world_step as ws
+from grasp_ctrl.sim.mock.shapes import shape_params
 from grasp_ctrl.sim.variation import NOMINAL, Variation, draw_object, draw_record
 
 GRAVITY = 9.81
@@ -467,7 +467,7 @@ class MockWorld:
 
     # Updated in place by the step kernel, so read-only here.
     def write_limited_goal(self, goal: np.ndarray, max_step: float, lower: np.ndarray, upper: np.ndarray) -> bool:
-        """The mock hand's goal write in one compiled pass (sim/backends.py): ``goal``
+        """The mock hand's goal write in one compiled pass (sim/mock/backends.py): ``goal``
         (float64, one per joint) within ``max_step`` of the current goal and within
         [lower, upper], then the ``q_goal`` setter's clamp to the joint limits. False,
         with nothing changed, when a goal is not finite."""
@@ -478,7 +478,7 @@ class MockWorld:
         return True
 
     def set_clamped_palm_target(self, p: np.ndarray, z_min: float, z_max: float) -> bool:
-        """The mock arm's command in one compiled pass (sim/backends.py): ``p`` (float64,
+        """The mock arm's command in one compiled pass (sim/mock/backends.py): ``p`` (float64,
         (3,)) with its height clamped to [z_min, z_max] becomes the wrist target when it
         is finite; False, with nothing changed, when it is not."""
         out = np.empty(3)

@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
-from grasp_ctrl.sim.biotac_model import BioTacParams, BioTacSensorModel
-from grasp_ctrl.sim.grasp_contacts import GraspContacts
+from grasp_ctrl.sim.biotac.grasp_contacts import GraspContacts
+from grasp_ctrl.sim.biotac.model import BioTacParams, BioTacSensorModel
 
 
 def random_pad_forces(n: int, rng: np.random.Generator, max_force_n: float = 6.0, cone_deg: float = 45.0) -> np.ndarray:
@@ -107,7 +107,7 @@ def contact_presses(
     params: BioTacParams | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(tared frames (n, 44), f_sensor labels (n, 3)) for presses at recorded contacts
-    (``sim/grasp_contacts.py``): each a contact drawn at random, its force scaled by a
+    (``sim/biotac/grasp_contacts.py``): each a contact drawn at random, its force scaled by a
     factor from ``scale_range`` (the recording's forces are those of one grip law; a
     policy's grip may be lighter or harder) and, for half of them, its shear reversed
     (``reverse_shear``), on a freshly drawn simulated sensor."""

@@ -436,11 +436,11 @@ def frames_kernel(
     return frame
 
 
-# ----- The MuJoCo world's per-tick reading (sim/mujoco_world.py) -----------------------------
+# ----- The MuJoCo world's per-tick reading (sim/mujoco/world.py) -----------------------------
 # From MuJoCo's solved contacts to this model's inputs, in one call per tick. It lives here,
 # not in a sim/mujoco_*.py file, because numeric/jit.py's KERNEL_SOURCES (the numba cache's
 # key, which tests/test_tick_kernels.py checks) lists this file. The contact sums follow
-# sim/mujoco_contacts.py's read_contacts and skin_point_and_normal term for term; the 3x3
+# sim/mujoco/contacts.py's read_contacts and skin_point_and_normal term for term; the 3x3
 # products are summed left to right from 0.0 (the same bits on any CPU, as numeric/vec3.py).
 
 # ``mj_tick_frames`` reads and writes per-fingertip arrays packed into two buffers (fewer
@@ -485,7 +485,7 @@ def mj_tip_buffers(n_tips: int) -> tuple[np.ndarray, np.ndarray, dict[str, np.nd
 def mj_skin_point(
     x: float, y: float, z: float, skin_radius: float, pad_x_min: float
 ) -> tuple[float, float, float, float, float, float]:
-    """skin_point_and_normal (sim/mujoco_contacts.py): the skin point nearest (x, y, z) (sensor
+    """skin_point_and_normal (sim/mujoco/contacts.py): the skin point nearest (x, y, z) (sensor
     frame) and its outward normal, as six floats."""
     if x > 0.0:
         r = math.sqrt(x * x + y * y + z * z)

@@ -10,7 +10,7 @@ from dataclasses import fields, replace
 from pathlib import Path
 
 from grasp_ctrl.config.toml_reader import finite_number
-from grasp_ctrl.sim.biotac_model import DEFAULT_PARAMS, BioTacParams, rise_weights_of
+from grasp_ctrl.sim.biotac.model import DEFAULT_PARAMS, BioTacParams, rise_weights_of
 
 MAX_MAGNITUDE = 1e9  # no parameter of the model (m, N/m, counts, ratios) comes near it
 

@@ -13,7 +13,7 @@ from grasp_ctrl.numeric import jit
 from grasp_ctrl.numeric.finite import all_finite
 from grasp_ctrl.numeric.jit import njit
 from grasp_ctrl.numeric.limits import limit_goal
-from grasp_ctrl.sim.world import MockWorld
+from grasp_ctrl.sim.mock.world import MockWorld
 
 _FLOAT64 = np.dtype(np.float64)
 

@@ -1,7 +1,7 @@
 """One step of the mock world (arm, servos, contacts, object, sensor frames), as
 a kernel over plain arrays that numba compiles when installed (grasp_ctrl/numeric/jit.py).
 
-The model is documented in sim/world.py and docs/mock_world.md. Array layouts:
+The model is documented in sim/mock/world.py and docs/mock_world.md. Array layouts:
 ``c`` holds the constants (indices below), ``obj`` the object's state
 (x, y, z, table force, largest normal force, new contacts), per-finger arrays are in
 hand-file finger order and per-joint arrays span all fingers.
@@ -16,9 +16,9 @@ import numpy as np
 from grasp_ctrl.kinematics.fingertip import skin_contact_point
 from grasp_ctrl.kinematics.multilinear import contract
 from grasp_ctrl.numeric.jit import njit
-from grasp_ctrl.sim.biotac_model import frames_kernel
-from grasp_ctrl.sim.grip import friction_limits, solve_object_height, tangential_forces
-from grasp_ctrl.sim.shapes import penetration
+from grasp_ctrl.sim.biotac.model import frames_kernel
+from grasp_ctrl.sim.mock.grip import friction_limits, solve_object_height, tangential_forces
+from grasp_ctrl.sim.mock.shapes import penetration
 
 # Constants (c).
 DT, ARM_SPEED, ALPHA, MAX_SERVO_STEP, KP, KT, K_CONTACT, MU, WEIGHT, TORQUE_ON, SKIN_CONTACT, NEAR = range(12)
@@ -108,7 +108,7 @@ def world_step(
     sensor_consts: np.ndarray,
 ) -> None:
     """Advance the world by one control period; the fingertips' raw frames
-    (sim/biotac_model.py, built on ``frame_base``) into ``frame_out`` (a new array
+    (sim/biotac/model.py, built on ``frame_base``) into ``frame_out`` (a new array
     of the caller's, as returning one would cost more: boxing it). The first five
     arguments change from step to step; the rest are the world's own arrays,
     updated in place. ``obj[NEW_CONTACTS]`` flags (bit per finger) the contacts

@@ -1,7 +1,7 @@
 """Where and how the hand's grasps press its fingertips: contacts recorded in MuJoCo.
 
 The learned policies are fitted on simulated presses of the BioTac model. Drawn by
-hand (``sim/presses.py``, ``learning/synthetic.py``) they miss where a grasp of the
+hand (``sim/biotac/presses.py``, ``learning/synthetic.py``) they miss where a grasp of the
 LEAP Hand actually loads a fingertip: the proximal end of the pad on a box's rim,
 the tip on the mustard bottle's cap with as much shear as normal force. The recorder
 (``trials/episode/contact_recorder.py``) runs trials in the reference world with true

@@ -1,11 +1,11 @@
 """The MuJoCo world: the mock world's interface over a MuJoCo simulation.
 
-Same seam as ``sim/world.py``'s MockWorld (what the trial runner, the backends,
+Same seam as ``sim/mock/world.py``'s MockWorld (what the trial runner, the backends,
 the oracle and the judge read): ``step`` advances one control period, the hand
 follows ``q_goal`` through position actuators at the servos' current limits,
 the wrist follows ``palm_target`` at the arm's speed (a mocap body the hand is
 welded to), and the fingertip contacts that MuJoCo solves feed the same BioTac
-forward model (``sim/biotac_model.py``) as the mock world. Outcome flags
+forward model (``sim/biotac/model.py``) as the mock world. Outcome flags
 (crushed, knocked over) and events (contact, fell) come from MuJoCo's state.
 
 Deterministic per seed: the seed draws the object's placement, yaw, mass,
@@ -29,7 +29,7 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
-from grasp_ctrl.sim.biotac_model import (
+from grasp_ctrl.sim.biotac.model import (
     GEOM_OBJECT,
     NEW_CONTACT,
     SUM_FLAGS,
@@ -42,9 +42,9 @@ from grasp_ctrl.sim.biotac_model import (
     mj_tick_frames,
     mj_tip_buffers,
 )
-from grasp_ctrl.sim.mujoco_scene import PlacedObject, SceneParams, build_scene
+from grasp_ctrl.sim.mock.world import GRAVITY, NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
+from grasp_ctrl.sim.mujoco.scene import PlacedObject, SceneParams, build_scene
 from grasp_ctrl.sim.variation import NOMINAL, Variation, draw_extra, draw_object, draw_record, max_rotated_half_extents
-from grasp_ctrl.sim.world import GRAVITY, NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
 
 FALL_SPEED_M_S = 0.1  # landing on the table faster than this is a drop (placing is slower)
 AIRBORNE_M = 0.002  # above this the object has left the table
@@ -87,7 +87,7 @@ def _mujoco():
         from grasp_ctrl.errors import UsageError
 
         raise UsageError("the MuJoCo world needs mujoco>=3.1, a dependency of grasp-ctrl: pip install -e .") from None
-    from grasp_ctrl.sim.mujoco_log import install
+    from grasp_ctrl.sim.mujoco.log import install
 
     install(mujoco)  # its warnings: the run directory or nowhere, never ./MUJOCO_LOG.TXT
     return mujoco
@@ -158,7 +158,7 @@ class MuJoCoWorld:
         self._body_rootid = m.body_rootid
         self._obj_xpos = d.xpos[self._obj_body]
         self._obj_xmat = d.xmat[self._obj_body]
-        # mj_tick_frames's geom kinds and ids (sim/biotac_model.py)
+        # mj_tick_frames's geom kinds and ids (sim/biotac/model.py)
         self._geom_kind = np.where(self._object_geom, GEOM_OBJECT, self._tip_geom_of)
         self._ids = np.array([self._table, self._obj_body, *self._sites, *self._tip_bodies], dtype=np.int64)
         hand_free = m.joint("hand_free")
@@ -401,7 +401,7 @@ class MuJoCoWorld:
 
     def _sense(self) -> np.ndarray:
         """This step's contacts -> the sensors' inputs (sensor frame) -> their raw frames."""
-        # One kernel (sim/biotac_model.py) for what sim/mujoco_contacts.py's read_contacts and
+        # One kernel (sim/biotac/model.py) for what sim/mujoco/contacts.py's read_contacts and
         # skin_point_and_normal define and the BioTac model's frames: calls cost most here.
         d = self.data
         con = d.contact
