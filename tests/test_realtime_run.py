@@ -215,3 +215,14 @@ def test_the_summary_gathers_each_objects_loop_figures() -> None:
     assert "p / lego: cycle p50 4.0 ms, p99 9.0 ms, max 10.0 ms; deadline misses 3 of 200 ticks" in table
     plain = format_table(summarize([_record("lego", 0, None)], "run", "mujoco", "leap_hand", 0))
     assert "wall-clock" not in plain
+
+
+def test_a_backend_without_wall_clock_links_is_refused_for_realtime(hand, objects):
+    """The wall-clock loop needs the hand and sensor backends' declared hooks
+    (emulators/wall_clock.py, WallClockHand and WallClockLink); the mock's have none."""
+    from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
+
+    with pytest.raises(UsageError, match="do not run on the wall clock"):
+        run_sim_trial(
+            hand, objects["lego"], estimator_factory("oracle", hand), 0, "oracle", backend="mock", realtime=True
+        )

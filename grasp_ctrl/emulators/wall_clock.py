@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -59,6 +59,26 @@ class TrialClock:
 
     def __call__(self) -> float:
         return self.now()
+
+
+@runtime_checkable
+class WallClockLink(Protocol):
+    """A backend that serves the real hand's links while the world steps on the wall clock
+    (``run --emulate --realtime``): it publishes the world's state after each step."""
+
+    trial_clock: TrialClock | None  # the clock its links run on (None: not on the wall clock)
+
+    def after_world_step(self) -> None: ...
+
+
+@runtime_checkable
+class WallClockHand(WallClockLink, Protocol):
+    """The hand's side of ``WallClockLink``: the goals its servos hold drive the next step, and
+    the bus it was measured on goes into the record."""
+
+    def before_world_step(self) -> None: ...
+
+    def bus_figures(self) -> dict[str, float]: ...
 
 
 class TimedHand:

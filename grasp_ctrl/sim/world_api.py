@@ -49,6 +49,11 @@ class World(Protocol):
     crushed: bool
     knocked_over: bool
     events: list[Any]  # world events of the trial (contacts, crushing, falls)
+    draw: dict[str, Any]  # this trial's variation draw (sim/variation.py; the record's variation_draw)
+    dt: float  # the control period (s)
+
+    def true_f_sensor(self, finger: str) -> np.ndarray:
+        """The true force on ``finger``'s skin (N, sensor frame): what the oracle policy reads."""
 
     def reach_pose_world(self) -> np.ndarray:
         """The palm's pre-grasp position (m, world frame)."""

@@ -26,7 +26,8 @@ from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.motion import squeeze_mode
 from grasp_ctrl.controller.settings import ControllerSettings
-from grasp_ctrl.emulators.wall_clock import TimedHand, TrialClock, WallClockLoop
+from grasp_ctrl.emulators.wall_clock import TimedHand, TrialClock, WallClockHand, WallClockLink, WallClockLoop
+from grasp_ctrl.errors import UsageError
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.loop.loop_kernels import track_peaks
@@ -183,12 +184,16 @@ def run_sim_trial(
     log = TickLog(log_path, names, len(hand.joints), truth=True, raw_frames=raw_frames) if log_path else None
     # realtime: the backends' clock (or one of the world's time base) paces the loop and stamps the ticks
     clock: TrialClock | None = None
+    step_world: Callable[[], None] = world.step
     if realtime:
-        clock = getattr(hand_backend, "trial_clock", None) or TrialClock(world.t)
+        if not (isinstance(hand_backend, WallClockHand) and isinstance(sensors, WallClockLink)):
+            parts.close(raise_error=False)
+            raise UsageError(f"backend {backend!r}: its hand and sensors do not run on the wall clock (realtime)")
+        clock = hand_backend.trial_clock or TrialClock(world.t)
+        step_world = _world_stepper(world, hand_backend, sensors)
     loop = WallClockLoop(hand.dt, world.dt, clock=clock.now) if clock is not None else None
     # the generic tick's reads, for the log's currents (realtime: its bus time too)
     tap = CurrentTap(hand_backend if loop is None else TimedHand(hand_backend, loop))
-    step_world = _world_stepper(world, hand_backend, sensors)
     n = len(names)
     peaks = np.zeros((3, n))
     # the peak of |f_sensor|^2 (its root at the end is the peak of |f_sensor|), of the grip and the true force
@@ -249,8 +254,8 @@ def run_sim_trial(
     wall = time.perf_counter() - wall0
     timings = state_timings(ctrl.history, world.t)
     if loop is not None:
-        bus = getattr(hand_backend, "bus_figures", None)
-        timings["loop"] = {**loop.figures(), **(bus() if bus is not None else {})}
+        assert isinstance(hand_backend, WallClockHand)  # (checked before the loop started)
+        timings["loop"] = {**loop.figures(), **hand_backend.bus_figures()}
     return TrialResult(
         object=obj.name,
         policy=policy_name,
@@ -270,7 +275,7 @@ def run_sim_trial(
         backend=backend,
         controller=controller_view(ctrl),
         fault_detail=ctrl.failure_detail,
-        variation_draw=getattr(world, "draw", None),
+        variation_draw=world.draw,
         timings=timings,
         peak_forces={
             name: {
@@ -283,17 +288,15 @@ def run_sim_trial(
     )
 
 
-def _world_stepper(world: World, *backends: Any) -> Callable[[], None]:
-    """One world step with the backends' realtime hooks around it (those that have them)."""
-    before = [f for b in backends if (f := getattr(b, "before_world_step", None)) is not None]
-    after = [f for b in backends if (f := getattr(b, "after_world_step", None)) is not None]
+def _world_stepper(world: World, hand: WallClockHand, sensors: WallClockLink) -> Callable[[], None]:
+    """One world step on the wall clock: the servos' goals drive it, then the hand's and the
+    sensors' links publish its state."""
 
     def step() -> None:
-        for f in before:
-            f()
+        hand.before_world_step()
         world.step()
-        for f in after:
-            f()
+        hand.after_world_step()
+        sensors.after_world_step()
 
     return step
 
