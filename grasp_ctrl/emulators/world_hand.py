@@ -39,6 +39,7 @@ from grasp_ctrl.hardware.base import JointState
 from grasp_ctrl.hardware.dynamixel import DynamixelHand
 from grasp_ctrl.hardware.dynamixel.calibration import Calibration
 from grasp_ctrl.hardware.dynamixel.control_table import RAD_PER_COUNT
+from grasp_ctrl.sim.world_api import World
 
 
 class _WorldClock:
@@ -49,30 +50,19 @@ class _WorldClock:
         return float(self.world.t)
 
 
-def _present_current_a(world: Any) -> np.ndarray:
-    """The servos' present current (A): MuJoCo's actuator torques, or the mock world's servo
-    spring, over the torque constant."""
-    if hasattr(world, "joint_torque_nm"):  # MuJoCoWorld
-        return np.asarray(world.joint_torque_nm) / world.params.scene.torque_per_amp_nm
-    p = world.params
-    return p.servo_stiffness_nm_per_rad * (np.asarray(world.q_servo) - np.asarray(world.q)) / p.torque_per_amp_nm
+def _present_current_a(world: World) -> np.ndarray:
+    """The servos' present current (A)."""
+    return np.asarray(world.joint_current_a)
 
 
-def _measured_q(world: Any) -> np.ndarray:
-    """The joint angles the servos report: the MuJoCo world's true angles less its joints'
-    calibration offsets (``q_measured``), or the mock world's angles."""
-    q = getattr(world, "q_measured", None)
-    return np.asarray(world.q if q is None else q, dtype=float)
+def _measured_q(world: World) -> np.ndarray:
+    """The joint angles the servos report (calibrated: the world's offsets stay inside it)."""
+    return np.asarray(world.q_measured, dtype=float)
 
 
-def _command(world: Any, q_goal: np.ndarray) -> None:
-    """The goals the servos received (calibrated angles) to the world: the MuJoCo world adds
-    its offsets (``command_goal``), the mock world takes them as they are."""
-    command = getattr(world, "command_goal", None)
-    if command is None:
-        world.q_goal = q_goal
-    else:
-        command(q_goal)
+def _command(world: World, q_goal: np.ndarray) -> None:
+    """The goals the servos received (calibrated angles) to the world."""
+    world.command_goal(q_goal)
 
 
 # The reply deadline of the emulated hand: the emulator is a thread on a possibly busy host.

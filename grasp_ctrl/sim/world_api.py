@@ -55,5 +55,12 @@ class World(Protocol):
     def true_f_sensor(self, finger: str) -> np.ndarray:
         """The true force on ``finger``'s skin (N, sensor frame): what the oracle policy reads."""
 
+    # what the servos see (the emulated hand's servo chain reads and writes these)
+    q_measured: np.ndarray  # the joint angles the servos report (rad, less any calibration offsets)
+    joint_current_a: np.ndarray  # the servos' present current (A)
+
+    def command_goal(self, q_measured_goal: np.ndarray) -> None:
+        """A goal in the servos' calibrated angles (what a hand backend writes)."""
+
     def reach_pose_world(self) -> np.ndarray:
         """The palm's pre-grasp position (m, world frame)."""

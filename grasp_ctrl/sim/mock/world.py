@@ -495,6 +495,22 @@ class MockWorld:
     def q_servo(self) -> np.ndarray:
         return self._q_servo
 
+    # ----- what the servos see (the mock world has no calibration offsets) ---------
+    @property
+    def q_measured(self) -> np.ndarray:
+        """The joint angles the servos report: the mock's angles as they are."""
+        return self._q
+
+    def command_goal(self, q_measured_goal: np.ndarray) -> None:
+        """A goal in the servos' calibrated angles: the mock's goal as it is."""
+        self.q_goal = q_measured_goal
+
+    @property
+    def joint_current_a(self) -> np.ndarray:
+        """The servos' present current (A): the servo spring's torque over the torque constant."""
+        p = self.params
+        return p.servo_stiffness_nm_per_rad * (np.asarray(self._q_servo) - np.asarray(self._q)) / p.torque_per_amp_nm
+
     @property
     def palm_world(self) -> np.ndarray:
         return self._palm

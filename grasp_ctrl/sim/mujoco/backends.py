@@ -27,8 +27,7 @@ class MuJoCoHand(MockHand):
 
     def read(self) -> JointState:
         w = self.world
-        current = w.joint_torque_nm / w.params.scene.torque_per_amp_nm
-        return JointState(q=w.q_measured, dq=w.dq, current_a=current, t=w.t)
+        return JointState(q=w.q_measured, dq=w.dq, current_a=w.joint_current_a, t=w.t)
 
     # MockHand's clamping (step limit from the servos' last goal, then the hand file's limits),
     # in calibrated angles; the world adds the offsets.

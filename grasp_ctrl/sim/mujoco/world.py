@@ -308,6 +308,11 @@ class MuJoCoWorld:
         return self.data.actuator_force[self._act].copy()
 
     @property
+    def joint_current_a(self) -> np.ndarray:
+        """The servos' present current (A): the actuators' torques over the torque constant."""
+        return self.joint_torque_nm / self.params.scene.torque_per_amp_nm
+
+    @property
     def palm_world(self) -> np.ndarray:
         return self.data.xpos[self._hand_body].copy()
 
