@@ -24,8 +24,11 @@ from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.kinematics.chain import HandKinematics
+from grasp_ctrl.loop.loop_kernels import track_peaks
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.tick import control_tick
+from grasp_ctrl.loop.ticklog import TickLog
+from grasp_ctrl.numeric import jit
 from grasp_ctrl.rigs.registry import DEFAULT_BACKEND, BackendFactory, WorldFactory
 from grasp_ctrl.rigs.registry import backend as backend_entry
 from grasp_ctrl.sim.mock.backends import MockArm
@@ -56,6 +59,41 @@ class SimTrial:
         """The world one control period on, then one control tick at its time."""
         self.world.step()
         return self.tick(self.world.t, hand_backend)
+
+    def record(
+        self,
+        snap: Snapshot,
+        cmd: Command,
+        raw: np.ndarray,
+        peaks: np.ndarray,
+        log: TickLog | None = None,
+        current_a: np.ndarray | None = None,
+    ) -> None:
+        """What one tick leaves behind: the running peaks per fingertip (``peaks``, (3, n_tips):
+        |f_sensor|^2, the grip and the world's true normal force, updated in place) and, with
+        ``log``, its tick-log row (``current_a``: the joint currents the hand reported)."""
+        tip_force_sq, tip_grip, tip_true = peaks
+        world = self.world
+        if jit.JIT:
+            track_peaks(snap.f_sensor, snap.grip_n, world.normal_n, tip_force_sq, tip_grip, tip_true)
+        else:
+            f = snap.f_sensor
+            np.maximum(tip_force_sq, np.add.reduce(f * f, axis=1), out=tip_force_sq)
+            np.maximum(tip_grip, snap.grip_n, out=tip_grip)
+            np.maximum(tip_true, world.normal_n, out=tip_true)
+        if log:
+            log.append(
+                self.ctrl.state,
+                snap,
+                cmd,
+                self.pipeline.tared,
+                world.f_sensor,
+                world.obj_z,
+                world.table_n,
+                raw=raw,
+                grip_target_n=self.ctrl.tau,
+                current_a=current_a,
+            )
 
     def close(self, raise_error: bool = True) -> None:
         close_all(self.hand_backend, self.arm, self.sensors, raise_error=raise_error)

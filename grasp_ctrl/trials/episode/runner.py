@@ -30,9 +30,7 @@ from grasp_ctrl.emulators.wall_clock import TimedHand, TrialClock, WallClockHand
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
-from grasp_ctrl.loop.loop_kernels import track_peaks
 from grasp_ctrl.loop.ticklog import CurrentTap, TickLog
-from grasp_ctrl.numeric import jit
 from grasp_ctrl.rigs.registry import DEFAULT_BACKEND, BackendFactory, WorldFactory
 from grasp_ctrl.rigs.registry import backend as backend_entry
 from grasp_ctrl.rigs.trial_builder import EstimatorFactory, build_trial, trial_factories
@@ -181,7 +179,6 @@ def run_sim_trial(
     pipeline, ctrl = parts.pipeline, parts.ctrl
     names = pipeline.names
     grasp = np.array([f.grasp for f in hand.fingers])
-    log = TickLog(log_path, names, len(hand.joints), truth=True, raw_frames=raw_frames) if log_path else None
     # realtime: the backends' clock (or one of the world's time base) paces the loop and stamps the ticks
     clock: TrialClock | None = None
     step_world: Callable[[], None] = world.step
@@ -194,9 +191,9 @@ def run_sim_trial(
     loop = WallClockLoop(hand.dt, world.dt, clock=clock.now) if clock is not None else None
     # the generic tick's reads, for the log's currents (realtime: its bus time too)
     tap = CurrentTap(hand_backend if loop is None else TimedHand(hand_backend, loop))
-    n = len(names)
-    peaks = np.zeros((3, n))
+    log = TickLog(log_path, names, len(hand.joints), truth=True, raw_frames=raw_frames) if log_path else None
     # the peak of |f_sensor|^2 (its root at the end is the peak of |f_sensor|), of the grip and the true force
+    peaks = np.zeros((3, len(names)))
     tip_force_sq, tip_grip, tip_true = peaks
     settle_ticks = int(round(SETTLE_S / hand.dt))
     if clock is not None and loop is not None:  # the trial's time runs on the wall clock from here
@@ -210,26 +207,7 @@ def run_sim_trial(
                 loop.wait_for_release()
                 loop.step_world(step_world)
                 snap, cmd, raw = parts.tick(loop.clock(), tap)
-            if jit.JIT:
-                track_peaks(snap.f_sensor, snap.grip_n, world.normal_n, tip_force_sq, tip_grip, tip_true)
-            else:
-                f = snap.f_sensor
-                np.maximum(tip_force_sq, np.add.reduce(f * f, axis=1), out=tip_force_sq)
-                np.maximum(tip_grip, snap.grip_n, out=tip_grip)
-                np.maximum(tip_true, world.normal_n, out=tip_true)
-            if log:
-                log.append(
-                    ctrl.state,
-                    snap,
-                    cmd,
-                    pipeline.tared,
-                    world.f_sensor,
-                    world.obj_z,
-                    world.table_n,
-                    raw=raw,
-                    grip_target_n=ctrl.tau,
-                    current_a=tap.take(),
-                )
+            parts.record(snap, cmd, raw, peaks, log, tap.take())
             if loop is not None:
                 loop.tick_done()
             if on_tick:

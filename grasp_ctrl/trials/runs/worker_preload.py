@@ -47,7 +47,6 @@ def warm_kernels() -> None:
     from grasp_ctrl.controller.motion import FingertipMotion
     from grasp_ctrl.controller.settings import settings_for
     from grasp_ctrl.files.paths import default_hand_file, default_objects_file
-    from grasp_ctrl.loop.loop_kernels import track_peaks
     from grasp_ctrl.loop.ticklog import TickLog
     from grasp_ctrl.numeric.finite import all_finite
     from grasp_ctrl.numeric.limits import limit_goal
@@ -64,24 +63,12 @@ def warm_kernels() -> None:
             raised_reach_posture(hand, capped.cap.finger, capped.cap.contact_height_m - capped.grasp_height_m)
     # the paper's controller: its compiled tick (grip_load's tick is Python)
     trial = build_trial(hand, obj, 0, lambda world: _NoForce(), backend=TEST_WORLD, settings=settings_for("paper"))
-    world, pipeline, ctrl, kin = trial.world, trial.pipeline, trial.ctrl, trial.kin
+    pipeline, kin = trial.pipeline, trial.kin
     n = len(hand.fingers)
     log = TickLog(Path("unwritten_ticks.parquet"), pipeline.names, len(hand.joints), truth=True)  # never closed
     peaks = np.zeros((3, n))
     for _ in range(hand.tactile.tare_frames + 3):  # past the tare: the tick's compiled halves
-        snap, cmd, raw = trial.step()
-        track_peaks(snap.f_sensor, snap.grip_n, world.normal_n, peaks[0], peaks[1], peaks[2])
-        log.append(
-            ctrl.state,
-            snap,
-            cmd,
-            pipeline.tared,
-            world.f_sensor,
-            world.obj_z,
-            world.table_n,
-            raw=raw,
-            grip_target_n=ctrl.tau,
-        )
+        trial.record(*trial.step(), peaks, log)
     motion = FingertipMotion(hand, kin)
     motion.advance_all(np.full(n, 1e-4))
     FingertipMotion(hand, kin, stiffness_aware=True).squeeze_all(np.full(n, 1e-4), motion.q_goal.copy(), 1e-4)
