@@ -154,7 +154,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=int,
         default=None,
         metavar="N",
-        help="mock trials run in N processes at once (default: one per CPU core, at most "
+        help="simulated trials (mujoco, mock) run in N processes at once (default: one per CPU core, at most "
         f"{MAX_AUTO_JOBS}, for runs of {MIN_TRIALS_PER_JOB * 2}+ trials; else 1); "
         "results do not depend on it",
     )
