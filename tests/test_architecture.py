@@ -161,3 +161,21 @@ def test_the_module_graph_reads_relative_and_package_imports():
     graph = module_graph()
     assert "grasp_ctrl.controller.machine" in graph["grasp_ctrl.controller.grip_load"]
     assert any(m.startswith("grasp_ctrl.numeric.") for m in graph["grasp_ctrl.controller.machine"])
+
+
+def test_each_world_and_the_sensor_model_stand_alone():
+    """The mock world, the MuJoCo world and the BioTac model import none of each other's modules
+    except the sensor model (both worlds render frames with it); the shared pieces live in
+    sim/world_parts.py, sim/world_api.py and sim/world_backends.py."""
+    graph = module_graph()
+    packages = {"mock": "grasp_ctrl.sim.mock.", "mujoco": "grasp_ctrl.sim.mujoco.", "biotac": "grasp_ctrl.sim.biotac."}
+    allowed = {("mock", "biotac"), ("mujoco", "biotac")}
+    for me, prefix in packages.items():
+        for module, imported in graph.items():
+            if not module.startswith(prefix):
+                continue
+            for other, other_prefix in packages.items():
+                if other == me or (me, other) in allowed:
+                    continue
+                bad = [t for t in imported if t.startswith(other_prefix)]
+                assert not bad, f"{module} imports {bad} ({imported[bad[0]][:1]})"

@@ -7,8 +7,8 @@ import numpy as np
 import grasp_ctrl.trials.episode.runner as runner
 from grasp_ctrl.emulators.world_hand import EmulatedDynamixelHand
 from grasp_ctrl.hardware.dynamixel.calibration import Calibration
-from grasp_ctrl.sim.mock.backends import MockSensors
 from grasp_ctrl.sim.mock.world import MockWorld
+from grasp_ctrl.sim.world_backends import WorldSensors
 
 
 def test_oracle_trial_on_the_dynamixel_backend(hand, objects) -> None:
@@ -17,7 +17,7 @@ def test_oracle_trial_on_the_dynamixel_backend(hand, objects) -> None:
     def backends(world, hand_cfg):
         """The mock world's sensors, the hand through the Dynamixel backend and its emulator."""
         made.append(EmulatedDynamixelHand(world, hand_cfg))
-        return made[-1], MockSensors(world)
+        return made[-1], WorldSensors(world)
 
     r = runner.run_sim_trial(
         hand,

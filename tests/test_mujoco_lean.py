@@ -25,10 +25,11 @@ from grasp_ctrl.sim.biotac.model import (
     mj_body_velocity,
     mj_skin_point,
 )
-from grasp_ctrl.sim.mujoco.backends import MockArm, mujoco_backends
+from grasp_ctrl.sim.mujoco.backends import mujoco_backends
 from grasp_ctrl.sim.mujoco.contacts import read_contacts, skin_point_and_normal
 from grasp_ctrl.sim.mujoco.world import MuJoCoWorld, mocap_step
 from grasp_ctrl.sim.oracle import OracleEstimator
+from grasp_ctrl.sim.world_backends import WorldArm
 
 
 def _bits(a) -> np.ndarray:
@@ -102,7 +103,7 @@ def lockstep(hand, objects):
     world, ref = MuJoCoWorld(hand, obj, 3), ReferenceWorld(hand, obj, 3)
     kin = HandKinematics(hand)
     hand_backend, sensors = mujoco_backends(world, hand)
-    arm = MockArm(world, hand)
+    arm = WorldArm(world, hand)
     pipeline = SensingPipeline(hand, kin, OracleEstimator(world))
     ctrl = GraspController(hand, obj, world.reach_pose_world(), kin=kin)
     ticks = []

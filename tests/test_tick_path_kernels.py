@@ -20,8 +20,10 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.loop.loop_kernels import log_row, place_forces, sense_forces, sense_inputs, track_peaks
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.ticklog import TickLog
-from grasp_ctrl.sim.mock.backends import MockSensors, checked_limit_goal, clamped_arm_target, joint_state_kernel
-from grasp_ctrl.sim.mock.world import MockWorld, _clamped_target, _clip_into, _finite_copy, _limited_goal
+from grasp_ctrl.sim.mock.backends import joint_state_kernel
+from grasp_ctrl.sim.mock.world import MockWorld, _clamped_target, _clip_into, _limited_goal
+from grasp_ctrl.sim.world_backends import WorldSensors, checked_limit_goal, clamped_arm_target
+from grasp_ctrl.sim.world_parts import _finite_copy
 from grasp_ctrl.tactile.layout import FRAME_LEN, PDC
 from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate_bits
 
@@ -196,7 +198,7 @@ def test_compiled_snapshot_equals_the_long_way(hand, seed):
 
 def test_mock_sensors_matrix_equals_the_frames_and_a_pause_keeps_the_last_one(hand, objects):
     world = MockWorld(hand, objects["chips_can"], 3)
-    sensors = MockSensors(world)
+    sensors = WorldSensors(world)
     sensors.start()
     pipeline = SensingPipeline(hand, HandKinematics(hand), load_policy(DEFAULT_POLICY, hand))
     ids = pipeline.sensor_ids

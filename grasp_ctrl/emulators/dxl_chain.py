@@ -38,6 +38,8 @@ from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING, NamedTuple
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from grasp_ctrl.config.hand import HandConfig
 
 from grasp_ctrl.emulators import dxl_protocol as p
@@ -103,14 +105,16 @@ class DynamixelChainEmulator:
 
     @classmethod
     def for_hand(
-        cls, hand: HandConfig, q_rad: Sequence[float] | None = None, timing: BusTiming | None = None
+        cls, hand: HandConfig, q_rad: Sequence[float] | np.ndarray | None = None, timing: BusTiming | None = None
     ) -> DynamixelChainEmulator:
         """A chain with the hand's servo ids and model, resting at ``q_rad`` (default: the open
         posture); ``timing``: take the bus's real time (e.g. ``BusTiming.for_hand(hand)``)."""
+        import numpy as np
+
         from grasp_ctrl.hardware.dynamixel.calibration import Calibration
 
         joints = hand.joints
-        q = [j.open_rad for j in joints] if q_rad is None else list(q_rad)
+        q = np.array([j.open_rad for j in joints] if q_rad is None else q_rad, dtype=float)
         counts = Calibration.from_joints(joints).to_counts_float(q)
         model = hand.dynamixel.servo  # config/servos.py, or the hand file's [servo_models.NAME]
         return cls(

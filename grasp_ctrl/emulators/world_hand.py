@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from typing import Any
 
 import numpy as np
 
@@ -42,8 +41,10 @@ from grasp_ctrl.hardware.dynamixel.control_table import RAD_PER_COUNT
 from grasp_ctrl.sim.world_api import World
 
 
-class _WorldClock:
-    def __init__(self, world: Any) -> None:
+class WorldClock:
+    """A world's simulated time as a clock (what frames and joint states are stamped with)."""
+
+    def __init__(self, world: World) -> None:
         self.world = world
 
     def now(self) -> float:
@@ -70,7 +71,7 @@ RELAXED_TIMEOUT_MS = 50.0
 
 
 class EmulatedDynamixelHand:
-    def __init__(self, world: Any, hand: HandConfig, realtime: bool = False, clock: TrialClock | None = None) -> None:
+    def __init__(self, world: World, hand: HandConfig, realtime: bool = False, clock: TrialClock | None = None) -> None:
         self.world = world
         self.hand = hand
         self.realtime = realtime
@@ -99,7 +100,7 @@ class EmulatedDynamixelHand:
         relaxed = dataclasses.replace(
             self.hand, dynamixel=dataclasses.replace(d, packet_timeout_ms=timeout_ms, retries=5)
         )
-        clock = self.trial_clock if self.trial_clock is not None else _WorldClock(self.world)
+        clock = self.trial_clock if self.trial_clock is not None else WorldClock(self.world)
         self.dxl = DynamixelHand(relaxed, self.emu.port, clock=clock, handle_signals=False)
         self.dxl.connect()
         self._pull_goals()

@@ -26,15 +26,15 @@ trial runner steps the world to keep up with the wall clock and calls each backe
 from __future__ import annotations
 
 import time
-from typing import Any
 
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.emulators.tactile_bridge import TactileBridgeEmulator
 from grasp_ctrl.emulators.wall_clock import TrialClock
-from grasp_ctrl.emulators.world_hand import EmulatedDynamixelHand, _WorldClock
-from grasp_ctrl.hardware.base import TactileFrame
+from grasp_ctrl.emulators.world_hand import EmulatedDynamixelHand, WorldClock
+from grasp_ctrl.hardware.base import Clock, TactileFrame
+from grasp_ctrl.sim.world_api import World
 from grasp_ctrl.tactile.layout import COUNT_MAX
 from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 
@@ -48,7 +48,7 @@ class EmulatedTactileSensors:
     """``SerialSensors`` over a pty, fed one sample of the world's frames per control tick
     (``realtime``: the bridge streams the world's latest frames every 10 ms of wall time)."""
 
-    def __init__(self, world: Any, hand: HandConfig, realtime: bool = False, clock: TrialClock | None = None) -> None:
+    def __init__(self, world: World, hand: HandConfig, realtime: bool = False, clock: TrialClock | None = None) -> None:
         self.world = world
         self.realtime = realtime
         self.trial_clock = (clock or TrialClock(world.t)) if realtime else None
@@ -61,8 +61,8 @@ class EmulatedTactileSensors:
             rate_hz=hand.rate_hz,
             wire_baud=hand.tactile.baud if realtime else None,
         )
-        clock = self.trial_clock if self.trial_clock is not None else _WorldClock(world)
-        self.serial = SerialSensors.from_hand(hand, port=self.bridge.port, clock=clock, reconnect=False)
+        frames_clock: Clock = self.trial_clock if self.trial_clock is not None else WorldClock(world)
+        self.serial = SerialSensors.from_hand(hand, port=self.bridge.port, clock=frames_clock, reconnect=False)
         self._k = 0
 
     def _frame(self, sensor_id: int, _k: int) -> np.ndarray:
@@ -120,7 +120,7 @@ class EmulatedTactileSensors:
 
 
 def emulated_backends(
-    world: Any, hand: HandConfig, realtime: bool = False
+    world: World, hand: HandConfig, realtime: bool = False
 ) -> tuple[EmulatedDynamixelHand, EmulatedTactileSensors]:
     """The hand and sensor backends of one emulated trial (runner.run_sim_trial's ``make_backends``);
     ``realtime``: on the bus's and the bridge's real time (the runner steps the world on the wall clock)."""
@@ -128,6 +128,6 @@ def emulated_backends(
     return EmulatedDynamixelHand(world, hand, realtime, clock), EmulatedTactileSensors(world, hand, realtime, clock)
 
 
-def realtime_backends(world: Any, hand: HandConfig) -> tuple[EmulatedDynamixelHand, EmulatedTactileSensors]:
+def realtime_backends(world: World, hand: HandConfig) -> tuple[EmulatedDynamixelHand, EmulatedTactileSensors]:
     """``emulated_backends`` on real time (a module-level function: picklable, unlike a partial of a lambda)."""
     return emulated_backends(world, hand, realtime=True)

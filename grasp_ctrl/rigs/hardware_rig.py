@@ -44,7 +44,7 @@ def open_rig(
     if hand.arm.kind == "mock":
         raise UsageError(f"{hand.path}: arm.kind: 'external' or 'dynamixel' for a real hand ('mock' moves nothing)")
     clock = MonotonicClock()
-    opened: list[object] = []
+    opened: list[HandBackend | ArmBackend | SensorBackend] = []
     try:
         hand_backend = DynamixelHand(hand, port, clock=clock)
         hand_backend.connect()
@@ -65,7 +65,7 @@ def open_rig(
     except BaseException:
         for part in reversed(opened):
             try:
-                part.close()  # type: ignore[attr-defined]
+                part.close()
             except Exception:  # noqa: BLE001
                 pass
         raise

@@ -26,6 +26,7 @@ from grasp_ctrl.sim.world_api import World
 
 WorldFactory = Callable[[HandConfig, ObjectProfile, int, Any], World]
 BackendFactory = Callable[[Any, HandConfig], tuple[Any, Any]]
+ArmFactory = Callable[[Any, HandConfig], Any]
 Kind = Literal["simulated", "test_double", "real", "emulated"]
 
 #: The reference world: the default backend of every command and library call.
@@ -49,6 +50,7 @@ class Backend:
     _world: Callable[[], WorldFactory] | None = None
     _backends: Callable[[bool], BackendFactory] | None = None  # realtime -> (world, hand) -> (hand, sensors)
     _params: Callable[[Variation], Any] | None = None
+    _arm: Callable[[], ArmFactory] | None = None  # a simulated world's arm (its wrist target)
 
     @property
     def on_hand(self) -> bool:
@@ -73,6 +75,14 @@ class Backend:
             raise UsageError(f"backend {self.name!r}: trials on the real hand open its rig (rigs/hardware_rig.py)")
         return self._backends(realtime)
 
+    def make_arm(self) -> ArmFactory:
+        """(world, hand) -> the arm backend of one trial on a simulated world (it moves the wrist target)."""
+        if self._arm is None:
+            raise UsageError(
+                f"backend {self.name!r}: the real hand's arm comes from its hand file (rigs/hardware_rig.py)"
+            )
+        return self._arm()
+
     def world_params(self, variation: Variation | None) -> Any:
         """The parameters of a trial's world under ``variation``; None (the world's own defaults)
         without a variation or a world."""
@@ -88,12 +98,15 @@ def _mock_world() -> WorldFactory:
 
 
 def _mock_backends(realtime: bool) -> BackendFactory:
-    from grasp_ctrl.sim.mock.backends import MockHand, MockSensors
+    from grasp_ctrl.sim.mock.backends import mock_backends
 
-    def backends(world: Any, hand: HandConfig) -> tuple[Any, Any]:
-        return MockHand(world, hand), MockSensors(world)
+    return mock_backends
 
-    return backends
+
+def _mock_arm() -> ArmFactory:
+    from grasp_ctrl.sim.mock.backends import MockArm
+
+    return MockArm
 
 
 def _mock_params(v: Variation) -> Any:
@@ -112,6 +125,12 @@ def _mujoco_backends(realtime: bool) -> BackendFactory:
     from grasp_ctrl.sim.mujoco.backends import mujoco_backends
 
     return mujoco_backends
+
+
+def _world_arm() -> ArmFactory:
+    from grasp_ctrl.sim.world_backends import WorldArm
+
+    return WorldArm
 
 
 def _mujoco_params(v: Variation) -> Any:
@@ -140,6 +159,7 @@ _ENTRIES: dict[str, Backend] = {
             _world=_mujoco_world,
             _backends=_mujoco_backends,
             _params=_mujoco_params,
+            _arm=_world_arm,
         ),
         Backend(
             TEST_WORLD,
@@ -151,6 +171,7 @@ _ENTRIES: dict[str, Backend] = {
             _world=_mock_world,
             _backends=_mock_backends,
             _params=_mock_params,
+            _arm=_mock_arm,
         ),
         Backend("dynamixel", "dynamixel", "real", "the real hand: Dynamixel servos, serial fingertip sensors", None),
         Backend(
@@ -162,6 +183,7 @@ _ENTRIES: dict[str, Backend] = {
             _world=_mujoco_world,
             _backends=_emulated_backends,
             _params=_mujoco_params,
+            _arm=_world_arm,
         ),
     )
 }

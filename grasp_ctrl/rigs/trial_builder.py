@@ -1,8 +1,7 @@
 """The parts of one trial on a simulated world, built in one place, and its step and tick.
 
 ``build_trial`` makes the world of the backend the registry names (rigs/registry.py), its hand
-and sensor backends and the arm (the world's mocap: every simulated backend moves the palm the
-same way), connects them, and adds the sensing pipeline and the controller. The trial runner
+and sensor backends and its arm (the wrist target: sim/world_backends.py), connects them, and adds the sensing pipeline and the controller. The trial runner
 (trials/episode/runner.py), the fork server's warm-up (trials/runs/worker_preload.py) and the
 benchmark figures (bench/) all build their trials here and step them with ``SimTrial.step``:
 the world one control period on, then one control tick at the world's time.
@@ -31,8 +30,8 @@ from grasp_ctrl.loop.ticklog import TickLog
 from grasp_ctrl.numeric import jit
 from grasp_ctrl.rigs.registry import DEFAULT_BACKEND, BackendFactory, WorldFactory
 from grasp_ctrl.rigs.registry import backend as backend_entry
-from grasp_ctrl.sim.mock.backends import MockArm
 from grasp_ctrl.sim.world_api import World
+from grasp_ctrl.sim.world_backends import WorldArm
 
 EstimatorFactory = Callable[[World], ForceEstimator]
 
@@ -44,7 +43,7 @@ class SimTrial:
     world: World
     hand_backend: Any
     sensors: Any
-    arm: MockArm
+    arm: WorldArm
     pipeline: SensingPipeline
     ctrl: GraspController
     kin: HandKinematics
@@ -134,7 +133,7 @@ def build_trial(
     make_world, make_backends = trial_factories(backend, make_world, make_backends, realtime)
     world = make_world(hand, obj, seed, world_params)
     hand_backend, sensors = make_backends(world, hand)
-    arm = MockArm(world, hand)
+    arm = backend_entry(backend).make_arm()(world, hand)
     try:
         hand_backend.connect()
         arm.connect()

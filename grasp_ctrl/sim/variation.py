@@ -112,8 +112,7 @@ def variation_from_json(doc: Any, where: str) -> Variation:
     values: dict[str, float] = {}
     for key, top in _LIMITS.items():
         v = doc.get(key)
-        ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and 0 <= v <= top
-        if not ok:
+        if not isinstance(v, (int, float)) or isinstance(v, bool) or not (math.isfinite(v) and 0 <= v <= top):
             raise UsageError(f"{where}: variation.{key}: a number from 0 to {top:g} (got {v!r})")
         values[key] = float(v)
     extra = sorted(set(doc) - {"name", *_LIMITS})

@@ -13,13 +13,20 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from grasp_ctrl.sim.world_parts import WorldEvent
+
 
 @runtime_checkable
 class World(Protocol):
-    """A simulated hand, arm, object, table and fingertip sensors, stepped one control period at a time."""
+    """A simulated hand, arm, object, table and fingertip sensors, stepped one control period at a
+    time. Read-only members are properties here: a world may keep them as plain attributes."""
 
     # clock
     t: float  # simulated time (s)
+
+    @property
+    def dt(self) -> float:
+        """The control period (s)."""
 
     def step(self) -> None:
         """Advance one control period (the hand file's dt)."""
@@ -27,40 +34,87 @@ class World(Protocol):
     def set_phase(self, state: str) -> None:
         """The controller's state, for events and world-side logging."""
 
-    def close(self) -> None:
-        """End of the trial (e.g. finish a video); idempotent."""
+    def close(self) -> object:
+        """End of the trial (e.g. finish a video: then its path); idempotent."""
 
-    # what the backends read and write (sim/mock/backends.py)
-    q: np.ndarray  # joint angles (rad)
-    q_goal: np.ndarray  # joint goals the hand backend writes (rad)
+    # what the backends write (sim/world_backends.py)
+    q_goal: np.ndarray  # the joints' goals (rad, true angles: calibration offsets included)
     torque_on: bool
     palm_target: np.ndarray  # the arm's target (m, world frame)
-    palm_world: np.ndarray  # the palm's position (m, world frame)
-    raw: np.ndarray  # (n_tips, 44) raw tactile frames (counts)
-    seq: np.ndarray  # per-fingertip frame counters
-    sensor_ids: list[str]
-
-    # ground truth: the judge, the oracle and the tick log
-    f_sensor: np.ndarray  # (n_tips, 3) true force on each skin (N, sensor frame)
-    normal_n: np.ndarray  # (n_tips,) true normal force (N)
-    obj_z: float  # object height (m)
-    max_obj_z: float  # highest object height so far (m)
-    table_n: float  # the table's force on the object (N)
-    crushed: bool
-    knocked_over: bool
-    events: list[Any]  # world events of the trial (contacts, crushing, falls)
-    draw: dict[str, Any]  # this trial's variation draw (sim/variation.py; the record's variation_draw)
-    dt: float  # the control period (s)
-
-    def true_f_sensor(self, finger: str) -> np.ndarray:
-        """The true force on ``finger``'s skin (N, sensor frame): what the oracle policy reads."""
-
-    # what the servos see (the emulated hand's servo chain reads and writes these)
-    q_measured: np.ndarray  # the joint angles the servos report (rad, less any calibration offsets)
-    joint_current_a: np.ndarray  # the servos' present current (A)
 
     def command_goal(self, q_measured_goal: np.ndarray) -> None:
         """A goal in the servos' calibrated angles (what a hand backend writes)."""
 
+    # what the backends read: the servos' view (the emulated hand's servo chain too)
+    @property
+    def q_measured(self) -> np.ndarray:
+        """The joint angles the servos report (rad, less any calibration offsets)."""
+
+    @property
+    def q_goal_measured(self) -> np.ndarray:
+        """The goal the servos hold (rad, calibrated: the last ``command_goal``)."""
+
+    @property
+    def joint_current_a(self) -> np.ndarray:
+        """The servos' present current (A)."""
+
+    @property
+    def palm_world(self) -> np.ndarray:
+        """The palm's position (m, world frame)."""
+
+    @property
+    def raw(self) -> np.ndarray:
+        """(n_tips, 44) raw tactile frames (counts)."""
+
+    @property
+    def seq(self) -> int:
+        """The frames' counter (16 bits, as the sensors' serial stream)."""
+
+    @property
+    def sensor_ids(self) -> list[int]:
+        """Each fingertip's sensor id, in hand-file finger order."""
+
     def reach_pose_world(self) -> np.ndarray:
         """The palm's pre-grasp position (m, world frame)."""
+
+    # ground truth: the judge, the oracle and the tick log
+    @property
+    def q(self) -> np.ndarray:
+        """The joints' true angles (rad)."""
+
+    @property
+    def f_sensor(self) -> np.ndarray:
+        """(n_tips, 3) true force on each skin (N, sensor frame)."""
+
+    @property
+    def normal_n(self) -> np.ndarray:
+        """(n_tips,) true normal force (N)."""
+
+    @property
+    def obj_z(self) -> float:
+        """The object's height (m)."""
+
+    @property
+    def max_obj_z(self) -> float:
+        """The object's highest height so far (m)."""
+
+    @property
+    def table_n(self) -> float:
+        """The table's force on the object (N)."""
+
+    @property
+    def crushed(self) -> bool: ...
+
+    @property
+    def knocked_over(self) -> bool: ...
+
+    @property
+    def events(self) -> list[WorldEvent]:
+        """The trial's world events (contacts, crushing, falls)."""
+
+    @property
+    def draw(self) -> dict[str, Any]:
+        """This trial's variation draw (sim/variation.py; the record's ``variation_draw``)."""
+
+    def true_f_sensor(self, finger: str) -> np.ndarray:
+        """The true force on ``finger``'s skin (N, sensor frame): what the oracle policy reads."""

@@ -6,8 +6,10 @@ only the fields that differ from the defaults; docs/mock_world.md lists every fi
 
 from __future__ import annotations
 
+import math
 from dataclasses import fields, replace
 from pathlib import Path
+from typing import Any, cast
 
 from grasp_ctrl.config.toml_reader import finite_number
 from grasp_ctrl.sim.biotac.model import DEFAULT_PARAMS, BioTacParams, rise_weights_of
@@ -16,12 +18,13 @@ MAX_MAGNITUDE = 1e9  # no parameter of the model (m, N/m, counts, ratios) comes 
 
 
 def _number(path: Path, name: str, value: object) -> float:
-    if not finite_number(value) or abs(float(value)) > MAX_MAGNITUDE:  # type: ignore[arg-type]
+    number = float(cast(float, value)) if finite_number(value) else math.nan
+    if not abs(number) <= MAX_MAGNITUDE:
         shown = repr(value) if len(repr(value)) <= 40 else f"{repr(value)[:20]}..."
         raise ValueError(
             f"{path}: {name}: need a finite number from {-MAX_MAGNITUDE:g} to {MAX_MAGNITUDE:g}, got {shown}"
         )
-    return float(value)  # type: ignore[arg-type]
+    return number
 
 
 def load_biotac_params(path: str | Path) -> BioTacParams:
@@ -38,7 +41,7 @@ def load_biotac_params(path: str | Path) -> BioTacParams:
     if not isinstance(doc, dict):
         raise ValueError(f"{path}: need a JSON object of BioTacParams fields")
     known = {f.name: f for f in fields(BioTacParams)}
-    overrides: dict[str, object] = {}
+    overrides: dict[str, Any] = {}  # a field's parsed value: a float, a tuple of floats or None
     for name, value in doc.items():
         if name not in known:
             raise ValueError(f"{path}: {name}: not a BioTacParams field")
@@ -55,7 +58,7 @@ def load_biotac_params(path: str | Path) -> BioTacParams:
         else:
             value = _number(path, name, value)
         overrides[name] = value
-    params = replace(DEFAULT_PARAMS, **overrides)  # type: ignore[arg-type]
+    params = replace(DEFAULT_PARAMS, **overrides)
     try:
         rise_weights_of(params)
     except ValueError as exc:

@@ -42,17 +42,15 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.multilinear import MultilinearKinematics, contract
 from grasp_ctrl.numeric import jit
-from grasp_ctrl.numeric.finite import all_finite
 from grasp_ctrl.numeric.jit import njit
 from grasp_ctrl.numeric.limits import clamp
 from grasp_ctrl.sim.biotac.model import BioTacParams, BioTacSensorModel
 from grasp_ctrl.sim.mock import world_step as ws
 from grasp_ctrl.sim.mock.shapes import shape_params
 from grasp_ctrl.sim.variation import NOMINAL, Variation, draw_object, draw_record
+from grasp_ctrl.sim.world_parts import GRAVITY, NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
 
-GRAVITY = 9.81
 NEAR_M = 0.01  # fingertips further than this from the object cannot touch it this step
-NOISE_BLOCK = 128  # sensor noise is drawn for this many steps at a time
 _FLOAT64 = np.dtype(np.float64)
 
 
@@ -74,13 +72,6 @@ class WorldParams:
     biotac: BioTacParams = field(default_factory=BioTacParams)
 
 
-@dataclass
-class WorldEvent:
-    t: float
-    kind: str  # crushed | knocked_over | fell | lifted | contact | released
-    detail: str = ""
-
-
 @functools.lru_cache(maxsize=8)
 def hand_kinematics(hand: HandConfig) -> HandKinematics:
     """The kinematics of a hand, built once and shared by its worlds (which only read them)."""
@@ -94,22 +85,6 @@ def pad_tables(hand: HandConfig) -> tuple[np.ndarray, np.ndarray]:
     its worlds, whose step kernel only reads them."""
     mk = MultilinearKinematics(hand_kinematics(hand))
     return mk.take, mk.point_table(np.tile(PAD_POINT_SENSOR, (mk.F, 1)))
-
-
-def in_place_view(name: str, doc: str) -> property:
-    """A read-only view of an array the world's step updates in place (also MuJoCoWorld's)."""
-    return property(lambda self: getattr(self, name), doc=doc)
-
-
-@njit
-def _finite_copy(p: np.ndarray, out: np.ndarray) -> bool:
-    """``out[:] = p`` when every value is finite; False (``out`` unset) otherwise."""
-    for k in range(p.shape[0]):
-        if not math.isfinite(p[k]):
-            return False
-    for k in range(p.shape[0]):
-        out[k] = p[k]
-    return True
 
 
 @njit
@@ -284,18 +259,6 @@ def step_packed(
         or obj[ws.MAX_NORMAL] > watch[CRUSH_N]
         or obj[ws.TABLE_N] - c[ws.WEIGHT] > watch[TIP_N]
     )
-
-
-def checked_palm_target(p: np.ndarray) -> np.ndarray:
-    """A wrist target as a (3,) float array (a copy); ValueError unless every coordinate is finite."""
-    if jit.JIT and type(p) is np.ndarray and p.dtype is _FLOAT64 and p.shape == (3,):
-        target = np.empty(3)
-        if _finite_copy(p, target):
-            return target
-    target = np.array(p, dtype=float).reshape(3)
-    if not all_finite(target):
-        raise ValueError(f"palm target must be finite, got {target}")
-    return target
 
 
 class MockWorld:
@@ -506,6 +469,11 @@ class MockWorld:
         self.q_goal = q_measured_goal
 
     @property
+    def q_goal_measured(self) -> np.ndarray:
+        """The goal the servos hold, in their calibrated angles: the mock's goal as it is."""
+        return self._q_goal
+
+    @property
     def joint_current_a(self) -> np.ndarray:
         """The servos' present current (A): the servo spring's torque over the torque constant."""
         p = self.params
@@ -636,7 +604,7 @@ class MockWorld:
         if prev_z > 0.002 and z == 0.0:
             self.events.append(WorldEvent(self.t, "fell", f"from {prev_z * 1000:.1f} mm while {self.phase}"))
         obj = self.obj
-        if obj.deformable and not self.crushed and worst > obj.crush_force_n:  # type: ignore[operator]
+        if obj.crush_force_n is not None and obj.deformable and not self.crushed and worst > obj.crush_force_n:
             self.crushed = True
             self.events.append(WorldEvent(self.t, "crushed", f"grip {worst:.2f} N > {obj.crush_force_n} N"))
         if not self.knocked_over and table_n - self._weight > obj.tip_force_n:

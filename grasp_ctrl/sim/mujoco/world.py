@@ -42,9 +42,9 @@ from grasp_ctrl.sim.biotac.model import (
     mj_tick_frames,
     mj_tip_buffers,
 )
-from grasp_ctrl.sim.mock.world import GRAVITY, NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
 from grasp_ctrl.sim.mujoco.scene import PlacedObject, SceneParams, build_scene
 from grasp_ctrl.sim.variation import NOMINAL, Variation, draw_extra, draw_object, draw_record, max_rotated_half_extents
+from grasp_ctrl.sim.world_parts import GRAVITY, NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
 
 FALL_SPEED_M_S = 0.1  # landing on the table faster than this is a drop (placing is slower)
 AIRBORNE_M = 0.002  # above this the object has left the table
@@ -458,9 +458,9 @@ class MuJoCoWorld:
                     WorldEvent(self.t, "fell", f"landed at {self._descent_speed:.2f} m/s while {self.phase}")
                 )
         obj = self.obj
-        if obj.deformable and not self.crushed:
+        if obj.deformable and obj.crush_force_n is not None and not self.crushed:
             worst = float(self._normal_n.max(initial=0.0))
-            if worst > obj.crush_force_n:  # type: ignore[operator]
+            if worst > obj.crush_force_n:
                 self.crushed = True
                 self.events.append(WorldEvent(self.t, "crushed", f"grip {worst:.2f} N > {obj.crush_force_n} N"))
         # Knocked over: MuJoCo simulates the tipping itself (the mock world's push-into-the-table
