@@ -11,6 +11,7 @@ from grasp_ctrl.cli import main
 from grasp_ctrl.config.hand import load_hand
 from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.controller.grasp_capacity import GRAVITY_M_S2, liftable_weight, object_capacity
+from grasp_ctrl.controller.joint_stiffness import torque_per_amp_nm
 from grasp_ctrl.files.paths import default_hand_file, default_objects_file
 
 
@@ -53,7 +54,9 @@ def test_the_best_grasp_carries_the_weight_within_friction_and_torque(cleanser_g
 @pytest.mark.parametrize("factor", [0.5, 2.0])
 def test_capacity_scales_with_the_servo_torque(hand, objects, cleanser_grasp, factor: float) -> None:
     cap, contacts, q = cleanser_grasp
-    scaled = liftable_weight(hand, q, contacts, objects["cleanser"].mu, torque_per_amp_nm=0.5 * factor)
+    per_amp = torque_per_amp_nm(hand)
+    assert per_amp == pytest.approx(0.93 / 1.8)  # the hand file's servo model (XC330-M288-T)
+    scaled = liftable_weight(hand, q, contacts, objects["cleanser"].mu, torque_per_amp_nm=per_amp * factor)
     assert scaled.weight_n == pytest.approx(factor * cap.weight_n, rel=1e-6)
 
 

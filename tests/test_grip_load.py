@@ -237,6 +237,28 @@ def test_a_pad_near_the_safety_limit_unwinds_its_fingers_goal_to_the_measured_an
     assert np.max(np.abs(ctrl.motion.q_goal[rows_index] - tr.q[rows_index])) > 0.1
 
 
+def test_a_stalled_joints_goal_stays_within_its_saturation_deflection(hand, mustard):
+    """The scripted hand never moves, as a joint at its current limit does not: the squeeze keeps
+    asking for force, but no grasping joint's goal runs further from its measured angle than
+    ``windup_lag_factor`` times the deflection at which its servo saturates. Without the bound
+    (factor 0) the same ticks wind the goals much further."""
+    far = {}
+    for factor in (1.5, 0.0):
+        tr = Trace(hand, mustard, dataclasses.replace(GRIP_LOAD, windup_lag_factor=factor))
+        tr.run_until("close", contact=False)
+        tr.tick(grips=np.full(tr.n, 0.5))
+        assert tr.ctrl.state == "ramp"
+        for _ in range(150):
+            tr.tick(grips=np.full(tr.n, 0.5))  # far below every target: the squeeze pushes on
+        grasping = tr.ctrl._grasp_joints
+        far[factor] = np.abs(tr.ctrl.motion.q_goal - tr.q)[grasping]
+        if factor:
+            bound = tr.ctrl.lag_bound_rad
+            assert bound is not None
+            assert np.all(np.abs(tr.ctrl.motion.q_goal - tr.q)[grasping] <= bound[grasping] + 1e-12)
+    assert far[0.0].max() > 2.0 * far[1.5].max()
+
+
 def test_release_near_the_support_reads_the_carried_sum_not_one_fingertip(hand, objects):
     lego = objects["lego"]
     tr = Trace(hand, lego)

@@ -8,7 +8,7 @@ import pytest
 
 from grasp_ctrl.controller.joint_stiffness import servo_kp_nm_per_rad, servo_kv_nm_s_per_rad  # noqa: E402
 from grasp_ctrl.kinematics.chain import HandKinematics  # noqa: E402
-from grasp_ctrl.sim.mujoco.scene import PlacedObject, SceneParams, build_scene  # noqa: E402
+from grasp_ctrl.sim.mujoco.scene import PlacedObject, SceneParams, build_scene, with_servo_facts  # noqa: E402
 
 
 def _model(hand, obj, mu=None):
@@ -38,7 +38,8 @@ def test_sensor_sites_follow_the_hand_files_kinematics(hand, objects):
 
 def test_joints_and_actuators_carry_the_hand_files_limits_and_gains(hand, objects):
     scene, m = _model(hand, objects["lego"])
-    p = SceneParams()
+    p = with_servo_facts(SceneParams(), hand)
+    assert p.torque_per_amp_nm == pytest.approx(0.93 / 1.8)  # the hand file's XC330-M288-T data sheet
     kp = servo_kp_nm_per_rad(hand.dynamixel.position_p_gain)
     kv = servo_kv_nm_s_per_rad(hand.dynamixel.position_d_gain)
     assert 2.5 < kp < 4.0 and 0.005 < kv < 0.015  # LEAP sim / Menagerie: 3.0 and 0.01

@@ -33,7 +33,9 @@ def _watch_the_world(monkeypatch: pytest.MonkeyPatch) -> list[tuple[np.ndarray, 
 
     def set_phase(world: MockWorld, phase: str) -> None:
         p = world.params  # the mock servo: current = stiffness * (servo - joint) / torque constant
-        seen.append((world.raw.copy(), p.servo_stiffness_nm_per_rad * (world.q_servo - world.q) / p.torque_per_amp_nm))
+        seen.append(
+            (world.raw.copy(), p.servo_stiffness_nm_per_rad * (world.q_servo - world.q) / world.torque_per_amp_nm)
+        )
         real(world, phase)
 
     monkeypatch.setattr(MockWorld, "set_phase", set_phase)

@@ -21,12 +21,10 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.controller.joint_stiffness import torque_per_amp_nm as torque_per_amp
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 
-#: The servos' torque per amp of current, as the mock world and the MuJoCo scene use it
-#: (XC330-M288-T: 0.93 N m stall at 1.8 A).
-TORQUE_PER_AMP_NM = 0.5
 #: Radius of the pad's contact patch for torsional friction (the MuJoCo scene's).
 TORSION_RADIUS_M = 0.003
 GRAVITY_M_S2 = 9.81
@@ -71,15 +69,17 @@ def liftable_weight(
     contacts: list[PadContact],
     mu: float,
     kin: HandKinematics | None = None,
-    torque_per_amp_nm: float = TORQUE_PER_AMP_NM,
+    torque_per_amp_nm: float | None = None,
     normal_max_n: dict[str, float] | None = None,
 ) -> Capacity:
     """The largest weight (N) the pads in ``contacts`` carry at joint angles ``q_all`` (hand-file
     order), the object's weight acting on the vertical line through the hand frame's origin.
-    ``normal_max_n`` (finger -> N): each listed pad's normal force at most that (its grip target)."""
+    ``normal_max_n`` (finger -> N): each listed pad's normal force at most that (its grip target).
+    ``torque_per_amp_nm``: the servos' (default: the hand file's servo model's)."""
     from scipy.optimize import linprog
 
     kin = kin or HandKinematics(hand)
+    per_amp = torque_per_amp(hand) if torque_per_amp_nm is None else torque_per_amp_nm
     z = np.array([0.0, 0.0, 1.0])
     nv = 4 * len(contacts) + 1  # per pad: normal, tangent up, tangent across, torsion; weight
     a_ub: list[np.ndarray] = []
@@ -112,7 +112,7 @@ def liftable_weight(
             b_ub.append(0.0)
         finger = hand.finger(c.finger)
         _, jac = kin.chains[c.finger].point_and_jacobian(q_all[kin.slices[c.finger]], PAD_POINT_SENSOR)
-        limits = np.array([j.current_limit_a * torque_per_amp_nm for j in finger.joints])
+        limits = np.array([j.current_limit_a * per_amp for j in finger.joints])
         per_n = np.stack([jac.T @ n, jac.T @ up, jac.T @ across], axis=1)  # joint torque per N
         for j, tau_max in enumerate(limits):
             row = np.zeros(nv)

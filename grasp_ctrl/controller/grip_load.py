@@ -42,6 +42,7 @@ from typing import Any
 
 import numpy as np
 
+from grasp_ctrl.controller.joint_stiffness import hand_servo, joint_stiffness
 from grasp_ctrl.controller.machine import STATES, TRANSITIONS, GraspController
 from grasp_ctrl.controller.motion import FingertipMotion
 from grasp_ctrl.controller.ramp_settle import TrendRampSettle
@@ -80,6 +81,7 @@ def _load_transitions() -> list[tuple[str, str, str, str | None]]:
 
 LOAD_TRANSITIONS = _load_transitions()
 COORDINATED = ("load", "lift", "hold", "lower")
+SQUEEZING = ("ramp", *COORDINATED)  # the states whose goals the force loop moves
 
 
 class GripLoadController(GraspController):
@@ -125,6 +127,42 @@ class GripLoadController(GraspController):
         self._hold_sum, self._hold_index_sum, self._hold_n = 0.0, 0.0, 0
         self.wide_q = self._wide_posture()
         self._alpha = [0.0] * len(self.names)  # each finger's way from the wide to the closing preshape
+        self.lag_bound_rad = self._lag_bound()
+        self._joint_finger = np.zeros(len(self.hand.joints), dtype=np.int64)  # each joint's finger index
+        for i, name in enumerate(self.names):
+            self._joint_finger[self.kin.slices[name]] = i
+        self._grasp_joints = self.grasp_mask[self._joint_finger]
+
+    def _lag_bound(self) -> np.ndarray | None:
+        """Per joint: ``windup_lag_factor`` times the goal-to-angle deflection at which the servo
+        reaches its current limit (current limit x the servo model's torque per amp / its
+        stiffness); None without a bound (factor 0, or the stiffness or torque constant unknown)."""
+        if self.s.windup_lag_factor <= 0.0:
+            return None
+        kp = joint_stiffness(self.hand).kp_nm_per_rad
+        model = hand_servo(self.hand)
+        if kp is None or not model.known_torque:
+            return None
+        limit_nm = np.array([j.current_limit_a for j in self.hand.joints]) * model.torque_per_amp_nm
+        return self.s.windup_lag_factor * limit_nm / kp
+
+    def _bound_windup(self, snap: Snapshot) -> None:
+        """Keep each grasping joint's goal within ``lag_bound_rad`` of its measured angle. On the
+        mustard bottle the thumb's distal joint sits at its 0.55 A limit while the squeeze keeps
+        asking its pad for more: its goal ran a radian past the joint, and when the grasp shifted
+        the joint swung toward it and the pad's force jumped past the safety limit."""
+        bound = self.lag_bound_rad
+        if bound is None:
+            return
+        q = np.asarray(snap.q, dtype=float)
+        goal = self.motion.q_goal
+        lo, hi = q - bound, q + bound
+        over = self._grasp_joints & ((goal < lo) | (goal > hi))
+        if not over.any():
+            return
+        goal[over] = np.clip(goal[over], np.maximum(lo[over], self.motion.lower[over]), hi[over])
+        np.minimum(goal, self.motion.upper, out=goal)
+        self.motion.rebase_fingers(sorted({int(i) for i in self._joint_finger[over]}))
 
     def _preshape_standoff_m(self) -> float:
         """Guarded closing: the pads wait ``guarded_standoff_m`` off the nominal surface (an object
@@ -401,6 +439,8 @@ class GripLoadController(GraspController):
             self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s, self.lower_bottom, speed)
         else:
             super()._act(snap)
+        if state in SQUEEZING:
+            self._bound_windup(snap)
 
     @property
     def tau(self) -> float:

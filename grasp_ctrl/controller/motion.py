@@ -151,6 +151,15 @@ class FingertipMotion:
         self._posture = None
         self._reset_targets()
 
+    def rebase_fingers(self, fingers: list[int]) -> None:
+        """The goals of ``fingers`` (indices) were set outside the IK: their pad targets follow them
+        and their next squeeze starts afresh; the other fingers' targets stay."""
+        pads = self.ik.pad_points(self.q_goal)
+        for i in fingers:
+            self.targets[i] = pads[i]
+            self._pad_along[i] = np.nan
+        self._posture = None
+
     def advance(self, finger: str, distance_m: float) -> None:
         """Move one fingertip's goal along its closing vector (negative = open)."""
         distances = np.zeros(len(self.names))

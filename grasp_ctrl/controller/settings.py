@@ -112,6 +112,10 @@ class ControllerSettings:
     unwind_fraction: float = 0.9  # a pad above this share of the safety limit: its finger's goal is
     #   set to where its joints are (a goal wound past a stalled joint keeps the servo at its
     #   current limit, and a retreat has to undo the wind-up first); 1 or more: never
+    windup_lag_factor: float = 1.5  # grip_load: while squeezing, a grasping joint's goal stays within
+    #   this many times the deflection at which its servo reaches its current limit (current limit x
+    #   torque per amp / kp) of its measured angle: more goal adds no torque, only a wind-up that drives
+    #   the joint when the contact gives; 0: no bound
     low_confidence_slowdown: bool = False  # slow the ramp when the policy's variance is high
     variance_scale_n2: float = 0.05  # variance at which the ramp runs at half speed
 

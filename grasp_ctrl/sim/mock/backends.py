@@ -51,7 +51,7 @@ class MockHand(WorldHand):
         self.world = world
         p = world.params
         self._stiffness = p.servo_stiffness_nm_per_rad
-        self._torque_per_amp = p.torque_per_amp_nm
+        self._torque_per_amp = world.torque_per_amp_nm
         self._write_limited = world.write_limited_goal if jit.JIT else None
 
     def read(self) -> JointState:

@@ -38,6 +38,7 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.controller.joint_stiffness import torque_per_amp_nm
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.multilinear import MultilinearKinematics, contract
@@ -59,7 +60,7 @@ class WorldParams:
     servo_time_constant_s: float = 0.03
     servo_stiffness_nm_per_rad: float = 10.0
     servo_max_speed_rad_s: float = 6.0
-    torque_per_amp_nm: float = 0.5
+    torque_per_amp_nm: float | None = None  # None: the hand file's servo model's (0.517 for the XC330-M288-T)
     tangential_stiffness_n_per_m: float = 400.0
     # The placement, mass, friction and stiffness draws' half-widths (sim/variation.py); the
     # mock world has no yaw (its objects stay axis-aligned) and no joint offsets.
@@ -304,7 +305,9 @@ class MockWorld:
         self._q_servo = self._q_goal.copy()  # the servo's internal (lagged) position
         self._q = self._q_goal.copy()  # actual, after contact deflection
         self.torque_on = True
-        self.tau_max = np.array([j.current_limit_a for j in joints]) * p.torque_per_amp_nm
+        per_amp = p.torque_per_amp_nm if p.torque_per_amp_nm is not None else torque_per_amp_nm(hand)
+        self.torque_per_amp_nm = per_amp  # the servos' (N m/A): their current limit's torque, the current they report
+        self.tau_max = np.array([j.current_limit_a for j in joints]) * per_amp
         self._reach = self.tau_max / p.servo_stiffness_nm_per_rad
         self._palm = self.reach_pose_world() + np.array([0.0, 0.0, p.start_clearance_m])
         self._palm_target = self._palm.copy()
@@ -477,7 +480,7 @@ class MockWorld:
     def joint_current_a(self) -> np.ndarray:
         """The servos' present current (A): the servo spring's torque over the torque constant."""
         p = self.params
-        return p.servo_stiffness_nm_per_rad * (np.asarray(self._q_servo) - np.asarray(self._q)) / p.torque_per_amp_nm
+        return p.servo_stiffness_nm_per_rad * (np.asarray(self._q_servo) - np.asarray(self._q)) / self.torque_per_amp_nm
 
     @property
     def palm_world(self) -> np.ndarray:

@@ -23,20 +23,16 @@ object and the table. Friction of a hand-object contact is the object's
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from grasp_ctrl.config.hand import FingerConfig, HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 
-# The servos' PD gains in SI (XC330-M288-T), shared with the controller's stiffness-aware squeeze.
-from grasp_ctrl.controller.joint_stiffness import (
-    NO_LOAD_SPEED_RAD_S,
-    STALL_TORQUE_NM,
-    servo_kp_nm_per_rad,
-    servo_kv_nm_s_per_rad,
-)
+# The servos' facts and PD gains in SI by the hand file's model, shared with the controller.
+from grasp_ctrl.controller.joint_stiffness import hand_servo
+from grasp_ctrl.errors import UsageError
 from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M
 from grasp_ctrl.kinematics.transforms import rpy_matrix
 
@@ -50,11 +46,13 @@ class SceneParams:
     # does not change which objects are lifted (docs/mujoco.md).
     impratio: float = 10.0
     noslip_iterations: int = 0
-    torque_per_amp_nm: float = 0.5  # as the mock world (XC330: 0.93 N m / 1.8 A)
+    # None: the hand file's servo model's (config/servos.py; XC330-M288-T: 0.93 N m / 1.8 A = 0.517)
+    torque_per_amp_nm: float | None = None
     # The gears' reflected rotor inertia (estimate: ~5e-8 kg m^2 rotor x 288^2) and the motor's
-    # back-EMF damping under voltage (PWM) drive: stall torque / no-load speed.
+    # back-EMF damping under voltage (PWM) drive: stall torque / no-load speed (None: the hand
+    # file's servo model's).
     armature_kg_m2: float = 0.004
-    joint_damping_nm_s_per_rad: float = STALL_TORQUE_NM / NO_LOAD_SPEED_RAD_S
+    joint_damping_nm_s_per_rad: float | None = None
     joint_frictionloss_nm: float = 0.001  # Menagerie's LEAP value
     default_p_gain: float = 600.0  # when the hand file keeps the servos' own gains
     default_d_gain: float = 200.0
@@ -243,9 +241,10 @@ def _finger(
 
 
 def _actuators(hand: HandConfig, p: SceneParams) -> str:
-    d = hand.dynamixel
-    kp0 = servo_kp_nm_per_rad(d.position_p_gain if d.position_p_gain is not None else p.default_p_gain)
-    kv0 = servo_kv_nm_s_per_rad(d.position_d_gain if d.position_d_gain is not None else p.default_d_gain)
+    d, model = hand.dynamixel, hand_servo(hand)
+    kp0 = model.kp_nm_per_rad(d.position_p_gain if d.position_p_gain is not None else p.default_p_gain)
+    kv0 = model.kv_nm_s_per_rad(d.position_d_gain if d.position_d_gain is not None else p.default_d_gain)
+    assert p.torque_per_amp_nm is not None  # with_servo_facts
     rows = []
     for j in hand.joints:
         tau = j.current_limit_a * p.torque_per_amp_nm
@@ -314,11 +313,24 @@ def _object(obj: PlacedObject, p: SceneParams) -> tuple[str, list[str]]:
     return xml, names
 
 
+def with_servo_facts(p: SceneParams, hand: HandConfig) -> SceneParams:
+    """``p`` with the servo facts it leaves open (None) taken from the hand file's servo model
+    (config/servos.py): the torque per amp and the back-EMF damping (stall torque / no-load speed)."""
+    model = hand_servo(hand)
+    per_amp = p.torque_per_amp_nm if p.torque_per_amp_nm is not None else model.torque_per_amp_nm
+    damping = p.joint_damping_nm_s_per_rad
+    if damping is None:
+        if model.stall_torque_nm is None:
+            raise UsageError(f"servo model {model.name}: no stall torque known here (the scene's joint damping)")
+        damping = model.stall_torque_nm / model.no_load_speed_rad_s
+    return replace(p, torque_per_amp_nm=per_amp, joint_damping_nm_s_per_rad=damping)
+
+
 def build_scene(
     hand: HandConfig, obj: PlacedObject, palm_start_world: np.ndarray, p: SceneParams | None = None
 ) -> Scene:
     """The MJCF text of one trial's scene, the hand at ``palm_start_world``."""
-    p = p or SceneParams()
+    p = with_servo_facts(p or SceneParams(), hand)
     leap = is_leap_like(hand)
     extra = f'{HAND_COLLISION} rgba="0.25 0.25 0.25 1"'
     # Fingers that share a base pose share a base body (the LEAP palm: all four).

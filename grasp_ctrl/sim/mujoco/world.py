@@ -42,7 +42,7 @@ from grasp_ctrl.sim.biotac.model import (
     mj_tick_frames,
     mj_tip_buffers,
 )
-from grasp_ctrl.sim.mujoco.scene import PlacedObject, SceneParams, build_scene
+from grasp_ctrl.sim.mujoco.scene import PlacedObject, SceneParams, build_scene, with_servo_facts
 from grasp_ctrl.sim.variation import NOMINAL, Variation, draw_extra, draw_object, draw_record, max_rotated_half_extents
 from grasp_ctrl.sim.world_parts import GRAVITY, NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
 
@@ -121,7 +121,8 @@ class MuJoCoWorld:
         self.sensor_ids = [f.sensor_id for f in hand.fingers]
         n = len(self.fingers)
         self.grasp_height_m = obj.grasp_height_m  # set by _fit_grasp_height
-        scene = build_scene(hand, placed, np.zeros(3), p.scene)
+        self.scene_params = with_servo_facts(p.scene, hand)
+        scene = build_scene(hand, placed, np.zeros(3), self.scene_params)
         self.scene = scene
         self.model = m = mujoco.MjModel.from_xml_string(scene.xml)
         self.data = d = mujoco.MjData(m)
@@ -172,7 +173,10 @@ class MuJoCoWorld:
         self.upper = np.array([j.upper_rad for j in joints])
         self._q_goal = np.array([j.open_rad for j in joints])
         self._q_goal_cmd = self._q_goal - self.joint_offset_rad  # the servos' goal, calibrated angles
-        self.tau_max = np.array([j.current_limit_a for j in joints]) * p.scene.torque_per_amp_nm
+        per_amp = self.scene_params.torque_per_amp_nm
+        assert per_amp is not None  # with_servo_facts
+        self.torque_per_amp_nm = per_amp  # the servos' (N m/A): their current limit's torque, the current they report
+        self.tau_max = np.array([j.current_limit_a for j in joints]) * self.torque_per_amp_nm
         self.torque_on = True
         self.arm_speed = hand.arm.max_speed_m_s
         self._fit_grasp_height()
@@ -310,7 +314,7 @@ class MuJoCoWorld:
     @property
     def joint_current_a(self) -> np.ndarray:
         """The servos' present current (A): the actuators' torques over the torque constant."""
-        return self.joint_torque_nm / self.params.scene.torque_per_amp_nm
+        return self.joint_torque_nm / self.torque_per_amp_nm
 
     @property
     def palm_world(self) -> np.ndarray:
