@@ -24,7 +24,7 @@ class ConfigError(GraspCtrlError):
         self.expected = expected
         super().__init__(f"{self.path}: {key}: {expected}")
 
-    def __reduce__(self):  # type: ignore[no-untyped-def]
+    def __reduce__(self) -> tuple[type[ConfigError], tuple[str, str, str]]:
         # Raised in a trial worker process, it must cross back intact: the default
         # pickling calls __init__ with the message alone and breaks the process pool.
         return (type(self), (self.path, self.key, self.expected))
@@ -53,7 +53,7 @@ class HardwareError(GraspCtrlError):
         self.reason = reason
         super().__init__(message)
 
-    def __reduce__(self):  # type: ignore[no-untyped-def]
+    def __reduce__(self) -> tuple[type[HardwareError], tuple[str, ...]]:
         return (HardwareError, (str(self), self.reason)) if type(self) is HardwareError else (type(self), (str(self),))
 
 

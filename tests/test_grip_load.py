@@ -333,3 +333,63 @@ def test_the_trend_rule_does_not_settle_a_drifting_grasp():
     for err in _jitter(300, 0.2, -0.3, 1)[:100]:  # the grips still rise 0.3 N/s
         trend.update(err)
         assert not trend.settled(0.01)
+
+
+def _rocking(n_ticks: int, amplitude: float, drift: float = 0.0) -> np.ndarray:
+    """Errors of three fingertips: the index and middle at their targets, the thumb's error cycling
+    +-``amplitude`` every 0.6 s (a light object rocking on the table), all drifting by ``drift`` N/s."""
+    t = np.arange(n_ticks) * 0.01
+    err = np.zeros((n_ticks, 3))
+    err[:, 2] = amplitude * np.sin(2.0 * np.pi * t / 0.6)
+    return err + drift * t[:, None]
+
+
+@pytest.mark.parametrize("cycle_s", [1.5, 0.0])
+def test_the_cycle_rule_settles_a_grasp_rocking_about_its_targets(cycle_s):
+    """The lego's limit cycle: no tick-to-tick rule holds (the thumb swings +-1 N), the cycle rule
+    ends the ramp after ``ramp_cycle_s``; without it (0) the ramp never settles."""
+    trend = TrendRampSettle(ControllerSettings(ramp_cycle_s=cycle_s))
+    ticks = None
+    for k, err in enumerate(_rocking(600, 1.0)):
+        trend.update(err)
+        if trend.settled(0.01):
+            ticks = k + 1
+            break
+    if cycle_s:
+        assert ticks is not None and ticks >= int(cycle_s / 0.01)
+    else:
+        assert ticks is None
+
+
+@pytest.mark.parametrize(("amplitude", "drift"), [(1.5, 0.0), (1.0, -0.3)])
+def test_the_cycle_rule_does_not_settle_a_wide_swing_or_a_drift(amplitude, drift):
+    """A swing wider than ``ramp_cycle_swing_n`` (+-1.5 N: 3 N) or a cycle whose mean still moves."""
+    trend = TrendRampSettle(ControllerSettings())
+    for err in _rocking(600, amplitude, drift):
+        trend.update(err)
+        assert not trend.settled(0.01)
+
+
+@pytest.mark.parametrize("limited_s", [0.5, 0.0])
+def test_a_finger_at_its_servos_limit_scales_the_ramp_targets_to_what_it_gives(hand, mustard, limited_s):
+    """The scripted hand never moves, so every goal soon sits at its wind-up bound, as a finger's
+    does when its servos give all they can: a thumb whose grip stays at 70 % of its target for
+    ``servo_limited_s`` scales every target to 70 %; fingers at their targets do not; 0: never."""
+    tr = Trace(hand, mustard, dataclasses.replace(GRIP_LOAD, servo_limited_s=limited_s))
+    tr.run_until("close", contact=False)
+    tr.tick(grips=np.full(tr.n, 0.5))
+    ctrl = tr.ctrl
+    assert ctrl.state == "ramp"
+    thumb = ctrl.names.index("thumb")
+    base = ctrl.grip_targets.copy()
+    for _ in range(120):
+        grips = tr.at_target()
+        grips[thumb] = 0.7 * base[thumb]
+        tr.tick(grips=grips)
+        if ctrl.scale < 1.0:
+            break
+    if limited_s:
+        assert ctrl.scale == pytest.approx(0.7)
+        assert np.allclose(ctrl.grip_targets, 0.7 * base)
+    else:
+        assert ctrl.scale == 1.0

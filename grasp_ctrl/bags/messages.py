@@ -16,6 +16,7 @@ from grasp_ctrl.bags.types import BIOTAC_HAND, N_ELECTRODES, N_PAC
 from grasp_ctrl.tactile.layout import BIOTAC
 
 Message = tuple[int, str, str, dict[str, Any]]
+Vector = Sequence[float] | np.ndarray  # a point, force or quaternion: a tuple or an array row
 
 _ZERO3 = {"x": 0.0, "y": 0.0, "z": 0.0}
 _IDENTITY = {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}
@@ -31,11 +32,11 @@ def header(t_ns: int, frame_id: str = "") -> dict[str, Any]:
     return {"stamp": stamp(t_ns), "frame_id": frame_id}
 
 
-def vector3(v: Sequence[float]) -> dict[str, float]:
+def vector3(v: Vector) -> dict[str, float]:
     return {"x": float(v[0]), "y": float(v[1]), "z": float(v[2])}
 
 
-def quaternion(q_xyzw: Sequence[float]) -> dict[str, float]:
+def quaternion(q_xyzw: Vector) -> dict[str, float]:
     return {"x": float(q_xyzw[0]), "y": float(q_xyzw[1]), "z": float(q_xyzw[2]), "w": float(q_xyzw[3])}
 
 
@@ -43,7 +44,7 @@ def joint_state(t_ns: int, names: list[str], position: list[float], effort: list
     return {"header": header(t_ns), "name": names, "position": position, "velocity": [], "effort": effort}
 
 
-def wrench_stamped(t_ns: int, frame_id: str, f: Sequence[float]) -> dict[str, Any]:
+def wrench_stamped(t_ns: int, frame_id: str, f: Vector) -> dict[str, Any]:
     """A force with no torque (the estimators give the force on the skin only)."""
     return {"header": header(t_ns, frame_id), "wrench": {"force": vector3(f), "torque": _ZERO3}}
 
@@ -52,11 +53,11 @@ def string(text: str) -> dict[str, Any]:
     return {"data": text}
 
 
-def pose_stamped(t_ns: int, frame_id: str, p: Sequence[float]) -> dict[str, Any]:
+def pose_stamped(t_ns: int, frame_id: str, p: Vector) -> dict[str, Any]:
     return {"header": header(t_ns, frame_id), "pose": {"position": vector3(p), "orientation": _IDENTITY}}
 
 
-def transform(t_ns: int, parent: str, child: str, p: Sequence[float], q_xyzw: Sequence[float]) -> dict[str, Any]:
+def transform(t_ns: int, parent: str, child: str, p: Vector, q_xyzw: Vector) -> dict[str, Any]:
     return {
         "header": header(t_ns, parent),
         "child_frame_id": child,

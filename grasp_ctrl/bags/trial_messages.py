@@ -130,10 +130,14 @@ def _tick_messages(view: TrialView, hand: HandConfig) -> Iterator[m.Message]:
                 forces.append((topics.force_topic(finger, kind), topics.sensor_frame(finger), f_sensor))
     obj_z = np.asarray(view.cols["object_z_world"], dtype=float) if view.has("object_z_world") else None
     frames = _HandFrames(view, hand)
-    raw = None
+    raw: list[tuple[str, int, np.ndarray]] | None = None
     if has_raw_frames(view):
         sensor_ids = {f.name: f.sensor_id for f in hand.fingers}
-        raw = [(f, sensor_ids[f], _cols(view, raw_frame_columns(f))) for f in view.fingers]
+        raw = []
+        for f in view.fingers:
+            counts = _cols(view, raw_frame_columns(f))
+            assert counts is not None  # has_raw_frames: every column is there
+            raw.append((f, sensor_ids[f], counts))
     states = view.states
     q_list = q.tolist() if q is not None else None
     goal_list = q_goal.tolist() if q_goal is not None else None
@@ -142,7 +146,7 @@ def _tick_messages(view: TrialView, hand: HandConfig) -> Iterator[m.Message]:
     amps_ok = np.isfinite(current_a).all(axis=1).tolist() if current_a is not None else None
     for k, tk in enumerate(t_ns.tolist()):
         if q_list is not None:
-            effort = amps[k] if amps is not None and amps_ok[k] else []
+            effort = amps[k] if amps is not None and amps_ok is not None and amps_ok[k] else []
             yield tk, topics.JOINT_STATES, JOINT_STATE, m.joint_state(tk, names, q_list[k], effort)
         if goal_list is not None:
             yield tk, topics.JOINT_GOALS, JOINT_STATE, m.joint_state(tk, names, goal_list[k], [])

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -15,6 +15,9 @@ from grasp_ctrl.files.paths import default_hand_file, default_objects_file
 from grasp_ctrl.rigs.registry import REFERENCE_WORLD
 from grasp_ctrl.rigs.trial_builder import SimTrial, build_trial
 from grasp_ctrl.sim.oracle import OracleEstimator
+
+if TYPE_CHECKING:
+    from grasp_ctrl.sim.mujoco.world import MuJoCoWorld
 
 BENCH_OBJECT = "chips_can"
 
@@ -93,7 +96,8 @@ def _bare_steps(sim_s: float, seed: int) -> float:
     recorder = _StepRecorder(mujoco)
     trial = _trial(seed, recorder)
     world, ctrl = trial.world, trial.ctrl
-    m, d = world.model, world.data  # type: ignore[attr-defined]
+    mj_world = cast("MuJoCoWorld", world)  # backend=REFERENCE_WORLD (_trial)
+    m, d = mj_world.model, mj_world.data
     spec = mujoco.mjtState.mjSTATE_INTEGRATION
     start = np.empty(mujoco.mj_stateSize(m, spec))
     mujoco.mj_getState(m, d, start, spec)

@@ -5,13 +5,16 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from grasp_ctrl.cli._learning_args import add_data_arguments, data_spec
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.files.safe_write import check_output, write_output  # noqa: F401
+
+if TYPE_CHECKING:
+    from grasp_ctrl.estimators.base import ForceEstimator
 
 NAME = "evaluate"
 HELP = "force-estimation metrics of a checkpoint or policy on a test set"
@@ -70,17 +73,18 @@ def _predict(spec: str, tared: np.ndarray, bar: Any = None) -> np.ndarray:
 
     json_path = resolve_policy_path(spec)
     meta = read_metadata(json_path)
+    est: ForceEstimator
     if meta["kind"] == "onnx" and (meta.get("input") or {}).get("kind") in FEATURE_KINDS:
         est = load_feature_onnx_policy(meta, json_path, None, 1)
     else:
         est = load_policy(str(json_path))  # the controller's own estimator for this policy
-    out = []
+    forces: list[np.ndarray] = []
     for i in range(0, len(tared), 4096):
         chunk = tared[i : i + 4096]
-        out.append(est.estimate(chunk, [""] * len(chunk)).f_sensor)
+        forces.append(est.estimate(chunk, [""] * len(chunk)).f_sensor)
         if bar is not None:
             bar.update(len(chunk))
-    return np.concatenate(out)
+    return np.concatenate(forces)
 
 
 def run(args: argparse.Namespace) -> int:

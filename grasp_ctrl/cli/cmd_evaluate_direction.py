@@ -4,10 +4,15 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.files.safe_write import check_output, write_output  # noqa: F401
+
+if TYPE_CHECKING:
+    import numpy as np
 
 NAME = "evaluate-direction"
 HELP = "angle between estimated force directions and labelled plate normals on real BioTac data"
@@ -52,7 +57,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", metavar="FILE", help="also write the results as JSON")
 
 
-def _estimator(spec: str, threads: int):  # type: ignore[no-untyped-def]
+def _estimator(spec: str, threads: int) -> tuple[str, Callable[[np.ndarray], np.ndarray] | None]:
     from grasp_ctrl.estimators.registry import load_policy
     from grasp_ctrl.evaluation import direction as d
 

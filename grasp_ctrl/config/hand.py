@@ -210,9 +210,9 @@ def _joint(t: Table) -> JointConfig:
     return JointConfig(
         name=t.str("name"),
         servo_id=t.int("servo_id", lo=0, hi=252),
-        axis=t.vector("axis", 3, unit=True),  # type: ignore[arg-type]
-        origin_xyz=t.vector("origin_xyz", 3, (0.0, 0.0, 0.0), bound=MAX_OFFSET_M),  # type: ignore[arg-type]
-        origin_rpy=t.vector("origin_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),  # type: ignore[arg-type]
+        axis=t.vector("axis", 3, unit=True),
+        origin_xyz=t.vector("origin_xyz", 3, (0.0, 0.0, 0.0), bound=MAX_OFFSET_M),
+        origin_rpy=t.vector("origin_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),
         lower_rad=lower,
         upper_rad=upper,
         open_rad=open_rad,
@@ -243,12 +243,12 @@ def _finger(t: Table) -> FingerConfig:
         name=check_identifier(t.str("name"), t.path, t.key("name")),
         sensor_id=t.int("sensor_id", lo=0, hi=255),
         grasp=t.bool("grasp", True),
-        task_vector_hand=t.vector("task_vector_hand", 3, unit=True),  # type: ignore[arg-type]
-        base_xyz=t.vector("base_xyz", 3, bound=MAX_OFFSET_M),  # type: ignore[arg-type]
-        base_rpy=t.vector("base_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),  # type: ignore[arg-type]
+        task_vector_hand=t.vector("task_vector_hand", 3, unit=True),
+        base_xyz=t.vector("base_xyz", 3, bound=MAX_OFFSET_M),
+        base_rpy=t.vector("base_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),
         joints=joints,
-        tip_xyz=t.vector("tip_xyz", 3, bound=MAX_OFFSET_M),  # type: ignore[arg-type]
-        tip_rpy=t.vector("tip_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),  # type: ignore[arg-type]
+        tip_xyz=t.vector("tip_xyz", 3, bound=MAX_OFFSET_M),
+        tip_rpy=t.vector("tip_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),
     )
 
 
@@ -382,9 +382,9 @@ def load_hand(path: str | Path) -> HandConfig:
         if n in names[:i]:
             raise root.fail(f"fingers[{i}].name", f"a unique finger name ({n!r} repeats)")
     sensor_ids = [f.sensor_id for f in fingers]
-    for i, s in enumerate(sensor_ids):
-        if s in sensor_ids[:i]:
-            raise root.fail(f"fingers[{i}].sensor_id", f"a unique sensor id ({s} repeats)")
+    for i, sid in enumerate(sensor_ids):
+        if sid in sensor_ids[:i]:
+            raise root.fail(f"fingers[{i}].sensor_id", f"a unique sensor id ({sid} repeats)")
     servo_ids = [j.servo_id for f in fingers for j in f.joints]
     if len(set(servo_ids)) != len(servo_ids):
         dup = sorted({s for s in servo_ids if servo_ids.count(s) > 1})
@@ -494,11 +494,11 @@ def load_hand(path: str | Path) -> HandConfig:
         baud=a.int("baud", ArmConfig.baud, lo=9600, hi=DXL_MAX_BAUD),
         model=arm_model,
         joints=arm_joints,
-        base_xyz=a.vector("base_xyz", 3, (0.0, 0.0, 0.0), bound=MAX_OFFSET_M),  # type: ignore[arg-type]
-        base_rpy=a.vector("base_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),  # type: ignore[arg-type]
-        tool_xyz=a.vector("tool_xyz", 3, (0.0, 0.0, 0.0), bound=MAX_OFFSET_M),  # type: ignore[arg-type]
-        tool_rpy=a.vector("tool_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),  # type: ignore[arg-type]
-        line_xy=a.vector("line_xy", 2) if a.has("line_xy") else None,  # type: ignore[arg-type]
+        base_xyz=a.vector("base_xyz", 3, (0.0, 0.0, 0.0), bound=MAX_OFFSET_M),
+        base_rpy=a.vector("base_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),
+        tool_xyz=a.vector("tool_xyz", 3, (0.0, 0.0, 0.0), bound=MAX_OFFSET_M),
+        tool_rpy=a.vector("tool_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),
+        line_xy=a.vector("line_xy", 2) if a.has("line_xy") else None,
         tolerance_m=a.float("tolerance_m", 0.002, lo=0.0, hi=0.1, lo_open=True),
         confirm_step_m=a.float("confirm_step_m", 0.02, lo=0.0, hi=1.0, lo_open=True),
         custom_model=custom_models.get(arm_model),

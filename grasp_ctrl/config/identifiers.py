@@ -11,7 +11,7 @@ argument (:func:`check_identifier_arg`, a UsageError).
 from __future__ import annotations
 
 import re
-from typing import Any
+from typing import Any, TypeGuard
 
 from grasp_ctrl.errors import ConfigError, PolicyError, UsageError
 
@@ -21,7 +21,7 @@ IDENTIFIER_RULE = f"an identifier: 1-{MAX_IDENTIFIER} ASCII letters, digits, '_'
 _SHOWN = 40  # characters of a refused value quoted in the message
 
 
-def is_identifier(value: object) -> bool:
+def is_identifier(value: object) -> TypeGuard[str]:
     return isinstance(value, str) and IDENTIFIER.fullmatch(value) is not None
 
 
@@ -39,7 +39,7 @@ def check_identifier(value: object, where: object, key: str, why: str = "") -> s
     """``value`` if it is an identifier, else ConfigError(where, key, the rule, ``why`` and the value)."""
     if not is_identifier(value):
         raise ConfigError(str(where), key, _expected(value, why))
-    return value  # type: ignore[return-value]
+    return value
 
 
 def check_policy_identifier(value: object, where: object, key: str) -> str:
@@ -47,7 +47,7 @@ def check_policy_identifier(value: object, where: object, key: str) -> str:
     cannot be loaded raises, and the command line reports)."""
     if not is_identifier(value):
         raise PolicyError(f"{where}: {key}: {_expected(value)}")
-    return value  # type: ignore[return-value]
+    return value
 
 
 def _expected(value: object, why: str = "") -> str:
@@ -58,4 +58,4 @@ def check_identifier_arg(value: object, what: str) -> str:
     """``value`` if it is an identifier, else a one-line UsageError naming ``what`` (a flag)."""
     if not is_identifier(value):
         raise UsageError(f"{what} {shown(value)}: must be {IDENTIFIER_RULE}")
-    return value  # type: ignore[return-value]
+    return value

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TypedDict
 
 from grasp_ctrl.errors import UsageError
 
@@ -52,9 +53,10 @@ class ServoModel:
     @property
     def torque_per_amp_nm(self) -> float:
         """Stall torque / stall current (N m/A): the current-based torque limit's scale."""
-        if not self.known_torque:
+        torque, current = self.stall_torque_nm, self.stall_current_a
+        if torque is None or current is None:  # not known_torque
             raise UsageError(f"servo model {self.name}: no stall torque and current known here")
-        return self.stall_torque_nm / self.stall_current_a  # type: ignore[operator]
+        return torque / current
 
     @property
     def no_load_speed_rad_s(self) -> float:
@@ -78,11 +80,18 @@ class ServoModel:
         return (d_gain / 16.0) / self.pwm_limit * pulses_per_rad * 1e-3 * self.stall_torque_nm
 
 
+class _Ratings(TypedDict):
+    """Register ranges shared by a servo series (ServoModel's fields of the same names)."""
+
+    max_velocity_limit: int
+    max_position_gain: int
+
+
 # The X330 series: Velocity Limit 0 ~ 2,047 and position gains 0 ~ 16,383 on every X330 page of the
 # e-Manual; XM430: Velocity Limit 0 ~ 1,023 (the XM430 pages' shared Velocity Limit table) and
 # position gains 0 ~ 16,383 (their shared Position PID Gain table).
-_X330 = {"max_velocity_limit": 2047, "max_position_gain": 16383}
-_XM430 = {"max_velocity_limit": 1023, "max_position_gain": 16383}
+_X330: _Ratings = {"max_velocity_limit": 2047, "max_position_gain": 16383}
+_XM430: _Ratings = {"max_velocity_limit": 1023, "max_position_gain": 16383}
 
 MODELS: dict[str, ServoModel] = {
     m.name: m

@@ -6,11 +6,12 @@ command line can print one line and exit with status 2.
 
 from __future__ import annotations
 
+import builtins
 import math
 import tomllib
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, overload
 
 from grasp_ctrl.errors import ConfigError
 
@@ -95,13 +96,22 @@ class Table:
             raise self.fail(name, f"one of {', '.join(choices)} (got {value!r})")
         return value
 
-    def bool(self, name: str, default: Any = _MISSING) -> bool:
+    # The accessors below are named after the types they return and shadow those builtins
+    # inside the class body: annotations after this point spell them builtins.str etc.
+
+    def bool(self, name: builtins.str, default: Any = _MISSING) -> builtins.bool:
         value = self._get(name, default)
         if not isinstance(value, bool):
             raise self.fail(name, "true or false")
         return value
 
-    def int(self, name: str, default: Any = _MISSING, lo: int | None = None, hi: int | None = None) -> int:
+    def int(
+        self,
+        name: builtins.str,
+        default: Any = _MISSING,
+        lo: builtins.int | None = None,
+        hi: builtins.int | None = None,
+    ) -> builtins.int:
         value = self._get(name, default)
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.fail(name, "an integer")
@@ -110,12 +120,12 @@ class Table:
 
     def float(
         self,
-        name: str,
+        name: builtins.str,
         default: Any = _MISSING,
-        lo: float | None = None,
-        hi: float | None = None,
-        lo_open: bool = False,
-    ) -> float:
+        lo: builtins.float | None = None,
+        hi: builtins.float | None = None,
+        lo_open: builtins.bool = False,
+    ) -> builtins.float:
         value = self._get(name, default)
         if not finite_number(value):
             span = (
@@ -129,9 +139,45 @@ class Table:
         _check_range(self, name, float(value), lo, hi)
         return float(value)
 
+    @overload
     def vector(
-        self, name: str, n: int, default: Any = _MISSING, unit: bool = False, bound: float = MAX_VECTOR_COMPONENT
-    ) -> tuple[float, ...]:
+        self,
+        name: builtins.str,
+        n: Literal[2],
+        default: Any = ...,
+        unit: builtins.bool = ...,
+        bound: builtins.float = ...,
+    ) -> tuple[builtins.float, builtins.float]: ...
+
+    @overload
+    def vector(
+        self,
+        name: builtins.str,
+        n: Literal[3],
+        default: Any = ...,
+        unit: builtins.bool = ...,
+        bound: builtins.float = ...,
+    ) -> tuple[builtins.float, builtins.float, builtins.float]: ...
+
+    @overload
+    def vector(
+        self,
+        name: builtins.str,
+        n: builtins.int,
+        default: Any = ...,
+        unit: builtins.bool = ...,
+        bound: builtins.float = ...,
+    ) -> tuple[builtins.float, ...]: ...
+
+    def vector(
+        self,
+        name: builtins.str,
+        n: builtins.int,
+        default: Any = _MISSING,
+        unit: builtins.bool = False,
+        bound: builtins.float = MAX_VECTOR_COMPONENT,
+    ) -> tuple[builtins.float, ...]:
+        """A list of ``n`` finite numbers; ``n`` of 2 or 3 types the result as a pair or triple."""
         value = self._get(name, default)
         if not isinstance(value, (list, tuple)) or len(value) != n or not all(finite_number(v) for v in value):
             raise self.fail(name, f"a list of {n} finite numbers")
@@ -145,7 +191,7 @@ class Table:
             vec = tuple(v / norm for v in vec)
         return vec
 
-    def unknown_keys(self, allowed: set[str]) -> None:
+    def unknown_keys(self, allowed: set[builtins.str]) -> None:
         """Reject typos: a misspelt safety limit must not silently fall back to a default."""
         for k in self.data:
             if k not in allowed:

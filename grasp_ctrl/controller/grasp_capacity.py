@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
-from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.config.objects import CapProfile, ObjectProfile
 from grasp_ctrl.controller.joint_stiffness import torque_per_amp_nm as torque_per_amp
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
@@ -121,7 +121,7 @@ def liftable_weight(
             b_ub += [float(tau_max), float(tau_max)]
         frames.append((cols, per_n, limits, finger))
     balance[2, -1] = -1.0
-    bounds = [(None, None)] * nv
+    bounds: list[tuple[float | None, float | None]] = [(None, None)] * nv
     for i, c in enumerate(contacts):
         bounds[4 * i] = (0.0, (normal_max_n or {}).get(c.finger))
     bounds[-1] = (0.0, None)
@@ -140,10 +140,9 @@ def liftable_weight(
     return Capacity(float(res.x[-1]), tuple(loads))
 
 
-def _cap_contact(obj: ObjectProfile, pad: np.ndarray, top_z_hand: float) -> tuple[float, np.ndarray]:
+def _cap_contact(cap: CapProfile, pad: np.ndarray, top_z_hand: float) -> tuple[float, np.ndarray]:
     """Horizontal gap of ``pad`` outside the mustard-style dome and the dome's outward normal
     at the pad's height (the dome: a sphere cap of the cap's diameter and height)."""
-    cap = obj.cap
     a, h = 0.5 * cap.diameter_m, cap.height_m
     radius = (a * a + h * h) / (2.0 * h)
     centre_z = h - radius  # sphere centre above the body's top
@@ -172,12 +171,12 @@ def object_capacity(
 
     kin = kin or HandKinematics(hand)
     q = preshape(hand, obj, standoff_m).q
-    cap_finger = obj.cap.finger if obj.cap is not None else None
+    cap = obj.cap
     # the body's top in the hand frame (the hand origin palm_above_contact_m over the grasp height)
     top_z_hand = obj.height_m - obj.grasp_height_m - hand.grasp.palm_above_contact_m
-    if cap_finger is not None:
-        raised = raised_reach_posture(hand, cap_finger, obj.cap.contact_height_m - obj.grasp_height_m)
-        sl = kin.slices[cap_finger]
+    if cap is not None:
+        raised = raised_reach_posture(hand, cap.finger, cap.contact_height_m - obj.grasp_height_m)
+        sl = kin.slices[cap.finger]
         q[sl] = raised[sl]
     contacts = []
     for finger in hand.grasp_fingers:
@@ -187,8 +186,8 @@ def object_capacity(
         normal = None
         for _ in range(400):
             pad, _ = chain.point_and_jacobian(qf, PAD_POINT_SENSOR)
-            if finger.name == cap_finger:
-                gap, normal = _cap_contact(obj, pad, top_z_hand)
+            if cap is not None and finger.name == cap.finger:
+                gap, normal = _cap_contact(cap, pad, top_z_hand)
             else:
                 gap, normal = side_gap(obj, pad)
             if gap <= 0.0:

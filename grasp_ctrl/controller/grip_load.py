@@ -82,6 +82,7 @@ def _load_transitions() -> list[tuple[str, str, str, str | None]]:
 LOAD_TRANSITIONS = _load_transitions()
 COORDINATED = ("load", "lift", "hold", "lower")
 SQUEEZING = ("ramp", *COORDINATED)  # the states whose goals the force loop moves
+SATURATED_SHARE = 0.95  # a joint whose goal is this share of its wind-up bound away gives all it can
 
 
 class GripLoadController(GraspController):
@@ -128,6 +129,7 @@ class GripLoadController(GraspController):
         self.wide_q = self._wide_posture()
         self._alpha = [0.0] * len(self.names)  # each finger's way from the wide to the closing preshape
         self.lag_bound_rad = self._lag_bound()
+        self._servo_limited = [0] * len(self.names)  # ticks each finger has given all its servos can
         self._joint_finger = np.zeros(len(self.hand.joints), dtype=np.int64)  # each joint's finger index
         for i, name in enumerate(self.names):
             self._joint_finger[self.kin.slices[name]] = i
@@ -217,7 +219,36 @@ class GripLoadController(GraspController):
     def _ramp_tick(self, snap: Snapshot) -> None:
         self._unwind(snap)
         self._limit_to_safety(snap)
+        self._limit_to_servos(snap)
         super()._ramp_tick(snap)
+
+    def _limit_to_servos(self, snap: Snapshot) -> None:
+        """While ramping, a grasping finger whose servos give all they can (a joint's goal held at
+        the wind-up bound, ``_bound_windup``) while its grip stays short of its target for
+        ``servo_limited_s`` scales every target down to the share it gives (down to
+        ``min_grip_scale``): the fingers push against each other through the object, so a target
+        the weakest finger cannot reach keeps the ramp from settling (on the mustard bottle the
+        LEAP thumb's MCP and distal joints sit at 1.2 and 0.55 A with its grip at 3.1 N of 5.5)."""
+        bound = self.lag_bound_rad
+        if bound is None or self.s.servo_limited_s <= 0.0:
+            return
+        q = np.asarray(snap.q, dtype=float)
+        pinned = self._grasp_joints & (np.abs(self.motion.q_goal - q) >= SATURATED_SHARE * bound)
+        grip = snap.grip_n.tolist()
+        short: list[float] = []
+        for i, name in enumerate(self.names):
+            held = self._grasping[i] and grip[i] < self._targets[i] - self.s.ramp_tolerance_n
+            held = held and bool(pinned[self.kin.slices[name]].any())
+            self._servo_limited[i] = self._servo_limited[i] + 1 if held else 0
+            if self._servo_limited[i] * self.dt >= self.s.servo_limited_s:
+                short.append(max(grip[i], 0.0) / max(self._targets[i], 1e-9))
+        if short:
+            scale = max(self.s.min_grip_scale, self.scale * min(short))
+            self._servo_limited = [0] * len(self.names)
+            if scale < self.scale:
+                self.scale = scale
+                self._targets = [b * self.scale for b in self._base]
+                self.grip_targets = np.asarray(self._targets)
 
     def _unwind(self, snap: Snapshot) -> None:
         """A grasping pad whose |f_sensor| passes ``unwind_fraction`` of the safety limit: its

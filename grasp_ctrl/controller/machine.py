@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import functools
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from transitions import Machine
@@ -142,6 +142,13 @@ class GraspController:
     #: Whether the tick gives it each fingertip's PAC spread (``Snapshot.pac_spread``).
     reads_vibration = False
     NAME = "paper"  # its name in controller/settings.py (the settings it starts from without any)
+
+    if TYPE_CHECKING:
+        # The triggers ``build_machine`` adds to the model; defined here they would stop
+        # transitions from binding its own (it skips names the model already has).
+        def step(self) -> bool: ...
+
+        def fail(self, *, reason: str, detail: str | None = None) -> bool: ...
 
     def __init__(
         self,
@@ -555,7 +562,9 @@ class GraspController:
             return None
         self._decide(snap, flags & (tk.FORCE_NOT_FINITE | tk.OVERFORCE), self.hand.safety.max_fingertip_force_n)
         self._act(snap)
-        return Command(self.motion.next_goal(), self.palm_target.copy(), self.torque_on)  # type: ignore[union-attr]
+        palm = self.palm_target
+        assert palm is not None  # set by the first tick, before any squeeze state
+        return Command(self.motion.next_goal(), palm.copy(), self.torque_on)
 
     def _squeeze_state_tick(self, snap: Snapshot) -> Command | None:
         """``tick`` in the states of ``squeeze_plan`` through it, ``tk.squeeze_state_tick`` and
@@ -591,7 +600,11 @@ class GraspController:
             return None
         flags = tk.squeeze_state_tick(grip, contact, f_sensor, f_world, q, palm, *plan)
         cmd = self.squeeze_done(snap, flags)
-        return cmd if cmd is not None else Command(self.motion.sent_goal(), self.palm_target.copy(), self.torque_on)  # type: ignore[union-attr]
+        if cmd is not None:
+            return cmd
+        palm_target = self.palm_target
+        assert palm_target is not None  # tick sets it before a squeeze state's tick
+        return Command(self.motion.sent_goal(), palm_target.copy(), self.torque_on)
 
     def tick(self, snap: Snapshot) -> Command:
         self.snap = snap
@@ -710,6 +723,7 @@ class GraspController:
                     grip, self.grasp_mask, tau, gain, max_speed, self.dt, False, self._no_palm, self._no_palm, 0.0, q
                 )
             else:
+                assert p is not None  # an ndarray, checked with palm_goal above
                 self.motion.squeeze(
                     grip, self.grasp_mask, tau, gain, max_speed, self.dt, True, p, palm_goal, palm_speed * self.dt, q
                 )

@@ -84,19 +84,53 @@ class TrendRampSettle(RampSettle):
     mean, so the window rule never holds and the ramp times out. Here the grasp is steady when,
     over the last ``ramp_steady_s``, every filtered error stayed in the band and each grip's mean
     over the window's second half differs from its mean over the first half by at most
-    ``ramp_steady_n``: zero-mean jitter averages out, a drift does not."""
+    ``ramp_steady_n``: zero-mean jitter averages out, a drift does not.
+
+    A third rule (``ramp_cycle_s`` > 0) ends a steady cycle: a light object rocking on the table
+    (the lego, set down 6 mm toward the thumb) trades the thumb's grip between 3 and 5 N every
+    0.6 s while the index and middle sit at their targets, and the ramp times out although the
+    grasp holds on average. Over the last ``ramp_cycle_s`` each grip's mean error is in the band
+    (their mean within ``ramp_tolerance_n``), the means over the window's halves differ by at
+    most ``ramp_tolerance_n`` and no filtered error swung by more than ``ramp_cycle_swing_n``."""
 
     def __init__(self, settings: ControllerSettings, dt: float = 0.01) -> None:
         super().__init__(settings, dt)
         self._span = max(2, int(round(settings.ramp_steady_s / dt)))
         self._history: deque[np.ndarray] = deque(maxlen=self._span)
+        self._cycle_span = int(round(settings.ramp_cycle_s / dt))
+        self._cycle: deque[np.ndarray] = deque(maxlen=max(1, self._cycle_span))
+        self.cycle_ticks = 0
 
     def reset(self) -> None:
         super().reset()
         self._history.clear()
+        self._cycle.clear()
+        self.cycle_ticks = 0
+
+    def settled(self, dt: float) -> bool:
+        return super().settled(dt) or self.cycle_ticks > 0
+
+    def _update_cycle(self, err: np.ndarray) -> None:
+        if self._cycle_span < 2:
+            return
+        self._cycle.append(err)
+        if len(self._cycle) < self._cycle_span:
+            return
+        window = np.array(self._cycle)
+        half = len(window) // 2
+        mean = window.mean(axis=0)
+        s = self.s
+        steady = (
+            abs(float(mean.mean())) <= s.ramp_tolerance_n
+            and bool((np.abs(mean) <= s.ramp_balance_band_n).all())
+            and bool((np.abs(window[half:].mean(axis=0) - window[:half].mean(axis=0)) <= s.ramp_tolerance_n).all())
+            and bool((np.ptp(window, axis=0) <= s.ramp_cycle_swing_n).all())
+        )
+        self.cycle_ticks = self._cycle_span if steady else 0
 
     def update(self, err_now: np.ndarray) -> None:
         err, in_band = self._filtered(err_now)
+        self._update_cycle(err)
         if not in_band:
             self._history.clear()
             self.steady_ticks = 0

@@ -46,6 +46,9 @@ class ControllerSettings:
     ramp_steady_s: float = 0.5  #   controller/ramp_settle.py): no grip moved more than
     #   ramp_steady_n for ramp_steady_s
     ramp_filter_s: float = 0.1  # both rules read each grip's error averaged over this long
+    ramp_cycle_s: float = 1.5  # grip_load: or the grips cycle about their targets (a light object
+    #   rocking on the table) over this long, each mean in the band and not drifting (0: no such rule)
+    ramp_cycle_swing_n: float = 2.5  #   with no filtered error swinging by more than this
     ramp_timeout_s: float = 6.0
     hold_gain_m_s_per_n: float = 0.005  # grip force controller during lift/hold/lower
     hold_max_speed_m_s: float = 0.004
@@ -116,6 +119,8 @@ class ControllerSettings:
     #   this many times the deflection at which its servo reaches its current limit (current limit x
     #   torque per amp / kp) of its measured angle: more goal adds no torque, only a wind-up that drives
     #   the joint when the contact gives; 0: no bound
+    servo_limited_s: float = 0.5  # grip_load: a finger held at that bound with its grip short of its target
+    #   this long scales every ramp target down to the share it gives (0: never)
     low_confidence_slowdown: bool = False  # slow the ramp when the policy's variance is high
     variance_scale_n2: float = 0.05  # variance at which the ramp runs at half speed
 

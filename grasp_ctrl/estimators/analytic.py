@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+import numpy.typing as npt
 
 from grasp_ctrl.estimators.base import Estimate
 from grasp_ctrl.tactile.geometry import ELECTRODE_NORMALS_SENSOR
@@ -37,7 +38,7 @@ def fit_gains(tared: np.ndarray, f_sensor: np.ndarray) -> np.ndarray:
 class AnalyticEstimator:
     has_variance = False
 
-    def __init__(self, gains: Sequence[float], name: str = "analytic") -> None:
+    def __init__(self, gains: npt.ArrayLike, name: str = "analytic") -> None:
         g = np.asarray(gains, dtype=float)
         if g.shape != (3,) or not np.all(np.isfinite(g)):
             raise ValueError("analytic gains must be three finite numbers")

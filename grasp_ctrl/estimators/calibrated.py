@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.identifiers import check_policy_identifier
@@ -29,9 +30,9 @@ class CalibratedEstimator:
     def __init__(
         self,
         base: ForceEstimator,
-        matrix: np.ndarray,
-        electrode_weights: np.ndarray | None,
-        bias: np.ndarray,
+        matrix: npt.ArrayLike,
+        electrode_weights: npt.ArrayLike | None,
+        bias: npt.ArrayLike,
         name: str,
     ) -> None:
         self.base = base
@@ -106,12 +107,11 @@ def load_calibrated_policy(
     if not isinstance(corr, dict):
         raise PolicyError(f"{json_path}: correction: required (matrix, electrode_weights_n_per_count, bias_n)")
     try:
+        # JSON values, checked by CalibratedEstimator (a missing one fails there too)
+        matrix: Any = corr.get("matrix")
+        bias: Any = corr.get("bias_n")
         return CalibratedEstimator(
-            base,
-            corr.get("matrix"),
-            corr.get("electrode_weights_n_per_count"),  # type: ignore[arg-type]
-            corr.get("bias_n"),
-            name=str(meta.get("name", json_path.stem)),
-        )  # type: ignore[arg-type]
+            base, matrix, corr.get("electrode_weights_n_per_count"), bias, name=str(meta.get("name", json_path.stem))
+        )
     except (TypeError, ValueError) as exc:
         raise PolicyError(f"{json_path}: correction: {exc}") from None

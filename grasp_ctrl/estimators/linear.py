@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+import numpy.typing as npt
 
 from grasp_ctrl.estimators.base import Estimate
 from grasp_ctrl.numeric import jit
@@ -42,7 +43,7 @@ def fit_linear(tared: np.ndarray, f_sensor: np.ndarray, ridge: float = 1e-3) -> 
 class LinearEstimator:
     has_variance = False
 
-    def __init__(self, weights: np.ndarray, bias: np.ndarray, name: str = "linear") -> None:
+    def __init__(self, weights: npt.ArrayLike, bias: npt.ArrayLike, name: str = "linear") -> None:
         W = np.asarray(weights, dtype=float)
         b = np.asarray(bias, dtype=float)
         if W.shape != (3, 19) or b.shape != (3,) or not (np.all(np.isfinite(W)) and np.all(np.isfinite(b))):

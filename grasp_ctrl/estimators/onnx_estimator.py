@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -25,6 +25,9 @@ from grasp_ctrl.estimators.onnx_checks import check_graph_io, verify_model_hash
 from grasp_ctrl.tactile.features import contact_points
 from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN
 from grasp_ctrl.tactile.voxel import GRID_SHAPE, VARIANTS, VoxelGrid
+
+if TYPE_CHECKING:
+    from grasp_ctrl.estimators.feature_onnx_estimator import FeatureOnnxEstimator
 
 SUPPORTED_INPUT_KINDS = ("voxel_grids",)
 SUPPORTED_CONTACT_POINTS = ("squared_signal_centroid_projected",)
@@ -101,7 +104,9 @@ def _check_onnx_interface(session: Any, json_path: Path, tensors_in: dict[str, A
             )
 
 
-def load_onnx_policy(meta: dict[str, Any], json_path: Path, hand: HandConfig | None, threads: int) -> OnnxEstimator:
+def load_onnx_policy(
+    meta: dict[str, Any], json_path: Path, hand: HandConfig | None, threads: int
+) -> OnnxEstimator | FeatureOnnxEstimator:
     """Registry loader for kind "onnx" (see :mod:`grasp_ctrl.estimators.registry`)."""
     json_path = Path(json_path)
     name = meta.get("name", json_path.stem)
@@ -118,7 +123,7 @@ def load_onnx_policy(meta: dict[str, Any], json_path: Path, hand: HandConfig | N
         # Networks on signal vectors (Su et al., the no-voxel model) rather than voxel grids.
         from grasp_ctrl.estimators.feature_onnx_estimator import load_feature_onnx_policy
 
-        return load_feature_onnx_policy(meta, json_path, hand, threads)  # type: ignore[return-value]
+        return load_feature_onnx_policy(meta, json_path, hand, threads)
     kind = _get(meta, json_path, "input.kind", "one of " + ", ".join(SUPPORTED_INPUT_KINDS))
     if kind not in SUPPORTED_INPUT_KINDS:
         raise PolicyError(f"{json_path}: input.kind: one of {SUPPORTED_INPUT_KINDS} (got {kind!r})")

@@ -72,9 +72,9 @@ def check_sensor(meta: dict[str, Any], json_path: Path, hand: HandConfig | None)
 
 
 def load_analytic(meta: dict[str, Any], json_path: Path, hand: HandConfig | None, threads: int) -> ForceEstimator:
-    gains = meta.get("gains_n_per_count")
+    gains: Any = meta.get("gains_n_per_count")  # a JSON value, checked by AnalyticEstimator
     try:
-        return AnalyticEstimator(gains, name=meta.get("name", json_path.stem))  # type: ignore[arg-type]
+        return AnalyticEstimator(gains, name=meta.get("name", json_path.stem))
     except (TypeError, ValueError) as exc:
         raise PolicyError(f"{json_path}: gains_n_per_count: {exc}") from None
 
@@ -82,10 +82,11 @@ def load_analytic(meta: dict[str, Any], json_path: Path, hand: HandConfig | None
 def load_linear(meta: dict[str, Any], json_path: Path, hand: HandConfig | None, threads: int) -> ForceEstimator:
     from grasp_ctrl.estimators.linear import LinearEstimator
 
+    # JSON values, checked by LinearEstimator (a missing one fails there too)
+    weights: Any = meta.get("weights_n_per_count")
+    bias: Any = meta.get("bias_n")
     try:
-        return LinearEstimator(
-            meta.get("weights_n_per_count"), meta.get("bias_n"), name=meta.get("name", json_path.stem)
-        )  # type: ignore[arg-type]
+        return LinearEstimator(weights, bias, name=meta.get("name", json_path.stem))
     except (TypeError, ValueError) as exc:
         raise PolicyError(f"{json_path}: weights_n_per_count/bias_n: {exc}") from None
 

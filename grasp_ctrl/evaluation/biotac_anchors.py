@@ -21,6 +21,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.stats import spearmanr
@@ -33,6 +34,9 @@ from grasp_ctrl.evaluation.tilt_profile import (
     simulated_tilt_profile,
 )
 from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PDC
+
+if TYPE_CHECKING:
+    from grasp_ctrl.sim.biotac.model import BioTacParams
 
 #: The two long trials of the real recordings (A: 7,106 rows, B: 6,469 rows).
 TRIAL_A = "15330_1571242563995"
@@ -215,11 +219,11 @@ class AnchorReport:
 ANCHOR_SOURCES = ("rigid-ft", "ball-ft")
 
 
-def rest_noise_sd(params: object | None = None, frames: int = 200, seed: int = 0) -> float:
+def rest_noise_sd(params: BioTacParams | None = None, frames: int = 200, seed: int = 0) -> float:
     """Electrode noise sd (counts) of simulated sensors at rest, measured as on the real data."""
     from grasp_ctrl.sim.biotac.model import DEFAULT_PARAMS, BioTacSensorModel
 
-    model = BioTacSensorModel(4, np.random.default_rng(seed), params or DEFAULT_PARAMS)  # type: ignore[arg-type]
+    model = BioTacSensorModel(4, np.random.default_rng(seed), params or DEFAULT_PARAMS)
     zeros = np.zeros((4, 3))
     raw = np.stack([model.frames(zeros, zeros, zeros, np.zeros(4, bool), np.zeros(4), 0.01) for _ in range(frames)])
     return float(raw[:, :, ELECTRODES].std(axis=0).mean())
@@ -229,7 +233,7 @@ def anchor_report(
     real_path: str | Path,
     n_per_source: int = 20000,
     seed: int = 7,
-    params: object | None = None,
+    params: BioTacParams | None = None,
     policy: str = "icra19_official",
 ) -> AnchorReport:
     """All anchor figures of the simulated BioTac (``params``, default: the model's defaults)
@@ -304,7 +308,7 @@ PAD_SCAN_FORCES_N = (0.5, 1.0, 2.0, 3.0)
 
 
 def pad_press_ratios(
-    params: object | None = None, policy: str = "icra19_official", hold_s: float = 1.0, seed: int = 0
+    params: BioTacParams | None = None, policy: str = "icra19_official", hold_s: float = 1.0, seed: int = 0
 ) -> np.ndarray:
     """|f_est| / |f| of ``policy`` for steady normal presses on the simulated pad: rows
     PAD_SCAN_X_M, columns PAD_SCAN_FORCES_N. A grasp presses the pad near one spot with
@@ -315,7 +319,7 @@ def pad_press_ratios(
     from grasp_ctrl.sim.biotac.model import DEFAULT_PARAMS, BioTacSensorModel
 
     net = load_policy(policy)
-    model = BioTacSensorModel(1, np.random.default_rng(seed), params or DEFAULT_PARAMS)  # type: ignore[arg-type]
+    model = BioTacSensorModel(1, np.random.default_rng(seed), params or DEFAULT_PARAMS)
     dt, zeros, free = 0.01, np.zeros((1, 3)), np.zeros(1, dtype=bool)
     steps = max(1, int(round(hold_s / dt)))
     rest = np.mean([model.frames(zeros, zeros, zeros, free, np.zeros(1), dt) for _ in range(50)], axis=0)
@@ -374,7 +378,7 @@ def drop_centroid_x(e: np.ndarray) -> np.ndarray:
     return x
 
 
-def location_shares(real_a: np.ndarray, params: object | None = None, seed: int = 0) -> LocationShare:
+def location_shares(real_a: np.ndarray, params: BioTacParams | None = None, seed: int = 0) -> LocationShare:
     """How much of the variance of steady presses at each LOCATION_SCAN_X_M (up to 60 degrees to
     either side of the pad centre, 0.5-6 N, tangential part up to 0.3 of the normal force) the
     top-5 principal components of real A's pressed electrodes ``real_a`` (k, 19) capture. The
@@ -386,7 +390,7 @@ def location_shares(real_a: np.ndarray, params: object | None = None, seed: int 
     from grasp_ctrl.tactile.geometry import SURFACE_RADIUS_M
 
     components = top_components(real_a)
-    constants = pack_params(params or DEFAULT_PARAMS)  # type: ignore[arg-type]
+    constants = pack_params(params or DEFAULT_PARAMS)
     rng = np.random.default_rng(seed)
     n = LOCATION_SCAN_PRESSES
     shares = []

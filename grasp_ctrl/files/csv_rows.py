@@ -90,10 +90,10 @@ def read_rows(
                 except StopIteration:
                     break
                 except csv.Error as exc:
-                    why = f"line {reader.line_num}: not a CSV row ({exc})"
+                    bad = f"line {reader.line_num}: not a CSV row ({exc})"
                     if not skip_bad_rows:
-                        raise UsageError(f"{p}: {why}") from None
-                    out.skipped.append(why)
+                        raise UsageError(f"{p}: {bad}") from None
+                    out.skipped.append(bad)
                     continue
                 line = reader.line_num
                 if not row or all(not v.strip() for v in row):

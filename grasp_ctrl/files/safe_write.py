@@ -34,7 +34,7 @@ import tempfile
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, BinaryIO, Literal
+from typing import Any, BinaryIO, Literal, overload
 
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.files.storage import fsync_dir, temp_path
@@ -214,6 +214,18 @@ def managed_by_run(path: Path, run_dirs: Iterable[Path] = ()) -> Path | None:
                 ):
                     return folder
     return None
+
+
+@overload
+def check_output(
+    path: str | Path, flag: str, *, run_dirs: Iterable[Path] = (), formats: Iterable[str] | None = None
+) -> Path: ...
+
+
+@overload
+def check_output(
+    path: str | Path | None, flag: str, *, run_dirs: Iterable[Path] = (), formats: Iterable[str] | None = None
+) -> Path | None: ...
 
 
 def check_output(

@@ -10,6 +10,7 @@ It works for any serial chain built like a finger (the Dynamixel arm uses it).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TypedDict, Unpack
 
 import numpy as np
 
@@ -22,6 +23,15 @@ class IKResult:
     error_m: float  # remaining distance to the target
     iterations: int
     converged: bool
+
+
+class IKOptions(TypedDict, total=False):
+    """``solve_position_ik``'s tuning keywords, passed through by ``move_fingertips``."""
+
+    tol_m: float
+    max_iters: int
+    max_step_m: float
+    damping: float
 
 
 def point_position(chain: FingerChain, q: np.ndarray, p_sensor: np.ndarray | None = None) -> np.ndarray:
@@ -78,7 +88,7 @@ def move_fingertips(
     q_all: np.ndarray,
     dp_hand: dict[str, np.ndarray],
     p_sensor: np.ndarray | None = None,
-    **ik_options: float,
+    **ik_options: Unpack[IKOptions],
 ) -> tuple[np.ndarray, dict[str, IKResult]]:
     """Displace the given fingertips' points by ``dp_hand`` (hand frame, m) with
     position IK per finger; other fingers keep their angles."""
@@ -87,7 +97,7 @@ def move_fingertips(
     for name, dp in dp_hand.items():
         chain, sl = kin.chains[name], kin.slices[name]
         start = point_position(chain, q_new[sl], p_sensor)
-        res = solve_position_ik(chain, q_new[sl], start + np.asarray(dp, dtype=float), p_sensor, **ik_options)  # type: ignore[arg-type]
+        res = solve_position_ik(chain, q_new[sl], start + np.asarray(dp, dtype=float), p_sensor, **ik_options)
         q_new[sl] = res.q
         results[name] = res
     return q_new, results

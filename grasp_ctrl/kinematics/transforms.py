@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 
-def rpy_matrix(rpy: tuple[float, float, float] | np.ndarray) -> np.ndarray:
+def rpy_matrix(rpy: Sequence[float] | np.ndarray) -> np.ndarray:
     """Rotation from roll-pitch-yaw, URDF convention: R = Rz(yaw) Ry(pitch) Rx(roll)."""
     r, p, y = rpy
     cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
@@ -32,7 +34,7 @@ def axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
     )
 
 
-def transform(xyz: tuple[float, float, float] | np.ndarray, rot: np.ndarray | None = None) -> np.ndarray:
+def transform(xyz: Sequence[float] | np.ndarray, rot: np.ndarray | None = None) -> np.ndarray:
     T = np.eye(4)
     if rot is not None:
         T[:3, :3] = rot

@@ -33,6 +33,7 @@ import math
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -184,9 +185,9 @@ def _label(rec: dict[str, object], raw: bool) -> tuple[list[float], int]:
 
 
 def _num(rec: dict[str, object], col: str) -> float:
-    value = rec.get(col)
+    value: Any = rec.get(col)  # a CSV or Parquet cell: float() refuses what is not a number
     try:
-        v = float(value)  # type: ignore[arg-type]
+        v = float(value)
     except (TypeError, ValueError, OverflowError):
         raise ValueError(f"{col}: a number (got {_short(value)})") from None
     if not math.isfinite(v):

@@ -77,6 +77,8 @@ class VoxelTrunk(nn.Module):
     the branch almost scale invariant (the bias is negligible next to counts in the
     hundreds), which hides the force magnitude, so our trained models use 1/100 (a buffer, saved with the weights)."""
 
+    input_scale: torch.Tensor  # registered as a buffer in __init__
+
     def __init__(self, input_scale: float = 1.0) -> None:
         super().__init__()
         self.register_buffer("input_scale", torch.tensor(float(input_scale)))
@@ -203,7 +205,7 @@ class ForceNet(nn.Module):
         super().__init__()
         self.arch = arch
         self.trunk = VoxelTrunk(VOXEL_INPUT_SCALE) if arch == "voxel" else FeatureTrunk()
-        self.input_names = ARCHS[arch]["inputs"]
+        self.input_names: tuple[str, ...] = ARCHS[arch]["inputs"]
         self.fc1 = _fc(128, 64)
         self.fc2 = _fc(64, 32)
         self.out = nn.Linear(32, 3)
@@ -213,6 +215,7 @@ class ForceNet(nn.Module):
 
     def forward_compact(self, electrodes: torch.Tensor, contact_cell: torch.Tensor) -> torch.Tensor:
         """Voxel model from (electrodes, contact cell) without grids (training speed)."""
+        assert isinstance(self.trunk, VoxelTrunk)  # compact inputs are for the voxel model only
         return self.out(self.fc2(self.fc1(sparse_trunk()(self.trunk, electrodes, contact_cell))))
 
 
@@ -225,7 +228,7 @@ class MultiHeadDropoutNet(nn.Module):
     def __init__(self, heads: int = 10, keep_prob: float = 0.7) -> None:
         super().__init__()
         self.arch = "voxel-dropout"
-        self.input_names = ARCHS["voxel-dropout"]["inputs"]
+        self.input_names: tuple[str, ...] = ARCHS["voxel-dropout"]["inputs"]
         self.trunk = VoxelTrunk(VOXEL_INPUT_SCALE)
         self.fc1 = _fc(128, 64)
         self.drop = nn.Dropout(1.0 - keep_prob)
@@ -249,7 +252,7 @@ class SuNet(nn.Module):
     def __init__(self, hidden: tuple[int, ...] = (64, 64, 64)) -> None:
         super().__init__()
         self.arch = "su"
-        self.input_names = ARCHS["su"]["inputs"]
+        self.input_names: tuple[str, ...] = ARCHS["su"]["inputs"]
         layers: list[nn.Module] = []
         n_in = 20
         for h in hidden:
@@ -270,7 +273,11 @@ ARCHS: dict[str, dict[str, Any]] = {
 }
 
 
-def build_model(arch: str) -> nn.Module:
+# Every force network: each names its inputs (``input_names``) and its ``arch``.
+ForceModel = ForceNet | SuNet | MultiHeadDropoutNet
+
+
+def build_model(arch: str) -> ForceModel:
     if arch in ("voxel", "novoxel"):
         return ForceNet(arch)
     if arch == "su":
@@ -281,7 +288,7 @@ def build_model(arch: str) -> nn.Module:
 
 
 def input_shapes(arch: str) -> dict[str, list[int | str]]:
-    shapes = {
+    shapes: dict[str, list[int | str]] = {
         "electrode_voxels": ["n", *GRID],
         "contact_voxels": ["n", *GRID],
         "electrodes": ["n", 19],
@@ -291,7 +298,7 @@ def input_shapes(arch: str) -> dict[str, list[int | str]]:
     return {name: shapes[name] for name in ARCHS[arch]["inputs"]}
 
 
-def predict(model: nn.Module, inputs: dict[str, torch.Tensor]) -> tuple[torch.Tensor, torch.Tensor | None]:
+def predict(model: ForceModel, inputs: dict[str, torch.Tensor]) -> tuple[torch.Tensor, torch.Tensor | None]:
     """(f_sensor, variance or None) for a batch of named inputs."""
     out = model(*(inputs[n] for n in model.input_names))
     if isinstance(out, tuple):

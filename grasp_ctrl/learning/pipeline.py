@@ -6,7 +6,7 @@ from __future__ import annotations
 import contextlib
 import json
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Generator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -68,6 +68,7 @@ def load_data(spec: DataSpec, report: Callable[[str], None] = print) -> tuple[Da
         "forward_model": "grasp_ctrl.sim.biotac.model (mock world)",
     }
     if contacts is not None:
+        assert spec.grasp_contacts is not None  # contacts come only from a given file
         info["ball_ft_grasp_contacts"] = {"file": Path(spec.grasp_contacts).name, "contacts": contacts.summary()}
     return ds, info
 
@@ -197,7 +198,7 @@ def run_experiment(
         trained = ray_map(address, jobs, train_one, args, shared=(ds, split), cpus_per_task=threads)
     else:
 
-        def one_by_one():  # type: ignore[no-untyped-def]
+        def one_by_one() -> Generator[tuple[int, dict[str, Any]], None, None]:
             for i, (combo, sources, name, arch, beta) in enumerate(plan):
                 progress(f"== {name} on {combo}")
                 yield (

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -40,6 +41,9 @@ from grasp_ctrl.sim.biotac.grasp_contacts import GraspContacts
 from grasp_ctrl.sim.biotac.presses import reverse_shear
 from grasp_ctrl.tactile.geometry import SURFACE_RADIUS_M
 from grasp_ctrl.tactile.layout import PDC
+
+if TYPE_CHECKING:
+    from grasp_ctrl.sim.biotac.model import BioTacParams
 
 ForwardModel = Callable[[np.ndarray, np.ndarray, np.random.Generator], np.ndarray]
 TARE_FRAMES = 20
@@ -96,13 +100,13 @@ class SimTrial:
         )
 
 
-def mock_biotac_forward(params: object | None = None) -> ForwardModel:
+def mock_biotac_forward(params: BioTacParams | None = None) -> ForwardModel:
     """The mock world's BioTac model (grasp_ctrl.sim.biotac.model) as a forward callable:
     a fresh simulated sensor (own baselines and gains) per call, stepped at 100 Hz."""
     from grasp_ctrl.sim.biotac.model import DEFAULT_PARAMS, BioTacSensorModel
 
     def forward(p_sensor: np.ndarray, f_sensor: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        model = BioTacSensorModel(1, rng, params or DEFAULT_PARAMS)  # type: ignore[arg-type]
+        model = BioTacSensorModel(1, rng, params or DEFAULT_PARAMS)
         _, n_out = surface_point_and_normal(p_sensor)
         out = np.empty((len(p_sensor), 44))
         for i in range(len(p_sensor)):

@@ -16,7 +16,7 @@ import torch
 from grasp_ctrl.learning.dataset import Dataset
 from grasp_ctrl.learning.features import _ELECTRODE_CELLS, GRID_SHAPE, _cell_index, contact_point_and_normal
 from grasp_ctrl.learning.losses import sample_losses
-from grasp_ctrl.learning.models import MultiHeadDropoutNet, build_model
+from grasp_ctrl.learning.models import ForceModel, ForceNet, MultiHeadDropoutNet, build_model
 from grasp_ctrl.tactile.layout import ELECTRODES, PDC
 
 CHECKPOINT_FORMAT = "grasp_ctrl-force-checkpoint-1"
@@ -82,23 +82,24 @@ class TensorData:
         return out
 
 
-def _uses_voxels(model: torch.nn.Module) -> bool:
+def _uses_voxels(model: ForceModel) -> bool:
     return "electrode_voxels" in model.input_names
 
 
-def _forward_heads(model: torch.nn.Module, data: TensorData, idx: torch.Tensor) -> torch.Tensor:
+def _forward_heads(model: ForceModel, data: TensorData, idx: torch.Tensor) -> torch.Tensor:
     """(b, heads, 3) for the dropout model, (b, 1, 3) otherwise. Voxel models run on the
     compact inputs (the sparse path, identical to the grids)."""
     if _uses_voxels(model):
-        args = [data.electrodes[idx], data.contact_cell[idx]]
+        electrodes, contact_cell = data.electrodes[idx], data.contact_cell[idx]
         if isinstance(model, MultiHeadDropoutNet):
-            return model.heads_forward(*args, compact=True)
-        return model.forward_compact(*args).unsqueeze(1)
+            return model.heads_forward(electrodes, contact_cell, compact=True)
+        assert isinstance(model, ForceNet)  # the other model on voxels
+        return model.forward_compact(electrodes, contact_cell).unsqueeze(1)
     x = data.inputs(idx, model.input_names)
     return model(*(x[n] for n in model.input_names)).unsqueeze(1)
 
 
-def _batch_loss(model: torch.nn.Module, data: TensorData, idx: torch.Tensor, beta: float | None) -> torch.Tensor:
+def _batch_loss(model: ForceModel, data: TensorData, idx: torch.Tensor, beta: float | None) -> torch.Tensor:
     heads = _forward_heads(model, data, idx)
     losses = [
         sample_losses(data.f[idx], heads[:, h], data.projected[idx], data.rot[idx], data.surface_normal[idx], beta)
@@ -108,9 +109,7 @@ def _batch_loss(model: torch.nn.Module, data: TensorData, idx: torch.Tensor, bet
 
 
 @torch.no_grad()
-def predict_data(
-    model: torch.nn.Module, data: TensorData, batch_size: int = 2048
-) -> tuple[np.ndarray, np.ndarray | None]:
+def predict_data(model: ForceModel, data: TensorData, batch_size: int = 2048) -> tuple[np.ndarray, np.ndarray | None]:
     """f_sensor (n, 3) and, for the dropout model, the per-axis variance over the heads."""
     model.eval()
     means, variances = [], []
@@ -126,7 +125,7 @@ def predict_data(
 
 
 @torch.no_grad()
-def evaluate_loss(model: torch.nn.Module, data: TensorData, beta: float | None, batch_size: int = 2048) -> float:
+def evaluate_loss(model: ForceModel, data: TensorData, beta: float | None, batch_size: int = 2048) -> float:
     model.eval()
     total = 0.0
     for start in range(0, data.n, batch_size):
@@ -137,7 +136,7 @@ def evaluate_loss(model: torch.nn.Module, data: TensorData, beta: float | None, 
 
 @dataclass
 class TrainResult:
-    model: torch.nn.Module
+    model: ForceModel
     config: TrainConfig
     best_epoch: int
     best_val_loss: float
@@ -162,7 +161,7 @@ def train(
     opt = torch.optim.Adam(model.parameters(), lr=cfg.lr0)
     iters_per_epoch = max(1, math.ceil(tr.n / cfg.batch_size))
     warmup_iterations = cfg.warmup_epochs * iters_per_epoch
-    best = (math.inf, -1, None)
+    best: tuple[float, int, dict[str, Any] | None] = (math.inf, -1, None)  # val loss, epoch, weights
     history = []
     iteration = 0
     epoch_times = []
@@ -240,7 +239,7 @@ def load_checkpoint(path: str) -> dict[str, Any]:
     return ckpt
 
 
-def model_from_checkpoint(ckpt: dict[str, Any]) -> torch.nn.Module:
+def model_from_checkpoint(ckpt: dict[str, Any]) -> ForceModel:
     model = build_model(ckpt["arch"])
     model.load_state_dict(ckpt["state_dict"])
     model.eval()

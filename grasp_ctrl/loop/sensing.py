@@ -209,7 +209,8 @@ class SensingPipeline:
             f_hand, grip = np.empty((n, 3)), np.empty(n)
             if not sense_forces(q, f_sensor, self._geometry, self._layout, f_hand, grip):
                 f_hand = None  # a force is not finite: the long way
-        if f_hand is None:  # the long way, which also names a non-finite estimate
+        # The long way, which also names a non-finite estimate (f_hand and grip are None together).
+        if f_hand is None or grip is None:
             f_sensor, variance, fault, fault_detail = self._checked_estimate(f_sensor, variance, fault, fault_detail)
             f_hand, grip = self.fast_kin.sensor_forces(q, f_sensor)
         f_world = f_hand  # the arm translates the hand: hand axes = world axes

@@ -59,7 +59,7 @@ def send_command(hand: HandBackend, arm: ArmBackend, ctrl: GraspController, snap
     if not both_finite(np.asarray(cmd.q_goal), np.asarray(cmd.p_palm_world)):
         # Never send a non-finite goal: fault, and command the safe action from the measured pose.
         if not ctrl.terminal:
-            ctrl.fail(reason="goal_invalid", detail=f"controller computed a non-finite goal in state {ctrl.state!r}")  # type: ignore[attr-defined]
+            ctrl.fail(reason="goal_invalid", detail=f"controller computed a non-finite goal in state {ctrl.state!r}")
         cmd = ctrl.safe_command(snap)
     if not cmd.torque_on:
         hand.set_torque(False)

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import csv
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -32,6 +32,9 @@ from grasp_ctrl.hardware.base import JointState
 from grasp_ctrl.loop.loop_kernels import log_row
 from grasp_ctrl.numeric import jit
 from grasp_ctrl.tactile.layout import CHANNEL_NAMES, ELECTRODES, FRAME_LEN, PAC, PDC, TDC
+
+if TYPE_CHECKING:
+    import pyarrow as pa
 
 # Per-fingertip raw-signal summary columns (raw counts, before tare).
 RAW_COLUMNS = ("raw_pdc", "raw_tdc", "raw_pac_std", "raw_e_mean")
@@ -257,7 +260,7 @@ class TickLog:
         self._n = i + 1
         self.set_current(current_a)
 
-    def _table(self):  # -> pyarrow.Table
+    def _table(self) -> pa.Table:
         import pyarrow as pa
 
         n = self._n

@@ -25,12 +25,14 @@ import hashlib
 import os
 from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 from typing import Any, TypeVar, overload
 
 F = TypeVar("F", bound=Callable[..., Any])
 
 JIT_DISABLED = os.environ.get("GRASP_CTRL_NO_JIT", "") not in ("", "0")
 
+_numba: ModuleType | None  # numba, when installed and not disabled
 try:
     if JIT_DISABLED:
         raise ImportError
@@ -66,13 +68,13 @@ KERNEL_SOURCES = (
 )
 
 
-def _cache_dir() -> Path:
+def _cache_dir(numba_version: str) -> Path:
     package = Path(__file__).resolve().parents[1]  # grasp_ctrl/
     digest = hashlib.sha256()
     for rel in KERNEL_SOURCES:
         digest.update((package / rel).read_bytes())
     base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    return base / "grasp_ctrl" / "numba" / f"{_numba.__version__}-{digest.hexdigest()[:16]}"
+    return base / "grasp_ctrl" / "numba" / f"{numba_version}-{digest.hexdigest()[:16]}"
 
 
 def _writable(path: Path) -> bool:
@@ -88,7 +90,7 @@ def _writable(path: Path) -> bool:
 
 if _numba is not None and not os.environ.get("NUMBA_CACHE_DIR"):
     # Where that folder cannot be written numba keeps its own default locations.
-    _where = _cache_dir()
+    _where = _cache_dir(_numba.__version__)
     if _writable(_where):
         _numba.config.CACHE_DIR = str(_where)
 
@@ -108,7 +110,11 @@ def njit(fn: F | None = None, *, numpy_division: bool = False) -> Any:
     raising ZeroDivisionError; without that check per division the compiler can turn a
     loop with a division into SIMD code (``@njit(numpy_division=True)``)."""
     if fn is None:
-        return lambda f: njit(f, numpy_division=numpy_division)
+        return lambda f: _compile(f, numpy_division)
+    return _compile(fn, numpy_division)
+
+
+def _compile(fn: F, numpy_division: bool) -> F:
     if _numba is None:
         return fn
     return _numba.njit(cache=True, nogil=True, error_model="numpy" if numpy_division else "python")(fn)

@@ -10,8 +10,11 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Callable
+from typing import TypeVar
 
 from grasp_ctrl.errors import UsageError
+
+_Number = TypeVar("_Number", int, float)
 
 
 def _span(lo: float | None, hi: float | None, lo_open: bool = False, integer: bool = False) -> str:
@@ -70,8 +73,8 @@ def parse_int(text: str, what: str, lo: int | None = None, hi: int | None = None
     return value
 
 
-def _argparse_type(parse: Callable[[str], float | int], name: str) -> Callable[[str], float | int]:
-    def convert(text: str) -> float | int:
+def _argparse_type(parse: Callable[[str], _Number], name: str) -> Callable[[str], _Number]:
+    def convert(text: str) -> _Number:
         try:
             return parse(text)
         except UsageError as exc:
@@ -83,12 +86,12 @@ def _argparse_type(parse: Callable[[str], float | int], name: str) -> Callable[[
 
 def float_type(lo: float | None = None, hi: float | None = None, lo_open: bool = False) -> Callable[[str], float]:
     """An argparse ``type=``: a finite float in range."""
-    return _argparse_type(lambda t: parse_float(t, "value", lo, hi, lo_open), "float")  # type: ignore[return-value]
+    return _argparse_type(lambda t: parse_float(t, "value", lo, hi, lo_open), "float")
 
 
 def int_type(lo: int | None = None, hi: int | None = None) -> Callable[[str], int]:
     """An argparse ``type=``: an integer in range."""
-    return _argparse_type(lambda t: parse_int(t, "value", lo, hi), "int")  # type: ignore[return-value]
+    return _argparse_type(lambda t: parse_int(t, "value", lo, hi), "int")
 
 
 def parse_values(

@@ -135,7 +135,7 @@ def build_model(weights: icra19_net.Icra19Weights, masks: np.ndarray | None, doc
     w = weights
     g = _GraphBuilder()
     batch = "batch"
-    grid_in = [batch, *GRID_SHAPE]
+    grid_in: list[str | int] = [batch, *GRID_SHAPE]  # a symbolic batch size, then the grid
     inputs = [
         helper.make_tensor_value_info(INPUT_ELECTRODES, TensorProto.FLOAT, grid_in),
         helper.make_tensor_value_info(INPUT_CONTACT, TensorProto.FLOAT, grid_in),

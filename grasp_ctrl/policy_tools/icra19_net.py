@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 LN_EPS = 1e-12
 N_DROPOUT_HEADS = 10
@@ -90,7 +91,7 @@ def trunk(
     electrode_grids: np.ndarray,
     contact_grids: np.ndarray,
     swap_branches: bool = False,
-    dtype: type = np.float64,
+    dtype: npt.DTypeLike = np.float64,
 ) -> np.ndarray:
     """Grids (n, 16, 16, 8) -> (n, 64) features after fully_connected + LayerNorm_5."""
     el = np.asarray(electrode_grids, dtype=dtype)[..., None]
@@ -132,7 +133,7 @@ def forward(
     contact_grids: np.ndarray,
     masks: np.ndarray | None = None,
     swap_branches: bool = False,
-    dtype: type = np.float64,
+    dtype: npt.DTypeLike = np.float64,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """Network output (force the finger applies, BioTac frame, N) and variance.
 

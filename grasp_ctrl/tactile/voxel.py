@@ -20,6 +20,7 @@ Contact grid: 1.0 in the contact point's cell. Both vectorised over a batch.
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 from grasp_ctrl.tactile.geometry import ELECTRODE_POSITIONS_SENSOR
 from grasp_ctrl.tactile.layout import N_ELECTRODES
@@ -64,7 +65,7 @@ class VoxelGrid:
             return np.mod(idx, self._size)  # -1 -> last cell, as numpy indexing did
         return np.clip(idx, 0, self._size - 1)
 
-    def electrode_grids(self, electrodes: np.ndarray, dtype: type = np.float32) -> np.ndarray:
+    def electrode_grids(self, electrodes: np.ndarray, dtype: npt.DTypeLike = np.float32) -> np.ndarray:
         """(n, 19) tared electrode values -> (n, 16, 16, 8) grids."""
         e = np.asarray(electrodes)
         if e.ndim != 2 or e.shape[1] != N_ELECTRODES:
@@ -73,7 +74,7 @@ class VoxelGrid:
         out[:, self._el_flat] = e[:, self._el_src]
         return out.reshape((e.shape[0],) + GRID_SHAPE)
 
-    def contact_grids(self, points: np.ndarray, dtype: type = np.float32) -> np.ndarray:
+    def contact_grids(self, points: np.ndarray, dtype: npt.DTypeLike = np.float32) -> np.ndarray:
         """(n, 3) contact points (m) -> (n, 16, 16, 8) one-hot grids."""
         idx = self.cell_indices(points)
         n = idx.shape[0]

@@ -11,6 +11,7 @@ from __future__ import annotations
 import sys
 import threading
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TextIO
 
@@ -31,7 +32,7 @@ class _NoEstimate:
     name = "none"
     has_variance = False
 
-    def estimate(self, tared: np.ndarray, fingers: list[str]) -> Estimate:
+    def estimate(self, tared: np.ndarray, fingers: Sequence[str]) -> Estimate:
         return Estimate(f_sensor=np.zeros((len(tared), 3)))
 
 

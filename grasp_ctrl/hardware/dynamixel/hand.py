@@ -273,6 +273,7 @@ class DynamixelHand:
         return problems
 
     def _ramp_to(self, q_target: np.ndarray, timeout_s: float) -> None:
+        assert self.last_goal is not None  # the caller ramps only from a goal already sent
         healthy = np.array([i not in self.faults for i in self.ids])
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:

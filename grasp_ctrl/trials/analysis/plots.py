@@ -48,10 +48,11 @@ def comparison_chart(
     width = 0.8 / max(len(pols), 1)
     for j, p in enumerate(pols):
         xs = [i + (j - (len(pols) - 1) / 2) * width for i in range(len(groups))]
-        ys = [100 * (r[j] or 0.0) for r in rows]
+        rates = [r[j] for r in rows]
+        ys = [100 * (v or 0.0) for v in rates]
         bars = ax.bar(xs, ys, width=width * 0.95, label=p)
         # Value labels, so a 0 % bar is visibly there rather than missing.
-        ax.bar_label(bars, labels=["-" if r[j] is None else f"{100 * r[j]:.0f}" for r in rows], fontsize=7, padding=1)
+        ax.bar_label(bars, labels=["-" if v is None else f"{100 * v:.0f}" for v in rates], fontsize=7, padding=1)
     ax.set_xticks(range(len(groups)))
     ax.set_xticklabels([g.replace("_", " ") for g in groups], rotation=20, ha="right")
     ax.set_ylabel("success rate (%)")

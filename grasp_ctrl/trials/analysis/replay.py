@@ -165,7 +165,8 @@ def animate(view: TrialView, hand: HandConfig, path: Path, fps: float = 12.0, ma
     anim = FuncAnimation(fig, draw, frames=len(fr["idx"]), blit=False)
     try:
         with output_file(path) as tmp:  # a symlink at ``path`` is replaced, not followed
-            anim.save(str(tmp), writer=PillowWriter(fps=fps))
+            # matplotlib's stub wants an int; the writer takes any rate (--fps 2.5)
+            anim.save(str(tmp), writer=PillowWriter(fps=fps))  # type: ignore[arg-type]
     finally:
         plt.close(fig)
     return path

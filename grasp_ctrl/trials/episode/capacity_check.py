@@ -11,6 +11,7 @@ summary.
 
 from __future__ import annotations
 
+import builtins
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -44,7 +45,7 @@ class CapacityVerdict:
     def line(self) -> str:
         return f"{self.object}: the grasp carries {self.ratio:.2f}x its weight (binding: {self.binding})"
 
-    def to_json(self) -> dict[str, object]:
+    def to_json(self) -> dict[str, builtins.object]:  # builtins: the field ``object`` shadows it here
         return {
             "object": self.object,
             "ratio": round(self.ratio, 4),

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -11,6 +12,11 @@ from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.rigs.registry import REFERENCE_WORLD
 from grasp_ctrl.sim.biotac.grasp_contacts import DEFAULT_EVERY, DEFAULT_SEED, MIN_FORCE_N, GraspContacts
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial, trial_seed
+
+if TYPE_CHECKING:
+    from grasp_ctrl.controller.machine import GraspController
+    from grasp_ctrl.sim.mujoco.world import MuJoCoWorld
+    from grasp_ctrl.sim.world_api import World
 
 
 def record_grasp_contacts(
@@ -31,17 +37,18 @@ def record_grasp_contacts(
         for trial in range(trials):
             ticks = [0]
 
-            def keep(world, ctrl, obj_name=obj.name, ticks=ticks) -> None:  # type: ignore[no-untyped-def]
+            def keep(world: World, ctrl: GraspController, obj_name: str = obj.name, ticks: list[int] = ticks) -> None:
                 ticks[0] += 1
                 if ticks[0] % every:
                     return
-                points, normals, forces, touching = world.skin_contacts()
+                mj = cast("MuJoCoWorld", world)  # backend=REFERENCE_WORLD below
+                points, normals, forces, touching = mj.skin_contacts()
                 for i in np.flatnonzero(touching):
                     if float(np.linalg.norm(forces[i])) < MIN_FORCE_N:
                         continue
                     rows["object"].append(obj_name)
-                    rows["finger"].append(world.fingers[i])
-                    rows["t"].append(world.t)
+                    rows["finger"].append(mj.fingers[i])
+                    rows["t"].append(mj.t)
                     rows["p"].append(points[i])
                     rows["n"].append(normals[i])
                     rows["f"].append(forces[i])

@@ -119,7 +119,7 @@ def run_hardware_trial(
         "controller": controller_view(ctrl),
         "final_state": ctrl.state,
         "success": ctrl.state == "done",
-        "reason": ctrl.failure_reason if ctrl.state != "done" else None,  # type: ignore[attr-defined]
+        "reason": ctrl.failure_reason if ctrl.state != "done" else None,
         "fault_detail": ctrl.failure_detail,
         "wall_duration_s": round(end, 4),
         "tick_overruns": overruns,

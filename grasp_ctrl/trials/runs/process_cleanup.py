@@ -34,12 +34,35 @@ import time
 import weakref
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol, cast
 
 STOP_TIMEOUT_S = 5.0  # per step: a process that takes longer is killed
 FORKSERVER_ENV = "GRASP_CTRL_FORKSERVER"  # set for the fork server: the command's pid (0: no death signal)
 _PROC = Path("/proc")
 _POOLS: weakref.WeakSet[Any] = weakref.WeakSet()  # the pools of this process not yet stopped
+
+
+class _Lock(Protocol):
+    def acquire(self, blocking: bool = ..., timeout: float = ...) -> bool: ...
+
+    def release(self) -> None: ...
+
+
+class _ForkServerState(Protocol):
+    """The private state of CPython's ``multiprocessing.forkserver._forkserver`` stopped here."""
+
+    _lock: _Lock
+    _forkserver_pid: int | None
+    _forkserver_alive_fd: int | None
+    _forkserver_address: str | bytes | None
+
+
+class _ResourceTrackerState(Protocol):
+    """The private state of CPython's ``multiprocessing.resource_tracker._resource_tracker``."""
+
+    _lock: _Lock
+    _fd: int | None
+    _pid: int | None
 
 
 def can_find_children() -> bool:
@@ -171,7 +194,7 @@ def _stop_forkserver(timeout: float) -> None:
         return
     from multiprocessing import forkserver, util
 
-    server = forkserver._forkserver
+    server = cast(_ForkServerState, forkserver._forkserver)
     if getattr(server, "_forkserver_pid", None) is None or not server._lock.acquire(timeout=timeout):
         return
     try:
@@ -188,8 +211,10 @@ def _stop_forkserver(timeout: float) -> None:
             os.kill(pid, signal.SIGKILL)
         _reap(pid, timeout)
         _wait_gone(forked, timeout)
-        with contextlib.suppress(OSError, TypeError):
-            os.close(server._forkserver_alive_fd)
+        alive_fd = server._forkserver_alive_fd
+        if alive_fd is not None:
+            with contextlib.suppress(OSError):
+                os.close(alive_fd)
         address = server._forkserver_address
         if isinstance(address, str) and not util.is_abstract_socket_namespace(address):
             with contextlib.suppress(OSError):
@@ -204,7 +229,7 @@ def _stop_resource_tracker(timeout: float) -> None:
         return
     from multiprocessing import resource_tracker
 
-    tracker = resource_tracker._resource_tracker
+    tracker = cast(_ResourceTrackerState, resource_tracker._resource_tracker)
     if getattr(tracker, "_fd", None) is None or getattr(tracker, "_pid", None) is None:
         return  # not running, or started by another process
     gc.collect()  # the stopped pools' queues: their semaphores are unlinked (and unregistered) now

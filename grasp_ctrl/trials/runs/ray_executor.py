@@ -16,7 +16,7 @@ import contextlib
 import logging
 import os
 import uuid
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Generator, Iterator, Sequence
 from typing import Any
 
 from grasp_ctrl.errors import UsageError
@@ -103,7 +103,9 @@ def _trial_in_worker(
     return _CACHE[key](*task)
 
 
-def _fan_out(ray: Any, remote_fn: Any, args_list: Sequence[tuple], in_flight: int) -> Iterator[tuple[int, Any]]:
+def _fan_out(
+    ray: Any, remote_fn: Any, args_list: Sequence[tuple], in_flight: int
+) -> Generator[tuple[int, Any], None, None]:
     """(index, result) as the tasks finish, at most ``in_flight`` submitted at once (a
     short queue: Ctrl-C or an error cancels little)."""
     pending = iter(enumerate(args_list))
@@ -145,7 +147,7 @@ def ray_trials(
     backend: str = DEFAULT_BACKEND,
     variation: Any = None,
     raw_frames: bool = False,
-) -> Iterator[tuple[int, dict[str, Any]]]:
+) -> Generator[tuple[int, dict[str, Any]], None, None]:
     """Trials on a simulated ``backend`` (under ``variation``, sim/variation.py; ``raw_frames``:
     tick logs with every raw frame whole) as Ray tasks: yields (task index, record) as each finishes."""
     with ray_session(address, jobs) as ray:
@@ -171,7 +173,7 @@ def ray_map(
     args_list: Sequence[tuple],
     shared: tuple = (),
     cpus_per_task: int = 1,
-) -> Iterator[tuple[int, Any]]:
+) -> Generator[tuple[int, Any], None, None]:
     """``fn(*shared, *args)`` for every args as Ray tasks: yields (index, result) as each
     finishes. ``shared`` (e.g. a dataset) goes to the object store once."""
     with ray_session(address, jobs) as ray:

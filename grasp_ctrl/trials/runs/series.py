@@ -13,7 +13,7 @@ import contextlib
 import itertools
 import shutil
 import sys
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Generator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -89,7 +89,7 @@ def parallel_trials(
     backend: str = DEFAULT_BACKEND,
     variation: Variation | None = None,
     raw_frames: bool = False,
-) -> Iterator[tuple[int, dict[str, Any]]]:
+) -> Generator[tuple[int, dict[str, Any]], None, None]:
     """Simulated trials in ``jobs`` processes: yields (task index, record) as each finishes."""
     from concurrent.futures import FIRST_COMPLETED, wait
     from concurrent.futures.process import BrokenProcessPool
@@ -308,11 +308,11 @@ def _run_locked(
             warn(f"skipping {path}: {why}; that trial will run again")
         for rec in loaded.records:
             key = (rec["policy"], rec["object"], rec["trial"])
-            why = why_unplanned(rec, plan)
-            if why is None:
+            unplanned = why_unplanned(rec, plan)
+            if unplanned is None:
                 done[key] = rec
             else:
-                warn(f"ignoring {record_path(run_dir, *key)}: not a trial of this run ({why})")
+                warn(f"ignoring {record_path(run_dir, *key)}: not a trial of this run ({unplanned})")
 
     reporter = progress if isinstance(progress, Progress) else Progress(plan.total, enabled=bool(progress))
     reporter.resumed(canonical_order(list(done.values()), list(policies), plan.object_names))

@@ -129,6 +129,7 @@ class StudyPlan:
         # (what every study ran before --controller), and the objective where it is not the success
         # rate (a study stored before --rank ranked by it: --rank mean).
         defaults = dataclasses.asdict(settings_for("paper"))
+        assert self.settings is not None  # __post_init__ fills in the defaults
         changed = {k: v for k, v in dataclasses.asdict(self.settings).items() if v != defaults[k]}
         if changed:
             out["settings"] = changed

@@ -4,11 +4,17 @@ from __future__ import annotations
 
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING, cast
 
 import optuna
 from optuna.trial import TrialState
 
 from grasp_ctrl.display.plotting import pyplot
+
+if TYPE_CHECKING:
+    import numpy as np
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 
 def write_study_plots(study: optuna.Study, out_dir: Path, name: str) -> list[str]:
@@ -33,7 +39,7 @@ def write_study_plots(study: optuna.Study, out_dir: Path, name: str) -> list[str
         except (ValueError, RuntimeError) as exc:  # e.g. every setting scored the same
             lines.append(f"{kind}: not drawn ({str(exc).splitlines()[0]})")
             continue
-        fig = ax.figure if hasattr(ax, "figure") else ax[0].figure
+        fig = _figure(ax)
         fig.set_size_inches(8.0, 4.5)
         fig.suptitle(f"{name}: {study.study_name}", fontsize=9)
         fig.tight_layout()
@@ -41,3 +47,9 @@ def write_study_plots(study: optuna.Study, out_dir: Path, name: str) -> list[str
         plt.close(fig)
         lines.append(f"{kind}: {path}")
     return lines
+
+
+def _figure(drawn: Axes | np.ndarray) -> Figure:
+    """The figure of an optuna chart (an Axes, or an array of them for some charts): a
+    top-level figure of its own, never a SubFigure."""
+    return cast("Figure", drawn.figure if hasattr(drawn, "figure") else drawn[0].figure)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -261,8 +261,8 @@ def _fmt(v: float | int) -> str:
     return str(v) if isinstance(v, int) else f"{v:g}"
 
 
-def format_sweep(rows: Sequence[SweepRow], current: dict[str, float | int] | None = None) -> str:
-    """The ranked table; ``*`` marks the object's current setting."""
+def format_sweep(rows: Sequence[SweepRow], current: Mapping[str, float | int | None] | None = None) -> str:
+    """The ranked table; ``*`` marks the object's current setting (a None value: unset, no match)."""
     names = list(rows[0].setting) if rows else []
     head = ["rank"] + names + ["success", "wilson lb", "peak grip true", "peak grip est", "failures"]
     body = []

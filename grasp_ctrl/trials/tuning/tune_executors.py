@@ -2,10 +2,11 @@
 
 A study keeps one trial of each setting in flight (a setting's trials run in
 order, so it can be pruned after any of them) and up to ``--jobs`` settings at
-once. ``submit(key, task, settings)`` hands over one trial (``settings``: the
-setting's controller settings, None: the executor's own); ``next_done()`` returns
-``(key, record)`` of a finished one, in any order; ``close(abort)`` stops the
-workers (at once after Ctrl-C or an error: trials in progress are dropped).
+once. ``submit(key, task, settings)`` hands over one trial (``key``: the study's
+trial number; ``settings``: the setting's controller settings, None: the executor's
+own); ``next_done()`` returns ``(key, record)`` of a finished one, in any order;
+``close(abort)`` stops the workers (at once after Ctrl-C or an error: trials in
+progress are dropped).
 """
 
 from __future__ import annotations
@@ -22,8 +23,8 @@ MAX_TRIAL_FNS = 8  # trial functions kept per worker (each holds its policy): on
 
 
 class TrialExecutor(Protocol):
-    def submit(self, key: Hashable, task: TrialTask, settings: Any = None) -> None: ...
-    def next_done(self) -> tuple[Hashable, dict[str, Any]]: ...
+    def submit(self, key: int, task: TrialTask, settings: Any = None) -> None: ...
+    def next_done(self) -> tuple[int, dict[str, Any]]: ...
     def close(self, abort: bool) -> None: ...
 
 
@@ -49,12 +50,12 @@ class SerialExecutor:
         self.trial_fn_for = trial_fn_for
         self.settings = settings  # those trial_fn runs with
         self.fns: dict[Any, Any] = {}
-        self.queue: collections.deque[tuple[Hashable, TrialTask, Any]] = collections.deque()
+        self.queue: collections.deque[tuple[int, TrialTask, Any]] = collections.deque()
 
-    def submit(self, key: Hashable, task: TrialTask, settings: Any = None) -> None:
+    def submit(self, key: int, task: TrialTask, settings: Any = None) -> None:
         self.queue.append((key, task, settings))
 
-    def next_done(self) -> tuple[Hashable, dict[str, Any]]:
+    def next_done(self) -> tuple[int, dict[str, Any]]:
         key, task, settings = self.queue.popleft()
         if settings is None or settings == self.settings or self.trial_fn_for is None:
             return key, self.trial_fn(*task)
@@ -103,16 +104,16 @@ class ProcessExecutor:
 
         self.settings = settings or ControllerSettings()
         self.pool = start_pool(jobs, _init_tune_worker, (hand, policy, backend, variation, self.settings))
-        self.running: dict[Any, Hashable] = {}
+        self.running: dict[Any, int] = {}
         self.closed = False
 
-    def submit(self, key: Hashable, task: TrialTask, settings: Any = None) -> None:
+    def submit(self, key: int, task: TrialTask, settings: Any = None) -> None:
         from grasp_ctrl.trials.runs.process_cleanup import spawn_guard
 
         with spawn_guard():  # a submit may start a worker (process_cleanup.spawn_guard)
             self.running[self.pool.submit(_tune_worker_trial, settings or self.settings, *task)] = key
 
-    def next_done(self) -> tuple[Hashable, dict[str, Any]]:
+    def next_done(self) -> tuple[int, dict[str, Any]]:
         from concurrent.futures import FIRST_COMPLETED, wait
         from concurrent.futures.process import BrokenProcessPool
 
@@ -181,12 +182,12 @@ class RayExecutor:
         self.ray = self._session.__enter__()
         self.remote = self.ray.remote(num_cpus=1)(_tune_trial_in_worker)
         self.shared = (uuid.uuid4().hex, self.ray.put(hand), policy, backend, variation)
-        self.running: dict[Any, Hashable] = {}
+        self.running: dict[Any, int] = {}
 
-    def submit(self, key: Hashable, task: TrialTask, settings: Any = None) -> None:
+    def submit(self, key: int, task: TrialTask, settings: Any = None) -> None:
         self.running[self.remote.remote(*self.shared, task, settings or self.settings)] = key
 
-    def next_done(self) -> tuple[Hashable, dict[str, Any]]:
+    def next_done(self) -> tuple[int, dict[str, Any]]:
         ready, _ = self.ray.wait(list(self.running), num_returns=1)
         key = self.running.pop(ready[0])
         try:
