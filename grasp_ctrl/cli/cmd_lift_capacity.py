@@ -15,7 +15,7 @@ DESCRIPTION = (
     "Places the hand on each object as the controller does (the object's preshape, the cap finger "
     "raised to its cap, the grasping pads closed along their task vectors onto the object's side) "
     "and solves the statics of the free object: the largest weight the pads carry with every "
-    "contact force in its friction cone and every joint within its current limit x 0.5 N m/A. "
+    "contact force in its friction cone and every joint within its current limit x the hand file's servo model's torque per amp (XC330-M288-T: 0.93 N m / 1.8 A = 0.517 N m/A). "
     "Prints that weight, its ratio to the object's weight and, per pad, the normal force, the "
     "part carried up, the most loaded joint's share of its torque limit and how far the pad's normal "
     "is off the surface's (far off: the contact is not on the pad, and the figure is not to be trusted). An upper bound on "
@@ -59,6 +59,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.config.objects import default_set, load_objects
     from grasp_ctrl.controller.grasp_capacity import GRAVITY_M_S2, object_capacity
+    from grasp_ctrl.controller.joint_stiffness import hand_servo, torque_per_amp_nm
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.sim.variation import DEFAULT_VARIATION, NOMINAL, variation
 
@@ -71,7 +72,9 @@ def run(args: argparse.Namespace) -> int:
     unknown = [n for n in names if n not in profiles]
     if unknown:
         raise UsageError(f"--objects: unknown object(s) {', '.join(unknown)} (known: {', '.join(profiles)})")
-    print(f"lift-capacity: {hand.name}, servos at their current limits x 0.5 N m/A")
+    print(
+        f"lift-capacity: {hand.name}, servos at their current limits x {torque_per_amp_nm(hand):.3f} N m/A ({hand_servo(hand).name})"
+    )
     if v == NOMINAL:
         print(f"  variation {v.name}: each object at the object file's mass and friction")
     else:

@@ -1,7 +1,7 @@
 """Before any trial: can the grasp carry each object at the configured currents and grip targets?
 
 The statics of ``controller/grasp_capacity.py`` (the controller's grasp posture, friction cones,
-every joint within its current limit x 0.5 N m/A), with each grasping pad's normal force at
+every joint within its current limit x the servo model's torque per amp), with each grasping pad's normal force at
 most its grip target (the object's ``tau_n`` through the controller's grip-target rule): the
 largest weight that grasp carries, over the object's weight. Below 1 the object cannot be
 lifted whatever the estimator; ``run`` names such objects (ratio and what binds), refuses them
