@@ -26,6 +26,7 @@ from grasp_ctrl.estimators.registry import DEFAULT_POLICY, list_policy_names, lo
 from grasp_ctrl.files.paths import default_objects_file, policies_dir
 from grasp_ctrl.files.storage import LOCK_FILE, record_path, safe_name, temp_path, ticks_path
 from grasp_ctrl.loop.ticklog import read_tick_log
+from grasp_ctrl.trials.episode import runner as episode_runner
 from grasp_ctrl.trials.episode.runner import run_sim_trial
 from grasp_ctrl.trials.runs.manifest import read_manifest
 from grasp_ctrl.trials.runs.records import load_records
@@ -224,7 +225,6 @@ def test_3_policy_specs_map_to_one_safe_directory_name(spec):
 # ---------------------------------------------------------------- 4. a failed start leaves nothing behind
 @pytest.mark.parametrize("bad", [["--policy", "no_such_policy"], ["--policy", "linear_mock", "no_such_policy"]])
 def test_4_failed_start_leaves_no_run_directory_and_the_retry_works(tmp_path, capsys, monkeypatch, bad):
-    import grasp_ctrl.trials.runs.series as series
 
     run_dir = tmp_path / "run"
     assert (
@@ -244,7 +244,7 @@ def test_4_failed_start_leaves_no_run_directory_and_the_retry_works(tmp_path, ca
             "reason": None,
         }
 
-    monkeypatch.setattr(series, "sim_trial_fn", fake_trial_fn)
+    monkeypatch.setattr(episode_runner, "sim_trial_fn", fake_trial_fn)
     assert (
         main(["run", "--backend", "mock", "--objects", "lego", "--trials", "1", "--out", str(run_dir), "--quiet"]) == 0
     )
@@ -262,7 +262,6 @@ def _child_pid(alive: bool) -> tuple[int, subprocess.Popen | None]:
 
 
 def _fake_records(monkeypatch):
-    import grasp_ctrl.trials.runs.series as series
 
     seen = []
 
@@ -275,7 +274,7 @@ def _fake_records(monkeypatch):
 
         return run
 
-    monkeypatch.setattr(series, "sim_trial_fn", fake_trial_fn)
+    monkeypatch.setattr(episode_runner, "sim_trial_fn", fake_trial_fn)
     return seen
 
 
@@ -610,7 +609,6 @@ def test_10_hand_check_shows_temperature_voltage_and_flags_a_hot_servo(tmp_path,
 def test_interrupted_run_of_every_default_object_resumes_to_the_same_summary(tmp_path, capsys, monkeypatch):
     """Real mock trials of the default set (mustard bottle and its cap included): Ctrl-C
     during the fourth trial, then 'run --resume', gives the uninterrupted run's summary."""
-    import grasp_ctrl.trials.runs.series as series
     from grasp_ctrl.config.objects import default_set
 
     names = default_set(default_objects_file())
@@ -618,7 +616,7 @@ def test_interrupted_run_of_every_default_object_resumes_to_the_same_summary(tmp
     full, cut = tmp_path / "full", tmp_path / "cut"
     assert main(["run", "--backend", "mock", "--trials", "1", "--out", str(full), "--quiet", "--no-tick-logs"]) == 0
 
-    real = series.sim_trial_fn
+    real = episode_runner.sim_trial_fn
     calls = {"n": 0}
 
     def interrupted_fn(*a, **k):
@@ -632,10 +630,10 @@ def test_interrupted_run_of_every_default_object_resumes_to_the_same_summary(tmp
 
         return trial
 
-    monkeypatch.setattr(series, "sim_trial_fn", interrupted_fn)
+    monkeypatch.setattr(episode_runner, "sim_trial_fn", interrupted_fn)
     assert main(["run", "--backend", "mock", "--trials", "1", "--out", str(cut), "--quiet", "--no-tick-logs"]) == 130
     assert len(load_records(cut).records) == 3 and not (cut / LOCK_FILE).exists()
-    monkeypatch.setattr(series, "sim_trial_fn", real)
+    monkeypatch.setattr(episode_runner, "sim_trial_fn", real)
     capsys.readouterr()
     assert main(["run", "--resume", str(cut), "--quiet"]) == 0
     a = json.loads((full / "summary.json").read_text())

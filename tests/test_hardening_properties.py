@@ -30,6 +30,7 @@ from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.errors import GraspCtrlError, PolicyError
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.files.paths import default_hand_file, default_objects_file, policies_dir
+from grasp_ctrl.trials.episode import runner as episode_runner
 
 HAND_TOML = Path(default_hand_file()).read_text()
 OBJECTS_TOML = Path(default_objects_file()).read_text()
@@ -96,7 +97,6 @@ def sandbox() -> Iterator[Path]:
 
 
 def _stub_trials(monkeypatch: pytest.MonkeyPatch) -> None:
-    import grasp_ctrl.trials.runs.series as series
 
     def fake_trial_fn(hand, policies, settings=None, threads=1, **kwargs):
         def run(p, obj, k, seed, log):
@@ -113,7 +113,7 @@ def _stub_trials(monkeypatch: pytest.MonkeyPatch) -> None:
 
         return run
 
-    monkeypatch.setattr(series, "sim_trial_fn", fake_trial_fn)
+    monkeypatch.setattr(episode_runner, "sim_trial_fn", fake_trial_fn)
 
 
 def _call(argv: list[str]) -> tuple[int, str, str]:

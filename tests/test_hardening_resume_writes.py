@@ -20,11 +20,11 @@ import pytest
 
 from grasp_ctrl.cli import main
 from grasp_ctrl.files.paths import default_hand_file, default_objects_file, policies_dir
+from grasp_ctrl.trials.episode import runner as episode_runner
 from grasp_ctrl.trials.runs.manifest import read_manifest
 
 
 def _stub_trials(monkeypatch: pytest.MonkeyPatch) -> None:
-    from grasp_ctrl.trials.runs import series
 
     def fake_trial_fn(hand, policies, settings=None, threads=1, **_kw):
         def run(p, obj, k, seed, log):
@@ -41,7 +41,7 @@ def _stub_trials(monkeypatch: pytest.MonkeyPatch) -> None:
 
         return run
 
-    monkeypatch.setattr(series, "sim_trial_fn", fake_trial_fn)
+    monkeypatch.setattr(episode_runner, "sim_trial_fn", fake_trial_fn)
 
 
 def _err(capsys: pytest.CaptureFixture[str]) -> str:

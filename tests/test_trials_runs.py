@@ -15,6 +15,7 @@ from grasp_ctrl.errors import UsageError
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY
 from grasp_ctrl.files.storage import record_path, ticks_path
 from grasp_ctrl.loop.ticklog import read_tick_log
+from grasp_ctrl.trials.episode import runner as episode_runner
 from grasp_ctrl.trials.episode.runner import trial_seed
 from grasp_ctrl.trials.runs.manifest import read_manifest
 from grasp_ctrl.trials.runs.records import load_records
@@ -241,7 +242,6 @@ def test_preset_paper_is_six_objects_five_trials_two_policies():
 
 def test_ctrl_c_keeps_finished_trials_and_resume_completes(tmp_path, monkeypatch, capsys):
     """The CLI path: interrupted after one trial, then 'run --resume' finishes the plan."""
-    import grasp_ctrl.trials.runs.series as series
 
     calls = []
 
@@ -261,7 +261,7 @@ def test_ctrl_c_keeps_finished_trials_and_resume_completes(tmp_path, monkeypatch
 
         return run
 
-    monkeypatch.setattr(series, "sim_trial_fn", fake_trial_fn)
+    monkeypatch.setattr(episode_runner, "sim_trial_fn", fake_trial_fn)
     run_dir = tmp_path / "run"
     assert (
         main(["run", "--backend", "mock", "--objects", "lego", "--trials", "3", "--out", str(run_dir), "--quiet"])

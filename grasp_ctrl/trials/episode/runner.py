@@ -283,6 +283,36 @@ def _world_stepper(world: World, hand: WallClockHand, sensors: WallClockLink) ->
 TrialFn = Callable[[str, ObjectProfile, int, int, "Path | None"], dict[str, Any]]
 
 
+@dataclass(frozen=True)
+class TrialSetup:
+    """What every trial of a series shares: the hand, the policies, the controller settings, the
+    estimators' threads, the simulated backend, the variation profile and whether tick logs keep
+    raw frames whole. Picklable: worker processes and Ray tasks get it whole and build their
+    trial runner from it (``trial_fn``) once."""
+
+    hand: HandConfig
+    policies: tuple[str, ...]
+    settings: ControllerSettings | None = None
+    threads: int = 1
+    backend: str = DEFAULT_BACKEND
+    variation: Variation | None = None
+    raw_frames: bool = False
+    realtime: bool = False
+
+    def trial_fn(self) -> TrialFn:
+        """The runner of one trial (``sim_trial_fn``): its policies are loaded here."""
+        return sim_trial_fn(
+            self.hand,
+            self.policies,
+            self.settings,
+            self.threads,
+            backend=self.backend,
+            variation=self.variation,
+            raw_frames=self.raw_frames,
+            realtime=self.realtime,
+        )
+
+
 def sim_trial_fn(
     hand: HandConfig,
     policies: Sequence[str],

@@ -17,10 +17,12 @@ import logging
 import os
 import uuid
 from collections.abc import Callable, Generator, Iterator, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.rigs.registry import DEFAULT_BACKEND
+
+if TYPE_CHECKING:
+    from grasp_ctrl.trials.episode.runner import TrialSetup
 
 EXECUTORS = ("local", "ray")
 _CACHE: dict[Any, Any] = {}  # per Ray worker process: trial functions, built once
@@ -78,28 +80,13 @@ def ray_session(address: str | None, cpus: int | None) -> Iterator[Any]:
                 ray.shutdown()
 
 
-def _trial_in_worker(
-    token: str,
-    hand: Any,
-    policies: list[str],
-    settings: Any,
-    threads: int,
-    backend: str,
-    variation: Any,
-    raw_frames: bool,
-    task: tuple,
-) -> dict[str, Any]:
-    """One trial on the simulated ``backend`` under ``variation`` in a Ray worker (``raw_frames``:
-    its tick log keeps every raw frame whole); its policies are loaded once per worker and sweep
-    (``token``)."""
-    from grasp_ctrl.trials.episode.runner import sim_trial_fn
-
+def _trial_in_worker(token: str, setup: TrialSetup, task: tuple) -> dict[str, Any]:
+    """One trial of ``setup`` in a Ray worker; its policies are loaded once per worker and
+    sweep (``token``)."""
     key = ("trial", token)
     if key not in _CACHE:
         _CACHE.clear()  # a worker of a long-lived cluster keeps only the current sweep's
-        _CACHE[key] = sim_trial_fn(
-            hand, policies, settings, threads, backend=backend, variation=variation, raw_frames=raw_frames
-        )
+        _CACHE[key] = setup.trial_fn()
     return _CACHE[key](*task)
 
 
@@ -137,31 +124,12 @@ def _fan_out(
 
 
 def ray_trials(
-    address: str | None,
-    jobs: int | None,
-    hand: Any,
-    policies: Sequence[str],
-    settings: Any,
-    threads: int,
-    tasks: Sequence[tuple],
-    backend: str = DEFAULT_BACKEND,
-    variation: Any = None,
-    raw_frames: bool = False,
+    address: str | None, jobs: int | None, setup: TrialSetup, tasks: Sequence[tuple]
 ) -> Generator[tuple[int, dict[str, Any]], None, None]:
-    """Trials on a simulated ``backend`` (under ``variation``, sim/variation.py; ``raw_frames``:
-    tick logs with every raw frame whole) as Ray tasks: yields (task index, record) as each finishes."""
+    """Trials of ``setup`` as Ray tasks: yields (task index, record) as each finishes."""
     with ray_session(address, jobs) as ray:
         remote = ray.remote(num_cpus=1)(_trial_in_worker)
-        shared = (
-            uuid.uuid4().hex,
-            ray.put(hand),
-            list(policies),
-            ray.put(settings),
-            threads,
-            backend,
-            variation,
-            raw_frames,
-        )
+        shared = (uuid.uuid4().hex, ray.put(setup))
         parallel = jobs or int(ray.cluster_resources().get("CPU", 1))
         yield from _fan_out(ray, remote, [(*shared, task) for task in tasks], 2 * max(parallel, 1))
 

@@ -41,7 +41,7 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.rigs.registry import DEFAULT_BACKEND
 from grasp_ctrl.sim.mujoco.log import set_log_dir as set_engine_log_dir
 from grasp_ctrl.sim.variation import NOMINAL, Variation
-from grasp_ctrl.trials.episode.runner import TrialFn, sim_trial_fn, trial_seed
+from grasp_ctrl.trials.episode.runner import TrialFn, TrialSetup, trial_seed
 from grasp_ctrl.trials.runs.fingerprint import stamp, sync_manifest
 from grasp_ctrl.trials.runs.manifest import RunManifest, read_manifest
 from grasp_ctrl.trials.runs.planned import why_unplanned
@@ -55,20 +55,10 @@ from grasp_ctrl.trials.runs.workers import ignore_interrupts
 _WORKER_TRIAL_FN: TrialFn | None = None
 
 
-def _init_worker(
-    hand: HandConfig,
-    policies: list[str],
-    settings: ControllerSettings,
-    threads: int,
-    backend: str = DEFAULT_BACKEND,
-    variation: Variation | None = None,
-    raw_frames: bool = False,
-) -> None:
+def _init_worker(setup: TrialSetup) -> None:
     global _WORKER_TRIAL_FN
     ignore_interrupts()
-    _WORKER_TRIAL_FN = sim_trial_fn(
-        hand, policies, settings, threads, backend=backend, variation=variation, raw_frames=raw_frames
-    )
+    _WORKER_TRIAL_FN = setup.trial_fn()
 
 
 def _worker_trial(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
@@ -80,28 +70,16 @@ TrialTask = tuple[str, ObjectProfile, int, int, "Path | None"]  # policy, object
 
 
 def parallel_trials(
-    jobs: int,
-    hand: HandConfig,
-    policies: Sequence[str],
-    settings: ControllerSettings | None,
-    threads: int,
-    tasks: Sequence[TrialTask],
-    backend: str = DEFAULT_BACKEND,
-    variation: Variation | None = None,
-    raw_frames: bool = False,
+    jobs: int, setup: TrialSetup, tasks: Sequence[TrialTask]
 ) -> Generator[tuple[int, dict[str, Any]], None, None]:
-    """Simulated trials in ``jobs`` processes: yields (task index, record) as each finishes."""
+    """Simulated trials of ``setup`` in ``jobs`` processes: yields (task index, record) as each finishes."""
     from concurrent.futures import FIRST_COMPLETED, wait
     from concurrent.futures.process import BrokenProcessPool
 
     from grasp_ctrl.trials.runs.process_cleanup import spawn_guard
     from grasp_ctrl.trials.runs.workers import start_pool
 
-    pool = start_pool(
-        jobs,
-        _init_worker,
-        (hand, list(policies), settings or ControllerSettings(), threads, backend, variation, raw_frames),
-    )
+    pool = start_pool(jobs, _init_worker, (setup,))
     finished_cleanly = False
     try:
         todo = iter(enumerate(tasks))
@@ -223,16 +201,17 @@ def run_series(
             make_controller(hand, obj, np.zeros(3), plan.settings, kin)
         except ConfigError as exc:
             raise ConfigError(source, f"object {obj.name!r}: {exc.key}", exc.expected) from None
-    run_trial = trial_fn or sim_trial_fn(
+    setup = TrialSetup(
         hand,
-        policies,
+        tuple(policies),
         plan.settings,
         threads,
         backend=plan.backend,
         variation=plan.variation,
         raw_frames=plan.raw_frames,
         realtime=plan.realtime,
-    )  # bad policies fail here
+    )
+    run_trial = trial_fn or setup.trial_fn()  # bad policies fail here
 
     created = not run_dir.exists()
     if run_dir.exists() and not run_dir.is_dir():
@@ -257,7 +236,6 @@ def run_series(
             sync_manifest(run_dir, plan, existing)  # new run, or a resume that recorded --force
             started = True
             return _run_locked(
-                hand,
                 plan,
                 policies,
                 trials,
@@ -269,7 +247,7 @@ def run_series(
                 after_trial,
                 warn,
                 jobs,
-                threads,
+                setup,
                 executor,
                 address,
             )
@@ -285,7 +263,6 @@ def stale_temp_files(run_dir: Path) -> list[Path]:
 
 
 def _run_locked(
-    hand: HandConfig,
     plan: RunManifest,
     policies: Sequence[str],
     trials: int,
@@ -297,7 +274,7 @@ def _run_locked(
     after_trial: Callable[[dict[str, Any]], None] | None,
     warn: Callable[[str], None],
     jobs: int,
-    threads: int,
+    setup: TrialSetup,
     executor: str = "local",
     address: str | None = None,
 ) -> dict[str, Any]:
@@ -345,38 +322,13 @@ def _run_locked(
         if executor == "ray" and pending:
             from grasp_ctrl.trials.runs.ray_executor import ray_trials
 
-            with contextlib.closing(
-                ray_trials(
-                    address,
-                    jobs,
-                    hand,
-                    policies,
-                    plan.settings,
-                    threads,
-                    pending,
-                    plan.backend,
-                    plan.variation,
-                    plan.raw_frames,
-                )
-            ) as results:
+            with contextlib.closing(ray_trials(address, jobs, setup, pending)) as results:
                 for _, rec in results:
                     finish(rec)
         elif jobs > 1 and len(pending) > 1:
             try:
                 # closing: the workers are stopped at once on Ctrl-C or an error, not when collected.
-                with contextlib.closing(
-                    parallel_trials(
-                        min(jobs, len(pending)),
-                        hand,
-                        policies,
-                        plan.settings,
-                        threads,
-                        pending,
-                        plan.backend,
-                        plan.variation,
-                        plan.raw_frames,
-                    )
-                ) as results:
+                with contextlib.closing(parallel_trials(min(jobs, len(pending)), setup, pending)) as results:
                     for _, rec in results:
                         finish(rec)
             except WorkerError as exc:
