@@ -402,18 +402,9 @@ def run(args: argparse.Namespace) -> int:
     if entry.kind == "real":
         trial_fn = _hardware_trial_fn(hand, manifest, args.threads, args.port, args.sensor_port)
     elif entry.kind == "emulated":
-        from grasp_ctrl.trials.episode.runner import sim_trial_fn
+        from grasp_ctrl.trials.runs.series import run_setup
 
-        trial_fn = sim_trial_fn(
-            hand,
-            manifest.policies,
-            manifest.settings,
-            args.threads,
-            backend=entry.name,
-            variation=manifest.variation,
-            raw_frames=manifest.raw_frames,
-            realtime=manifest.realtime,
-        )
+        trial_fn = run_setup(hand, manifest, args.threads).trial_fn()
     elif args.record_video:
         from grasp_ctrl.trials.episode.mujoco_video import video_trial_fn
 

@@ -60,6 +60,8 @@ KERNEL_SOURCES = (
     "tactile/tare.py",
     "numeric/finite.py",
     "sim/mock/backends.py",
+    "sim/world_backends.py",
+    "sim/world_parts.py",
     "loop/loop_kernels.py",
     "sim/mock/world.py",
     "controller/tick_kernels.py",

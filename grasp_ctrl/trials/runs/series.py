@@ -69,6 +69,21 @@ def _worker_trial(policy: str, obj: ObjectProfile, trial: int, seed: int, log_pa
 TrialTask = tuple[str, ObjectProfile, int, int, "Path | None"]  # policy, object, trial, seed, tick log
 
 
+def run_setup(hand: HandConfig, plan: RunManifest, threads: int, policies: Sequence[str] | None = None) -> TrialSetup:
+    """The trial setup of a run (its policies, settings, backend, variation, raw frames and
+    clock from ``plan``; ``policies``: those instead of the plan's)."""
+    return TrialSetup(
+        hand,
+        tuple(plan.policies if policies is None else policies),
+        plan.settings,
+        threads,
+        backend=plan.backend,
+        variation=plan.variation,
+        raw_frames=plan.raw_frames,
+        realtime=plan.realtime,
+    )
+
+
 def parallel_trials(
     jobs: int, setup: TrialSetup, tasks: Sequence[TrialTask]
 ) -> Generator[tuple[int, dict[str, Any]], None, None]:
@@ -201,16 +216,7 @@ def run_series(
             make_controller(hand, obj, np.zeros(3), plan.settings, kin)
         except ConfigError as exc:
             raise ConfigError(source, f"object {obj.name!r}: {exc.key}", exc.expected) from None
-    setup = TrialSetup(
-        hand,
-        tuple(policies),
-        plan.settings,
-        threads,
-        backend=plan.backend,
-        variation=plan.variation,
-        raw_frames=plan.raw_frames,
-        realtime=plan.realtime,
-    )
+    setup = run_setup(hand, plan, threads, policies)
     run_trial = trial_fn or setup.trial_fn()  # bad policies fail here
 
     created = not run_dir.exists()
