@@ -393,3 +393,17 @@ def test_a_finger_at_its_servos_limit_scales_the_ramp_targets_to_what_it_gives(h
         assert np.allclose(ctrl.grip_targets, 0.7 * base)
     else:
         assert ctrl.scale == 1.0
+
+
+def test_the_off_values_of_the_servo_limit_rules_read_back_from_run_json():
+    """0 turns the wind-up bound, the servo-limited targets and the cycle rule off: a run.json that
+    recorded 0 resumes; a negative value is refused on one line."""
+    from grasp_ctrl.trials.runs.manifest import settings_from_json
+
+    off = {"windup_lag_factor": 0.0, "servo_limited_s": 0.0, "ramp_cycle_s": 0.0}
+    s = settings_from_json({"controller": "grip_load", **off}, "run.json")
+    assert (s.windup_lag_factor, s.servo_limited_s, s.ramp_cycle_s) == (0.0, 0.0, 0.0)
+    with pytest.raises(UsageError, match="settings.ramp_cycle_s"):
+        settings_from_json({"ramp_cycle_s": -1.0}, "run.json")
+    with pytest.raises(UsageError, match="settings.ramp_cycle_swing_n"):
+        settings_from_json({"ramp_cycle_swing_n": 0.0}, "run.json")

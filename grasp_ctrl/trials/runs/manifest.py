@@ -30,13 +30,22 @@ from grasp_ctrl.sim.variation import NOMINAL, Variation, variation_from_json
 
 FORMAT = 1
 MAX_TRIALS = 100_000
-# settings that may be zero (no slow zone, no overshoot, no retreat)
 SETTING_CHOICES = {
     "grip_targets": GRIP_TARGET_MODES,
     "controller": CONTROLLER_NAMES,
 }  # the text settings and their values
 MAX_SETTING = 1e6  # no controller setting (seconds, metres, newtons, ratios) comes near it
-ZERO_ALLOWED = ("lower_overshoot_m", "lower_slow_zone_m", "retreat_m", "grip_weight_margin")
+# settings that may be zero (no slow zone, no overshoot, no retreat; grip_load's wind-up bound,
+# servo-limited targets and cycle settle rule off)
+ZERO_ALLOWED = (
+    "lower_overshoot_m",
+    "lower_slow_zone_m",
+    "retreat_m",
+    "grip_weight_margin",
+    "windup_lag_factor",
+    "servo_limited_s",
+    "ramp_cycle_s",
+)
 
 
 @dataclass
@@ -202,7 +211,7 @@ def _is_int(v: Any) -> bool:
 
 def settings_from_json(d: Any, where: str) -> ControllerSettings:
     """Controller settings from run.json: known keys, each of its default's type,
-    numbers finite and positive (``lower_*`` distances may be zero)."""
+    numbers finite and positive (those of ``ZERO_ALLOWED`` may be zero)."""
     if not isinstance(d, dict):
         raise UsageError(f"{where}: settings: a table of controller settings")
     fields = {f.name: f for f in dataclasses.fields(ControllerSettings)}
