@@ -29,6 +29,11 @@ Romano et al. 2011, "Load"):
 - ``s`` stays below ``grip_cap_fraction`` of the safety limit (less the tangential force: the
   over-force check reads ``|f_sensor|``) and of a deformable object's crush force, and relaxes at
   ``grip_relax_per_s``; during the ramp a fingertip past that cap scales the targets down.
+- **the servos' limits**: while squeezing, no grasping joint's goal runs further from its angle
+  than ``windup_lag_factor`` times the deflection at which its servo saturates; during the ramp a
+  finger held there short of its target scales the targets to what it gives
+  (``servo_limited_s``), and a ramp whose grips cycle about their targets settles
+  (``ramp_cycle_s``, controller/ramp_settle.py).
 
 It reads only what a real hand gives (the estimated forces, contact flags, PAC, joint angles, the
 palm's position) and the object profile, never the world's truth. Its ticks run the Python path
