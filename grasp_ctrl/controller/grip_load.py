@@ -167,8 +167,8 @@ class GripLoadController(GraspController):
         over = self._grasp_joints & ((goal < lo) | (goal > hi))
         if not over.any():
             return
-        goal[over] = np.clip(goal[over], np.maximum(lo[over], self.motion.lower[over]), hi[over])
-        np.minimum(goal, self.motion.upper, out=goal)
+        m = self.motion
+        goal[over] = np.clip(np.clip(goal[over], lo[over], hi[over]), m.lower[over], m.upper[over])  # limits last
         self.motion.rebase_fingers(sorted({int(i) for i in self._joint_finger[over]}))
 
     def _preshape_standoff_m(self) -> float:

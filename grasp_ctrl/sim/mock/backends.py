@@ -48,7 +48,6 @@ class MockHand(WorldHand):
 
     def __init__(self, world: MockWorld, hand: HandConfig) -> None:
         super().__init__(world, hand)
-        self.world = world
         p = world.params
         self._stiffness = p.servo_stiffness_nm_per_rad
         self._torque_per_amp = world.torque_per_amp_nm
@@ -78,7 +77,6 @@ class MockArm(WorldArm):
 
     def __init__(self, world: MockWorld, hand: HandConfig) -> None:
         super().__init__(world, hand)
-        self.world = world
         self._set_clamped = world.set_clamped_palm_target if jit.JIT else None
 
     def command(self, p_world: np.ndarray) -> None:

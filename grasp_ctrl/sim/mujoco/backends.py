@@ -23,10 +23,6 @@ class MuJoCoHand(WorldHand):
 
     world: MuJoCoWorld
 
-    def __init__(self, world: MuJoCoWorld, hand: HandConfig) -> None:
-        super().__init__(world, hand)
-        self.world = world
-
     def read(self) -> JointState:
         w = self.world
         return JointState(q=w.q_measured, dq=w.dq, current_a=w.joint_current_a, t=w.t)
