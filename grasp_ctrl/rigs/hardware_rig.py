@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.hardware.base import ArmBackend, Clock, HandBackend, SensorBackend
+from grasp_ctrl.rigs.closing import close_all
 
 
 @dataclass
@@ -19,11 +20,7 @@ class HardwareRig:
 
     def close(self) -> None:
         """Stop everything; the hand last, so its safe stop runs with the arm halted."""
-        for part in (self.arm, self.sensors, self.hand):
-            try:
-                part.close()
-            except Exception:  # noqa: BLE001 - keep closing the rest
-                pass
+        close_all(self.arm, self.sensors, self.hand, raise_error=False)
 
 
 def open_rig(
@@ -63,10 +60,6 @@ def open_rig(
         sensors.start()
         opened.append(sensors)
     except BaseException:
-        for part in reversed(opened):
-            try:
-                part.close()
-            except Exception:  # noqa: BLE001
-                pass
+        close_all(*reversed(opened), raise_error=False)
         raise
     return HardwareRig(hand_backend, arm, sensors, clock)

@@ -1,8 +1,8 @@
 """The parts of one trial on a simulated world, built in one place, and its step and tick.
 
 ``build_trial`` makes the world of the backend the registry names (rigs/registry.py), its hand
-and sensor backends and its arm (the wrist target: sim/world_backends.py), connects them, and adds the sensing pipeline and the controller. The trial runner
-(trials/episode/runner.py), the fork server's warm-up (trials/runs/worker_preload.py) and the
+and sensor backends and its arm (the wrist target: sim/world_backends.py), connects them, and
+adds the sensing pipeline and the controller. The trial runner (trials/episode/runner.py), the fork server's warm-up (trials/runs/worker_preload.py) and the
 benchmark figures (bench/) all build their trials here and step them with ``SimTrial.step``:
 the world one control period on, then one control tick at the world's time.
 """
@@ -28,6 +28,7 @@ from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.tick import control_tick
 from grasp_ctrl.loop.ticklog import TickLog
 from grasp_ctrl.numeric import jit
+from grasp_ctrl.rigs.closing import close_all
 from grasp_ctrl.rigs.registry import DEFAULT_BACKEND, BackendFactory, WorldFactory
 from grasp_ctrl.rigs.registry import backend as backend_entry
 from grasp_ctrl.sim.world_api import World
@@ -148,15 +149,3 @@ def build_trial(
         close_all(hand_backend, arm, sensors, raise_error=False)
         raise
     return SimTrial(world, hand_backend, sensors, arm, pipeline, ctrl, kin)
-
-
-def close_all(*parts: Any, raise_error: bool = True) -> None:
-    """Close every part even when one fails; the first error is raised after (if asked)."""
-    error: BaseException | None = None
-    for part in parts:
-        try:
-            part.close()
-        except Exception as exc:  # noqa: BLE001 - keep closing the rest
-            error = error or exc
-    if error is not None and raise_error:
-        raise error
