@@ -80,20 +80,57 @@ def test_view_names_an_unknown_object(capsys):
     assert "no object 'no_such_thing'" in capsys.readouterr().err
 
 
-def test_the_realtime_figure_is_listed():
-    assert "mujoco_realtime_factor" in all_figures()
-    assert "mujoco_bare_realtime_factor" in all_figures()
+def test_the_realtime_figures_are_listed():
+    for name in ("mujoco_realtime_factor", "mujoco_bare_realtime_factor", "mujoco_replayed_realtime_factor"):
+        assert name in all_figures()
 
 
-def test_the_bare_engine_figure_runs():
+class _FakeClock:
+    """A perf_counter that only MuJoCo's steps advance: one unit per step."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def perf_counter(self) -> float:
+        return self.now
+
+
+def test_the_bare_figure_times_each_of_the_trials_steps_and_nothing_else(monkeypatch):
+    """The world's mj_step calls inside the trial, nstep steps or one: the time summed is the
+    engine's alone (a clock only the steps move gives one unit per step of the trial), and the
+    world's time of the same trial holds it."""
+    import sys
+
+    from grasp_ctrl.bench import fig_mujoco
+
+    clock = _FakeClock()
+
+    class CountingMuJoCo:
+        def __getattr__(self, name: str):  # noqa: ANN204
+            return getattr(mujoco, name)
+
+        def mj_step(self, m, d, nstep: int = 1) -> None:  # noqa: ANN001
+            mujoco.mj_step(m, d, nstep)
+            clock.now += nstep
+
+    monkeypatch.setattr(fig_mujoco, "time", clock)
+    monkeypatch.setitem(sys.modules, "mujoco", CountingMuJoCo())
+    sim_s = 0.3
+    world_s, engine_s = fig_mujoco._timed_trial(sim_s, 0)
+    assert engine_s == round(sim_s / 0.01) * 5  # 30 control periods of 5 MuJoCo steps (0.002 s)
+    assert world_s == engine_s  # the world's steps hold them all
+
+
+def test_the_replayed_engine_figure_runs():
     """mj_step alone on the recorded inputs of a short trial: a finite rate."""
     import numpy as np
 
     from grasp_ctrl.bench import fig_mujoco
 
-    assert fig_mujoco._bare_steps(0.3, 0) > 0.0
+    assert fig_mujoco._replayed_steps(0.3, 0) > 0.0
     rec = fig_mujoco._StepRecorder(mujoco)
     assert rec.mjtState is mujoco.mjtState and rec.inputs == []
+    assert np.isfinite(fig_mujoco.mujoco_replayed_realtime_factor(True).median)
     assert np.isfinite(fig_mujoco.mujoco_bare_realtime_factor(True).median)
 
 

@@ -202,7 +202,7 @@ def test_the_skin_point_is_skin_point_and_normal(p):
 
 
 class _StepInputs:
-    """The mujoco module, noting the mocap position each mj_step is called with."""
+    """The mujoco module, noting the mocap position each of mj_step's steps is taken with."""
 
     def __init__(self) -> None:
         self.mocap: list[np.ndarray] = []
@@ -210,9 +210,9 @@ class _StepInputs:
     def __getattr__(self, name: str):  # noqa: ANN204
         return getattr(mujoco, name)
 
-    def mj_step(self, m, d) -> None:  # noqa: ANN001
-        self.mocap.append(d.mocap_pos.copy())
-        mujoco.mj_step(m, d)
+    def mj_step(self, m, d, nstep: int = 1) -> None:  # noqa: ANN001
+        self.mocap.extend([d.mocap_pos.copy()] * nstep)
+        mujoco.mj_step(m, d, nstep)
 
 
 def test_the_substeps_move_the_mocap_as_one_move_per_substep(hand, objects):

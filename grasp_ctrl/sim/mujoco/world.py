@@ -385,26 +385,25 @@ class MuJoCoWorld:
                 opt.disableflags |= self._no_actuation
         self._ctrl[self._act] = self._q_goal
         # The substeps, the wrist's mocap moved toward the palm target before each (mocap_step;
-        # MuJoCo's step leaves the mocap where it is): the positions first, then the steps, so
-        # that little Python runs between MuJoCo's steps.
+        # MuJoCo's step leaves the mocap where it is): the moving substeps one call each, the
+        # rest, with the mocap at its target, in one call (nstep), so that little Python runs
+        # between MuJoCo's steps.
         step = mj.mj_step  # through self._mj: the bench's recorder notes each step's inputs
         mocap = self._mocap_pos
         tx, ty, tz = self._palm_target.tolist()
         max_move = self.arm_speed * opt.timestep
         p = mocap.tolist()
-        q = mocap_step(p, tx, ty, tz, max_move)
-        if _PACK3(*q) == _PACK3(*p):
-            # At the target already, bit for bit: every substep would write the same position.
-            for _ in range(self._substeps):
-                step(m, d)
-        else:
-            path = [q]
-            for _ in range(self._substeps - 1):
-                q = mocap_step(q, tx, ty, tz, max_move)
-                path.append(q)
-            for q in path:
-                mocap[:] = q
-                step(m, d)
+        pack = _PACK3
+        moved = 0
+        while moved < self._substeps:
+            q = mocap_step(p, tx, ty, tz, max_move)
+            if pack(*q) == pack(*p):
+                break  # at the target, bit for bit: every later substep would write the same
+            mocap[:] = p = q
+            step(m, d)
+            moved += 1
+        if moved < self._substeps:
+            step(m, d, self._substeps - moved)
         self.raw = self._sense()
         self._record()
 
