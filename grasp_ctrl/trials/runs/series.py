@@ -24,7 +24,7 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.registry import make_controller
 from grasp_ctrl.controller.settings import ControllerSettings
-from grasp_ctrl.errors import ConfigError, GraspCtrlError, UsageError
+from grasp_ctrl.errors import ConfigError, UsageError
 from grasp_ctrl.files.storage import (
     RUN_FILE,
     SUMMARY_FILE,
@@ -49,7 +49,7 @@ from grasp_ctrl.trials.runs.progress import Progress
 from grasp_ctrl.trials.runs.records import canonical_order, load_records, record_files
 from grasp_ctrl.trials.runs.runlock import RunLock
 from grasp_ctrl.trials.runs.summary import summarize
-from grasp_ctrl.trials.runs.workers import ignore_interrupts
+from grasp_ctrl.trials.runs.workers import WorkerError, ignore_interrupts, worker_deaths_as_errors
 
 # Worker-process side of ``run_series(jobs=N)``: each worker loads the policies once.
 _WORKER_TRIAL_FN: TrialFn | None = None
@@ -89,7 +89,6 @@ def parallel_trials(
 ) -> Generator[tuple[int, dict[str, Any]], None, None]:
     """Simulated trials of ``setup`` in ``jobs`` processes: yields (task index, record) as each finishes."""
     from concurrent.futures import FIRST_COMPLETED, wait
-    from concurrent.futures.process import BrokenProcessPool
 
     from grasp_ctrl.trials.runs.process_cleanup import spawn_guard
     from grasp_ctrl.trials.runs.workers import start_pool
@@ -99,22 +98,24 @@ def parallel_trials(
     try:
         todo = iter(enumerate(tasks))
         running: dict[Any, int] = {}
-        for i, task in itertools.islice(todo, 2 * jobs):  # a short queue: Ctrl-C loses little
-            with spawn_guard():  # a submit may start a worker (process_cleanup.spawn_guard)
+
+        def submit(i: int, task: TrialTask) -> None:
+            # a submit may start a worker (process_cleanup.spawn_guard)
+            with spawn_guard(), worker_deaths_as_errors():
                 running[pool.submit(_worker_trial, *task)] = i
+
+        for i, task in itertools.islice(todo, 2 * jobs):  # a short queue: Ctrl-C loses little
+            submit(i, task)
         while running:
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for fut in finished:
                 i = running.pop(fut)
-                try:
+                with worker_deaths_as_errors():
                     rec = fut.result()
-                except BrokenProcessPool:
-                    raise WorkerError("a trial worker process ended abruptly (killed, or out of memory?)") from None
                 yield i, rec
                 nxt = next(todo, None)
                 if nxt is not None:
-                    with spawn_guard():
-                        running[pool.submit(_worker_trial, *nxt[1])] = nxt[0]
+                    submit(*nxt)
         finished_cleanly = True
     finally:
         if finished_cleanly:
@@ -135,10 +136,6 @@ def _stop_workers(pool: Any) -> None:
     from grasp_ctrl.trials.runs.process_cleanup import abort_pool
 
     abort_pool(pool)
-
-
-class WorkerError(GraspCtrlError):
-    """A worker process of ``run --jobs N`` died; the finished trials are on disk."""
 
 
 def _warn(msg: str) -> None:

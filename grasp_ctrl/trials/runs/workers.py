@@ -19,6 +19,7 @@ server and its workers die with the command if it is killed outright (Linux).
 from __future__ import annotations
 
 import atexit
+import contextlib
 import multiprocessing
 import os
 import shlex
@@ -27,11 +28,30 @@ import signal
 import sys
 import tempfile
 import threading
+from collections.abc import Iterator
 from typing import Any
 
+from grasp_ctrl.errors import GraspCtrlError
 from grasp_ctrl.trials.runs.process_cleanup import FORKSERVER_ENV, interrupts_held, register_pool
 
 PRELOAD = ["grasp_ctrl.trials.runs.worker_preload"]
+
+
+class WorkerError(GraspCtrlError):
+    """A worker process of ``run --jobs N`` (or ``tune --jobs N``) died; the finished trials are on disk."""
+
+
+@contextlib.contextmanager
+def worker_deaths_as_errors() -> Iterator[None]:
+    """A worker that died (killed, out of memory) as a WorkerError, one line for the user,
+    wherever the pool finds out: a trial's result, or the next submit, when the pool broke
+    between the two."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    try:
+        yield
+    except BrokenProcessPool:
+        raise WorkerError("a trial worker process ended abruptly (killed, or out of memory?)") from None
 
 
 def worker_context() -> Any:

@@ -109,23 +109,22 @@ class ProcessExecutor:
 
     def submit(self, key: int, task: TrialTask, settings: Any = None) -> None:
         from grasp_ctrl.trials.runs.process_cleanup import spawn_guard
+        from grasp_ctrl.trials.runs.workers import worker_deaths_as_errors
 
-        with spawn_guard():  # a submit may start a worker (process_cleanup.spawn_guard)
+        # a submit may start a worker (process_cleanup.spawn_guard), or find the pool broken
+        with spawn_guard(), worker_deaths_as_errors():
             self.running[self.pool.submit(_tune_worker_trial, settings or self.settings, *task)] = key
 
     def next_done(self) -> tuple[int, dict[str, Any]]:
         from concurrent.futures import FIRST_COMPLETED, wait
-        from concurrent.futures.process import BrokenProcessPool
 
-        from grasp_ctrl.trials.runs.series import WorkerError
+        from grasp_ctrl.trials.runs.workers import worker_deaths_as_errors
 
         done, _ = wait(list(self.running), return_when=FIRST_COMPLETED)
         fut = next(iter(done))
         key = self.running.pop(fut)
-        try:
+        with worker_deaths_as_errors():
             return key, fut.result()
-        except BrokenProcessPool:
-            raise WorkerError("a trial worker process ended abruptly (killed, or out of memory?)") from None
 
     def close(self, abort: bool) -> None:
         """Stop the workers (at once with ``abort``, and with them the fork server:
