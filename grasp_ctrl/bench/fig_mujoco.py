@@ -77,7 +77,12 @@ def _timed_trial(sim_s: float, seed: int) -> tuple[float, float]:
     import mujoco
 
     timed = _TimedSteps(mujoco)
-    trial = _trial(seed, timed)
+    return _run(_trial(seed, timed), sim_s), timed.spent
+
+
+def _run(trial: SimTrial, sim_s: float) -> float:
+    """``trial`` for ``sim_s`` simulated seconds (the controller ticks until it is done), then
+    closed; the wall-clock seconds of its world's steps."""
     world, ctrl = trial.world, trial.ctrl
     spent = 0.0
     for _ in range(round(sim_s / trial.kin.hand.dt)):
@@ -87,7 +92,7 @@ def _timed_trial(sim_s: float, seed: int) -> tuple[float, float]:
         if not ctrl.terminal:
             trial.tick(world.t)
     trial.close()
-    return spent, timed.spent
+    return spent
 
 
 @functools.cache
@@ -140,17 +145,12 @@ def _replayed_steps(sim_s: float, seed: int) -> float:
 
     recorder = _StepRecorder(mujoco)
     trial = _trial(seed, recorder)
-    world, ctrl = trial.world, trial.ctrl
-    mj_world = cast("MuJoCoWorld", world)  # backend=REFERENCE_WORLD (_trial)
+    mj_world = cast("MuJoCoWorld", trial.world)  # backend=REFERENCE_WORLD (_trial)
     m, d = mj_world.model, mj_world.data
     spec = mujoco.mjtState.mjSTATE_INTEGRATION
     start = np.empty(mujoco.mj_stateSize(m, spec))
     mujoco.mj_getState(m, d, start, spec)
-    for _ in range(round(sim_s / trial.kin.hand.dt)):
-        world.step()
-        if not ctrl.terminal:
-            trial.tick(world.t)
-    trial.close()
+    _run(trial, sim_s)
     mujoco.mj_setState(m, d, start, spec)
     step = mujoco.mj_step
     spent = 0.0
