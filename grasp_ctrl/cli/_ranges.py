@@ -3,8 +3,8 @@
 ``apply_ranges(command, parser)`` replaces each ``type=float`` flag's converter by one
 that refuses NaN, infinities and numbers out of float range, and gives the flags
 listed in ``RANGES`` their bounds; argparse then prints one line naming the flag and
-the range and exits 2. Flags whose command checks its own range (``run --seed``,
-``--trials``) keep their messages.
+the range and exits 2. ``run``'s and ``tune``'s ``--trials`` and ``--seed`` are checked by
+their commands (``check_trials_and_seed``: a preset may give the count), with their own messages.
 """
 
 from __future__ import annotations
@@ -69,6 +69,19 @@ RANGES: dict[str, dict[str, tuple]] = {
         "--test-per-source": (0, 100_000_000),
     },
 }
+
+
+def check_trials_and_seed(trials: int, seed: int | None) -> None:
+    """``run``'s and ``tune``'s ``--trials`` (1 to the run file's MAX_TRIALS: each trial's seed is
+    planned before the first runs, so a larger count would hang before it is refused) and
+    ``--seed`` (None: not given), with their own messages."""
+    from grasp_ctrl.errors import UsageError
+    from grasp_ctrl.trials.runs.manifest import MAX_TRIALS
+
+    if not 1 <= trials <= MAX_TRIALS:
+        raise UsageError(f"--trials: from 1 to {MAX_TRIALS} (got {trials})")
+    if seed is not None and not SEED[0] <= seed <= SEED[1]:
+        raise UsageError(f"--seed: an integer from 0 to 2**63-1 (got {seed})")
 
 
 def apply_ranges(command: str, parser: argparse.ArgumentParser) -> None:

@@ -217,20 +217,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     """A new run's hand and manifest from the flags (and preset)."""
+    from grasp_ctrl.cli._ranges import check_trials_and_seed
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.estimators.registry import DEFAULT_POLICY
     from grasp_ctrl.files.paths import default_hand_file, default_objects_file
-    from grasp_ctrl.trials.runs.manifest import MAX_TRIALS, RunManifest, file_sha256
+    from grasp_ctrl.trials.runs.manifest import RunManifest, file_sha256
     from grasp_ctrl.trials.runs.presets import get_preset
     from grasp_ctrl.trials.runs.selection import select_objects
 
     preset = get_preset(args.preset) if args.preset else None
     trials = args.trials if args.trials is not None else (preset.trials if preset else 5)
-    if not 1 <= trials <= MAX_TRIALS:
-        raise UsageError(f"--trials: from 1 to {MAX_TRIALS} (got {trials})")
-    if args.seed is not None and not 0 <= args.seed < 2**63:
-        raise UsageError(f"--seed: an integer from 0 to 2**63-1 (got {args.seed})")
+    check_trials_and_seed(trials, args.seed)
     hand_file = Path(args.hand or default_hand_file())
     object_file = Path(args.object_file or default_objects_file())
     hand = load_hand(hand_file)

@@ -155,6 +155,7 @@ def _on_real_hand(args: argparse.Namespace) -> bool:
 
 
 def _check_args(args: argparse.Namespace) -> None:
+    from grasp_ctrl.cli._ranges import check_trials_and_seed
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.trials.runs.ray_executor import check_executor
 
@@ -167,8 +168,7 @@ def _check_args(args: argparse.Namespace) -> None:
         raise UsageError("--variation: only for a simulated world (mujoco, mock)")
     _variation(args)  # an unknown name: one line listing the profiles
     _settings(args)  # an unknown controller: one line listing them
-    if args.trials < 1:
-        raise UsageError("--trials: must be at least 1")
+    check_trials_and_seed(args.trials, args.seed)
     from grasp_ctrl.files.safe_write import check_output
 
     check_output(args.json, "--json")  # before any trial: a bad path costs nothing
@@ -182,8 +182,6 @@ def _check_args(args: argparse.Namespace) -> None:
         raise UsageError("--budget: must be at least 1")
     if args.object is not None and ("," in args.object or args.object.strip() == "all"):
         raise UsageError("--object: one object name (several: --objects a,b or --objects all)")
-    if not 0 <= args.seed < 2**63:
-        raise UsageError(f"--seed: an integer from 0 to 2**63-1 (got {args.seed})")
     for flag in ("json", "storage", "plots", "study_name"):
         value = getattr(args, flag)
         if value is not None and not value.strip():
