@@ -18,8 +18,9 @@ def hand():
 
 
 @pytest.fixture(scope="session")
-def objects():
-    return load_objects(REPO_ROOT / "hand_configs" / "objects.toml")
+def objects(hand):
+    """The shipped objects as the shipped hand runs them (its [objects.NAME.hands.HAND] values)."""
+    return load_objects(REPO_ROOT / "hand_configs" / "objects.toml", hand.name)
 
 
 @pytest.fixture

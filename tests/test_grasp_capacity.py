@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from grasp_ctrl.cli import main
+from grasp_ctrl.config.actuation import torque_per_amp_nm
 from grasp_ctrl.config.hand import load_hand
 from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.controller.grasp_capacity import GRAVITY_M_S2, liftable_weight, object_capacity
-from grasp_ctrl.controller.joint_stiffness import torque_per_amp_nm
 from grasp_ctrl.files.paths import default_hand_file, default_objects_file
 
 

@@ -220,11 +220,14 @@ def test_tune_searches_the_standoff_in_mujoco_and_writes_it_with_the_command(tmp
         assert r["wilson_lower"] == pytest.approx(wilson_lower(r["successes"], r["trials"]), abs=1e-4)
     best = doc["best"]
     assert status == 0 and best["successes"] == 1
-    assert load_objects(objects_file)["lego"].standoff_m == pytest.approx(best["setting"]["standoff_m"], abs=1e-12)
+    tuned = load_objects(objects_file, "leap_hand")["lego"]
+    assert tuned.standoff_m == pytest.approx(best["setting"]["standoff_m"], abs=1e-12)
+    assert tuned.tuned_for == "leap_hand" and load_objects(objects_file)["lego"].standoff_m is None
     lines = objects_file.read_text().splitlines()
-    header = next(i for i, line in enumerate(lines) if line.startswith("[objects.lego]"))
+    header = next(i for i, line in enumerate(lines) if line.startswith("[objects.lego.hands.leap_hand]"))
     assert lines[header - 1].startswith(CHOSEN_BY + "grasp-ctrl tune --object lego --policy oracle --controller")
     assert "standoff_m=0.008:0.012" in lines[header - 1] and "--write" in lines[header - 1]
+    assert "(hand file hand_configs/leap_hand.toml, " in lines[header - 1]
     # Written again: the comment is replaced, not repeated.
     assert main(argv) == 0
     assert sum(line.startswith(CHOSEN_BY) for line in objects_file.read_text().splitlines()) == 1
@@ -239,11 +242,13 @@ def test_write_puts_a_posture_table_in_the_file(tmp_path):
         objects_file,
         {"mustard_bottle": {"posture_offsets_rad": {"thumb": [0.0, 0.0, -0.05, 0.1]}, "approach_offset_m": 0.005}},
         "grasp-ctrl tune --object mustard_bottle ... (2026-11-27)",
+        hand="leap_hand",
     )
     assert "+posture_offsets_rad = {thumb = [0.0, 0.0, -0.05, 0.1]}" in diff
-    after = load_objects(objects_file)["mustard_bottle"]
+    after = load_objects(objects_file, "leap_hand")["mustard_bottle"]
     assert after.posture_offsets() == {"thumb": (0.0, 0.0, -0.05, 0.1)} and after.approach_offset_m == 0.005
-    assert after.cap is not None  # the keys went into the object's own table, before its cap's
+    assert after.cap is not None  # the keys went into the LEAP hand's table, before the cap's
+    assert load_objects(objects_file)["mustard_bottle"].posture_offsets_rad is None  # not the object's own
 
 
 # --- runs ---------------------------------------------------------------------------------------
@@ -253,7 +258,9 @@ def test_runs_store_the_grasp_keys_only_where_set_and_resume(tmp_path, objects, 
     # A profile at the defaults is stored as before the keys existed: older runs keep their fingerprint.
     stored = profile_json(objects["lego"])
     assert not set(GRASP_KEYS) & set(stored)
-    assert stored == {k: v for k, v in dataclasses.asdict(objects["lego"]).items() if k not in GRASP_KEYS}
+    assert stored == {
+        k: v for k, v in dataclasses.asdict(objects["lego"]).items() if k not in (*GRASP_KEYS, "tuned_for")
+    }
     tuned = objects["lego"].with_params(
         approach_offset_m=0.003, standoff_m=0.02, posture_offsets_rad=(("index", (0.0, 0.1, 0.0, 0.0)),)
     )

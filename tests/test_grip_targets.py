@@ -110,7 +110,7 @@ def test_an_object_file_grip_targets_key_is_checked_and_round_trips(tmp_path, ob
     text = default_objects_file().read_text()
     bad = tmp_path / "objects.toml"
     bad.write_text(text.replace('grip_targets = "force_closure"', 'grip_targets = "tighter"', 1))
-    with pytest.raises(ConfigError, match=r"cleanser\.grip_targets.*one of equal, force_closure"):
+    with pytest.raises(ConfigError, match=r"cleanser\.hands\.leap_hand\.grip_targets.*one of equal, force_closure"):
         load_objects(bad)
     for obj in objects.values():  # run.json and tune's edits go through profile_table
         assert revalidate(obj, "x") == obj

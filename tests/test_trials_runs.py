@@ -226,8 +226,13 @@ def test_preset_paper_is_six_objects_five_trials_two_policies():
     from grasp_ctrl.cli.cmd_run import _plan
     from grasp_ctrl.trials.runs.presets import PAPER_POLICIES
 
-    _, m = _plan(build_parser().parse_args(["run", "--preset", "paper"]))
+    hand, m = _plan(build_parser().parse_args(["run", "--preset", "paper"]))
     assert (len(m.objects), m.trials, m.policies, m.preset) == (6, 5, list(PAPER_POLICIES), "paper")
+    # on the paper's hand, an Allegro, under the nominal variation, with the paper's controller
+    assert hand.name == "allegro_hand" and m.hand == "allegro_hand" and m.hand_file.endswith("allegro_hand.toml")
+    assert m.variation is not None and m.variation.name == "nominal" and m.settings.controller == "paper"
+    hand, m = _plan(build_parser().parse_args(["run", "--preset", "paper", "--hand", "hand_configs/leap_hand.toml"]))
+    assert hand.name == "leap_hand"  # a flag beside the preset overrides it
     # in the reference world, with the authors' network fine-tuned on the simulated sensor
     assert m.backend == "mujoco" and PAPER_POLICIES[-1] == "icra19_finetuned_mock"
     _, m = _plan(build_parser().parse_args(["run"]))  # the main job

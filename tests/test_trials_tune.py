@@ -139,9 +139,9 @@ def test_written_values_read_back_exactly(tmp_path_factory, name, tau, threshold
     path = tmp_path_factory.mktemp("tune") / "objects.toml"
     shutil.copy(OBJECTS_TOML, path)
     values = {"tau_n": tau, "release_threshold_n": threshold, "release_debounce": debounce}
-    diff = update_object_file(path, name, values)
-    profiles = load_objects(path)
-    before = load_objects(OBJECTS_TOML)
+    diff = update_object_file(path, name, values, hand="leap_hand")
+    profiles = load_objects(path, "leap_hand")
+    before = load_objects(OBJECTS_TOML, "leap_hand")
     for key, value in values.items():
         assert getattr(profiles[name], key) == value
     assert all(profiles[o] == before[o] for o in before if o != name)
@@ -258,7 +258,7 @@ def test_tune_on_the_real_hand_ranks_by_the_operators_labels(tmp_path, capsys, m
         (2.5, 1, {}),
         (1.5, 0, {"slipped": 1}),
     ]
-    assert load_objects(objects_file)["lego"].tau_n == 2.5
+    assert load_objects(objects_file, "leap_hand")["lego"].tau_n == 2.5
     assert "+tau_n = 2.5" in capsys.readouterr().out
     assert main(["tune", "--object", "lego", "--param", "tau=2", "--backend", "dynamixel", "--jobs", "2"]) == 2
     assert "one trial at a time" in capsys.readouterr().err

@@ -84,10 +84,12 @@ def test_write_follows_a_symlink_and_keeps_the_mode(tmp_path):
     os.chmod(target, 0o640)
     link = tmp_path / "objects.toml"
     link.symlink_to(target)
-    diff = update_objects_file(link, {"lego": {"tau_n": 1.75}, "paper_cup": {"release_threshold_n": 0.2}})
+    diff = update_objects_file(
+        link, {"lego": {"tau_n": 1.75}, "paper_cup": {"release_threshold_n": 0.2}}, hand="leap_hand"
+    )
     assert "+tau_n = 1.75" in diff and link.is_symlink() and os.readlink(link) == str(target)
     assert stat.S_IMODE(target.stat().st_mode) == 0o640
-    profiles = load_objects(target)
+    profiles = load_objects(target, "leap_hand")
     assert profiles["lego"].tau_n == 1.75 and profiles["paper_cup"].release_threshold_n == 0.2
     assert not [p for p in target.parent.iterdir() if p.name != "objects.toml"]  # no temporary file left
 
@@ -237,7 +239,7 @@ def test_tune_command_on_the_mock_keeps_and_continues_its_study(tmp_path, capsys
     assert len({json.dumps(r["setting"], sort_keys=True) for r in doc["ranked"]}) == 3
     best = doc["best"]
     if best["successes"]:
-        assert load_objects(objects_file)["lego"].tau_n == best["setting"]["tau_n"]
+        assert load_objects(objects_file, "leap_hand")["lego"].tau_n == best["setting"]["tau_n"]
         assert 0.0 <= best["wilson_95"][0] <= best["success_rate"] <= best["wilson_95"][1] <= 1.0
 
 
@@ -272,7 +274,7 @@ def test_tune_objects_writes_one_file_and_draws_the_study(tmp_path, capsys):
     docs = json.loads(out.read_text())["objects"]
     assert [d["object"] for d in docs] == ["lego", "chips_can"] and all(d["sampler"] == "grid" for d in docs)
     assert all(len(d["ranked"]) == 2 for d in docs)
-    after = load_objects(objects_file)
+    after = load_objects(objects_file, "leap_hand")
     for d in docs:
         if d["best"]["successes"]:
             assert status == 0 and after[d["object"]].tau_n == d["best"]["setting"]["tau_n"]

@@ -22,7 +22,7 @@ class _Loop:
 
     def __init__(self, estimator_for_world, seed: int = 0, controller: str = "paper") -> None:
         self.hand = load_hand(default_hand_file())
-        obj = load_objects(default_objects_file())[BENCH_OBJECT]
+        obj = load_objects(default_objects_file(), self.hand.name)[BENCH_OBJECT]
         self.trial = build_trial(
             self.hand, obj, seed, estimator_for_world, backend=TEST_WORLD, settings=settings_for(controller)
         )

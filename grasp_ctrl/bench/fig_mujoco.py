@@ -33,7 +33,7 @@ def _trial(seed: int, mujoco_module: Any = None) -> SimTrial:
     """The benchmark's oracle trial of the paper's controller on MuJoCo (``mujoco_module``: the
     module its world steps with)."""
     hand = load_hand(default_hand_file())
-    obj = load_objects(default_objects_file())[BENCH_OBJECT]
+    obj = load_objects(default_objects_file(), hand.name)[BENCH_OBJECT]
     make_world = None
     if mujoco_module is not None:
         from grasp_ctrl.sim.mujoco.world import MuJoCoWorld

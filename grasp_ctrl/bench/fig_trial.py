@@ -28,7 +28,7 @@ from grasp_ctrl.trials.runs.selection import select_objects
 
 def trial_realtime_factor(quick: bool) -> Figure:
     hand = load_hand(default_hand_file())
-    objects = select_objects(default_objects_file(), None)[: 2 if quick else None]
+    objects = select_objects(default_objects_file(), None, hand=hand.name)[: 2 if quick else None]
     make_estimator = estimator_factory(DEFAULT_POLICY, hand)
     kin = HandKinematics(hand)
     rounds = 1 if quick else 3

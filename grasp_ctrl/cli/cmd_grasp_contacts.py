@@ -54,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     assert out is not None
     check_new_file(out, "--out", args.force)
     hand = load_hand(args.hand)
-    objects = select_objects(args.objects_file, args.objects)
+    objects = select_objects(args.objects_file, args.objects, hand=hand.name)
     gc = record_grasp_contacts(
         hand,
         objects,

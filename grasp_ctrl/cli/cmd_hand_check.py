@@ -38,6 +38,7 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
+    from grasp_ctrl.config.actuation import require_dynamixel
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.errors import HardwareError, UsageError
     from grasp_ctrl.hardware.dynamixel import DynamixelHand
@@ -46,6 +47,7 @@ def run(args: argparse.Namespace) -> int:
     if not 0.0 < args.step <= 0.5:
         raise UsageError(f"--step: expected 0 < RAD <= 0.5, got {args.step}")
     hand = load_hand(args.hand)
+    require_dynamixel(hand, "hand-check")
     if args.baud:
         hand = dataclasses.replace(hand, dynamixel=dataclasses.replace(hand.dynamixel, baud=args.baud))
     dxl = DynamixelHand(hand, args.port)

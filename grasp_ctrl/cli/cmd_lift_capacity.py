@@ -56,10 +56,10 @@ def worst_corner(obj: ObjectProfile, v: Variation) -> ObjectProfile:
 
 
 def run(args: argparse.Namespace) -> int:
+    from grasp_ctrl.config.actuation import describe
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.config.objects import default_set, load_objects
     from grasp_ctrl.controller.grasp_capacity import GRAVITY_M_S2, object_capacity
-    from grasp_ctrl.controller.joint_stiffness import hand_servo, torque_per_amp_nm
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.sim.variation import DEFAULT_VARIATION, NOMINAL, variation
 
@@ -67,14 +67,12 @@ def run(args: argparse.Namespace) -> int:
     if not args.min_margin > 0.0:
         raise UsageError(f"--min-margin: expected a positive number, got {args.min_margin}")
     hand = load_hand(args.hand)
-    profiles = load_objects(args.objects_file)
+    profiles = load_objects(args.objects_file, hand.name)
     names = args.objects or default_set(args.objects_file)
     unknown = [n for n in names if n not in profiles]
     if unknown:
         raise UsageError(f"--objects: unknown object(s) {', '.join(unknown)} (known: {', '.join(profiles)})")
-    print(
-        f"lift-capacity: {hand.name}, servos at their current limits x {torque_per_amp_nm(hand):.3f} N m/A ({hand_servo(hand).name})"
-    )
+    print(f"lift-capacity: {hand.name}, {describe(hand)}")
     if v == NOMINAL:
         print(f"  variation {v.name}: each object at the object file's mass and friction")
     else:

@@ -64,7 +64,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
     presets = "; ".join(f"{k}: {v.description} ({', '.join(v.policies)})" for k, v in PRESETS.items())
     p.add_argument(
-        "--hand", default=None, metavar="FILE", help="hand config TOML (default: hand_configs/leap_hand.toml)"
+        "--hand",
+        default=None,
+        metavar="FILE",
+        help="hand config TOML (default: hand_configs/leap_hand.toml; the paper preset: hand_configs/allegro_hand.toml)",
     )
     p.add_argument(
         "--object-file", default=None, metavar="FILE", help="object profiles TOML (default: hand_configs/objects.toml)"
@@ -221,7 +224,7 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.estimators.registry import DEFAULT_POLICY
-    from grasp_ctrl.files.paths import default_hand_file, default_objects_file
+    from grasp_ctrl.files.paths import default_hand_file, default_objects_file, hand_configs_dir
     from grasp_ctrl.trials.runs.manifest import RunManifest, file_sha256
     from grasp_ctrl.trials.runs.presets import get_preset
     from grasp_ctrl.trials.runs.selection import select_objects
@@ -229,11 +232,12 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     preset = get_preset(args.preset) if args.preset else None
     trials = args.trials if args.trials is not None else (preset.trials if preset else 5)
     check_trials_and_seed(trials, args.seed)
-    hand_file = Path(args.hand or default_hand_file())
+    preset_hand = hand_configs_dir() / preset.hand if preset and preset.hand else None
+    hand_file = Path(args.hand or preset_hand or default_hand_file())
     object_file = Path(args.object_file or default_objects_file())
     hand = load_hand(hand_file)
     objects_spec = args.objects if args.objects is not None else (",".join(preset.objects) if preset else None)
-    objects = select_objects(object_file, objects_spec)
+    objects = select_objects(object_file, objects_spec, hand=hand.name)
     if args.raw_frames and args.no_tick_logs:
         raise UsageError("--raw-frames: the frames go into the tick logs; drop --no-tick-logs")
     policies = args.policy or (list(preset.policies) if preset else [DEFAULT_POLICY])
@@ -243,6 +247,10 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
 
     entry = from_flags(args.backend or DEFAULT_BACKEND, bool(args.emulate))
     backend = entry.name
+    if entry.on_hand:  # the real hand's backends, or their emulation
+        from grasp_ctrl.config.actuation import require_dynamixel
+
+        require_dynamixel(hand, f"--backend {entry.flag}" + (" --emulate" if args.emulate else ""))
     if args.realtime and not args.emulate:
         raise UsageError(
             "--realtime: only with --backend dynamixel --emulate (a wall-clock dry run of the emulated hand)"
@@ -257,7 +265,8 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     # The world's per-trial draws (the paper preset too); the real hand has none to choose.
     if not entry.truth and args.variation is not None:
         raise UsageError("--variation: only for a simulated world (mujoco, mock, or --emulate)")
-    drawn = variation(args.variation or DEFAULT_VARIATION) if entry.truth else None
+    preset_variation = preset.variation if preset else None
+    drawn = variation(args.variation or preset_variation or DEFAULT_VARIATION) if entry.truth else None
     manifest = RunManifest(
         variation=drawn,
         settings=settings_for(controller),

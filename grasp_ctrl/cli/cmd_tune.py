@@ -23,8 +23,9 @@ DESCRIPTION = (
     "pruned after any trial. Prints the settings ranked with their Wilson lower bounds and the best one's "
     "success rate with its 95 % Wilson interval. --storage sqlite:///FILE keeps the study: Ctrl-C, then "
     "the same command again, continues it without repeating finished settings. With --write the best "
-    "setting's object-file keys go into the object file (only those lines change, and a '# chosen by:' "
-    "comment with the command goes above the object's table; the diff is shown)."
+    "setting's object-file keys go into the object file's [objects.NAME.hands.HAND] table of the hand "
+    "tuned on (HAND: the hand file's name; only those lines change, the table is added when missing, and "
+    "a '# chosen by:' comment with the command and the hand file goes above it; the diff is shown)."
 )
 ORDER = 5
 
@@ -119,7 +120,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "seed, trials and params>)",
     )
     p.add_argument("--no-prune", action="store_true", help="run every setting's trials to the end")
-    p.add_argument("--write", action="store_true", help="write the best setting into the object file")
+    p.add_argument(
+        "--write",
+        action="store_true",
+        help="write the best setting into the object file, under [objects.NAME.hands.HAND] of this hand",
+    )
     p.add_argument("--json", default=None, metavar="FILE", help="write the ranked settings as JSON")
     p.add_argument(
         "--plots",
@@ -274,13 +279,17 @@ def run(args: argparse.Namespace) -> int:
 
     params = parse_params(args.param)
     hand = load_hand(args.hand)
+    if args.write:  # its tables are [objects.NAME.hands.HAND]: refused before any trial
+        from grasp_ctrl.config.identifiers import check_identifier_arg
+
+        check_identifier_arg(hand.name, f"--write: {args.hand}: the hand's name")
     finger_joints = check_params_for_hand(params, hand)
     check_settings_values(params)
     settings = _settings(args)
     if args.object is not None:
-        objects = select_objects(args.object_file, args.object, flag="--object")
+        objects = select_objects(args.object_file, args.object, flag="--object", hand=hand.name)
     else:
-        objects = select_objects(args.object_file, args.objects, flag="--objects")
+        objects = select_objects(args.object_file, args.objects, flag="--objects", hand=hand.name)
     corners = corner_settings(params)
     for obj in objects:
         # every end of the search must fit the object file's limits and the hand (tau below its force limit, ...)
@@ -328,7 +337,7 @@ def run(args: argparse.Namespace) -> int:
         write_output(args.json, json.dumps(out, indent=2) + "\n")
     if not args.write:
         return 0
-    return _write(args, docs, plans)
+    return _write(args, docs, plans, hand.name)
 
 
 def _tune_one(plan: Any, args: argparse.Namespace, hand: Any, trial_fn: Any) -> dict[str, Any] | int:
@@ -380,7 +389,8 @@ def _tune_one(plan: Any, args: argparse.Namespace, hand: Any, trial_fn: Any) -> 
     return doc
 
 
-def _write(args: argparse.Namespace, docs: list[dict[str, Any]], plans: list[Any]) -> int:
+def _write(args: argparse.Namespace, docs: list[dict[str, Any]], plans: list[Any], hand: str) -> int:
+    """The best settings into ``[objects.NAME.hands.HAND]`` of ``hand`` (the tuned hand's name)."""
     from grasp_ctrl.trials.tuning.toml_edit import update_objects_file
 
     chosen = {d["object"]: d["best"]["setting"] for d in docs if d.get("best") and d["best"]["successes"] > 0}
@@ -398,7 +408,9 @@ def _write(args: argparse.Namespace, docs: list[dict[str, Any]], plans: list[Any
                 print(
                     f"{plan.obj.name}: controller settings are not object-file keys, not written: {', '.join(others)}"
                 )
-    diff = update_objects_file(Path(args.object_file), {k: v for k, v in values.items() if v}, _chosen_by(args))
+    diff = update_objects_file(
+        Path(args.object_file), {k: v for k, v in values.items() if v}, _chosen_by(args), hand=hand
+    )
     print(diff.rstrip() if diff else f"{args.object_file}: the best settings are already there; unchanged")
     return 0
 
@@ -416,11 +428,23 @@ def _file_values(plan: Any, setting: dict[str, Any]) -> dict[str, Any]:
 
 
 def _chosen_by(args: argparse.Namespace) -> str:
-    """The command that chose the values and today's date: ``grasp-ctrl tune ... (2026-11-27)``."""
+    """The command that chose the values, the hand file it tuned on and today's date:
+    ``grasp-ctrl tune ... (hand file hand_configs/leap_hand.toml, 2026-11-27)``."""
     import datetime
     import shlex
 
     from grasp_ctrl.cli import PROG
 
     argv = getattr(args, "_argv", None) or sys.argv[1:]
-    return f"{PROG} {shlex.join(argv)} ({datetime.date.today().isoformat()})"
+    return f"{PROG} {shlex.join(argv)} (hand file {_shown_path(args.hand)}, {datetime.date.today().isoformat()})"
+
+
+def _shown_path(path: str) -> str:
+    """``path`` relative to the checkout when it lies in it (the shipped hand files), else absolute."""
+    from grasp_ctrl.files.paths import REPO_ROOT
+
+    full = Path(path).resolve()
+    try:
+        return full.relative_to(REPO_ROOT).as_posix()
+    except ValueError:
+        return str(full)

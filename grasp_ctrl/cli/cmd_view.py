@@ -50,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.sim.mujoco.world import MuJoCoWorld
 
     hand = load_hand(Path(args.hand or default_hand_file()))
-    objects = load_objects(Path(args.object_file or default_objects_file()))
+    objects = load_objects(Path(args.object_file or default_objects_file()), hand.name)
     if args.object not in objects:
         raise UsageError(f"--object: no object {args.object!r} (known: {', '.join(objects)})")
     world = MuJoCoWorld(hand, objects[args.object], args.seed)

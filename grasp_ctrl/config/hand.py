@@ -6,6 +6,7 @@ Loaded from a TOML file under ``hand_configs/`` and validated on load. See
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -16,6 +17,10 @@ from grasp_ctrl.config.toml_reader import Table, read_toml
 from grasp_ctrl.tactile.layout import LAYOUTS, SensorLayout, layout_for
 
 SAFE_ACTIONS = ("hold", "open", "torque_off")
+ACTUATOR_KINDS = ("dynamixel", "torque_pd")
+TORQUE_PD_KEYS = ("kp_nm_per_rad", "kd_nm_s_per_rad", "torque_limit_nm")  # each joint's, actuator = "torque_pd"
+DYNAMIXEL_JOINT_KEYS = ("current_limit_a", "gain_scale")  # each joint's, actuator = "dynamixel"
+CAN_INTERFACES = ("socketcan", "pcan", "virtual")
 ARM_KINDS = ("mock", "dynamixel", "external")
 SERIAL_MODES = ("binary", "text")
 DXL_MAX_BAUD = 4_500_000  # the fastest rate of the Dynamixel X series' bus
@@ -40,6 +45,11 @@ class JointConfig:
     sign: int = 1  # servo direction
     current_limit_a: float = 1.0
     gain_scale: float = 1.0  # x the [dynamixel] position gains (LEAP API: 0.75 on abduction)
+    # actuator = "torque_pd" (the host runs each joint's PD loop and sends torques): its gains
+    # and torque limit; None on a Dynamixel hand (its servos' gains and current limits apply)
+    kp_nm_per_rad: float | None = None
+    kd_nm_s_per_rad: float | None = None
+    torque_limit_nm: float | None = None
 
 
 @dataclass(frozen=True)
@@ -53,6 +63,28 @@ class FingerConfig:
     joints: tuple[JointConfig, ...]
     tip_xyz: tuple[float, float, float]  # last link -> sensor frame
     tip_rpy: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class CollisionBox:
+    """A box of a link's collision shape, in that link's frame (the joint frame that moves it)."""
+
+    half_m: tuple[float, float, float]  # half sizes
+    pos_m: tuple[float, float, float]  # centre
+    quat: tuple[float, float, float, float] | None = None  # w x y z; None: the link's axes
+
+
+@dataclass(frozen=True)
+class TorquePDConfig:
+    """``[torque_pd]``: a torque-controlled hand whose joint PD loop runs on the host (the Allegro v4
+    over CAN); each joint's gains and torque limit are in its ``[[fingers.joints]]`` table."""
+
+    rate_hz: float = 333.0  # the host PD loop's rate
+    interface: str = "socketcan"  # python-can interface: socketcan | pcan | virtual
+    channel: str = "can0"
+    damping_nm_s_per_rad: float = 0.0  # each joint's passive damping (gears, motor), besides the PD's
+    armature_kg_m2: float | None = None  # reflected rotor inertia; None: the simulated worlds' default
+    source: str = ""  # where the gains and limits come from (required in the file)
 
 
 @dataclass(frozen=True)
@@ -147,11 +179,26 @@ class HandConfig:
     path: str
     rate_hz: float
     fingers: tuple[FingerConfig, ...]
+    actuator: str = "dynamixel"  # one of ACTUATOR_KINDS: which section below drives the joints
+    torque_pd: TorquePDConfig | None = None  # actuator = "torque_pd"
     dynamixel: DynamixelConfig = field(default_factory=DynamixelConfig)
     tactile: TactileConfig = field(default_factory=TactileConfig)
     arm: ArmConfig = field(default_factory=ArmConfig)
     safety: SafetyConfig = field(default_factory=SafetyConfig)
     grasp: GraspConfig = field(default_factory=GraspConfig)
+    # [collision]: the links' shapes for the simulated worlds; a link with none listed gets a
+    # capsule from its joint to the next (or to the sensor's mount)
+    palm_boxes: tuple[CollisionBox, ...] = ()  # in the first finger's base frame
+    link_boxes: tuple[tuple[str, tuple[CollisionBox, ...]], ...] = ()  # joint name -> its link's boxes
+
+    @property
+    def servo_driven(self) -> bool:
+        """Position-controlled Dynamixel servos drive the joints (``actuator = "dynamixel"``)."""
+        return self.actuator == "dynamixel"
+
+    def boxes_of(self, joint_name: str) -> tuple[CollisionBox, ...] | None:
+        """The collision boxes of the link ``joint_name`` moves; None where the file lists none."""
+        return dict(self.link_boxes).get(joint_name)
 
     @property
     def dt(self) -> float:
@@ -181,6 +228,44 @@ class HandConfig:
         raise KeyError(finger_name)
 
 
+MAX_BOX_M = 0.5  # a box's half size or centre offset, per component
+
+
+def _boxes(t: Table, name: str) -> tuple[CollisionBox, ...]:
+    """An array of ``{ half_m = [x, y, z], pos_m = [x, y, z], quat = [w, x, y, z] }`` tables."""
+    out = []
+    for b in t.tables(name):
+        b.unknown_keys({"half_m", "pos_m", "quat"})
+        half = b.vector("half_m", 3, bound=MAX_BOX_M)
+        if min(half) <= 0.0:
+            raise b.fail("half_m", f"three positive half sizes (got {list(half)})")
+        quat = None
+        if b.has("quat"):
+            w, x, y, z = b.vector("quat", 4)
+            if abs(math.sqrt(w * w + x * x + y * y + z * z) - 1.0) > 1e-3:  # kept as written: the scene's text
+                raise b.fail("quat", f"a unit quaternion w, x, y, z (got {[w, x, y, z]})")
+            quat = (w, x, y, z)
+        out.append(CollisionBox(half, b.vector("pos_m", 3, bound=MAX_BOX_M), quat))
+    return tuple(out)
+
+
+def _collision(
+    root: Table, fingers: tuple[FingerConfig, ...]
+) -> tuple[tuple[CollisionBox, ...], tuple[tuple[str, tuple[CollisionBox, ...]], ...]]:
+    """``[collision]``: ``palm`` boxes and ``[collision.links]`` boxes by joint name."""
+    c = root.table("collision", {})
+    c.unknown_keys({"palm", "links"})
+    palm = _boxes(c, "palm")
+    links_t = c.table("links", {})
+    joint_names = [j.name for f in fingers for j in f.joints]
+    links = []
+    for name in links_t.data:
+        if name not in joint_names:
+            raise links_t.fail(name, f"a joint name of the hand ({', '.join(joint_names)})")
+        links.append((name, _boxes(links_t, name)))
+    return palm, tuple(links)
+
+
 def _joint(t: Table) -> JointConfig:
     t.unknown_keys(
         {
@@ -197,6 +282,7 @@ def _joint(t: Table) -> JointConfig:
             "sign",
             "current_limit_a",
             "gain_scale",
+            *TORQUE_PD_KEYS,
         }
     )
     lower = t.float("lower_rad", lo=-6.3, hi=6.3)
@@ -221,6 +307,11 @@ def _joint(t: Table) -> JointConfig:
         sign=sign,
         current_limit_a=t.float("current_limit_a", 1.0, lo=0.0, hi=5.0, lo_open=True),
         gain_scale=t.float("gain_scale", 1.0, lo=0.0, hi=4.0, lo_open=True),
+        kp_nm_per_rad=t.float("kp_nm_per_rad", lo=0.0, hi=1000.0) if t.has("kp_nm_per_rad") else None,
+        kd_nm_s_per_rad=t.float("kd_nm_s_per_rad", lo=0.0, hi=100.0) if t.has("kd_nm_s_per_rad") else None,
+        torque_limit_nm=t.float("torque_limit_nm", lo=0.0, hi=100.0, lo_open=True)
+        if t.has("torque_limit_nm")
+        else None,
     )
 
 
@@ -370,10 +461,78 @@ def _check_current(root: Table, key: str, amps: float, model: ServoModel) -> Non
         raise root.fail(key, f"at most {limit:g} A, {what} (got {amps:g})")
 
 
+def _actuation(root: Table, actuator: str, fingers: tuple[FingerConfig, ...]) -> TorquePDConfig | None:
+    """The actuator section that ``actuator`` names, and each joint's keys of that kind only: a
+    Dynamixel hand's joints take current limits and gain scales, a torque-controlled hand's take
+    PD gains and torque limits; a key or section of the other kind is a contradiction, refused."""
+    raw = [
+        (f"fingers[{i}].joints[{k}]", root.data["fingers"][i]["joints"][k])
+        for i, f in enumerate(fingers)
+        for k in range(len(f.joints))
+    ]
+    if actuator == "dynamixel":
+        if root.has("torque_pd"):
+            raise root.fail(
+                "torque_pd", 'no [torque_pd] table with actuator = "dynamixel" (set actuator = "torque_pd")'
+            )
+        for key, data in raw:
+            for k in TORQUE_PD_KEYS:
+                if k in data:
+                    raise root.fail(
+                        f"{key}.{k}", 'no torque-control key with actuator = "dynamixel" (its servos\' gains apply)'
+                    )
+        return None
+    if root.has("dynamixel"):
+        raise root.fail(
+            "dynamixel", 'no [dynamixel] table with actuator = "torque_pd" (its [torque_pd] table drives the joints)'
+        )
+    if not root.has("torque_pd"):
+        raise root.fail(
+            "torque_pd", 'a [torque_pd] table (actuator = "torque_pd": the host PD loop\'s rate, bus and source)'
+        )
+    for key, data in raw:
+        for k in DYNAMIXEL_JOINT_KEYS:
+            if k in data:
+                raise root.fail(
+                    f"{key}.{k}", f'no Dynamixel key with actuator = "torque_pd" (set {", ".join(TORQUE_PD_KEYS)})'
+                )
+        for k in TORQUE_PD_KEYS:
+            if k not in data:
+                raise root.fail(
+                    f"{key}.{k}",
+                    'a value (every joint of a hand with actuator = "torque_pd" has its PD gains and torque limit)',
+                )
+    t = root.table("torque_pd")
+    t.unknown_keys({"rate_hz", "interface", "channel", "damping_nm_s_per_rad", "armature_kg_m2", "source"})
+    return TorquePDConfig(
+        rate_hz=t.float("rate_hz", TorquePDConfig.rate_hz, lo=1.0, hi=10000.0),
+        interface=t.str("interface", TorquePDConfig.interface, choices=CAN_INTERFACES),
+        channel=t.str("channel", TorquePDConfig.channel),
+        damping_nm_s_per_rad=t.float("damping_nm_s_per_rad", 0.0, lo=0.0, hi=100.0),
+        armature_kg_m2=t.float("armature_kg_m2", lo=0.0, hi=1.0) if t.has("armature_kg_m2") else None,
+        source=t.str("source"),
+    )
+
+
 def load_hand(path: str | Path) -> HandConfig:
     """Read and validate a hand file; raises ConfigError naming file and key."""
     root = Table(path, read_toml(path))
-    root.unknown_keys({"name", "rate_hz", "fingers", "dynamixel", "tactile", "arm", "safety", "grasp", "servo_models"})
+    root.unknown_keys(
+        {
+            "name",
+            "rate_hz",
+            "actuator",
+            "torque_pd",
+            "fingers",
+            "dynamixel",
+            "tactile",
+            "arm",
+            "safety",
+            "grasp",
+            "servo_models",
+            "collision",
+        }
+    )
     fingers = tuple(_finger(f) for f in root.tables("fingers", min_len=1))
     custom_models = _servo_models(root)
 
@@ -391,6 +550,9 @@ def load_hand(path: str | Path) -> HandConfig:
         raise root.fail("fingers.joints.servo_id", f"unique servo ids (repeated: {dup})")
     if not any(f.grasp for f in fingers):
         raise root.fail("fingers", "at least one finger with grasp = true")
+    actuator = root.str("actuator", "dynamixel", choices=ACTUATOR_KINDS)
+    torque_pd = _actuation(root, actuator, fingers)
+    palm_boxes, link_boxes = _collision(root, fingers)
 
     d = root.table("dynamixel", {})
     d.unknown_keys(
@@ -510,7 +672,13 @@ def load_hand(path: str | Path) -> HandConfig:
     arm_ids = [j.servo_id for j in arm.joints]
     if len(set(arm_ids)) != len(arm_ids):
         raise a.fail("joints.servo_id", f"unique servo ids (got {arm_ids})")
-    _check_ratings(root, fingers, dynamixel, arm)
+    for k, j in enumerate(arm.joints):
+        for key in TORQUE_PD_KEYS:
+            if getattr(j, key) is not None:
+                raise root.fail(
+                    f"arm.joints[{k}].{key}", "no torque-control key (the arm's joints are Dynamixel servos)"
+                )
+    _check_ratings(root, fingers if actuator == "dynamixel" else (), dynamixel, arm)
 
     sf = root.table("safety", {})
     sf.unknown_keys({"on_fault", "max_fingertip_force_n", "max_joint_step_rad"})
@@ -536,9 +704,13 @@ def load_hand(path: str | Path) -> HandConfig:
         path=str(path),
         rate_hz=root.float("rate_hz", 100.0, lo=1.0, hi=2000.0),
         fingers=fingers,
+        actuator=actuator,
+        torque_pd=torque_pd,
         dynamixel=dynamixel,
         tactile=tactile,
         arm=arm,
         safety=safety,
         grasp=grasp,
+        palm_boxes=palm_boxes,
+        link_boxes=link_boxes,
     )

@@ -2,7 +2,10 @@
 controller thresholds (tau, release threshold and debounce).
 
 A profile file holds one ``[objects.NAME]`` table per object; see
-``hand_configs/objects.toml``.
+``hand_configs/objects.toml``. Thresholds and grasp settings tuned on one hand
+go into that object's ``[objects.NAME.hands.HAND]`` table (``HAND``: the hand
+file's ``name``): they apply when the file is loaded for that hand and never
+for another. The same keys at the object level apply to every hand.
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ from typing import Any
 
 from grasp_ctrl.config.identifiers import check_identifier
 from grasp_ctrl.config.toml_reader import Table, read_toml
+from grasp_ctrl.errors import ConfigError
 
 #: How an object's grip targets are set (controller/grip_targets.py).
 GRIP_TARGET_MODES = ("equal", "force_closure")
@@ -58,6 +62,8 @@ class ObjectProfile:
     standoff_m: float | None = None  # the preshape's standoff; None: the controller's setting
     # per finger, offsets added to its reach posture's joint angles (one per joint, rad); None: none
     posture_offsets_rad: tuple[tuple[str, tuple[float, ...]], ...] | None = None
+    # the hand whose [objects.NAME.hands.HAND] table applied (its name); None: the object-level values only
+    tuned_for: str | None = None
 
     @property
     def half_width_m(self) -> float:
@@ -80,6 +86,25 @@ TUNABLE = (
     "approach_offset_m",
     "standoff_m",
 )
+#: The keys an ``[objects.NAME.hands.HAND]`` table may set: the controller's thresholds and the
+#: grasp, tuned on one hand. Every other key describes the object (the same for every hand).
+HAND_KEYS = (*TUNABLE, "grip_targets", "posture_offsets_rad")
+#: The keys of an ``[objects.NAME]`` table besides ``hands``.
+OBJECT_KEYS = (
+    "shape",
+    "diameter_m",
+    "size_m",
+    "height_m",
+    "mass_kg",
+    "mu",
+    "stiffness_n_per_m",
+    "deformable",
+    "crush_force_n",
+    "grasp_height_m",
+    "tip_force_n",
+    "cap",
+    *HAND_KEYS,
+)
 #: The object file's bounds on the grasp keys.
 MAX_APPROACH_OFFSET_M = 0.05
 MAX_STANDOFF_M = 0.05
@@ -88,25 +113,7 @@ MAX_FINGER_JOINTS = 8
 
 
 def _object(name: str, t: Table) -> ObjectProfile:
-    t.unknown_keys(
-        {
-            "shape",
-            "diameter_m",
-            "size_m",
-            "height_m",
-            "mass_kg",
-            "mu",
-            "stiffness_n_per_m",
-            "deformable",
-            "crush_force_n",
-            "grasp_height_m",
-            "tip_force_n",
-            "cap",
-            "grip_targets",
-            "posture_offsets_rad",
-            *TUNABLE,
-        }
-    )
+    t.unknown_keys(set(OBJECT_KEYS))
     shape = t.str("shape", choices=SHAPES)
     if shape == "cylinder":
         d = t.float("diameter_m", lo=0.005, hi=0.5)
@@ -185,8 +192,9 @@ def _cap(t: Table, size: tuple[float, float], height: float) -> CapProfile:
 
 
 def profile_table(obj: ObjectProfile) -> dict[str, Any]:
-    """The ``[objects.NAME]`` table (as parsed TOML) that loads back to ``obj``."""
-    doc: dict[str, Any] = {k: v for k, v in asdict(obj).items() if k not in ("name", "size_m", "cap")}
+    """The ``[objects.NAME]`` table (as parsed TOML) that loads back to ``obj`` (its resolved values
+    at the object level: ``tuned_for``, the hand whose table they came from, is not a key)."""
+    doc: dict[str, Any] = {k: v for k, v in asdict(obj).items() if k not in ("name", "size_m", "cap", "tuned_for")}
     if obj.shape == "cylinder":
         doc["diameter_m"] = obj.size_m[0]
     else:
@@ -215,11 +223,15 @@ GRASP_KEY_DEFAULTS: dict[str, Any] = {"approach_offset_m": 0.0, "standoff_m": No
 
 def profile_json(obj: ObjectProfile) -> dict[str, Any]:
     """``obj`` as run.json stores it (``dataclasses.asdict``; read back by :func:`profile_from_json`):
-    the grasp keys only where they differ from their defaults, the posture as ``{finger: [...]}``."""
+    the grasp keys only where they differ from their defaults, the posture as ``{finger: [...]}``,
+    ``tuned_for`` only where a hand's table applied (a run made before it existed keeps its
+    run.json and fingerprint)."""
     doc = asdict(obj)
     for key, default in GRASP_KEY_DEFAULTS.items():
         if doc[key] == default:
             doc.pop(key)
+    if obj.tuned_for is None:
+        doc.pop("tuned_for")
     if obj.posture_offsets_rad is not None:
         doc["posture_offsets_rad"] = {f: list(v) for f, v in obj.posture_offsets_rad}
     return doc
@@ -233,7 +245,10 @@ def profile_from_json(name: object, doc: Any, source: str, prefix: str = "") -> 
     if not isinstance(doc, dict):
         raise Table(source, {}, prefix).fail(str(name), "an object profile table")
     check_identifier(name, source, f"{prefix}name")
-    table = {k: v for k, v in doc.items() if k not in ("name", "size_m", "cap") and v is not None}
+    tuned_for = doc.get("tuned_for")
+    if tuned_for is not None:
+        check_identifier(tuned_for, source, f"{prefix}{name}.tuned_for", "the name of the hand whose table applied")
+    table = {k: v for k, v in doc.items() if k not in ("name", "size_m", "cap", "tuned_for") and v is not None}
     size = doc.get("size_m")
     if doc.get("shape") == "cylinder":
         if not isinstance(size, (list, tuple)) or len(size) != 2 or size[0] != size[1]:
@@ -243,17 +258,75 @@ def profile_from_json(name: object, doc: Any, source: str, prefix: str = "") -> 
         table["size_m"] = size
     if doc.get("cap") is not None:
         table["cap"] = doc["cap"]
-    return _object(str(name), Table(source, table, f"{prefix}{name}."))
+    return replace(_object(str(name), Table(source, table, f"{prefix}{name}.")), tuned_for=tuned_for)
 
 
 def revalidate(obj: ObjectProfile, source: str) -> ObjectProfile:
     """``obj`` checked by the loader's own rules (after edits such as a tuning
-    sweep's); ConfigError names ``source`` and the offending key."""
-    return _object(obj.name, Table(source, profile_table(obj)))
+    sweep's); ConfigError names ``source`` and the offending key. ``tuned_for`` is kept."""
+    return replace(_object(obj.name, Table(source, profile_table(obj))), tuned_for=obj.tuned_for)
 
 
-def load_objects(path: str | Path) -> dict[str, ObjectProfile]:
-    """Read an object-profile file into ``{name: profile}`` (file order kept)."""
+def _hand_tables(name: str, t: Table) -> dict[str, Table]:
+    """The ``[objects.NAME.hands.HAND]`` tables of one object, checked for their keys: a
+    threshold or grasp key (:data:`HAND_KEYS`) only; a physical key is the object's."""
+    if not t.has("hands"):
+        return {}
+    hands = t.table("hands")
+    out = {}
+    for hand in hands.data:
+        check_identifier(hand, hands.path, hands.key("<hand name>"), "a hand file's name")
+        ht = hands.table(hand)
+        for key in ht.data:
+            if key in OBJECT_KEYS and key not in HAND_KEYS:
+                raise ht.fail(
+                    key,
+                    f"not a per-hand key: {key} describes the object, set it once in [objects.{name}] "
+                    f"(per hand: {', '.join(HAND_KEYS)})",
+                )
+        ht.unknown_keys(set(HAND_KEYS))
+        out[hand] = ht
+    return out
+
+
+def _with_hand(name: str, t: Table, base: dict[str, Any], ht: Table) -> ObjectProfile:
+    """The object's values with the hand table's over them, checked as one table; an error about
+    a key the hand table sets names that key there (``objects.NAME.hands.HAND.KEY``)."""
+    try:
+        return _object(name, Table(t.path, {**base, **ht.data}, t.prefix))
+    except ConfigError as exc:
+        rest = exc.key[len(t.prefix) :] if exc.key.startswith(t.prefix) else ""
+        if rest.split(".", 1)[0] in ht.data:
+            raise ConfigError(exc.path, ht.key(rest), exc.expected) from None
+        raise
+
+
+def _resolve(name: str, t: Table, hand: str | None) -> ObjectProfile:
+    """One object's profile for ``hand``: its object-level values, overridden by its
+    ``hands.<hand>`` table when it has one (``tuned_for`` names that hand). Every hand's table
+    is checked, whichever hand loads the file."""
+    tables = _hand_tables(name, t)
+    base = {k: v for k, v in t.data.items() if k != "hands"}
+    profile = _object(name, Table(t.path, base, t.prefix))  # what a hand without a table gets
+    for h, ht in tables.items():
+        resolved = _with_hand(name, t, base, ht)
+        if h == hand:
+            profile = replace(resolved, tuned_for=h)
+    return profile
+
+
+def load_objects(path: str | Path, hand: str | None = None) -> dict[str, ObjectProfile]:
+    """Read an object-profile file into ``{name: profile}`` (file order kept), resolved for
+    ``hand``, the name of the hand the trials run on (the hand file's ``name``).
+
+    Each profile holds the object-level values, overridden by the object's
+    ``[objects.NAME.hands.HAND]`` table when ``HAND`` is ``hand`` (its ``tuned_for`` is then
+    ``hand``); a table under another hand's name never applies. ``hand=None`` resolves no hand's
+    table: the object-level values alone, for what does not depend on the hand (object names,
+    physical keys, checking the file). Code that runs or evaluates trials passes the hand's name.
+    Every hand's table is checked whichever ``hand`` is given."""
+    if hand is not None and not isinstance(hand, str):
+        raise TypeError(f"load_objects: hand must be a hand's name (str) or None, got {type(hand).__name__}")
     root = Table(path, read_toml(path))
     root.unknown_keys({"objects", "default_set"})
     objs = root.table("objects")
@@ -261,7 +334,7 @@ def load_objects(path: str | Path) -> dict[str, ObjectProfile]:
         raise root.fail("objects", "at least one [objects.NAME] table")
     for name in objs.data:
         check_identifier(name, objs.path, "objects.<object name>", "object names become directory names")
-    profiles = {name: _object(name, objs.table(name)) for name in objs.data}
+    profiles = {name: _resolve(name, objs.table(name), hand) for name in objs.data}
     return profiles
 
 

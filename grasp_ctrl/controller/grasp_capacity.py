@@ -19,9 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from grasp_ctrl.config.actuation import torque_limits_nm
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import CapProfile, ObjectProfile
-from grasp_ctrl.controller.joint_stiffness import torque_per_amp_nm as torque_per_amp
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 
@@ -75,11 +75,15 @@ def liftable_weight(
     """The largest weight (N) the pads in ``contacts`` carry at joint angles ``q_all`` (hand-file
     order), the object's weight acting on the vertical line through the hand frame's origin.
     ``normal_max_n`` (finger -> N): each listed pad's normal force at most that (its grip target).
-    ``torque_per_amp_nm``: the servos' (default: the hand file's servo model's)."""
+    ``torque_per_amp_nm``: a Dynamixel hand's servos' (default: the hand file's; its joints'
+    torque limits come from config/actuation.py)."""
     from scipy.optimize import linprog
 
     kin = kin or HandKinematics(hand)
-    per_amp = torque_per_amp(hand) if torque_per_amp_nm is None else torque_per_amp_nm
+    if torque_per_amp_nm is not None and hand.servo_driven:
+        all_limits = np.array([j.current_limit_a * torque_per_amp_nm for j in hand.joints])
+    else:
+        all_limits = torque_limits_nm(hand)
     z = np.array([0.0, 0.0, 1.0])
     nv = 4 * len(contacts) + 1  # per pad: normal, tangent up, tangent across, torsion; weight
     a_ub: list[np.ndarray] = []
@@ -112,7 +116,7 @@ def liftable_weight(
             b_ub.append(0.0)
         finger = hand.finger(c.finger)
         _, jac = kin.chains[c.finger].point_and_jacobian(q_all[kin.slices[c.finger]], PAD_POINT_SENSOR)
-        limits = np.array([j.current_limit_a * per_amp for j in finger.joints])
+        limits = all_limits[kin.slices[c.finger]]
         per_n = np.stack([jac.T @ n, jac.T @ up, jac.T @ across], axis=1)  # joint torque per N
         for j, tau_max in enumerate(limits):
             row = np.zeros(nv)

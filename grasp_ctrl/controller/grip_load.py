@@ -47,7 +47,8 @@ from typing import Any
 
 import numpy as np
 
-from grasp_ctrl.controller.joint_stiffness import hand_servo, joint_stiffness
+from grasp_ctrl.config.actuation import hand_servo, torque_limits_nm
+from grasp_ctrl.controller.joint_stiffness import joint_stiffness
 from grasp_ctrl.controller.machine import STATES, TRANSITIONS, GraspController
 from grasp_ctrl.controller.motion import FingertipMotion
 from grasp_ctrl.controller.ramp_settle import TrendRampSettle
@@ -147,10 +148,11 @@ class GripLoadController(GraspController):
         if self.s.windup_lag_factor <= 0.0:
             return None
         kp = joint_stiffness(self.hand).kp_nm_per_rad
-        model = hand_servo(self.hand)
-        if kp is None or not model.known_torque:
+        if kp is None:
             return None
-        limit_nm = np.array([j.current_limit_a for j in self.hand.joints]) * model.torque_per_amp_nm
+        if self.hand.servo_driven and not hand_servo(self.hand).known_torque:
+            return None
+        limit_nm = torque_limits_nm(self.hand)
         return self.s.windup_lag_factor * limit_nm / kp
 
     def _bound_windup(self, snap: Snapshot) -> None:

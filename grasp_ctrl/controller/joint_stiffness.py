@@ -17,25 +17,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from grasp_ctrl.config.actuation import pd_gains
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.servos import ServoModel, servo_model
 
 #: The LEAP Hand's servo: the default where no hand file names one.
 DEFAULT_MODEL = "XC330-M288-T"
 _DEFAULT = servo_model(DEFAULT_MODEL)
-
-
-def hand_servo(hand: HandConfig) -> ServoModel:
-    """The hand file's servo model: its own ``[servo_models.NAME]``, else config/servos.py's by
-    ``[dynamixel] model``."""
-    return hand.dynamixel.servo or servo_model(hand.dynamixel.model)
-
-
-def torque_per_amp_nm(hand: HandConfig) -> float:
-    """The hand's servos' torque per amp of current (N m/A): the data sheet's stall torque over
-    stall current (XC330-M288-T: 0.93 N m / 1.8 A = 0.517); a one-line error for a model without
-    those facts."""
-    return hand_servo(hand).torque_per_amp_nm
 
 
 def servo_kp_nm_per_rad(p_gain: float, model: ServoModel = _DEFAULT) -> float:
@@ -62,25 +50,7 @@ class JointStiffness:
 
 
 def joint_stiffness(hand: HandConfig) -> JointStiffness:
-    """The joints' stiffness from ``[dynamixel] position_p_gain`` x each joint's ``gain_scale``."""
-    p_gain = hand.dynamixel.position_p_gain
-    if p_gain is None:
-        return JointStiffness(
-            None,
-            f"hand {hand.name!r} sets no [dynamixel] position_p_gain (the servos keep gains this file does not know)",
-        )
-    if p_gain <= 0:
-        return JointStiffness(
-            None, f"hand {hand.name!r}: [dynamixel] position_p_gain = {p_gain} (no position stiffness)"
-        )
-    model = hand_servo(hand)
-    if model.stall_torque_nm is None:
-        return JointStiffness(
-            None,
-            f"hand {hand.name!r}: servo model {model.name} has no stall torque in "
-            "config/servos.py (its stiffness is unknown)",
-        )
-    kp = np.array([model.kp_nm_per_rad(p_gain) * j.gain_scale for j in hand.joints])
-    return JointStiffness(
-        kp, f"[dynamixel] position_p_gain = {p_gain} x gain_scale: kp {kp.min():.3g} to {kp.max():.3g} N m/rad"
-    )
+    """The joints' stiffness: ``[dynamixel] position_p_gain`` x each joint's ``gain_scale`` through
+    the servo model, or a torque-controlled hand's ``kp_nm_per_rad`` (config/actuation.py)."""
+    gains = pd_gains(hand)
+    return JointStiffness(gains.kp_nm_per_rad, gains.reason)

@@ -36,9 +36,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from grasp_ctrl.config.actuation import torque_limits_nm, torque_per_amp_nm
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
-from grasp_ctrl.controller.joint_stiffness import torque_per_amp_nm
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.multilinear import MultilinearKinematics, contract
@@ -305,9 +305,13 @@ class MockWorld:
         self._q_servo = self._q_goal.copy()  # the servo's internal (lagged) position
         self._q = self._q_goal.copy()  # actual, after contact deflection
         self.torque_on = True
+        # N m/A of the current the servos report; NaN: a hand that reports none (torque-controlled)
         per_amp = p.torque_per_amp_nm if p.torque_per_amp_nm is not None else torque_per_amp_nm(hand)
-        self.torque_per_amp_nm = per_amp  # the servos' (N m/A): their current limit's torque, the current they report
-        self.tau_max = np.array([j.current_limit_a for j in joints]) * per_amp
+        self.torque_per_amp_nm = per_amp if per_amp is not None else math.nan
+        if hand.servo_driven:
+            self.tau_max = np.array([j.current_limit_a for j in joints]) * self.torque_per_amp_nm
+        else:
+            self.tau_max = torque_limits_nm(hand)
         self._reach = self.tau_max / p.servo_stiffness_nm_per_rad
         self._palm = self.reach_pose_world() + np.array([0.0, 0.0, p.start_clearance_m])
         self._palm_target = self._palm.copy()

@@ -4,13 +4,14 @@ Scene (MJCF text, documented in docs/mujoco.md):
 - a table (a plane at z = 0);
 - the hand: a free body welded to a mocap body (the arm), holding the palm and
   one serial chain per finger built joint by joint from the hand file (joint
-  origins, axes and limits); each link carries collision boxes (the LEAP Hand's
-  link shapes, numbers of MuJoCo Menagerie's LEAP model) or, for a hand with
-  other chains, capsules between its joint origins; the last link carries the
+  origins, axes and limits); each link carries the collision boxes of the hand
+  file's ``[collision]`` table (the LEAP's and the Allegro's: MuJoCo Menagerie's
+  numbers) or, where it lists none, a capsule between its joint origins; the last link carries the
   BioTac: a capsule of the sensor model's skin radius ending in the tip's cap,
   and a site at the sensor frame;
-- position actuators per joint with the LEAP API's PD gains converted to SI and
-  a force range of the joint's current limit times the torque constant;
+- position actuators per joint with the hand's PD gains in SI and a force range of
+  its torque limit (config/actuation.py: a servo's current limit x its torque per
+  amp, or a torque-controlled joint's limit);
 - the object: one rigid body with a free joint (cylinder or box, the mustard
   bottle's dome as a sphere cut by the body), its mass, size and friction from
   the profile; deformable objects have a softer contact.
@@ -27,12 +28,16 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from grasp_ctrl.config.hand import FingerConfig, HandConfig
+# The joints' PD gains, torque limits and damping in SI, shared with the controller and the statics.
+from grasp_ctrl.config.actuation import (
+    armature_kg_m2,
+    hand_servo,
+    passive_damping_nm_s_per_rad,
+    pd_gains,
+    torque_limits_nm,
+)
+from grasp_ctrl.config.hand import CollisionBox, FingerConfig, HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
-
-# The servos' facts and PD gains in SI by the hand file's model, shared with the controller.
-from grasp_ctrl.controller.joint_stiffness import hand_servo
-from grasp_ctrl.errors import UsageError
 from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M
 from grasp_ctrl.kinematics.transforms import rpy_matrix
 
@@ -95,67 +100,7 @@ class Scene:
     upper_link_bodies: list[str] = field(default_factory=list)  # palm and first links (clear the object's top)
 
 
-# LEAP Hand collision boxes (half sizes, centre, optional quaternion w x y z), in the URDF's
-# link frames, which are the hand file's joint frames: the numbers of MuJoCo Menagerie's
-# leap_hand/right_hand.xml (MIT), by link role. Distal links lose the printed tip (the BioTac
-# replaces it).
-Box = tuple[tuple[float, float, float], tuple[float, float, float], tuple[float, float, float, float] | None]
-LEAP_PALM_BOXES: list[Box] = [
-    ((0.011, 0.013, 0.017), (-0.009, 0.008, -0.011), None),
-    ((0.011, 0.013, 0.017), (-0.009, -0.037, -0.011), None),
-    ((0.011, 0.013, 0.017), (-0.009, -0.082, -0.011), None),
-    ((0.029, 0.01, 0.023), (-0.066, -0.078, -0.0115), (0.989016, 0.0, 0.0, -0.147806)),
-    ((0.01, 0.06, 0.015), (-0.03, -0.035, -0.003), None),
-    ((0.005, 0.06, 0.01), (-0.032, -0.035, -0.024), (0.923956, 0.0, 0.382499, 0.0)),
-    ((0.012, 0.058, 0.023), (-0.048, -0.033, -0.0115), None),
-    ((0.022, 0.026, 0.023), (-0.078, -0.053, -0.0115), None),
-    ((0.002, 0.018, 0.017), (-0.098, -0.009, -0.006), None),
-    ((0.022, 0.028, 0.002), (-0.078, -0.003, 0.01), None),
-]
-LEAP_FINGER_LINK_BOXES: list[list[Box]] = [
-    [
-        ((0.01, 0.003, 0.017), (0.0, 0.018, 0.0147), None),
-        ((0.014, 0.02, 0.01), (-0.027, 0.042, 0.015), None),
-        ((0.017, 0.003, 0.01), (-0.0262, 0.02, 0.0146), None),
-        ((0.01, 0.012, 0.004), (-0.0295, 0.035, 0.029), None),
-        ((0.007, 0.01, 0.002), (0.0, 0.005, 0.03), None),
-        ((0.007, 0.01, 0.002), (0.0, 0.005, -0.001), None),
-    ],
-    [((0.017, 0.013, 0.011), (0.0075, -0.0002, -0.011), None)],
-    [
-        ((0.008, 0.003, 0.013), (0.0, -0.02, 0.015), None),
-        ((0.01, 0.002, 0.017), (0.0, -0.016, 0.015), None),
-        ((0.007, 0.01, 0.002), (0.0, -0.0045, 0.03), None),
-        ((0.007, 0.01, 0.002), (0.0, -0.0045, 0.0), None),
-        ((0.017, 0.011, 0.013), (0.0075, -0.035, 0.015), None),
-    ],
-    [
-        ((0.01, 0.003, 0.015), (0.0, -0.017, 0.015), None),
-        ((0.007, 0.011, 0.002), (0.0, -0.006, 0.03), None),
-        ((0.007, 0.011, 0.002), (0.0, -0.006, -0.001), None),
-    ],
-]
-LEAP_THUMB_LINK_BOXES: list[list[Box]] = [
-    [((0.017, 0.013, 0.011), (-0.0075, -0.0002, -0.011), None)],
-    [
-        ((0.009, 0.0165, 0.002), (0.0, 0.0, -0.0015), None),
-        ((0.007, 0.002, 0.01), (0.0, -0.015, -0.013), None),
-        ((0.007, 0.002, 0.01), (0.0, 0.015, -0.013), None),
-    ],
-    [
-        ((0.01, 0.02, 0.012), (0.0, 0.0105, -0.014), None),
-        ((0.01, 0.002, 0.016), (0.0, 0.031, -0.015), None),
-        ((0.007, 0.01, 0.002), (0.0, 0.042, 0.001), None),
-        ((0.007, 0.01, 0.002), (0.0, 0.042, -0.029), None),
-        ((0.005, 0.012, 0.009), (-0.0135, 0.0175, -0.011656), None),
-    ],
-    [
-        ((0.01, 0.018, 0.012), (0.0, -0.0085, -0.015), None),
-        ((0.01, 0.002, 0.015), (0.0, -0.029, -0.014), None),
-        ((0.004, 0.012, 0.009), (0.015, -0.0175, -0.0115), None),
-    ],
-]
-LINK_CAPSULE_RADIUS_M = 0.008  # links of a hand that is not the LEAP's 4 x 4 chains
+LINK_CAPSULE_RADIUS_M = 0.008  # a link whose shape the hand file does not give
 
 # The hand: collides with the object and table, not with itself.
 HAND_COLLISION = 'contype="2" conaffinity="1"'
@@ -179,25 +124,21 @@ def quat_of_rpy(rpy: tuple[float, float, float]) -> np.ndarray:
     return quat_of_matrix(rpy_matrix(rpy))
 
 
-def _box_geoms(boxes: list[Box], name: str, extra: str) -> list[str]:
+def _box_geoms(boxes: tuple[CollisionBox, ...], name: str, extra: str) -> list[str]:
     out = []
-    for k, (size, pos, quat) in enumerate(boxes):
-        q = f' quat="{_f(quat)}"' if quat is not None else ""
-        out.append(f'<geom name="{name}_{k}" type="box" size="{_f(size)}" pos="{_f(pos)}"{q} {extra}/>')
+    for k, box in enumerate(boxes):
+        q = f' quat="{_f(box.quat)}"' if box.quat is not None else ""
+        out.append(f'<geom name="{name}_{k}" type="box" size="{_f(box.half_m)}" pos="{_f(box.pos_m)}"{q} {extra}/>')
     return out
 
 
-def is_leap_like(hand: HandConfig) -> bool:
-    """Four fingers of four joints, the thumb last: the LEAP Hand's chains (link boxes fit)."""
-    return len(hand.fingers) == 4 and all(len(f.joints) == 4 for f in hand.fingers)
-
-
-def _link_geoms(finger: FingerConfig, k: int, leap: bool, thumb: bool, extra: str) -> list[str]:
+def _link_geoms(finger: FingerConfig, k: int, hand: HandConfig, extra: str) -> list[str]:
+    """The link joint ``k`` moves: the hand file's boxes, else a capsule from this joint to the
+    next one (the last link: to the sensor's mount)."""
     name = f"{finger.joints[k].name}_link"
-    if leap:
-        table = LEAP_THUMB_LINK_BOXES if thumb else LEAP_FINGER_LINK_BOXES
-        return _box_geoms(table[k], name, extra)
-    # A capsule from this joint to the next one (the last link: to the sensor's mount).
+    boxes = hand.boxes_of(finger.joints[k].name)
+    if boxes is not None:
+        return _box_geoms(boxes, name, extra)
     end = finger.joints[k + 1].origin_xyz if k + 1 < len(finger.joints) else finger.tip_xyz
     if np.linalg.norm(end) < 1e-6:
         return []
@@ -221,9 +162,7 @@ def _biotac(finger: FingerConfig, p: SceneParams) -> tuple[str, str, str]:
     return xml, geom, site
 
 
-def _finger(
-    finger: FingerConfig, hand: HandConfig, p: SceneParams, leap: bool, thumb: bool
-) -> tuple[str, str, str, str]:
+def _finger(finger: FingerConfig, hand: HandConfig, p: SceneParams) -> tuple[str, str, str, str]:
     """Nested bodies of one chain, the BioTac at its end; returns (xml, biotac geom, site, first body)."""
     extra = f'{HAND_COLLISION} rgba="0.25 0.25 0.25 1"'
     opened, closes = [], []
@@ -233,7 +172,7 @@ def _finger(
             f'<inertial pos="0 0 0" mass="{p.link_mass_kg}" diaginertia="5e-6 5e-6 5e-6"/>'
             f'<joint name="{j.name}" type="hinge" axis="{_f(j.axis)}" range="{j.lower_rad:.9g} {j.upper_rad:.9g}" '
             f'limited="true" armature="{p.armature_kg_m2}" damping="{p.joint_damping_nm_s_per_rad:.6g}" '
-            f'frictionloss="{p.joint_frictionloss_nm}"/>' + "".join(_link_geoms(finger, k, leap, thumb, extra))
+            f'frictionloss="{p.joint_frictionloss_nm}"/>' + "".join(_link_geoms(finger, k, hand, extra))
         )
         closes.append("</body>")
     tip_xml, geom, site = _biotac(finger, p)
@@ -241,19 +180,25 @@ def _finger(
 
 
 def _actuators(hand: HandConfig, p: SceneParams) -> str:
-    d, model = hand.dynamixel, hand_servo(hand)
-    kp0 = model.kp_nm_per_rad(d.position_p_gain if d.position_p_gain is not None else p.default_p_gain)
-    kv0 = model.kv_nm_s_per_rad(d.position_d_gain if d.position_d_gain is not None else p.default_d_gain)
-    assert p.torque_per_amp_nm is not None  # with_servo_facts
+    gains = pd_gains(hand, p.default_p_gain, p.default_d_gain)
+    assert gains.kp_nm_per_rad is not None and gains.kv_nm_s_per_rad is not None, gains.reason
+    limits = scene_torque_limits(hand, p)
     rows = []
-    for j in hand.joints:
-        tau = j.current_limit_a * p.torque_per_amp_nm
+    for j, kp, kv, tau in zip(hand.joints, gains.kp_nm_per_rad, gains.kv_nm_s_per_rad, limits):
         rows.append(
-            f'<position name="{j.name}" joint="{j.name}" kp="{kp0 * j.gain_scale:.6g}" kv="{kv0 * j.gain_scale:.6g}" '
+            f'<position name="{j.name}" joint="{j.name}" kp="{kp:.6g}" kv="{kv:.6g}" '
             f'ctrlrange="{j.lower_rad:.9g} {j.upper_rad:.9g}" ctrllimited="true" '
             f'forcerange="{-tau:.6g} {tau:.6g}" forcelimited="true"/>'
         )
     return "<actuator>" + "".join(rows) + "</actuator>"
+
+
+def scene_torque_limits(hand: HandConfig, p: SceneParams) -> np.ndarray:
+    """Each joint's torque limit: the hand's (config/actuation.py), or a Dynamixel hand's current
+    limits x the scene's own ``torque_per_amp_nm`` where a caller set one."""
+    if hand.servo_driven and p.torque_per_amp_nm is not None:
+        return np.array([j.current_limit_a for j in hand.joints]) * p.torque_per_amp_nm
+    return torque_limits_nm(hand)
 
 
 def contact_timeconst(stiffness_n_per_m: float, p: SceneParams) -> float:
@@ -314,16 +259,22 @@ def _object(obj: PlacedObject, p: SceneParams) -> tuple[str, list[str]]:
 
 
 def with_servo_facts(p: SceneParams, hand: HandConfig) -> SceneParams:
-    """``p`` with the servo facts it leaves open (None) taken from the hand file's servo model
-    (config/servos.py): the torque per amp and the back-EMF damping (stall torque / no-load speed)."""
-    model = hand_servo(hand)
-    per_amp = p.torque_per_amp_nm if p.torque_per_amp_nm is not None else model.torque_per_amp_nm
+    """``p`` with the actuation facts it leaves open (None) taken from the hand file
+    (config/actuation.py): a Dynamixel hand's torque per amp and back-EMF damping (stall torque /
+    no-load speed), a torque-controlled hand's passive damping; its armature where the file gives one."""
+    per_amp = p.torque_per_amp_nm
+    if per_amp is None and hand.servo_driven:
+        per_amp = hand_servo(hand).torque_per_amp_nm
     damping = p.joint_damping_nm_s_per_rad
     if damping is None:
-        if model.stall_torque_nm is None:
-            raise UsageError(f"servo model {model.name}: no stall torque known here (the scene's joint damping)")
-        damping = model.stall_torque_nm / model.no_load_speed_rad_s
-    return replace(p, torque_per_amp_nm=per_amp, joint_damping_nm_s_per_rad=damping)
+        damping = passive_damping_nm_s_per_rad(hand)
+    armature = armature_kg_m2(hand)
+    return replace(
+        p,
+        torque_per_amp_nm=per_amp,
+        joint_damping_nm_s_per_rad=damping,
+        armature_kg_m2=armature if armature is not None else p.armature_kg_m2,
+    )
 
 
 def build_scene(
@@ -331,7 +282,6 @@ def build_scene(
 ) -> Scene:
     """The MJCF text of one trial's scene, the hand at ``palm_start_world``."""
     p = with_servo_facts(p or SceneParams(), hand)
-    leap = is_leap_like(hand)
     extra = f'{HAND_COLLISION} rgba="0.25 0.25 0.25 1"'
     # Fingers that share a base pose share a base body (the LEAP palm: all four).
     bases: dict[tuple, list[int]] = {}
@@ -340,12 +290,11 @@ def build_scene(
     hand_parts, biotacs, sites, upper = [], [], [], []
     for b, ((xyz, rpy), members) in enumerate(bases.items()):
         inner = []
-        if b == 0 and leap:
-            inner += _box_geoms(LEAP_PALM_BOXES, "palm", extra)
+        if b == 0:
+            inner += _box_geoms(hand.palm_boxes, "palm", extra)
         for i in members:
             f = hand.fingers[i]
-            thumb = leap and i == len(hand.fingers) - 1
-            xml, geom, site, first = _finger(f, hand, p, leap, thumb)
+            xml, geom, site, first = _finger(f, hand, p)
             inner.append(xml)
             biotacs.append((i, geom))
             sites.append((i, site))

@@ -42,7 +42,7 @@ from grasp_ctrl.sim.biotac.model import (
     mj_tick_frames,
     mj_tip_buffers,
 )
-from grasp_ctrl.sim.mujoco.scene import PlacedObject, SceneParams, build_scene, with_servo_facts
+from grasp_ctrl.sim.mujoco.scene import PlacedObject, SceneParams, build_scene, scene_torque_limits, with_servo_facts
 from grasp_ctrl.sim.variation import NOMINAL, Variation, draw_extra, draw_object, draw_record, max_rotated_half_extents
 from grasp_ctrl.sim.world_parts import GRAVITY, NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
 
@@ -173,10 +173,9 @@ class MuJoCoWorld:
         self.upper = np.array([j.upper_rad for j in joints])
         self._q_goal = np.array([j.open_rad for j in joints])
         self._q_goal_cmd = self._q_goal - self.joint_offset_rad  # the servos' goal, calibrated angles
-        per_amp = self.scene_params.torque_per_amp_nm
-        assert per_amp is not None  # with_servo_facts
-        self.torque_per_amp_nm = per_amp  # the servos' (N m/A): their current limit's torque, the current they report
-        self.tau_max = np.array([j.current_limit_a for j in joints]) * self.torque_per_amp_nm
+        # N m/A of the current the servos report (with_servo_facts); None: the hand reports none
+        self.torque_per_amp_nm = self.scene_params.torque_per_amp_nm
+        self.tau_max = scene_torque_limits(hand, self.scene_params)
         self.torque_on = True
         self.arm_speed = hand.arm.max_speed_m_s
         self._fit_grasp_height()
@@ -313,7 +312,10 @@ class MuJoCoWorld:
 
     @property
     def joint_current_a(self) -> np.ndarray:
-        """The servos' present current (A): the actuators' torques over the torque constant."""
+        """The servos' present current (A): the actuators' torques over the torque constant; NaN
+        on a hand whose joints report no current (a torque-controlled hand)."""
+        if self.torque_per_amp_nm is None:
+            return np.full(len(self._act), np.nan)
         return self.joint_torque_nm / self.torque_per_amp_nm
 
     @property

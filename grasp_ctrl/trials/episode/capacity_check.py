@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from grasp_ctrl.config.actuation import current_limits_a, torque_limits_nm
 from grasp_ctrl.config.checks import check_objects_for_hand
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
@@ -70,6 +71,15 @@ def object_targets(hand: HandConfig, obj: ObjectProfile, settings: ControllerSet
     return {f.name: float(t[i]) for i, f in enumerate(hand.fingers) if f.grasp}
 
 
+def joint_limit_labels(hand: HandConfig) -> dict[str, str]:
+    """Each joint's torque limit as the hand file sets it: a servo's current limit (``0.55 A``), a
+    torque-controlled joint's torque (``0.237 N m``)."""
+    currents = current_limits_a(hand)
+    if currents is not None:
+        return {name: f"{amps:g} A" for name, amps in currents.items()}
+    return {j.name: f"{tau:.3g} N m" for j, tau in zip(hand.joints, torque_limits_nm(hand))}
+
+
 def check_object(hand: HandConfig, obj: ObjectProfile, settings: ControllerSettings | None = None) -> CapacityVerdict:
     targets = object_targets(hand, obj, settings or ControllerSettings())
     try:
@@ -78,8 +88,8 @@ def check_object(hand: HandConfig, obj: ObjectProfile, settings: ControllerSetti
         return CapacityVerdict(obj.name, 0.0, f"no grasp: {exc}", targets)
     if not cap.loads:
         return CapacityVerdict(obj.name, 0.0, "no grasp: the pads do not reach the object", targets)
-    currents = {j.name: j.current_limit_a for j in hand.joints}
-    binds = [f"{ld.joint} at {currents[ld.joint]:g} A" for ld in cap.loads if ld.torque_share >= BINDING_SHARE]
+    limits = joint_limit_labels(hand)
+    binds = [f"{ld.joint} at {limits[ld.joint]}" for ld in cap.loads if ld.torque_share >= BINDING_SHARE]
     binds += [
         f"{ld.finger}'s grip target {targets[ld.finger]:.2f} N"
         for ld in cap.loads
@@ -87,7 +97,7 @@ def check_object(hand: HandConfig, obj: ObjectProfile, settings: ControllerSetti
     ]
     top = max(cap.loads, key=lambda ld: ld.torque_share)
     if top.torque_share < BINDING_SHARE:  # name the joint closest to its limit as well
-        binds.append(f"most loaded joint {top.joint} at {100 * top.torque_share:.0f} % of {currents[top.joint]:g} A")
+        binds.append(f"most loaded joint {top.joint} at {100 * top.torque_share:.0f} % of {limits[top.joint]}")
     ratio = cap.weight_n / (obj.mass_kg * GRAVITY_M_S2)
     return CapacityVerdict(obj.name, ratio, ", ".join(binds), targets)
 

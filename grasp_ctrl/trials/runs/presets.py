@@ -27,17 +27,22 @@ class Preset:
     trials: int
     policies: tuple[str, ...]
     controller: str = "paper"
+    hand: str | None = None  # a hand file in hand_configs/; None: the default hand
+    variation: str | None = None  # the simulated world's variation profile; None: the default
 
 
 PRESETS: dict[str, Preset] = {
     "paper": Preset(
         "paper",
-        "the paper's lift-and-place protocol (Fig. 6): 6 objects x 5 trials x Su et al., the voxel network "
+        "the paper's lift-and-place protocol (Fig. 6) on the paper's hand (hand_configs/allegro_hand.toml) with "
+        "the paper's controller under the nominal variation: 6 objects x 5 trials x Su et al., the voxel network "
         "and the authors' network fine-tuned on the simulated sensor",
         PAPER_OBJECTS,
         5,
         PAPER_POLICIES,
         "paper",  # Fig. 6 is the paper's controller's experiment
+        "allegro_hand.toml",  # the paper's hand: an Allegro with BioTacs on index, middle and thumb
+        "nominal",  # a lab bench where the object is set down on its mark
     ),
 }
 

@@ -8,10 +8,13 @@ from grasp_ctrl.config.objects import ObjectProfile, default_set, load_objects
 from grasp_ctrl.errors import UsageError
 
 
-def select_objects(objects_file: str | Path, spec: str | None, flag: str = "--objects") -> list[ObjectProfile]:
+def select_objects(
+    objects_file: str | Path, spec: str | None, flag: str = "--objects", *, hand: str
+) -> list[ObjectProfile]:
     """``spec``: None (the file's default set), ``all``, or comma-separated names;
-    ``flag``: the option named in errors."""
-    profiles = load_objects(objects_file)
+    ``flag``: the option named in errors; ``hand``: the name of the hand the trials run on (its
+    ``[objects.NAME.hands.HAND]`` values apply, no other hand's: config/objects.py)."""
+    profiles = load_objects(objects_file, hand)
     if spec is None:
         names = default_set(objects_file)
     elif spec.strip() == "all":

@@ -56,7 +56,7 @@ def warm_kernels() -> None:
     from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate
 
     hand = load_hand(default_hand_file())
-    objects = load_objects(default_objects_file())
+    objects = load_objects(default_objects_file(), hand.name)
     obj = next(iter(objects.values()))
     for capped in objects.values():  # the reach postures of capped objects: a scipy fit each, kept per hand
         if capped.cap is not None:
