@@ -502,3 +502,31 @@ def test_tune_write_on_the_mock_writes_the_tuned_hand(tmp_path, capsys):
     header = lines.index("[objects.chips_can.hands.other_hand]")
     assert lines[header - 1].startswith(CHOSEN_BY + "grasp-ctrl tune --backend mock --object chips_can")
     assert f"(hand file {hand_file.resolve()}, " in lines[header - 1]
+
+
+def test_the_allegro_never_runs_with_the_leaps_thresholds():
+    from grasp_ctrl.config.checks import check_objects_for_hand
+    from grasp_ctrl.config.hand import load_hand
+
+    allegro = load_hand(REPO_ROOT / "hand_configs" / "allegro_hand.toml")
+    shipped = REPO_ROOT / "hand_configs" / "objects.toml"
+    leap_profiles = list(load_objects(shipped, "leap_hand").values())
+    assert any(o.tuned_for == "leap_hand" for o in leap_profiles)
+    with pytest.raises(ConfigError) as info:
+        check_objects_for_hand(leap_profiles, allegro, "test")
+    assert "hands.leap_hand" in str(info.value) and "allegro_hand" in str(info.value)
+    own = list(load_objects(shipped, allegro.name).values())
+    check_objects_for_hand(own, allegro, "test")
+    assert all(o.tuned_for in (None, "allegro_hand") for o in own)
+
+
+def test_a_tuning_study_on_another_hand_is_another_study():
+    from grasp_ctrl.trials.tuning.search_space import parse_params
+    from grasp_ctrl.trials.tuning.study import StudyPlan
+
+    lego = load_objects(REPO_ROOT / "hand_configs" / "objects.toml", "leap_hand")["lego"]
+    params = parse_params(["tau_n=1.5:2.5"])
+    leap = StudyPlan(lego, params, 2, 0, "oracle", "mujoco", 4)
+    allegro = StudyPlan(lego, params, 2, 0, "oracle", "mujoco", 4, hand="allegro_hand")
+    assert "hand" not in leap.identity()  # a study stored before hands were named keeps its identity
+    assert allegro.identity()["hand"] == "allegro_hand" and allegro.identity() != leap.identity()

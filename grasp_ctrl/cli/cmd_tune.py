@@ -279,6 +279,8 @@ def run(args: argparse.Namespace) -> int:
 
     params = parse_params(args.param)
     hand = load_hand(args.hand)
+    from grasp_ctrl.files.paths import default_hand_file
+
     if args.write:  # its tables are [objects.NAME.hands.HAND]: refused before any trial
         from grasp_ctrl.config.identifiers import check_identifier_arg
 
@@ -316,6 +318,7 @@ def run(args: argparse.Namespace) -> int:
             settings=settings,
             rank=args.rank,
             finger_joints=finger_joints,
+            hand=None if Path(args.hand).resolve() == default_hand_file().resolve() else hand.name,
         )
         for obj in objects
     ]

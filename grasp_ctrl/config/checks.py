@@ -19,6 +19,13 @@ def check_objects_for_hand(objects: Sequence[ObjectProfile], hand: HandConfig, s
     grasping = [f.name for f in hand.fingers if f.grasp]
     for obj in objects:
         key = f"objects.{obj.name}."
+        if obj.tuned_for is not None and obj.tuned_for != hand.name:  # another hand's thresholds
+            raise ConfigError(
+                source,
+                f"{key}hands.{obj.tuned_for}",
+                f"profiles resolved for hand {hand.name!r} (these carry {obj.tuned_for!r}'s thresholds: "
+                f"load the object file with the hand it runs on)",
+            )
         if obj.tau_n >= limit:
             raise ConfigError(
                 source,

@@ -102,6 +102,7 @@ class StudyPlan:
     settings: ControllerSettings | None = None  # the controller and its settings; None: the defaults
     rank: str = "wilson"  # the objective: wilson (the success rate's lower 95 % Wilson bound) or mean
     finger_joints: dict[str, int] = field(default_factory=dict)  # joints per finger (posture.FINGER.J)
+    hand: str | None = None  # the hand it tunes on when not the default hand (part of the identity)
 
     def __post_init__(self) -> None:
         self.seeds = [trial_seed(self.seed, self.obj.name, k) for k in range(self.trials)]
@@ -135,6 +136,9 @@ class StudyPlan:
             out["settings"] = changed
         if self.rank != "mean":
             out["rank"] = self.rank
+        # A study on another hand is another study (a LEAP study made before hands were named keeps its identity).
+        if self.hand is not None:
+            out["hand"] = self.hand
         return out
 
     def study_name(self) -> str:
