@@ -10,12 +10,14 @@ if TYPE_CHECKING:
     from grasp_ctrl.sim.variation import Variation
 
 NAME = "lift-capacity"
-HELP = "per object, the largest weight the hand's grasp carries within the servos' torque limits and friction"
+HELP = "per object, the largest weight the hand's grasp carries within the joints' torque limits and friction"
 DESCRIPTION = (
     "Places the hand on each object as the controller does (the object's preshape, the cap finger "
     "raised to its cap, the grasping pads closed along their task vectors onto the object's side) "
     "and solves the statics of the free object: the largest weight the pads carry with every "
-    "contact force in its friction cone and every joint within its current limit x the hand file's servo model's torque per amp (XC330-M288-T: 0.93 N m / 1.8 A = 0.517 N m/A). "
+    "contact force in its friction cone and every joint within its torque limit (a Dynamixel hand's: "
+    "its current limit x the servo model's torque per amp, XC330-M288-T: 0.93 N m / 1.8 A = 0.517 N m/A; "
+    "a torque-controlled hand's: its torque_limit_nm). "
     "Prints that weight, its ratio to the object's weight and, per pad, the normal force, the "
     "part carried up, the most loaded joint's share of its torque limit and how far the pad's normal "
     "is off the surface's (far off: the contact is not on the pad, and the figure is not to be trusted). An upper bound on "

@@ -190,6 +190,9 @@ class HandConfig:
     # capsule from its joint to the next (or to the sensor's mount)
     palm_boxes: tuple[CollisionBox, ...] = ()  # in the first finger's base frame
     link_boxes: tuple[tuple[str, tuple[CollisionBox, ...]], ...] = ()  # joint name -> its link's boxes
+    # [inertia]: the simulated worlds' palm and per-link masses; None: the world's defaults
+    palm_mass_kg: float | None = None
+    link_mass_kg: float | None = None
 
     @property
     def servo_driven(self) -> bool:
@@ -531,6 +534,7 @@ def load_hand(path: str | Path) -> HandConfig:
             "grasp",
             "servo_models",
             "collision",
+            "inertia",
         }
     )
     fingers = tuple(_finger(f) for f in root.tables("fingers", min_len=1))
@@ -553,6 +557,10 @@ def load_hand(path: str | Path) -> HandConfig:
     actuator = root.str("actuator", "dynamixel", choices=ACTUATOR_KINDS)
     torque_pd = _actuation(root, actuator, fingers)
     palm_boxes, link_boxes = _collision(root, fingers)
+    inertia = root.table("inertia", {})
+    inertia.unknown_keys({"palm_mass_kg", "link_mass_kg"})
+    palm_mass = inertia.float("palm_mass_kg", lo=0.0, hi=10.0, lo_open=True) if inertia.has("palm_mass_kg") else None
+    link_mass = inertia.float("link_mass_kg", lo=0.0, hi=1.0, lo_open=True) if inertia.has("link_mass_kg") else None
 
     d = root.table("dynamixel", {})
     d.unknown_keys(
@@ -713,4 +721,6 @@ def load_hand(path: str | Path) -> HandConfig:
         grasp=grasp,
         palm_boxes=palm_boxes,
         link_boxes=link_boxes,
+        palm_mass_kg=palm_mass,
+        link_mass_kg=link_mass,
     )

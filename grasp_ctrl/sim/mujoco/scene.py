@@ -68,8 +68,9 @@ class SceneParams:
     reference_stiffness_n_per_m: float = 4000.0
     torsion_radius_m: float = 0.003  # torsional friction = mu x this (pad contact patch)
     hand_root_mass_kg: float = 0.05
-    palm_mass_kg: float = 0.237  # Menagerie's LEAP palm
-    link_mass_kg: float = 0.035  # per finger link (Menagerie: 0.003 to 0.049)
+    # A hand file without [inertia] masses (the LEAP's: Menagerie's palm, a round figure for the links)
+    palm_mass_kg: float = 0.237
+    link_mass_kg: float = 0.035
     biotac_mass_kg: float = 0.02
     weld_timeconst_s: float = 0.01  # the arm's grip on the wrist
 
@@ -145,6 +146,10 @@ def _link_geoms(finger: FingerConfig, k: int, hand: HandConfig, extra: str) -> l
     return [f'<geom name="{name}" type="capsule" size="{LINK_CAPSULE_RADIUS_M}" fromto="0 0 0 {_f(end)}" {extra}/>']
 
 
+def _mass(from_hand: float | None, default: float) -> float:
+    return from_hand if from_hand is not None else default
+
+
 def _biotac(finger: FingerConfig, p: SceneParams) -> tuple[str, str, str]:
     """The sensor body on the last link: the skin capsule (radius of the sensor model, from
     its mount to the tip's cap centred on the sensor origin) and the sensor-frame site."""
@@ -169,7 +174,7 @@ def _finger(finger: FingerConfig, hand: HandConfig, p: SceneParams) -> tuple[str
     for k, j in enumerate(finger.joints):
         opened.append(
             f'<body name="{j.name}" pos="{_f(j.origin_xyz)}" quat="{_f(quat_of_rpy(j.origin_rpy))}">'
-            f'<inertial pos="0 0 0" mass="{p.link_mass_kg}" diaginertia="5e-6 5e-6 5e-6"/>'
+            f'<inertial pos="0 0 0" mass="{_mass(hand.link_mass_kg, p.link_mass_kg)}" diaginertia="5e-6 5e-6 5e-6"/>'
             f'<joint name="{j.name}" type="hinge" axis="{_f(j.axis)}" range="{j.lower_rad:.9g} {j.upper_rad:.9g}" '
             f'limited="true" armature="{p.armature_kg_m2}" damping="{p.joint_damping_nm_s_per_rad:.6g}" '
             f'frictionloss="{p.joint_frictionloss_nm}"/>' + "".join(_link_geoms(finger, k, hand, extra))
@@ -299,7 +304,7 @@ def build_scene(
             biotacs.append((i, geom))
             sites.append((i, site))
             upper.append(first)
-        mass = p.palm_mass_kg if b == 0 else 0.01
+        mass = _mass(hand.palm_mass_kg, p.palm_mass_kg) if b == 0 else 0.01
         hand_parts.append(
             f'<body name="palm{b}" pos="{_f(xyz)}" quat="{_f(quat_of_rpy(rpy))}">'
             f'<inertial pos="-0.05 -0.04 -0.01" mass="{mass}" diaginertia="4e-4 3e-4 2e-4"/>'
