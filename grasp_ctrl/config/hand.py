@@ -297,7 +297,8 @@ def _joint(t: Table) -> JointConfig:
     if sign not in (-1, 1):
         raise t.fail("sign", "1 or -1")
     return JointConfig(
-        name=t.str("name"),
+        # names become MuJoCo scene names and tick-log columns: one safe identifier each
+        name=check_identifier(t.str("name"), t.path, t.key("name")),
         servo_id=t.int("servo_id", lo=0, hi=252),
         axis=t.vector("axis", 3, unit=True),
         origin_xyz=t.vector("origin_xyz", 3, (0.0, 0.0, 0.0), bound=MAX_OFFSET_M),
@@ -548,6 +549,10 @@ def load_hand(path: str | Path) -> HandConfig:
     for i, sid in enumerate(sensor_ids):
         if sid in sensor_ids[:i]:
             raise root.fail(f"fingers[{i}].sensor_id", f"a unique sensor id ({sid} repeats)")
+    joint_names = [j.name for f in fingers for j in f.joints]
+    for i, n in enumerate(joint_names):
+        if n in joint_names[:i]:
+            raise root.fail("fingers.joints.name", f"a unique joint name ({n!r} repeats)")
     servo_ids = [j.servo_id for f in fingers for j in f.joints]
     if len(set(servo_ids)) != len(servo_ids):
         dup = sorted({s for s in servo_ids if servo_ids.count(s) > 1})
@@ -708,7 +713,7 @@ def load_hand(path: str | Path) -> HandConfig:
         raise g.fail("release_finger", "a finger with grasp = true")
 
     return HandConfig(
-        name=root.str("name"),
+        name=check_identifier(root.str("name"), root.path, "name"),
         path=str(path),
         rate_hz=root.float("rate_hz", 100.0, lo=1.0, hi=2000.0),
         fingers=fingers,
