@@ -142,9 +142,10 @@ class GripLoadController(GraspController):
         self._grasp_joints = self.grasp_mask[self._joint_finger]
 
     def _lag_bound(self) -> np.ndarray | None:
-        """Per joint: ``windup_lag_factor`` times the goal-to-angle deflection at which the servo
-        reaches its current limit (current limit x the servo model's torque per amp / its
-        stiffness); None without a bound (factor 0, or the stiffness or torque constant unknown)."""
+        """Per joint: ``windup_lag_factor`` times the goal-to-angle deflection at which the joint
+        reaches its torque limit (config/actuation.py: a servo's current limit x its torque per amp,
+        or a torque-controlled joint's limit; over its stiffness); None without a bound (factor 0,
+        or the stiffness or torque constant unknown)."""
         if self.s.windup_lag_factor <= 0.0:
             return None
         kp = joint_stiffness(self.hand).kp_nm_per_rad
