@@ -21,7 +21,7 @@ from grasp_ctrl.config.actuation import pd_gains, torque_limits_nm, torque_per_a
 from grasp_ctrl.config.hand import HandConfig, load_hand
 from grasp_ctrl.files.paths import hand_configs_dir
 from grasp_ctrl.kinematics import HandKinematics
-from tests.test_leap_urdf import rigid_fit
+from tests.test_leap_urdf import worst_joint_offsets
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -77,15 +77,7 @@ def test_hand_file_matches_menageries_allegro(allegro: HandConfig, menagerie) ->
             a_hand, o_hand = kin.chains[f.name].joint_axes_and_origins(q_all[kin.slices[f.name]])
             a_xml, o_xml = _xml_axes_and_origins(m, d, [j.name for j in f.joints])
             samples.append((a_hand, o_hand, a_xml, o_xml))
-    R, t = rigid_fit(np.vstack([s[3] for s in samples]), np.vstack([s[1] for s in samples]))
-    worst_mm = worst_deg = 0.0
-    for a_hand, o_hand, a_xml, o_xml in samples:
-        a_x, o_x = a_xml @ R.T, o_xml @ R.T + t
-        diff = o_hand - o_x
-        off_line = diff - np.sum(diff * a_x, axis=1, keepdims=True) * a_x
-        worst_mm = max(worst_mm, 1000 * float(np.max(np.linalg.norm(off_line, axis=1))))
-        cos = np.clip(np.sum(a_hand * a_x, axis=1), -1.0, 1.0)
-        worst_deg = max(worst_deg, float(np.degrees(np.max(np.arccos(cos)))))
+    worst_mm, worst_deg = worst_joint_offsets(samples)
     assert worst_mm < 1.0, f"joint origins off the XML's axes by up to {worst_mm:.3f} mm"
     assert worst_deg < 1.0, f"joint axes off the XML's by up to {worst_deg:.3f} deg"
 

@@ -81,6 +81,23 @@ def rigid_fit(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return R, cb - R @ ca
 
 
+def worst_joint_offsets(samples: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]) -> tuple[float, float]:
+    """(hand axes, hand origins, reference axes, reference origins) per sample, hand frame and the
+    reference's palm frame: after the one rigid fit between the palm frames, the largest distance
+    (mm) of a joint origin from the reference joint's axis line (an origin may sit anywhere on its
+    axis) and the largest angle (deg) between axes."""
+    R, t = rigid_fit(np.vstack([s[3] for s in samples]), np.vstack([s[1] for s in samples]))
+    worst_mm = worst_deg = 0.0
+    for a_hand, o_hand, a_ref, o_ref in samples:
+        a_r, o_r = a_ref @ R.T, o_ref @ R.T + t
+        d = o_hand - o_r
+        off_line = d - np.sum(d * a_r, axis=1, keepdims=True) * a_r
+        worst_mm = max(worst_mm, 1000 * float(np.max(np.linalg.norm(off_line, axis=1))))
+        cos = np.clip(np.sum(a_hand * a_r, axis=1), -1.0, 1.0)
+        worst_deg = max(worst_deg, float(np.degrees(np.max(np.arccos(cos)))))
+    return worst_mm, worst_deg
+
+
 @pytest.fixture
 def urdf(shared_data: Path) -> dict[str, UrdfJoint]:
     path = shared_data / "leap_hand" / "LEAP_Hand_Sim" / "robot.urdf"
@@ -112,16 +129,7 @@ def test_hand_file_matches_the_leap_urdf(hand: HandConfig, urdf: dict[str, UrdfJ
             a_hand, o_hand = kin.chains[f.name].joint_axes_and_origins(q)
             a_urdf, o_urdf = urdf_axes_and_origins(chains[f.name], q)
             samples.append((a_hand, o_hand, a_urdf, o_urdf))
-    R, t = rigid_fit(np.vstack([s[3] for s in samples]), np.vstack([s[1] for s in samples]))
-    worst_mm = worst_deg = 0.0
-    for a_hand, o_hand, a_urdf, o_urdf in samples:
-        a_u, o_u = a_urdf @ R.T, o_urdf @ R.T + t
-        # A joint origin may sit anywhere on its axis line: distance to the URDF's line.
-        d = o_hand - o_u
-        off_line = d - np.sum(d * a_u, axis=1, keepdims=True) * a_u
-        worst_mm = max(worst_mm, 1000 * float(np.max(np.linalg.norm(off_line, axis=1))))
-        cos = np.clip(np.sum(a_hand * a_u, axis=1), -1.0, 1.0)
-        worst_deg = max(worst_deg, float(np.degrees(np.max(np.arccos(cos)))))
+    worst_mm, worst_deg = worst_joint_offsets(samples)
     assert worst_mm < 1.0, f"joint origins off the URDF axes by up to {worst_mm:.3f} mm"
     assert worst_deg < 1.0, f"joint axes off the URDF's by up to {worst_deg:.3f} deg"
 

@@ -465,6 +465,14 @@ def _check_current(root: Table, key: str, amps: float, model: ServoModel) -> Non
         raise root.fail(key, f"at most {limit:g} A, {what} (got {amps:g})")
 
 
+def _refuse_joint_keys(root: Table, raw: list[tuple[str, dict]], keys: tuple[str, ...], why: str) -> None:
+    """The first joint table that sets one of ``keys``: a one-line error naming it."""
+    for where, data in raw:
+        for k in keys:
+            if k in data:
+                raise root.fail(f"{where}.{k}", why)
+
+
 def _actuation(root: Table, actuator: str, fingers: tuple[FingerConfig, ...]) -> TorquePDConfig | None:
     """The actuator section that ``actuator`` names, and each joint's keys of that kind only: a
     Dynamixel hand's joints take current limits and gain scales, a torque-controlled hand's take
@@ -479,12 +487,9 @@ def _actuation(root: Table, actuator: str, fingers: tuple[FingerConfig, ...]) ->
             raise root.fail(
                 "torque_pd", 'no [torque_pd] table with actuator = "dynamixel" (set actuator = "torque_pd")'
             )
-        for key, data in raw:
-            for k in TORQUE_PD_KEYS:
-                if k in data:
-                    raise root.fail(
-                        f"{key}.{k}", 'no torque-control key with actuator = "dynamixel" (its servos\' gains apply)'
-                    )
+        _refuse_joint_keys(
+            root, raw, TORQUE_PD_KEYS, 'no torque-control key with actuator = "dynamixel" (its servos\' gains apply)'
+        )
         return None
     if root.has("dynamixel"):
         raise root.fail(
@@ -494,12 +499,13 @@ def _actuation(root: Table, actuator: str, fingers: tuple[FingerConfig, ...]) ->
         raise root.fail(
             "torque_pd", 'a [torque_pd] table (actuator = "torque_pd": the host PD loop\'s rate, bus and source)'
         )
+    _refuse_joint_keys(
+        root,
+        raw,
+        DYNAMIXEL_JOINT_KEYS,
+        f'no Dynamixel key with actuator = "torque_pd" (set {", ".join(TORQUE_PD_KEYS)})',
+    )
     for key, data in raw:
-        for k in DYNAMIXEL_JOINT_KEYS:
-            if k in data:
-                raise root.fail(
-                    f"{key}.{k}", f'no Dynamixel key with actuator = "torque_pd" (set {", ".join(TORQUE_PD_KEYS)})'
-                )
         for k in TORQUE_PD_KEYS:
             if k not in data:
                 raise root.fail(
