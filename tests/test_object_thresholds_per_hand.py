@@ -35,7 +35,7 @@ from grasp_ctrl.trials.tuning.toml_edit import CHOSEN_BY, update_object_file, up
 
 OBJECTS_TOML = REPO_ROOT / "hand_configs" / "objects.toml"
 LEAP = "leap_hand"
-OTHER = "allegro_hand"
+OTHER = "other_hand"
 
 _DEFAULTS = {
     "cap": None,
@@ -218,7 +218,7 @@ def test_object_level_values_are_for_every_hand_and_a_hand_table_overrides_them(
     text = OBJECTS_TOML.read_text().replace(
         "tip_force_n = 4.0\n", "tip_force_n = 4.0\nhold_s = 1.5\ntau_n = 1.5\n", 1
     )  # the lego's own table
-    text += "\n[objects.lego.hands.allegro_hand]\ntau_n = 1.25\nposture_offsets_rad = {thumb = [0.0, 0.1]}\n"
+    text += "\n[objects.lego.hands.other_hand]\ntau_n = 1.25\nposture_offsets_rad = {thumb = [0.0, 0.1]}\n"
     path = _file(tmp_path, text)
     leap, other, none = (load_objects(path, h)["lego"] for h in (LEAP, OTHER, None))
     assert (leap.tau_n, leap.hold_s, leap.tuned_for, leap.posture_offsets_rad) == (1.5, 1.5, None, None)
@@ -229,7 +229,7 @@ def test_object_level_values_are_for_every_hand_and_a_hand_table_overrides_them(
 
 
 def test_a_hand_table_applies_only_to_the_hand_it_names(tmp_path):
-    path = _with_table(tmp_path, "objects.cleanser.hands.allegro_hand", "tau_n = 1.75\nrelease_debounce = 5")
+    path = _with_table(tmp_path, "objects.cleanser.hands.other_hand", "tau_n = 1.75\nrelease_debounce = 5")
     leap, other = load_objects(path, LEAP)["cleanser"], load_objects(path, OTHER)["cleanser"]
     assert (leap.tau_n, leap.release_debounce, leap.grip_targets) == (2.5, 3, "force_closure")
     assert (other.tau_n, other.release_debounce, other.grip_targets) == (1.75, 5, None)
@@ -260,34 +260,34 @@ def test_profiles_with_a_hand_pickle_and_hash():
     ],
 )
 def test_a_physical_key_in_a_hand_table_is_refused_in_one_line(tmp_path, body, key):
-    path = _with_table(tmp_path, "objects.lego.hands.allegro_hand", body)
+    path = _with_table(tmp_path, "objects.lego.hands.other_hand", body)
     for hand in (LEAP, OTHER, None):  # whichever hand loads the file
         with pytest.raises(ConfigError) as exc:
             load_objects(path, hand)
         line = _one_line(exc.value)
-        assert line.startswith(f"{path}: objects.lego.hands.allegro_hand.{key}: not a per-hand key")
+        assert line.startswith(f"{path}: objects.lego.hands.other_hand.{key}: not a per-hand key")
         assert "[objects.lego]" in line
 
 
 @pytest.mark.parametrize(
     ("table", "body", "named"),
     [
-        ("objects.lego.hands.allegro_hand", "tua_n = 2.0", "objects.lego.hands.allegro_hand.tua_n: a known key"),
-        ("objects.lego.hands.allegro_hand", "hands = {}", "objects.lego.hands.allegro_hand.hands: a known key"),
-        ("objects.lego.hands.allegro_hand", "tau_n = 99.0", "objects.lego.hands.allegro_hand.tau_n: a value <= 20"),
-        ("objects.lego.hands.allegro_hand", "tau_n = 'x'", "objects.lego.hands.allegro_hand.tau_n: a finite number"),
-        ("objects.lego.hands.allegro_hand", "grip_targets = 'x'", "objects.lego.hands.allegro_hand.grip_targets"),
+        ("objects.lego.hands.other_hand", "tua_n = 2.0", "objects.lego.hands.other_hand.tua_n: a known key"),
+        ("objects.lego.hands.other_hand", "hands = {}", "objects.lego.hands.other_hand.hands: a known key"),
+        ("objects.lego.hands.other_hand", "tau_n = 99.0", "objects.lego.hands.other_hand.tau_n: a value <= 20"),
+        ("objects.lego.hands.other_hand", "tau_n = 'x'", "objects.lego.hands.other_hand.tau_n: a finite number"),
+        ("objects.lego.hands.other_hand", "grip_targets = 'x'", "objects.lego.hands.other_hand.grip_targets"),
         (
-            "objects.lego.hands.allegro_hand",
+            "objects.lego.hands.other_hand",
             "approach_offset_m = -0.04",  # below the table: grasp_height_m 0.04 + -0.04
-            "objects.lego.hands.allegro_hand.approach_offset_m: an offset that keeps",
+            "objects.lego.hands.other_hand.approach_offset_m: an offset that keeps",
         ),
         (
-            "objects.lego.hands.allegro_hand",
+            "objects.lego.hands.other_hand",
             "posture_offsets_rad = {thumb = [0.0, 0.5]}",
-            "objects.lego.hands.allegro_hand.posture_offsets_rad.thumb",
+            "objects.lego.hands.other_hand.posture_offsets_rad.thumb",
         ),
-        ("objects.lego.hands", "allegro_hand = 3", "objects.lego.hands.allegro_hand: a table"),
+        ("objects.lego.hands", "other_hand = 3", "objects.lego.hands.other_hand: a table"),
         ("objects.lego.hands", "'bad name' = {tau_n = 2.0}", "objects.lego.hands.<hand name>: an identifier"),
     ],
 )
@@ -408,12 +408,12 @@ def test_write_lands_in_the_tuned_hands_table_only(objects_copy):
     diff = update_objects_file(
         objects_copy,
         {"cleanser": {"tau_n": 1.75}, "lego": {"hold_s": 0.75}},
-        "grasp-ctrl tune --objects cleanser,lego ... (hand file hand_configs/allegro_hand.toml, 2026-11-28)",
+        "grasp-ctrl tune --objects cleanser,lego ... (hand file hand_configs/other_hand.toml, 2026-11-28)",
         hand=OTHER,
     )
     added = [line[1:] for line in diff.splitlines() if line.startswith("+") and not line.startswith("+++")]
     assert not [line for line in diff.splitlines() if line.startswith("-") and not line.startswith("---")]
-    assert "[objects.cleanser.hands.allegro_hand]" in added and "[objects.lego.hands.allegro_hand]" in added
+    assert "[objects.cleanser.hands.other_hand]" in added and "[objects.lego.hands.other_hand]" in added
     assert load_objects(objects_copy, LEAP) == leap_before  # the LEAP's tables and the object level untouched
     assert load_objects(objects_copy) == load_objects(OBJECTS_TOML)
     other = load_objects(objects_copy, OTHER)
@@ -421,9 +421,9 @@ def test_write_lands_in_the_tuned_hands_table_only(objects_copy):
     assert (other["lego"].hold_s, other["lego"].tau_n) == (0.75, 2.0)
     lines = objects_copy.read_text().splitlines()
     for obj in ("cleanser", "lego"):
-        header = lines.index(f"[objects.{obj}.hands.allegro_hand]")
+        header = lines.index(f"[objects.{obj}.hands.other_hand]")
         assert lines[header - 1].startswith(CHOSEN_BY + "grasp-ctrl tune --objects cleanser,lego")
-        assert "allegro_hand.toml" in lines[header - 1]
+        assert "other_hand.toml" in lines[header - 1]
     # the LEAP's explanation stays above its own table
     leap_header = lines.index("[objects.cleanser.hands.leap_hand]")
     assert lines[leap_header - 1].startswith("# seed 0, 5 trials): tau 2.25 2/5")
@@ -462,7 +462,7 @@ def test_write_refuses_a_hand_name_that_cannot_name_a_table(objects_copy):
 
 
 def test_write_refuses_hands_written_as_one_table(tmp_path):
-    path = _with_table(tmp_path, "objects.lego.hands", "allegro_hand = {tau_n = 1.5}")
+    path = _with_table(tmp_path, "objects.lego.hands", "other_hand = {tau_n = 1.5}")
     before = path.read_text()
     with pytest.raises(UsageError, match=r"tables of their own"):
         update_objects_file(path, {"lego": {"tau_n": 1.25}}, hand=OTHER)
@@ -475,7 +475,7 @@ def test_the_chosen_by_line_names_the_hand_file(tmp_path):
 
     args = argparse.Namespace(_argv=["tune", "--object", "lego", "--write"], hand=str(default_hand_file()))
     assert "(hand file hand_configs/leap_hand.toml, " in _chosen_by(args)
-    elsewhere = tmp_path / "allegro_hand.toml"
+    elsewhere = tmp_path / "other_hand.toml"
     args = argparse.Namespace(_argv=["tune", "--write"], hand=str(elsewhere))
     assert f"(hand file {elsewhere.resolve()}, " in _chosen_by(args)
 
@@ -520,7 +520,7 @@ def test_the_allegro_never_runs_with_the_leaps_thresholds():
     assert all(o.tuned_for in (None, "allegro_hand") for o in own)
 
 
-def test_a_tuning_study_on_another_hand_is_another_study():
+def test_a_tuning_study_on_anallegro_hand_is_another_study():
     from grasp_ctrl.trials.tuning.search_space import parse_params
     from grasp_ctrl.trials.tuning.study import StudyPlan
 
