@@ -265,6 +265,7 @@ def run(args: argparse.Namespace) -> int:
         _mujoco()
     from grasp_ctrl.config.checks import check_objects_for_hand
     from grasp_ctrl.config.hand import load_hand
+    from grasp_ctrl.files.paths import default_hand_file
     from grasp_ctrl.trials.runs.selection import select_objects
     from grasp_ctrl.trials.tuning.search_space import (
         check_params_for_hand,
@@ -279,8 +280,6 @@ def run(args: argparse.Namespace) -> int:
 
     params = parse_params(args.param)
     hand = load_hand(args.hand)
-    from grasp_ctrl.files.paths import default_hand_file
-
     if args.write:  # its tables are [objects.NAME.hands.HAND]: refused before any trial
         from grasp_ctrl.config.identifiers import check_identifier_arg
 

@@ -49,11 +49,12 @@ def torque_per_amp_nm(hand: HandConfig) -> float | None:
     return hand_servo(hand).torque_per_amp_nm
 
 
-def torque_limits_nm(hand: HandConfig) -> np.ndarray:
+def torque_limits_nm(hand: HandConfig, torque_per_amp_nm: float | None = None) -> np.ndarray:
     """Each joint's largest torque (N m), hand-file order: its current limit's torque on a
-    Dynamixel hand, its ``torque_limit_nm`` on a torque-controlled one."""
+    Dynamixel hand (at ``torque_per_amp_nm`` where a caller sets one, else the servo model's),
+    its ``torque_limit_nm`` on a torque-controlled one."""
     if hand.servo_driven:
-        per_amp = hand_servo(hand).torque_per_amp_nm
+        per_amp = torque_per_amp_nm if torque_per_amp_nm is not None else hand_servo(hand).torque_per_amp_nm
         return np.array([j.current_limit_a for j in hand.joints]) * per_amp
     return np.array([_set(j.torque_limit_nm) for j in hand.joints])
 

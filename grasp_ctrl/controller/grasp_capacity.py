@@ -80,10 +80,7 @@ def liftable_weight(
     from scipy.optimize import linprog
 
     kin = kin or HandKinematics(hand)
-    if torque_per_amp_nm is not None and hand.servo_driven:
-        all_limits = np.array([j.current_limit_a * torque_per_amp_nm for j in hand.joints])
-    else:
-        all_limits = torque_limits_nm(hand)
+    all_limits = torque_limits_nm(hand, torque_per_amp_nm)
     z = np.array([0.0, 0.0, 1.0])
     nv = 4 * len(contacts) + 1  # per pad: normal, tangent up, tangent across, torsion; weight
     a_ub: list[np.ndarray] = []

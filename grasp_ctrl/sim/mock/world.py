@@ -308,10 +308,7 @@ class MockWorld:
         # N m/A of the current the servos report; NaN: a hand that reports none (torque-controlled)
         per_amp = p.torque_per_amp_nm if p.torque_per_amp_nm is not None else torque_per_amp_nm(hand)
         self.torque_per_amp_nm = per_amp if per_amp is not None else math.nan
-        if hand.servo_driven:
-            self.tau_max = np.array([j.current_limit_a for j in joints]) * self.torque_per_amp_nm
-        else:
-            self.tau_max = torque_limits_nm(hand)
+        self.tau_max = torque_limits_nm(hand, p.torque_per_amp_nm)
         self._reach = self.tau_max / p.servo_stiffness_nm_per_rad
         self._palm = self.reach_pose_world() + np.array([0.0, 0.0, p.start_clearance_m])
         self._palm_target = self._palm.copy()

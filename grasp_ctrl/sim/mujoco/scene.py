@@ -187,7 +187,7 @@ def _finger(finger: FingerConfig, hand: HandConfig, p: SceneParams) -> tuple[str
 def _actuators(hand: HandConfig, p: SceneParams) -> str:
     gains = pd_gains(hand, p.default_p_gain, p.default_d_gain)
     assert gains.kp_nm_per_rad is not None and gains.kv_nm_s_per_rad is not None, gains.reason
-    limits = scene_torque_limits(hand, p)
+    limits = torque_limits_nm(hand, p.torque_per_amp_nm)
     rows = []
     for j, kp, kv, tau in zip(hand.joints, gains.kp_nm_per_rad, gains.kv_nm_s_per_rad, limits):
         rows.append(
@@ -196,14 +196,6 @@ def _actuators(hand: HandConfig, p: SceneParams) -> str:
             f'forcerange="{-tau:.6g} {tau:.6g}" forcelimited="true"/>'
         )
     return "<actuator>" + "".join(rows) + "</actuator>"
-
-
-def scene_torque_limits(hand: HandConfig, p: SceneParams) -> np.ndarray:
-    """Each joint's torque limit: the hand's (config/actuation.py), or a Dynamixel hand's current
-    limits x the scene's own ``torque_per_amp_nm`` where a caller set one."""
-    if hand.servo_driven and p.torque_per_amp_nm is not None:
-        return np.array([j.current_limit_a for j in hand.joints]) * p.torque_per_amp_nm
-    return torque_limits_nm(hand)
 
 
 def contact_timeconst(stiffness_n_per_m: float, p: SceneParams) -> float:

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from grasp_ctrl.config.actuation import torque_limits_nm
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.sim.biotac.model import (
@@ -42,7 +43,7 @@ from grasp_ctrl.sim.biotac.model import (
     mj_tick_frames,
     mj_tip_buffers,
 )
-from grasp_ctrl.sim.mujoco.scene import PlacedObject, SceneParams, build_scene, scene_torque_limits, with_servo_facts
+from grasp_ctrl.sim.mujoco.scene import PlacedObject, SceneParams, build_scene, with_servo_facts
 from grasp_ctrl.sim.variation import NOMINAL, Variation, draw_extra, draw_object, draw_record, max_rotated_half_extents
 from grasp_ctrl.sim.world_parts import GRAVITY, NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
 
@@ -175,7 +176,7 @@ class MuJoCoWorld:
         self._q_goal_cmd = self._q_goal - self.joint_offset_rad  # the servos' goal, calibrated angles
         # N m/A of the current the servos report (with_servo_facts); None: the hand reports none
         self.torque_per_amp_nm = self.scene_params.torque_per_amp_nm
-        self.tau_max = scene_torque_limits(hand, self.scene_params)
+        self.tau_max = torque_limits_nm(hand, self.scene_params.torque_per_amp_nm)
         self.torque_on = True
         self.arm_speed = hand.arm.max_speed_m_s
         self._fit_grasp_height()
