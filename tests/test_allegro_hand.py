@@ -7,7 +7,9 @@ joint: its origin on the XML joint's axis line within 1 mm, its axis within 1 de
 equal, and each finger's chain the XML's, joint by joint from the palm.
 
 Actuation: the gains and torque limits are SimLab allegro_hand_ros_v4's numbers in SI (its
-gains_pd.yaml and AllegroHandDrv.cpp, v4: 1200 PWM units per N m).
+gains_pd.yaml and AllegroHandDrv.cpp, v4: 1200 PWM units per N m), with the far joints' and the
+thumb's PWM limits raised as IIT's allegro_hrii setup raises them (400 x 1.5), never above the
+driver's 12 V ceiling of 1200.
 """
 
 from __future__ import annotations
@@ -103,9 +105,11 @@ def test_actuation_is_simlabs_driver_in_si(allegro: HandConfig) -> None:
     assert np.allclose(gains.kp_nm_per_rad, 4000.0 / 1200.0)
     d_pwm = [150, 200, 150, 150] * 3 + [300, 200, 200, 150]
     assert np.allclose(gains.kv_nm_s_per_rad, np.array(d_pwm) / 1200.0)
-    # AllegroHandDrv.cpp: PWM limits (roll, near, middle, far; the thumb's) x 1.5, at 1200 PWM per N m
-    pwm = [250, 450, 300, 190] * 3 + [350, 270, 180, 180]
+    # AllegroHandDrv.cpp: PWM limits (roll, near, middle, far; the thumb's) x 1.5, at 1200 PWM per N m;
+    # stock: far 190, thumb 350, 270, 180, 180; raised (allegro_hrii): far and thumb 400
+    pwm = [250, 450, 300, 400] * 3 + [400, 400, 400, 400]
     assert np.allclose(torque_limits_nm(allegro), 1.5 * np.array(pwm) / 1200.0)
+    assert np.all(1200.0 * torque_limits_nm(allegro) <= 1200.0)  # the driver's global PWM limit at 12 V
 
 
 def test_the_grasp_is_index_middle_and_thumb(allegro: HandConfig) -> None:
