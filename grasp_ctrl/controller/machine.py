@@ -169,7 +169,7 @@ class GraspController:
         # Per-finger arithmetic on a handful of fingers runs on Python lists: a numpy
         # call costs more than the whole loop at this size.
         self._grasping = [bool(g) for g in self.grasp_mask]
-        # With the sim extra, the per-tick counters, force checks and squeeze run compiled
+        # With numba, the per-tick counters, force checks and squeeze run compiled
         # (controller/tick_kernels.py); the Python code below stays the reference.
         # Each fingertip's grip target (controller/grip_targets.py); all tau by default.
         # An object's profile may choose its own mode (a heavy box: force_closure, objects.toml).

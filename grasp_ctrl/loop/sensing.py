@@ -24,7 +24,7 @@ class SensingPipeline:
     def __init__(self, hand: HandConfig, kin: HandKinematics, estimator: ForceEstimator) -> None:
         self.hand = hand
         self.kin = kin
-        self.fast_kin = shared_pad_ik(kin)  # sensor rotations, compiled with the sim extra
+        self.fast_kin = shared_pad_ik(kin)  # sensor rotations, compiled with numba
         self._compiled = self.fast_kin.compiled  # the compiled halves of a snapshot (loop/loop_kernels.py)
         self._geometry, self._layout = self.fast_kin.geometry, self.fast_kin.layout
         self.estimator = estimator

@@ -125,6 +125,6 @@ def _compile(fn: F, numpy_division: bool) -> F:
 def backend() -> str:
     """A line for bench output and logs: how the kernels run."""
     if _numba is None:
-        why = "GRASP_CTRL_NO_JIT set" if JIT_DISABLED else "numba not installed (pip install -e '.[sim]')"
+        why = "GRASP_CTRL_NO_JIT set" if JIT_DISABLED else "numba not installed (pip install numba)"
         return f"plain Python ({why})"
     return f"numba {_numba.__version__}"
