@@ -243,3 +243,78 @@ def test_bad_input_is_one_line(trial: Path, tmp_path: Path, capsys, monkeypatch)
     assert main(["export-bag", str(trial), "--out", str(tmp_path / "z.mcap")]) == 2
     assert "pip install -e '.[ros]'" in _one_error_line(capsys)
     assert not (tmp_path / "z.mcap").exists()
+
+
+def _copy_run(trial: Path, tmp_path: Path) -> Path:
+    """A copy of the fixture's run (to damage); returns the copy's trial_000.json."""
+    import shutil
+
+    run_dir = tmp_path / "run"
+    shutil.copytree(trial.parents[3], run_dir)
+    return run_dir / trial.relative_to(trial.parents[3])
+
+
+def test_a_trial_with_an_unreadable_record_is_refused_unless_forced(trial: Path, tmp_path: Path, capsys) -> None:
+    copy = _copy_run(trial, tmp_path)
+    text = copy.read_text()
+    copy.write_text(text[: len(text) // 2])  # cut in half
+    out = tmp_path / "cut.mcap"
+    assert main(["export-bag", str(copy), "--out", str(out)]) == 2
+    line = _one_error_line(capsys)
+    assert f"{copy}: unreadable record" in line and "--force" in line and not out.exists()
+    # a run directory: refused before any bag is written
+    assert main(["export-bag", str(copy.parents[3]), "--out", str(tmp_path / "bags")]) == 2
+    assert "unreadable record" in _one_error_line(capsys) and not (tmp_path / "bags").exists()
+
+    assert main(["export-bag", str(copy), "--out", str(out), "--force"]) == 0
+    err = capsys.readouterr().err
+    assert f"note: {copy}: unreadable record" in err  # the loader's note, printed
+    assert f"note: {out}: exported without its record: no {topics.TRIAL_EVENTS}" in err
+    types, _, _ = _read(out)
+    assert topics.TRIAL_EVENTS not in types and topics.TF in types
+
+
+def _run_with_own_hand_file(trial: Path, tmp_path: Path) -> tuple[Path, Path]:
+    """A copy of the fixture's run whose run.json names a copy of the hand file (as ``run --hand
+    COPY`` writes it: same bytes, so the same SHA-256); returns (trial_000.json, the hand file)."""
+    copy = _copy_run(trial, tmp_path)
+    hand = tmp_path / "hand.toml"
+    hand.write_bytes(default_hand_file().read_bytes())
+    run_file = copy.parents[3] / "run.json"
+    doc = json.loads(run_file.read_text())
+    doc["hand_file"] = doc["fingerprint"]["files"]["hand"]["path"] = str(hand)
+    run_file.write_text(json.dumps(doc, indent=2))
+    return copy, hand
+
+
+def test_a_hand_file_edited_since_the_run_is_refused_without_hand_or_force(trial: Path, tmp_path: Path, capsys) -> None:
+    copy, hand = _run_with_own_hand_file(trial, tmp_path)
+    assert main(["export-bag", str(copy), "--out", str(tmp_path / "same.mcap")]) == 0  # unchanged: no word
+    assert "note: hand" not in capsys.readouterr().err
+    hand.write_text(hand.read_text() + "\n# tuned after the run\n")
+    out = tmp_path / "edited.mcap"
+    assert main(["export-bag", str(copy), "--out", str(out)]) == 2
+    line = _one_error_line(capsys)
+    assert f"hand ({hand}) changed since the run started" in line and "--hand FILE" in line and "--force" in line
+    assert not out.exists()
+    assert main(["export-bag", str(copy.parents[3]), "--out", str(tmp_path / "bags")]) == 2
+    assert "changed since the run started" in _one_error_line(capsys)
+    assert main(["export-bag", str(copy), "--out", str(out), "--force"]) == 0
+    assert f"note: {out}: {topics.TF} from {hand}, not known to be the trial's hand" in capsys.readouterr().err
+    assert (
+        main(["export-bag", str(copy), "--out", str(tmp_path / "given.mcap"), "--hand", str(default_hand_file())]) == 0
+    )
+    assert "not known to be the trial's hand" not in capsys.readouterr().err
+
+
+def test_an_unreadable_run_file_is_refused_without_hand_or_force(trial: Path, tmp_path: Path, capsys) -> None:
+    copy = _copy_run(trial, tmp_path)
+    (copy.parents[3] / "run.json").write_text('{"format": 1, "backend"')  # cut short
+    out = tmp_path / "t.mcap"
+    assert main(["export-bag", str(copy), "--out", str(out)]) == 2
+    line = _one_error_line(capsys)
+    assert "run.json: unreadable run file" in line and "--hand FILE" in line and not out.exists()
+    assert main(["export-bag", str(copy), "--out", str(out), "--force"]) == 0
+    err = capsys.readouterr().err
+    assert "run.json: unreadable run file" in err and f"{topics.TF} from {default_hand_file()}" in err
+    assert main(["export-bag", str(copy), "--out", str(tmp_path / "h.mcap"), "--hand", str(default_hand_file())]) == 0

@@ -128,3 +128,36 @@ def test_ctrl_c_closes_the_recording_cleanly(tmp_path) -> None:
     assert len(rows) > 100 and all(len(r) == 47 for r in rows)
     assert rec.read_text().endswith("\n")
     assert f"recorded {len(rows) - 1} frames" in out
+
+
+def test_an_existing_recording_is_kept_unless_forced_and_a_bad_port_never_touches_it(tmp_path, capsys) -> None:
+    rec = tmp_path / "rec.csv"
+    rec.write_text("earlier recording\n" * 4205)
+    before = rec.read_bytes()
+    assert main(["sensors", "--port", str(tmp_path / "ttyACM9"), "--record", str(rec), "--seconds", "0.1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--record" in err[0] and "--force" in err[0]
+    assert rec.read_bytes() == before
+    # --force, but the port fails at once: the file is opened only after the ports, so it stays whole
+    argv = ["sensors", "--port", str(tmp_path / "ttyACM9"), "--record", str(rec), "--seconds", "0.1", "--force"]
+    assert main(argv) == 1
+    assert "ttyACM9: cannot open" in capsys.readouterr().err
+    assert rec.read_bytes() == before
+
+
+def test_record_is_never_the_emulate_from_input_even_with_force(tmp_path, capsys) -> None:
+    src = tmp_path / "press.csv"
+    src.write_text("pdc," + ",".join(f"e{i}" for i in range(1, 20)) + "\n" + "2000," + ",".join(["3000"] * 19) + "\n")
+    before = src.read_bytes()
+    (tmp_path / "sub").mkdir()
+    link = tmp_path / "link.csv"
+    link.symlink_to(src)
+    hard = tmp_path / "hard.csv"
+    os.link(src, hard)
+    cases = [(src, ()), *((same, ("--force",)) for same in (src, tmp_path / "sub" / ".." / "press.csv", link, hard))]
+    for same, force in cases:
+        argv = ["sensors", "--emulate", "--emulate-from", str(src), "--record", str(same), *force, "--seconds", "0.1"]
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "--emulate-from" in err[0], (same, err)
+        assert src.read_bytes() == before

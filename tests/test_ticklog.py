@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import importlib.util
+
 import numpy as np
 import pytest
 
@@ -158,3 +160,83 @@ def test_raw_frames_keep_every_channel_as_counts_beside_the_summary(tmp_path):
     log.append("lift", snap, cmd, tared, np.zeros((2, 3)), raw=frames[0].astype(float))
     log.close()
     assert read_tick_log(plain)[0] == tick_columns(FINGERS, 3, truth=True) and "index_raw_e1" not in summary
+
+
+def _damage(path, how: str) -> str:
+    """Damage a tick log at ``path`` one way; returns what the one-line error must say."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+
+    def with_column(name: str, values) -> pa.Table:
+        return table.set_column(table.column_names.index(name), name, values)
+
+    if how == "truncated":
+        data = path.read_bytes()
+        path.write_bytes(data[: len(data) // 2])
+        return "not a whole Parquet file"
+    if how == "foreign":
+        pq.write_table(pa.table({"time": [0.0, 0.01], "value": [1.0, 2.0]}), path)
+        return "no 't' and 'state' columns"
+    if how == "foreign_with_t":
+        pq.write_table(pa.table({"t": [0.0, 0.01], "state": ["a", "b"], "x": [1, 2]}), path)
+        return "no fingertip force column"
+    if how == "missing":
+        table = table.drop(["thumb_fz_world"])
+    elif how == "joint_gap":
+        table = table.drop(["q1", "q_goal1"])
+    elif how == "nan":
+        q = table.column("q1").to_numpy().copy()
+        q[3] = np.nan
+        table = with_column("q1", pa.array(q))
+    elif how == "inf":
+        f = table.column("index_fx_sensor").to_numpy().copy()
+        f[2] = np.inf
+        table = with_column("index_fx_sensor", pa.array(f))
+    elif how == "strings":
+        table = with_column("palm_z_world", pa.array(["high"] * len(table)))
+    elif how == "null_state":
+        states = table.column("state").to_pylist()
+        states[1] = None
+        table = with_column("state", pa.array(states, type=pa.string()))
+    pq.write_table(table, path)
+    return {
+        "missing": "no column 'thumb_fz_world'",
+        "joint_gap": "no column 'q1'",
+        "nan": "column 'q1' is NaN (or empty) at row 3",
+        "inf": "column 'index_fx_sensor' is infinite at row 2",
+        "strings": "column 'palm_z_world' holds string, not numbers",
+        "null_state": "column 'state' is empty at row 1",
+    }[how]
+
+
+DAMAGES = ("truncated", "foreign", "foreign_with_t", "missing", "joint_gap", "nan", "inf", "strings", "null_state")
+
+
+@pytest.mark.parametrize("how", DAMAGES)
+def test_a_foreign_or_damaged_log_is_one_line_naming_the_file_and_column(tmp_path, capsys, how):
+    """The reader checks the columns and finite values every reader needs (plot, replays,
+    bags), so no command gets a traceback from a damaged log."""
+    from grasp_ctrl.cli import main
+    from grasp_ctrl.errors import UsageError
+
+    path = tmp_path / "trial_000_ticks.parquet"
+    log = TickLog(path, FINGERS, 3, truth=True)
+    rng = np.random.default_rng(4)
+    for k in range(6):
+        _tick(log, k, rng)
+    log.close()
+    read_tick_log(path)  # whole, it reads
+    says = _damage(path, how)
+    with pytest.raises(UsageError) as info:
+        read_tick_log(path)
+    assert str(path) in str(info.value) and says in str(info.value)
+    commands = [["plot", str(path), "--out", str(tmp_path / "p.png")]]
+    if importlib.util.find_spec("mcap_ros2") is not None:
+        commands.append(["export-bag", str(path), "--out", str(tmp_path / "t.mcap"), "--force"])
+    for argv in commands:
+        capsys.readouterr()
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and str(path) in err[0] and says in err[0], (argv, err)

@@ -64,3 +64,22 @@ def test_replay_refuses_other_formats_and_a_hand_that_does_not_match(main_job_tr
 
     with pytest.raises(UsageError, match="logged 15 joints.*--hand"):
         hand_for_replay(view, None)
+
+
+def test_plot_prints_what_the_trial_loader_could_not_load(main_job_trial, tmp_path, capsys):
+    """A record cut in half and a run.json that does not read: the plot is made without them and
+    says so on stderr (the loader's notes), instead of silently."""
+    pytest.importorskip("matplotlib")
+    import shutil
+
+    run_dir = tmp_path / "run"
+    shutil.copytree(main_job_trial.parents[3], run_dir)
+    record = run_dir / main_job_trial.relative_to(main_job_trial.parents[3])
+    text = record.read_text()
+    record.write_text(text[: len(text) // 2])
+    (run_dir / "run.json").write_text("{")
+    capsys.readouterr()
+    assert main(["plot", str(record), "--out", str(tmp_path / "p.png")]) == 0
+    err = capsys.readouterr().err
+    assert f"note: {record}: unreadable record (not JSON" in err
+    assert f"note: {run_dir / 'run.json'}: unreadable run file" in err and "hand the trial ran with is unknown" in err

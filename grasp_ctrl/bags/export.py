@@ -10,11 +10,15 @@ from __future__ import annotations
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from grasp_ctrl.bags import require_ros, topics
 from grasp_ctrl.bags.writer import SUFFIX, check_bag_path, write_bag
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.files.safe_write import check_new_file, check_output, check_output_dir
+
+if TYPE_CHECKING:
+    from grasp_ctrl.trials.analysis.trial_view import TrialView
 
 NO_FRAMES_NOTE = (
     f"the tick log keeps a summary of each raw tactile frame, not the frame: no {topics.BIOTAC} in the bag "
@@ -35,14 +39,19 @@ class Written:
         return f"bag: {self.path}: {n} messages on {len(self.counts)} topics, {self.t0_s:.3f} .. {self.t1_s:.3f} s"
 
 
-def export_trial(trial: Path, out: Path, hand_file: Path | None = None) -> Written:
-    """The trial named by its record or tick log as a bag at ``out``."""
+def export_trial(trial: Path, out: Path, hand_file: Path | None = None, incomplete_ok: bool = False) -> Written:
+    """The trial named by its record or tick log as a bag at ``out``. A trial whose record is
+    unreadable, or whose hand is not known to be the one it ran with (and ``hand_file`` does
+    not name it), is refused unless ``incomplete_ok`` (``export-bag --force``); then the
+    notes say what the bag lacks."""
     from grasp_ctrl.bags.trial_messages import has_raw_frames, tick_times_ns, trial_messages
     from grasp_ctrl.trials.analysis.trial_view import hand_for_replay, load_trial
 
     require_ros()
     check_bag_path(out, "--out")
     view = load_trial(trial)
+    if not incomplete_ok:
+        check_sources(view, hand_file)
     if not len(view.t):
         raise UsageError(f"{view.ticks_path}: a tick log with no ticks")
     hand = hand_for_replay(view, hand_file)
@@ -53,8 +62,42 @@ def export_trial(trial: Path, out: Path, hand_file: Path | None = None) -> Writt
     meta = {"source": str(view.ticks_path), "trial": view.title(), "hand": hand.name}
     meta.update({k: str(rec[k]) for k in ("policy", "object", "trial", "seed", "backend") if k in rec})
     counts = write_bag(out, trial_messages(view, hand), meta)
-    notes = () if has_raw_frames(view) else (NO_FRAMES_NOTE,)
-    return Written(out, counts, float(view.t[0]), float(view.t[-1]), notes)
+    notes = [*view.notes, *_lacks(view, hand_file, out)]
+    if not has_raw_frames(view):
+        notes.append(NO_FRAMES_NOTE)
+    return Written(out, counts, float(view.t[0]), float(view.t[-1]), tuple(notes))
+
+
+def check_sources(view: TrialView, hand_file: Path | None) -> None:
+    """A trial whose bag would silently lack its record, or carry a /tf from a hand it may not
+    have run with, is refused on one line saying why and what to do."""
+    from grasp_ctrl.trials.analysis.trial_view import replay_hand_file
+
+    if view.record_problem:
+        raise UsageError(
+            f"{view.record_problem}; its bag would have no {topics.TRIAL_EVENTS} and no policy, object or seed: "
+            "'export-bag --force' exports it without them"
+        )
+    if view.hand_problem and hand_file is None:
+        raise UsageError(
+            f"{view.hand_problem}; the bag's {topics.TF} would come from {replay_hand_file(view, None)}: "
+            "give the trial's hand with 'export-bag --hand FILE', or 'export-bag --force' to use that one"
+        )
+
+
+def _lacks(view: TrialView, hand_file: Path | None, out: Path) -> list[str]:
+    """What the bag at ``out`` lacks because a source was unreadable or unverified (``--force``)."""
+    from grasp_ctrl.trials.analysis.trial_view import replay_hand_file
+
+    lacks = []
+    if view.record_problem:
+        lacks.append(
+            f"{out}: exported without its record: no {topics.TRIAL_EVENTS}, no policy, object, trial, seed or "
+            f"backend in its metadata, and {topics.CONTROLLER_TRANSITIONS} at the tick log's state changes"
+        )
+    if view.hand_problem and hand_file is None:
+        lacks.append(f"{out}: {topics.TF} from {replay_hand_file(view, None)}, not known to be the trial's hand")
+    return lacks
 
 
 def export_recording(path: Path, out: Path, hand_id: str = "") -> Written:
@@ -89,10 +132,16 @@ def bag_path(run_dir: Path, ticks: Path, out_dir: Path) -> Path:
 
 
 def export_run(
-    run_dir: Path, out_dir: Path, hand_file: Path | None = None, force: bool = True, flag: str = "--out"
+    run_dir: Path,
+    out_dir: Path,
+    hand_file: Path | None = None,
+    force: bool = True,
+    flag: str = "--out",
+    incomplete_ok: bool = False,
 ) -> list[Written]:
-    """One bag per trial with a tick log; without ``force`` an existing bag stops it before any
-    is written. ``flag``: the option that named ``out_dir``, for the errors."""
+    """One bag per trial with a tick log; without ``force`` an existing bag, and without
+    ``incomplete_ok`` a trial that ``check_sources`` refuses, stops it before any is written.
+    ``flag``: the option that named ``out_dir``, for the errors."""
     require_ros()
     check_output_dir(out_dir, flag)
     if out_dir.exists() and not out_dir.is_dir():
@@ -105,7 +154,12 @@ def export_run(
         check_output(target, flag, run_dirs=[run_dir])
         if not force and target.exists():
             raise UsageError(f"{flag}: {target} exists (use --force to overwrite)")
-    return [export_trial(ticks, target, hand_file) for ticks, target in zip(logs, targets)]
+    if not incomplete_ok:
+        from grasp_ctrl.trials.analysis.trial_view import load_trial
+
+        for ticks in logs:
+            check_sources(load_trial(ticks, tick_log=False), hand_file)
+    return [export_trial(ticks, target, hand_file, incomplete_ok) for ticks, target in zip(logs, targets)]
 
 
 def check_run_mcap(out_dir: str, tick_logs: bool) -> None:

@@ -20,6 +20,7 @@ COUNTS = 4095.0  # a BioTac channel's largest count
 
 # command -> flag -> (lo, hi) or (lo, hi, lo_open) for floats
 RANGES: dict[str, dict[str, tuple]] = {
+    "run": {"--threads": THREADS},
     "plot": {"--fps": (0.0, 100.0, True), "--frames": (1, 10_000)},
     "calibrate": {"--ridge": (0.0, 1e6), "--tare-frames": FRAMES, "--min-pdc": (0.0, COUNTS), "--threads": THREADS},
     "evaluate-direction": {

@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+from pathlib import Path
 
-from grasp_ctrl.files.safe_write import check_output, write_output  # noqa: F401
+from grasp_ctrl.errors import UsageError
+from grasp_ctrl.files.safe_write import check_output, destination, write_output
 
 NAME = "bench"
 HELP = "measure the performance figures (docs/design.md 5.6)"
@@ -28,16 +31,30 @@ def run(args: argparse.Namespace) -> int:
             print(name)
         return 0
     only = [n.strip() for n in args.only.split(",") if n.strip()] if args.only else None
+    out = check_json(args.json)
     results = run_figures(only, quick=args.quick, progress=not args.quiet)
     print(f"machine: {machine_description()}")
     print(f"{'figure':32s} {'median':>12s} {'p99':>12s}  unit")
     for name, fig in results.items():
         print(f"{name:32s} {fig.median:12.4g} {fig.p99:12.4g}  {fig.unit}")
-    if args.json:
+    if out is not None:
         doc = {
             "machine": machine_description(),
             "figures": {n: {"median": f.median, "p99": f.p99, "unit": f.unit} for n, f in results.items()},
         }
-
-        write_output(check_output(args.json, "--json"), json.dumps(doc, indent=2) + "\n")
+        write_output(out, json.dumps(doc, indent=2) + "\n")
     return 0
+
+
+def check_json(path: str | None) -> Path | None:
+    """``--json`` checked before the first figure is measured (minutes on a slow machine), not
+    after: a directory, a folder that does not exist or cannot be written is one line now."""
+    out = check_output(path, "--json")
+    if out is None or destination(out, "--json").is_stream:
+        return out  # a stream (-, a device, a FIFO) is written as it is
+    folder = out.parent
+    if not folder.is_dir():
+        raise UsageError(f"--json {out}: {folder}: no such folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise UsageError(f"--json {out}: {folder}: not writable")
+    return out

@@ -17,7 +17,10 @@ DESCRIPTION = (
     "holds whole raw frames, /biotac_pub (biotac_sensors/BioTacHand). A run directory gives one bag per trial, "
     "OUT/POLICY/OBJECT/trial_NNN.mcap; a tactile recording (sensors --record) gives its frames on /biotac_pub. "
     "Open the bag in Foxglove (layout: docs/foxglove_trial_layout.json) or play it with 'ros2 bag play'; "
-    "topics, frames and units: docs/ros_bags.md. 'export' is the policy exporter."
+    "topics, frames and units: docs/ros_bags.md. 'export' is the policy exporter. A trial whose record is "
+    "unreadable, or whose hand file is not the one the run recorded (run.json unreadable or missing, the "
+    "hand file gone or edited since: its SHA-256 differs), is refused without --hand FILE or --force; "
+    "what could not be loaded is a note on stderr."
 )
 ORDER = 6
 
@@ -34,9 +37,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="OUT.mcap",
         help="the bag (an .mcap file, or - for standard output); for a run directory, a folder",
     )
-    p.add_argument("--hand", metavar="FILE", help="the trials' hand file (default: the one in the run's run.json)")
+    p.add_argument(
+        "--hand",
+        metavar="FILE",
+        help="the trials' hand file (default: the one in the run's run.json, when its SHA-256 is still the "
+        "one run.json recorded)",
+    )
     p.add_argument("--hand-id", default="", metavar="ID", help="a recording's BioTacHand hand_id (default: empty)")
-    p.add_argument("--force", action="store_true", help="overwrite existing bags")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="overwrite existing bags; export a trial whose record is unreadable (without its events and "
+        "metadata) or whose hand file is unknown or changed since the run (with that file or the default); "
+        "notes say what the bag lacks",
+    )
 
 
 def _kind(source: Path) -> str:
@@ -64,6 +78,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.bags import export, require_ros
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.files.safe_write import destination
+    from grasp_ctrl.trials.analysis.trial_view import print_notes
 
     require_ros()
     source = Path(args.source)
@@ -77,18 +92,17 @@ def run(args: argparse.Namespace) -> int:
     if kind == "run":
         if out.suffix.lower() == ".mcap":
             raise UsageError(f"--out {out}: a run directory gives one bag per trial; give a folder")
-        written = export.export_run(source, out, hand_file, force=args.force)
+        written = export.export_run(source, out, hand_file, force=args.force, incomplete_ok=args.force)
     else:
         export.check_bag_out(out, args.force)
         if kind == "trial":
-            written = [export.export_trial(source, out, hand_file)]
+            written = [export.export_trial(source, out, hand_file, incomplete_ok=args.force)]
         else:
             written = [export.export_recording(source, out, args.hand_id)]
     # a bag on this process's standard output (or another of its descriptors) owns it: lines to stderr
     say = sys.stderr if destination(out, "--out").kind in ("stdout", "fd") else sys.stdout
     for w in written:
         print(w.line(), file=say)
-    for note in dict.fromkeys(n for w in written for n in w.notes):
-        print(f"note: {note}", file=sys.stderr)
+    print_notes([n for w in written for n in w.notes])  # on stderr: what the trial loader could not load
     print("(open in Foxglove with docs/foxglove_trial_layout.json, or: ros2 bag play FILE.mcap)", file=say)
     return 0

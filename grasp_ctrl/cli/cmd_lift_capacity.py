@@ -22,7 +22,10 @@ DESCRIPTION = (
     "part carried up, the most loaded joint's share of its torque limit and how far the pad's normal "
     "is off the surface's (far off: the contact is not on the pad, and the figure is not to be trusted). An upper bound on "
     "what any grip law gets from this posture: use it to compare mounts (base_rpy) and postures "
-    "of a hand file. Exits 1 when an object's ratio is below --min-margin. Under --variation (default "
+    "of a hand file. An object the pads cannot close around (as wide as the pregrasp gap between "
+    "opposing pads, a pad starting inside it or never reaching it) gets no figure but the reason, and so "
+    "does one whose lift_height_m takes the palm above the arm's z_max_m. Exits 1 when an object's "
+    "ratio is below --min-margin or it has no figure. Under --variation (default "
     "bench) each object is judged at the profile's worst corner: its mass raised and its friction lowered "
     "by the profile's half-widths (nominal: the object file's values)."
 )
@@ -59,6 +62,7 @@ def worst_corner(obj: ObjectProfile, v: Variation) -> ObjectProfile:
 
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.config.actuation import describe
+    from grasp_ctrl.config.checks import lift_above_arm
     from grasp_ctrl.config.hand import load_hand
     from grasp_ctrl.config.objects import default_set, load_objects
     from grasp_ctrl.controller.grasp_capacity import GRAVITY_M_S2, object_capacity
@@ -85,15 +89,23 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"  {'object':16s} {'weight_N':>8s} {'liftable_N':>10s} {'ratio':>6s}  per pad: normal N / up N / most loaded joint (share of its limit), pad facing off the surface"
     )
-    short = []
+    short: list[str] = []
+    unable: list[str] = []
     for name in names:
         obj = worst_corner(profiles[name], v)
         weight = obj.mass_kg * GRAVITY_M_S2
+        above = lift_above_arm(obj, hand)
+        if above is not None:  # the trials could not lift it whatever the statics say
+            print(
+                f"  {name:16s} {weight:8.2f} {'-':>10s} {'-':>6s}  no lift: {args.objects_file}: objects.{name}.lift_height_m: {above}"
+            )
+            unable.append(name)
+            continue
         try:
             cap, contacts, _ = object_capacity(hand, obj)
-        except ValueError as exc:  # a posture the hand cannot take (e.g. a cap out of reach)
+        except ValueError as exc:  # NoGrasp, or a posture the hand cannot take (e.g. a cap out of reach)
             print(f"  {name:16s} {weight:8.2f} {'-':>10s} {'-':>6s}  no grasp: {exc}")
-            short.append(name)
+            unable.append(name)
             continue
         ratio = cap.weight_n / weight
         facing = {c.finger: c.facing_deg for c in contacts}
@@ -105,7 +117,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {name:16s} {weight:8.2f} {cap.weight_n:10.2f} {ratio:6.2f}  {pads}")
         if ratio < args.min_margin:
             short.append(name)
+    if unable:
+        print(f"lift-capacity: no grasp or no lift (the reason is on each line): {', '.join(unable)}")
     if short:
         print(f"lift-capacity: below {args.min_margin:g}x the weight: {', '.join(short)}")
-        return 1
-    return 0
+    return 1 if short or unable else 0

@@ -16,7 +16,9 @@ DESCRIPTION = (
     "trial_NNN.json or trial_NNN_ticks.parquet (or the .csv of older runs) in a run directory. "
     "--rrd OUT.rrd writes a Rerun recording instead (hand links, object, force arrows, states, "
     "series; open it with 'rerun OUT.rrd'; the viz extra), the PNG as well only with --out. "
-    "Needs matplotlib (the plot extra) for the PNG and GIF."
+    "Needs matplotlib (the plot extra) for the PNG and GIF. What could not be loaded (a record or run.json "
+    "that does not read, a hand file gone or changed since the run) is a note on stderr; a tick log without "
+    "a column the plot needs, or with NaN in it, is an error naming the file and the column."
 )
 ORDER = 4
 
@@ -70,11 +72,12 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.files.safe_write import IMAGE_FORMATS, check_output
     from grasp_ctrl.trials.analysis.plots import force_traces
     from grasp_ctrl.trials.analysis.trial_plot import trial_figure
-    from grasp_ctrl.trials.analysis.trial_view import hand_for_replay, load_trial
+    from grasp_ctrl.trials.analysis.trial_view import hand_for_replay, load_trial, print_notes
 
     check_output(args.out, "--out", formats=IMAGE_FORMATS)
     check_output(args.animate, "--animate", formats=("gif",))
     view = load_trial(Path(args.trial))
+    print_notes(view.notes)  # a record or run.json that did not load, a hand file changed since the run
     stem = view.ticks_path.name.split("_ticks.")[0]
     if args.rrd is not None:
         from grasp_ctrl.trials.analysis.rerun_log import require_rerun, write_recording

@@ -10,6 +10,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from grasp_ctrl.errors import GraspCtrlError
 from grasp_ctrl.rigs.registry import BACKEND_FLAGS, DEFAULT_BACKEND
 
 NAME = "run"
@@ -126,7 +127,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action="extend",
         metavar="NAME|PATH",
         help=f"force estimator(s): a name in policies/, a path to a policy .json/.onnx, "
-        f"or on the mock 'oracle' / 'oracle:scale=K' (default: {DEFAULT_POLICY}); repeatable",
+        f"or on the mock 'oracle' / 'oracle:scale=K' (0 < K <= 1e6) (default: {DEFAULT_POLICY}); repeatable",
     )
     p.add_argument("--trials", type=int, default=None, metavar="N", help="trials per object and policy (default 5)")
     p.add_argument("--seed", type=int, default=None, metavar="S", help="base random seed (default 0)")
@@ -151,7 +152,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--emulate): run objects the grasp cannot carry at the configured currents and tau "
         "(the capacity preflight refuses them otherwise)",
     )
-    p.add_argument("--threads", type=int, default=1, metavar="N", help="inference threads per policy (default 1)")
+    p.add_argument(
+        "--threads", type=int, default=1, metavar="N", help="inference threads per policy, 1 to 1024 (default 1)"
+    )
     p.add_argument(
         "--jobs",
         type=int,
@@ -350,11 +353,47 @@ def _preflight(hand: Any, manifest: Any, args: argparse.Namespace) -> None:
     confirm_start(args.yes, ask=lambda q: input(q), say=say)
 
 
+def _flagged(summary: dict[str, Any], short: Any, run_dir: Path) -> dict[str, Any]:
+    """The summary with its flags (short objects, the mock's test-double flag), written into
+    summary.json when they change it."""
+    from grasp_ctrl.files.storage import SUMMARY_FILE, write_json
+    from grasp_ctrl.trials.runs.series import naming_file
+    from grasp_ctrl.trials.runs.summary_flags import flag_summary
+
+    flagged = flag_summary(summary, short)
+    if flagged != summary:
+        with naming_file(run_dir / SUMMARY_FILE):
+            write_json(run_dir / SUMMARY_FILE, flagged)
+    return flagged
+
+
+def _resume_hint(run_dir: Path, total: int) -> str | None:
+    """What a stopped run kept and the command that continues it; None when it stopped before
+    run.json existed (nothing to resume)."""
+    from grasp_ctrl.trials.runs.records import load_records
+    from grasp_ctrl.trials.runs.series import resume_hint
+
+    if not (run_dir / "run.json").is_file():
+        return None
+    return resume_hint(run_dir, len(load_records(run_dir).records), total)
+
+
+def _disk_full(exc: OSError, run_dir: Path, total: int) -> GraspCtrlError | None:
+    """A full disk (or quota) as one line naming the file and, as Ctrl-C does, how to continue
+    once there is room; None for any other error."""
+    from grasp_ctrl.trials.runs.series import DISK_FULL
+
+    if exc.errno not in DISK_FULL:
+        return None
+    where = f"{exc.filename}: " if exc.filename else ""
+    hint = _resume_hint(run_dir, total) or "nothing was recorded"
+    return GraspCtrlError(f"{where}{os.strerror(exc.errno)}; free some space, then: {hint}")
+
+
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.errors import Terminated, UsageError
     from grasp_ctrl.files.safe_write import check_output, check_run_tree, write_output
     from grasp_ctrl.trials.episode.labelling import OperatorQuit
-    from grasp_ctrl.trials.runs.records import load_records
     from grasp_ctrl.trials.runs.series import run_series
     from grasp_ctrl.trials.runs.summary import format_table
 
@@ -393,7 +432,7 @@ def run(args: argparse.Namespace) -> int:
     if manifest.realtime and args.jobs not in (None, 1):
         raise UsageError("--jobs: a --realtime dry run keeps one trial at a time on the wall clock; drop --jobs")
     from grasp_ctrl.trials.episode.capacity_check import preflight_capacity
-    from grasp_ctrl.trials.runs.summary_flags import MOCK_NOTE, flag_summary
+    from grasp_ctrl.trials.runs.summary_flags import MOCK_NOTE
 
     short = preflight_capacity(
         hand,
@@ -464,24 +503,17 @@ def run(args: argparse.Namespace) -> int:
             executor=args.executor,
             address=args.address,
         )
+        summary = _flagged(summary, short, run_dir)
     except (KeyboardInterrupt, OperatorQuit) as exc:
         why = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc)
-        if not (run_dir / "run.json").is_file():  # stopped before the run existed: nothing to resume
-            print(f"{why} before the run started; nothing was recorded", file=sys.stderr)
-            return 143 if isinstance(exc, Terminated) else 130
-        done = len(load_records(run_dir).records)
-        print(
-            f"{why}: {done} of {manifest.total} trials are recorded in {run_dir}; "
-            f"continue with: grasp-ctrl run --resume {run_dir}",
-            file=sys.stderr,
-        )
+        hint = _resume_hint(run_dir, manifest.total)
+        print(f"{why}: {hint}" if hint else f"{why} before the run started; nothing was recorded", file=sys.stderr)
         return 143 if isinstance(exc, Terminated) else 130
-    flagged = flag_summary(summary, short)
-    if flagged != summary:  # short objects, the mock's test-double flag: written into summary.json
-        from grasp_ctrl.files.storage import SUMMARY_FILE, write_json
-
-        summary = flagged
-        write_json(run_dir / SUMMARY_FILE, summary)
+    except OSError as exc:
+        full = _disk_full(exc, run_dir, manifest.total)
+        if full is None:
+            raise
+        raise full from None
     print(format_table(summary))
     if manifest.variation is not None:
         print(f"variation: {manifest.variation.describe()}")

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 NAME = "score"
@@ -23,6 +22,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.files.safe_write import check_output, write_output
+    from grasp_ctrl.files.storage import strict_json_text
     from grasp_ctrl.trials.runs.scoring import report_problems, score_run
     from grasp_ctrl.trials.runs.summary import format_table
 
@@ -31,6 +31,6 @@ def run(args: argparse.Namespace) -> int:
     report_problems(scored)
     print(format_table(scored.summary))
     if args.json:
-        write_output(args.json, json.dumps(scored.summary, indent=2) + "\n")
+        write_output(args.json, strict_json_text(scored.summary))  # as summary.json: strict JSON
         print(f"summary: {args.json}")
     return 0

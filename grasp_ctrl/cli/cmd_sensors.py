@@ -28,7 +28,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--port", metavar="PORT", help="read every fingertip from this one port (overrides the hand file)")
     p.add_argument("--mode", choices=("binary", "text"), help="protocol mode (default: the hand file's)")
     p.add_argument("--baud", type=int, metavar="N", help="baud rate (default: the hand file's)")
-    p.add_argument("--record", metavar="FILE", help="write every valid frame to this CSV file")
+    p.add_argument(
+        "--record",
+        metavar="FILE",
+        help="write every valid frame to this CSV file (opened once the ports are; an existing file is "
+        "replaced only with --force, never the --emulate-from input)",
+    )
+    p.add_argument("--force", action="store_true", help="with --record: replace an existing file")
     p.add_argument(
         "--seconds", type=float, metavar="S", help="stop after S seconds of monitoring (default: until Ctrl-C)"
     )
@@ -78,6 +84,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--port and --emulate exclude each other (the emulator makes its own port)")
     if (args.emulate_from or args.emulate_corrupt) and not args.emulate:
         raise UsageError("--emulate-from/--emulate-corrupt need --emulate")
+    if args.record:
+        check_record(Path(args.record), args.emulate_from, args.force)
 
     hand = load_hand(args.hand or default_hand_file())
     mode = args.mode or hand.tactile.mode
@@ -104,10 +112,12 @@ def run(args: argparse.Namespace) -> int:
     sensors = SerialSensors.from_hand(hand, port=port, **kwargs)
     recorder = None
     try:
-        recorder = FrameRecorder(args.record) if args.record else None
         sensors.start()
         if emulator is not None:
             emulator.start()
+        # opened only now that the ports are: a bad --port leaves an existing file as it was (the
+        # frames received meanwhile wait in the sensors' history, which the monitor drains)
+        recorder = FrameRecorder(args.record) if args.record else None
         monitor = Monitor(hand, sensors, estimator, recorder, refresh_s=args.refresh, redraw=sys.stdout.isatty())
         tare_timeout = 2.0 + 2.0 * hand.tactile.tare_frames / hand.rate_hz
         print(
@@ -130,6 +140,18 @@ def run(args: argparse.Namespace) -> int:
         if emulator is not None:
             emulator.close()
     return 0
+
+
+def check_record(record: Path, emulate_from: str | None, force: bool) -> None:
+    """``--record``: never the ``--emulate-from`` input (not even with --force: the replay reads
+    it), never a run's own file, an existing file replaced only with --force."""
+    from grasp_ctrl.errors import UsageError
+    from grasp_ctrl.files.safe_write import check_new_file, check_output, same_file
+
+    if emulate_from and same_file(record, Path(emulate_from)):
+        raise UsageError(f"--record {record}: that is the --emulate-from recording being replayed; choose another file")
+    check_output(record, "--record")
+    check_new_file(record, "--record", force)
 
 
 def _make_emulator(hand, mode: str, recording: str | None, corrupt: float, skip_bad_rows: bool = False):

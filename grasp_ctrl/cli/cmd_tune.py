@@ -110,7 +110,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--storage",
         default=None,
         metavar="sqlite:///FILE",
-        help="keep the study in this database; the same command again continues it",
+        help="keep the study in this database (an existing FILE must be empty or an Optuna storage); the same command again continues it",
     )
     p.add_argument(
         "--study-name",
@@ -259,7 +259,7 @@ def run(args: argparse.Namespace) -> int:
 
     _check_args(args)
     require_optuna()
-    if _entry(args).world == REFERENCE_WORLD:  # MuJoCo (the sim extra), before any study is opened
+    if _entry(args).world == REFERENCE_WORLD:  # MuJoCo, before any study is opened
         from grasp_ctrl.sim.mujoco.world import _mujoco
 
         _mujoco()

@@ -40,6 +40,30 @@ def check_objects_for_hand(objects: Sequence[ObjectProfile], hand: HandConfig, s
                 f"a grasping finger of hand {hand.name!r} ({', '.join(grasping)}; got {obj.cap.finger!r})",
             )
         check_posture_offsets(obj, hand, source)
+        above = lift_above_arm(obj, hand)
+        if above is not None:
+            raise ConfigError(source, key + "lift_height_m", above)
+
+
+def palm_lift_top_m(obj: ObjectProfile, hand: HandConfig) -> float:
+    """The palm's height (m, world) at the top of the lift: the controller's reach pose (the grasp
+    height plus ``approach_offset_m``, the hand's ``palm_above_contact_m`` higher) plus the lift."""
+    return obj.grasp_height_m + obj.approach_offset_m + hand.grasp.palm_above_contact_m + obj.lift_height_m
+
+
+def lift_above_arm(obj: ObjectProfile, hand: HandConfig) -> str | None:
+    """Why ``obj``'s lift cannot be done by ``hand``'s arm, or None: the arm clamps the palm at
+    ``arm.z_max_m``, so a lift above it never arrives and its trials end with a misleading reason."""
+    top, z_max = palm_lift_top_m(obj, hand), hand.arm.z_max_m
+    if top <= z_max + 1e-9:
+        return None
+    room = max(z_max - (top - obj.lift_height_m), 0.0)
+    return (
+        f"a lift_height_m of at most {room:.3f} m: the palm must stay at or below arm.z_max_m = {z_max:g} m "
+        f"of hand {hand.name!r}, and {obj.lift_height_m:g} m takes it to {top:.3f} m (grasp_height_m "
+        f"{obj.grasp_height_m:g} + approach_offset_m {obj.approach_offset_m:g} + grasp.palm_above_contact_m "
+        f"{hand.grasp.palm_above_contact_m:g} + lift_height_m {obj.lift_height_m:g})"
+    )
 
 
 def check_posture_offsets(obj: ObjectProfile, hand: HandConfig, source: str) -> None:

@@ -16,6 +16,8 @@ from grasp_ctrl.config.servos import ServoModel
 from grasp_ctrl.config.toml_reader import Table, read_toml
 from grasp_ctrl.tactile.layout import LAYOUTS, SensorLayout, layout_for
 
+Vec3 = tuple[float, float, float]
+
 SAFE_ACTIONS = ("hold", "open", "torque_off")
 ACTUATOR_KINDS = ("dynamixel", "torque_pd")
 TORQUE_PD_KEYS = ("kp_nm_per_rad", "kd_nm_s_per_rad", "torque_limit_nm")  # each joint's, actuator = "torque_pd"
@@ -26,8 +28,17 @@ SERIAL_MODES = ("binary", "text")
 DXL_MAX_BAUD = 4_500_000  # the fastest rate of the Dynamixel X series' bus
 DXL_MAX_PROFILE = 32_767  # Profile Velocity / Acceleration registers (velocity-based profile)
 SERIAL_MAX_BAUD = 12_000_000  # a full-speed USB serial bridge's fastest rate
-MAX_OFFSET_M = 10.0  # any position or offset in the file, per component
+MAX_OFFSET_M = 10.0  # any position or offset in the file, per component (the arm's chain: up to this)
 MAX_ANGLE_RAD = 10.0  # any roll, pitch or yaw
+# A finger is hand-sized: its links and sensor mount within this per component (the shipped hands'
+# largest, the LEAP thumb's first joint origin, is 0.07 m), its base within MAX_FINGER_BASE_M of
+# the hand frame's origin (shipped: 0.05 m). Beyond them is a unit slip (mm for m), not a hand.
+MAX_FINGER_LINK_M = 0.5
+MAX_FINGER_BASE_M = 1.0
+# A grasping finger closes across the lift: the horizontal (hand x-y) part of its unit task vector
+# is at least this (no steeper than 60 degrees from the x-y plane). The preshape, the grip targets
+# and the grip itself work in that plane; a vertical vector has no closing direction there.
+MIN_CLOSING_COMPONENT = 0.5
 
 
 @dataclass(frozen=True)
@@ -269,7 +280,28 @@ def _collision(
     return palm, tuple(links)
 
 
-def _joint(t: Table) -> JointConfig:
+def _hand_sized(t: Table, name: str, bound: float, default: Vec3 | None = None) -> Vec3:
+    """A position (m) of a finger: refused, naming the key, beyond ``bound`` per component."""
+    vec = t.vector(name, 3) if default is None else t.vector(name, 3, default)
+    if any(abs(v) > bound for v in vec):
+        raise t.fail(name, f"a hand-sized position, each component within +-{bound:g} m (got {list(vec)})")
+    return vec
+
+
+def _closing_vector(t: Table, grasp: bool) -> Vec3:
+    """``task_vector_hand`` as a unit vector; a grasping finger's must close across the lift."""
+    vec = t.vector("task_vector_hand", 3, unit=True)
+    if grasp and math.hypot(vec[0], vec[1]) < MIN_CLOSING_COMPONENT:
+        raise t.fail(
+            "task_vector_hand",
+            f"a closing direction of a grasping finger with at least {MIN_CLOSING_COMPONENT:g} of its length in "
+            f"the hand's x-y plane (no steeper than 60 degrees from it; got {t.data['task_vector_hand']})",
+        )
+    return vec
+
+
+def _joint(t: Table, in_finger: bool = False) -> JointConfig:
+    """A finger's joint (``in_finger``: a hand-sized origin) or an arm's."""
     t.unknown_keys(
         {
             "name",
@@ -301,7 +333,9 @@ def _joint(t: Table) -> JointConfig:
         name=check_identifier(t.str("name"), t.path, t.key("name")),
         servo_id=t.int("servo_id", lo=0, hi=252),
         axis=t.vector("axis", 3, unit=True),
-        origin_xyz=t.vector("origin_xyz", 3, (0.0, 0.0, 0.0), bound=MAX_OFFSET_M),
+        origin_xyz=_hand_sized(t, "origin_xyz", MAX_FINGER_LINK_M, (0.0, 0.0, 0.0))
+        if in_finger
+        else t.vector("origin_xyz", 3, (0.0, 0.0, 0.0), bound=MAX_OFFSET_M),
         origin_rpy=t.vector("origin_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),
         lower_rad=lower,
         upper_rad=upper,
@@ -333,16 +367,17 @@ def _finger(t: Table) -> FingerConfig:
             "tip_rpy",
         }
     )
-    joints = tuple(_joint(j) for j in t.tables("joints", min_len=1))
+    joints = tuple(_joint(j, in_finger=True) for j in t.tables("joints", min_len=1))
+    grasp = t.bool("grasp", True)
     return FingerConfig(
         name=check_identifier(t.str("name"), t.path, t.key("name")),
         sensor_id=t.int("sensor_id", lo=0, hi=255),
-        grasp=t.bool("grasp", True),
-        task_vector_hand=t.vector("task_vector_hand", 3, unit=True),
-        base_xyz=t.vector("base_xyz", 3, bound=MAX_OFFSET_M),
+        grasp=grasp,
+        task_vector_hand=_closing_vector(t, grasp),
+        base_xyz=_hand_sized(t, "base_xyz", MAX_FINGER_BASE_M),
         base_rpy=t.vector("base_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),
         joints=joints,
-        tip_xyz=t.vector("tip_xyz", 3, bound=MAX_OFFSET_M),
+        tip_xyz=_hand_sized(t, "tip_xyz", MAX_FINGER_LINK_M),
         tip_rpy=t.vector("tip_rpy", 3, (0.0, 0.0, 0.0), bound=MAX_ANGLE_RAD),
     )
 

@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import builtins
 import math
-import tomllib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Literal, overload
 
+from grasp_ctrl.config.toml_limits import TomlFileError, read_toml_limited
 from grasp_ctrl.errors import ConfigError
 
 _MISSING = object()
@@ -32,22 +32,11 @@ def finite_number(value: Any) -> bool:
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:
-    p = Path(path)
+    """The parsed file, read within config/toml_limits.py's size and table limits."""
     try:
-        with p.open("rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise ConfigError(str(p), "<file>", "file not found") from None
-    except IsADirectoryError:
-        raise ConfigError(str(p), "<file>", "a TOML file, got a directory") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(str(p), "<file>", f"valid TOML ({exc})") from None
-    except UnicodeDecodeError as exc:
-        raise ConfigError(str(p), "<file>", f"UTF-8 text (byte {exc.start} is not)") from None
-    except RecursionError:
-        raise ConfigError(str(p), "<file>", "valid TOML (nested too deeply)") from None
-    except OSError as exc:
-        raise ConfigError(str(p), "<file>", f"a readable file ({exc.strerror})") from None
+        return read_toml_limited(path)
+    except TomlFileError as exc:
+        raise ConfigError(str(Path(path)), "<file>", str(exc)) from None
 
 
 class Table:

@@ -9,7 +9,9 @@ grip law achieves with this hand posture (docs/hand_geometry.md, "What the servo
 
 ``object_capacity`` places the hand as the controller does (the per-object preshape and the
 cap finger's raised posture), closes each grasping pad along its task vector onto the object's
-side, and evaluates the grasp there.
+side, and evaluates the grasp there. A grasp that cannot close (an object as wide as the pregrasp
+gap between opposing pads, a pad that starts inside it or never reaches it) raises
+:class:`NoGrasp` saying why: no figure is computed for it.
 """
 
 from __future__ import annotations
@@ -29,6 +31,88 @@ from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 TORSION_RADIUS_M = 0.003
 GRAVITY_M_S2 = 9.81
 _FACETS = 8  # sides of the friction pyramid (inscribed in the cone)
+
+
+class NoGrasp(ValueError):
+    """The hand cannot close on the object as the controller places it; the message says why."""
+
+
+@dataclass(frozen=True)
+class PregraspGap:
+    """Two grasping pads that close toward each other, and their distance at the pregrasp posture
+    along the line they close on (``direction_hand``: unit, horizontal, first pad -> second)."""
+
+    fingers: tuple[str, str]
+    direction_hand: np.ndarray
+    gap_m: float
+
+
+def pregrasp_pads(hand: HandConfig, kin: HandKinematics | None = None) -> dict[str, np.ndarray]:
+    """Each grasping finger's pad point (hand frame) at the hand file's pregrasp posture."""
+    kin = kin or HandKinematics(hand)
+    q = np.array([j.pregrasp_rad for j in hand.joints])
+    pads = {}
+    for finger in hand.grasp_fingers:
+        rot, origin = kin.chains[finger.name].fk_rp(q[kin.slices[finger.name]])
+        pads[finger.name] = rot @ PAD_POINT_SENSOR + origin
+    return pads
+
+
+def _flat(v: tuple[float, float, float]) -> np.ndarray:
+    """The closing direction's horizontal part, unit (the hand file keeps it non-zero)."""
+    flat = np.array([v[0], v[1], 0.0])
+    return flat / float(np.linalg.norm(flat))
+
+
+def pregrasp_gaps(
+    hand: HandConfig, kin: HandKinematics | None = None, leave_out: str | None = None
+) -> list[PregraspGap]:
+    """Every pair of grasping fingers (but ``leave_out``) whose horizontal closing directions
+    oppose, with their pads' distance along the line they close on at the pregrasp posture."""
+    pads = pregrasp_pads(hand, kin)
+    fingers = [f for f in hand.grasp_fingers if f.name != leave_out]
+    out = []
+    for i, a in enumerate(fingers):
+        for b in fingers[i + 1 :]:
+            va, vb = _flat(a.task_vector_hand), _flat(b.task_vector_hand)
+            if float(va @ vb) >= 0.0:
+                continue  # side by side (index and middle): no gap between them
+            d = (va - vb) / float(np.linalg.norm(va - vb))  # the line they close on, from a's pad toward b's
+            out.append(PregraspGap((a.name, b.name), d, float((pads[b.name] - pads[a.name]) @ d)))
+    return out
+
+
+def width_along(obj: ObjectProfile, direction_hand: np.ndarray) -> float:
+    """The object's extent (m) along a horizontal direction, its footprint's axes on the hand's."""
+    if obj.shape == "cylinder":
+        return obj.size_m[0]
+    return abs(float(direction_hand[0])) * obj.size_m[0] + abs(float(direction_hand[1])) * obj.size_m[1]
+
+
+def closing_blocked(hand: HandConfig, obj: ObjectProfile, kin: HandKinematics | None = None) -> str | None:
+    """Why the grasping pads cannot close around ``obj`` from the pregrasp posture (object centred
+    under the palm), or None: it is at least as wide as the gap between two opposing pads, or a
+    pad starts inside its side. The cap finger closes on the cap, above the body: left out."""
+    from grasp_ctrl.kinematics.preshape import side_gap
+
+    kin = kin or HandKinematics(hand)
+    cap_finger = obj.cap.finger if obj.cap is not None else None
+    for g in pregrasp_gaps(hand, kin, leave_out=cap_finger):
+        width = width_along(obj, g.direction_hand)
+        if width >= g.gap_m:
+            a, b = g.fingers
+            return (
+                f"{1000 * width:.0f} mm across between the {a} and {b} pads, not narrower than the hand's "
+                f"pregrasp gap of {1000 * g.gap_m:.0f} mm between them (the pads cannot close around it)"
+            )
+    for name, pad in pregrasp_pads(hand, kin).items():
+        gap, _ = side_gap(obj, pad)
+        if name != cap_finger and gap <= 0.0:
+            return (
+                f"the {name} pad starts {abs(1000 * gap):.0f} mm inside the object's side at the pregrasp posture "
+                "(object centred under the palm: the pads cannot close around it)"
+            )
+    return None
 
 
 @dataclass(frozen=True)
@@ -166,11 +250,15 @@ def object_capacity(
 ) -> tuple[Capacity, list[PadContact], np.ndarray]:
     """The grasp of ``obj`` as the controller makes it (preshape, cap finger raised, pads closed
     along their task vectors until they touch), its capacity, the contacts and the posture.
-    The hand frame's origin is ``[grasp] palm_above_contact_m`` above the reach height."""
+    The hand frame's origin is ``[grasp] palm_above_contact_m`` above the reach height.
+    Raises :class:`NoGrasp` (why) where the pads cannot close on the object."""
     from grasp_ctrl.controller.machine import raised_reach_posture
     from grasp_ctrl.kinematics.preshape import preshape, side_gap
 
     kin = kin or HandKinematics(hand)
+    blocked = closing_blocked(hand, obj, kin)
+    if blocked is not None:
+        raise NoGrasp(blocked)
     q = preshape(hand, obj, standoff_m).q
     cap = obj.cap
     # the body's top in the hand frame (the hand origin palm_above_contact_m over the grasp height)
@@ -194,8 +282,8 @@ def object_capacity(
             if gap <= 0.0:
                 break
             qf = chain.ik_step(qf, v * min(step_m, gap + 1e-5), PAD_POINT_SENSOR)
-        else:
-            continue  # the pad does not reach the object: it carries nothing
+        else:  # the controller waits for every grasping pad's contact: without it, no grasp
+            raise NoGrasp(f"the {finger.name} pad does not reach the object closing along its task vector")
         q[sl] = qf
         rot, origin = chain.fk_rp(qf)
         pad = rot @ PAD_POINT_SENSOR + origin

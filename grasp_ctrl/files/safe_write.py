@@ -267,6 +267,17 @@ def check_new_file(path: Path, flag: str, force: bool) -> None:
         raise UsageError(f"{flag}: {path.parent}: no such folder")
 
 
+def same_file(a: Path, b: Path) -> bool:
+    """Whether writing ``a`` would replace the file ``b`` names: the same path once links and
+    ``..`` are resolved, or the same file by another name (a hard link)."""
+    if Path(os.path.realpath(a)) == Path(os.path.realpath(b)):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # either does not exist (yet): not the same file
+        return False
+
+
 def temp_beside(path: Path, keep_suffix: bool = False) -> Path:
     """``storage.temp_path`` (``.NAME.PID.RANDOM.tmp``), with ``path``'s own suffix appended when
     ``keep_suffix`` (a writer such as matplotlib reads the format from the name)."""

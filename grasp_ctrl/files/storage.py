@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import math
 import os
 import secrets
 from collections.abc import Iterator
@@ -97,9 +98,42 @@ def write_text_atomic(path: str | Path, text: str) -> None:
         fh.write(text)
 
 
+NON_FINITE_KEY = "non_finite"
+
+
+def finite_json(doc: Any) -> tuple[Any, dict[str, str]]:
+    """``doc`` with every NaN and infinity replaced by None (JSON's null), and what each was by
+    its path (``peak_forces.index.force_est_n``, ``transitions[3][0]``): Python writes them as
+    ``NaN`` and ``Infinity``, which no strict JSON reader loads. ``doc`` itself is not changed."""
+    found: dict[str, str] = {}
+
+    def clean(value: Any, where: str) -> Any:
+        if isinstance(value, float) and not math.isfinite(value):
+            found[where or "$"] = repr(float(value))  # 'inf', '-inf', 'nan'
+            return None
+        if isinstance(value, dict):
+            return {k: clean(v, f"{where}.{k}" if where else str(k)) for k, v in value.items()}
+        if isinstance(value, (list, tuple)):
+            return [clean(v, f"{where}[{i}]") for i, v in enumerate(value)]
+        return value
+
+    return clean(doc, ""), found
+
+
+def strict_json_text(doc: Any) -> str:
+    """``doc`` as strict JSON text (indented, newline-terminated): non-finite numbers are null and,
+    in an object, listed under ``non_finite`` (path -> what it was) so readers know why."""
+    clean, found = finite_json(doc)
+    if found and isinstance(clean, dict):
+        before = clean.get(NON_FINITE_KEY)  # a record written again keeps what it said
+        clean[NON_FINITE_KEY] = {**(before if isinstance(before, dict) else {}), **found}
+    return json.dumps(clean, indent=2, allow_nan=False) + "\n"
+
+
 def write_json(path: Path, doc: Any) -> None:
-    """Write atomically and fsync (file and directory): a crash loses at most the trial in progress."""
-    write_text_atomic(path, json.dumps(doc, indent=2) + "\n")
+    """Write atomically and fsync (file and directory): a crash loses at most the trial in progress.
+    Strict JSON (run.json, summary.json, trial records): see :func:`strict_json_text`."""
+    write_text_atomic(path, strict_json_text(doc))
 
 
 def fsync_dir(path: Path) -> None:

@@ -20,6 +20,7 @@ string, contacts as booleans, whole raw frames (``raw_frames``) as uint16 counts
 from __future__ import annotations
 
 import csv
+import re
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -54,7 +55,8 @@ _ENCODING = {"float": "BYTE_STREAM_SPLIT", "uint16": "DELTA_BINARY_PACKED"}
 
 def rounded_float32(values: np.ndarray, bits: int = MANTISSA_BITS) -> np.ndarray:
     """float32 with the mantissa rounded to ``bits`` bits (NaN and inf unchanged)."""
-    a = np.ascontiguousarray(values, dtype=np.float32)
+    with np.errstate(over="ignore"):  # beyond float32's range is inf, kept as such below
+        a = np.ascontiguousarray(values, dtype=np.float32)
     drop = 23 - bits
     u = a.view(np.uint32)
     r = ((u + np.uint32(1 << (drop - 1))) & np.uint32((0xFFFFFFFF >> drop) << drop)).view(np.float32)
@@ -367,29 +369,96 @@ class TickLog:
 def read_tick_log(path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
     """(column order, column -> values) of a tick log: Parquet, or the CSV of older runs
     (a CSV row cut short by a crash ends the log). ``state`` is an array of str,
-    other columns float (contacts 0/1, missing values NaN)."""
+    other columns float (contacts 0/1, missing values NaN). Every reader (plot, replays,
+    bags) relies on what :func:`check_tick_log` guarantees; a foreign or damaged file is a
+    one-line UsageError naming the file and the column."""
     path = Path(path)
     if path.suffix == ".csv":
         header, cols = _read_csv(path)
     else:
-        try:
-            import pyarrow.parquet as pq
+        header, cols = _read_parquet(path)
+    check_tick_log(path, header, cols)
+    return header, cols
 
-            table = pq.read_table(path)
-        except OSError as exc:
-            raise UsageError(f"{path}: cannot read ({exc})") from None
-        except Exception as exc:  # pyarrow's ArrowInvalid: not a Parquet file
-            raise UsageError(f"{path}: not a tick log ({exc})") from None
-        header = table.column_names
-        cols = {}
-        for name in header:
-            values = table.column(name).to_pylist() if name == "state" else table.column(name).to_numpy()
-            cols[name] = np.asarray(values, dtype=object if name == "state" else float)
+
+def _read_parquet(path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
+    try:
+        import pyarrow.parquet as pq
+
+        table = pq.read_table(path)
+    except OSError as exc:
+        raise UsageError(f"{path}: cannot read ({_first_line(exc)})") from None
+    except Exception as exc:  # pyarrow's ArrowInvalid: not a Parquet file, or one cut short
+        raise UsageError(f"{path}: not a tick log: not a whole Parquet file ({_first_line(exc)})") from None
+    header = table.column_names
+    if len(set(header)) != len(header):
+        raise UsageError(f"{path}: not a tick log: a column name appears twice")
+    cols = {name: _column_values(path, name, table.column(name)) for name in header}
+    return header, cols
+
+
+def _first_line(exc: Exception) -> str:
+    """An exception's message on one short line, without the path pyarrow repeats."""
+    text = re.sub(r"^Could not open Parquet input source '[^']*': ", "", str(exc).strip())
+    line = text.splitlines()[0] if text else type(exc).__name__
+    return line if len(line) <= 160 else line[:157] + "..."
+
+
+def _column_values(path: Path, name: str, column: pa.ChunkedArray) -> np.ndarray:
+    """A Parquet column as the readers take it: ``state`` as str, any other as float (null: NaN)."""
+    import pyarrow as pa
+
+    kind = column.type.value_type if pa.types.is_dictionary(column.type) else column.type
+    if name == "state":
+        if not (pa.types.is_string(kind) or pa.types.is_large_string(kind)):
+            raise UsageError(f"{path}: column 'state' holds {kind}, not the controller's state names")
+        return np.asarray(column.to_pylist(), dtype=object)
+    if not (pa.types.is_integer(kind) or pa.types.is_floating(kind) or pa.types.is_boolean(kind)):
+        raise UsageError(f"{path}: column {name!r} holds {kind}, not numbers; not a tick log")
+    return np.asarray(column.cast(pa.float64()).to_numpy(), dtype=float)
+
+
+def required_columns(header: list[str]) -> list[str]:
+    """The columns every tick log holds and its readers rely on, for the fingertips and joints
+    ``header`` names: time, state, palm position, each fingertip's estimated force in both
+    frames, each joint's angle and goal. Other columns (currents, truth, raw signals) are
+    optional: a log from before them, or from the real hand, has none."""
+    fingers = [c[: -len("_fx_sensor")] for c in header if c.endswith("_fx_sensor") and "_true_" not in c]
+    n_joints = 1 + max((int(c[1:]) for c in header if c.startswith("q") and c[1:].isdigit()), default=-1)
+    need = ["t", "state", "palm_x_world", "palm_y_world", "palm_z_world"]
+    need += [f"{f}_f{a}_{frame}" for f in fingers for frame in ("sensor", "world") for a in "xyz"]
+    need += [f"q{j}" for j in range(max(n_joints, 1))] + [f"q_goal{j}" for j in range(max(n_joints, 1))]
+    return need
+
+
+def check_tick_log(path: Path, header: list[str], cols: dict[str, np.ndarray]) -> None:
+    """A one-line UsageError naming ``path`` and the column when the log lacks a column its
+    readers need, has no rows, or holds a NaN, an infinity or an empty state where the trial
+    wrote none (the tick replaces a non-finite pose or estimate before logging it)."""
     if "t" not in cols or "state" not in cols:
         raise UsageError(f"{path}: not a tick log (no 't' and 'state' columns)")
     if not len(cols["t"]):
         raise UsageError(f"{path}: empty tick log")
-    return header, cols
+    need = required_columns(header)
+    if not any(c.endswith("_fx_sensor") for c in need):
+        raise UsageError(f"{path}: not a tick log: no fingertip force column (FINGER_fx_sensor)")
+    missing = [c for c in need if c not in cols]
+    if missing:
+        more = f" (and {len(missing) - 1} more)" if len(missing) > 1 else ""
+        raise UsageError(f"{path}: not a whole tick log: no column {missing[0]!r}{more}")
+    states = cols["state"]
+    empty = [i for i, s in enumerate(states) if not isinstance(s, str) or not s]
+    if empty:
+        raise UsageError(f"{path}: column 'state' is empty at row {empty[0]}")
+    for name in (c for c in need if c != "state"):
+        bad = np.flatnonzero(~np.isfinite(cols[name]))
+        if len(bad):
+            k = int(bad[0])
+            raise UsageError(f"{path}: column {name!r} is {_shown(cols[name][k])} at row {k} (a damaged tick log)")
+
+
+def _shown(value: float) -> str:
+    return "NaN (or empty)" if np.isnan(value) else "infinite"
 
 
 def _read_csv(path: Path) -> tuple[list[str], dict[str, np.ndarray]]:

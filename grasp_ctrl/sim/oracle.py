@@ -14,6 +14,11 @@ from grasp_ctrl.sim.world_api import World
 _SPEC = re.compile(r"^oracle(?::scale=(?P<k>[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?))?$")
 
 
+# A debugging multiplier: 1e6 already makes every touch an overforce fault; far larger ones
+# overflow the logs' float32 columns.
+MAX_SCALE = 1e6
+
+
 def is_oracle(spec: str) -> bool:
     return spec == "oracle" or spec.startswith("oracle:")
 
@@ -21,10 +26,12 @@ def is_oracle(spec: str) -> bool:
 def parse_oracle(spec: str) -> float:
     m = _SPEC.match(spec)
     if not m:
-        raise PolicyError(f"policy {spec!r}: expected 'oracle' or 'oracle:scale=K' with K a positive number")
+        raise PolicyError(f"policy {spec!r}: expected 'oracle' or 'oracle:scale=K' with 0 < K <= {MAX_SCALE:g}")
     k = float(m.group("k")) if m.group("k") else 1.0
     if k <= 0:
         raise PolicyError(f"policy {spec!r}: scale must be positive")
+    if k > MAX_SCALE:  # forces beyond float32, the tick log's type: inf and an overflow warning
+        raise PolicyError(f"policy {spec!r}: scale at most {MAX_SCALE:g}")
     return k
 
 

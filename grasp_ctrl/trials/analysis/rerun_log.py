@@ -252,11 +252,12 @@ def _log_states(rr: Any, rec: Any, view: TrialView) -> None:
 def record_run(run_dir: Path, out_dir: Path) -> list[Path]:
     """A recording of every trial with a tick log in ``run_dir``: OUT_DIR/POLICY/OBJECT/trial_NNN.rrd."""
     from grasp_ctrl.loop.ticklog import TICKS_SUFFIX
-    from grasp_ctrl.trials.analysis.trial_view import hand_for_replay, load_trial
+    from grasp_ctrl.trials.analysis.trial_view import hand_for_replay, load_trial, print_notes
 
     written = []
     for ticks in sorted((run_dir / "trials").glob(f"*/*/*{TICKS_SUFFIX}")):
         view = load_trial(ticks)
+        print_notes(view.notes)  # the run's own command prints only the count
         hand = hand_for_replay(view, None)
         rel = ticks.relative_to(run_dir / "trials")
         out = out_dir / rel.parent / (ticks.name[: -len(TICKS_SUFFIX)] + ".rrd")

@@ -3,14 +3,19 @@
 A trial is named by its ``trial_NNN.json`` record or its tick log; the record
 (outcome, transitions, world events, settings) and the run's ``run.json`` (hand
 file and object profiles) are read when present, so a tick log on its own can
-still be plotted (the replay needs the hand).
+still be plotted (the replay needs the hand). What could not be loaded, or cannot
+be trusted (a record cut short, a run.json that does not read, a hand file edited
+since the run), is a note in ``TrialView.notes``: every command that loads a trial
+prints them (:func:`print_notes`), and ``record_problem`` / ``hand_problem`` say it
+for the commands that refuse such a trial (``export-bag`` without ``--force``).
 """
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TextIO
 
 import numpy as np
 
@@ -18,6 +23,9 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.loop.ticklog import LEGACY_TICKS_SUFFIX, TICKS_SUFFIX, read_tick_log
+
+if TYPE_CHECKING:
+    from grasp_ctrl.trials.runs.manifest import RunManifest
 
 
 @dataclass
@@ -29,6 +37,10 @@ class TrialView:
     hand: HandConfig | None = None
     obj: ObjectProfile | None = None
     notes: list[str] = field(default_factory=list)  # what could not be loaded, and why
+    record_file: Path | None = None
+    record_problem: str | None = None  # the record exists but cannot be used: why (also a note)
+    hand_file: Path | None = None  # the file ``hand`` came from (None: no hand loaded)
+    hand_problem: str | None = None  # why ``hand`` (or, without one, the default) may not be the trial's
 
     @property
     def t(self) -> np.ndarray:
@@ -56,8 +68,10 @@ class TrialView:
         return name if name in self.fingers else self.fingers[0]
 
     def setting(self, name: str) -> float | None:
-        if self.record and name in self.record.get("settings", {}):
-            return float(self.record["settings"][name])
+        settings = (self.record or {}).get("settings")
+        value = settings.get(name) if isinstance(settings, dict) else None
+        if isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value):
+            return float(value)  # (a non-finite value is written as null: storage.write_json)
         if self.obj is not None and hasattr(self.obj, name):
             return float(getattr(self.obj, name))
         return None
@@ -103,42 +117,101 @@ def trial_paths(trial: Path) -> tuple[Path, Path]:
     return ticks, trial.with_name(f"{stem}.json")
 
 
-def load_trial(trial: Path) -> TrialView:
-    from grasp_ctrl.config.hand import load_hand
-    from grasp_ctrl.trials.runs.manifest import read_manifest
-    from grasp_ctrl.trials.runs.records import read_record
-
+def load_trial(trial: Path, tick_log: bool = True) -> TrialView:
+    """The trial's tick log, record, object profile and hand, and notes on what could not be
+    loaded or trusted. ``tick_log=False``: all but the tick log (no columns), to check a
+    trial's other files before any work."""
     ticks, record_file = trial_paths(Path(trial))
-    columns, cols = read_tick_log(ticks)
-    view = TrialView(ticks, columns, cols)
-    if record_file.is_file():
-        rec, why = read_record(record_file)
-        if rec is None:
-            view.notes.append(f"{record_file}: {why}")
-        view.record = rec
+    columns, cols = read_tick_log(ticks) if tick_log else ([], {})
+    view = TrialView(ticks, columns, cols, record_file=record_file)
+    _read_record(view, record_file)
     run_dir = ticks.parent.parent.parent.parent  # RUN_DIR/trials/POLICY/OBJECT/trial_NNN...
-    try:
-        manifest = read_manifest(run_dir)
-    except UsageError as exc:
-        manifest = None
-        view.notes.append(str(exc))
+    manifest, why_none = _read_manifest(run_dir, ticks)
     if manifest is not None:
         obj_name = view.record["object"] if view.record else ticks.parent.name
         view.obj = next((o for o in manifest.objects if o.name == obj_name), None)
-        if manifest.hand_file and Path(manifest.hand_file).is_file():
-            try:
-                view.hand = load_hand(Path(manifest.hand_file))
-            except Exception as exc:  # a hand file edited since: plot without it
-                view.notes.append(f"{manifest.hand_file}: {exc}")
+    _read_hand(view, run_dir, manifest, why_none)
     return view
+
+
+def _read_record(view: TrialView, record_file: Path) -> None:
+    from grasp_ctrl.trials.runs.records import read_record
+
+    if not record_file.is_file():
+        view.notes.append(f"{record_file}: no such file; the trial's outcome, settings and world events are unknown")
+        return
+    rec, why = read_record(record_file)
+    if rec is None:
+        view.record_problem = f"{record_file}: unreadable record ({why})"
+        view.notes.append(view.record_problem)
+    view.record = rec
+
+
+def _read_manifest(run_dir: Path, ticks: Path) -> tuple[RunManifest | None, str]:
+    """The run's run.json, or None and why there is none to go by (unreadable, or no run)."""
+    from grasp_ctrl.trials.runs.manifest import read_manifest
+
+    try:
+        manifest = read_manifest(run_dir)
+    except UsageError as exc:
+        return None, str(exc)
+    if manifest is None:
+        return None, f"{ticks}: not in a run directory (no {run_dir / 'run.json'})"
+    return manifest, ""
+
+
+def _read_hand(view: TrialView, run_dir: Path, manifest: RunManifest | None, why_none: str) -> None:
+    """The hand file run.json names, loaded, and checked as ``run --resume`` checks it (the
+    hash the run recorded, the hand's name): what fails is ``hand_problem`` and a note."""
+    from grasp_ctrl.config.hand import load_hand
+    from grasp_ctrl.files.paths import default_hand_file
+    from grasp_ctrl.trials.runs.fingerprint import hand_changes
+
+    if manifest is None:
+        view.hand_problem = f"{why_none}; the hand the trial ran with is unknown"
+        view.notes.append(view.hand_problem)
+        return
+    run_file = run_dir / "run.json"
+    path = Path(manifest.hand_file) if manifest.hand_file else default_hand_file()
+    if not path.is_file():
+        view.hand_problem = f"the run's hand file {path} ({run_file}: hand_file) is gone"
+    else:
+        try:
+            view.hand, view.hand_file = load_hand(path), path
+        except Exception as exc:  # a hand file edited since: plot without it
+            view.hand_problem = f"{path}: {exc}"
+    changed = hand_changes(manifest) if view.hand is not None else []
+    if changed:
+        view.hand_problem = (
+            f"{'; '.join(changed)} since the run started (its SHA-256 is not the one {run_file} recorded)"
+        )
+    elif view.hand is not None and view.hand.name != manifest.hand:
+        view.hand_problem = f"{path} describes hand {view.hand.name!r}, the run used {manifest.hand!r} ({run_file})"
+    if view.hand_problem:
+        view.notes.append(view.hand_problem)
+
+
+def print_notes(notes: list[str], stream: TextIO | None = None) -> None:
+    """Each note once, as ``note: ...`` on stderr (a command's output may be on stdout)."""
+    for note in dict.fromkeys(notes):
+        print(f"note: {note}", file=stream or sys.stderr)
+
+
+def replay_hand_file(view: TrialView, hand_file: Path | None) -> Path:
+    """The hand file a replay or a bag draws the hand from: ``--hand``, else run.json's, else
+    (when neither loads) the default one."""
+    from grasp_ctrl.files.paths import default_hand_file
+
+    if hand_file:
+        return Path(hand_file)
+    return view.hand_file if view.hand is not None and view.hand_file else default_hand_file()
 
 
 def hand_for_replay(view: TrialView, hand_file: Path | None) -> HandConfig:
     """The hand the trial ran on (``--hand`` overrides run.json's); its joints must match the log's."""
     from grasp_ctrl.config.hand import load_hand
-    from grasp_ctrl.files.paths import default_hand_file
 
-    hand = load_hand(hand_file) if hand_file else (view.hand or load_hand(default_hand_file()))
+    hand = view.hand if not hand_file and view.hand is not None else load_hand(replay_hand_file(view, hand_file))
     n_logged = sum(1 for c in view.columns if c.startswith("q") and c[1:].isdigit())
     if len(hand.joints) != n_logged:
         raise UsageError(

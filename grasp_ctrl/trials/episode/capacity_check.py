@@ -43,7 +43,14 @@ class CapacityVerdict:
     def carried(self) -> bool:
         return self.ratio >= 1.0
 
+    @property
+    def no_grasp(self) -> bool:
+        """The pads cannot close on the object (or take the posture): there is no figure."""
+        return self.ratio == 0.0 and self.binding.startswith("no grasp")
+
     def line(self) -> str:
+        if self.no_grasp:  # no figure to print: say why instead
+            return f"{self.object}: {self.binding}"
         return f"{self.object}: the grasp carries {self.ratio:.2f}x its weight (binding: {self.binding})"
 
     def to_json(self) -> dict[str, builtins.object]:  # builtins: the field ``object`` shadows it here
@@ -84,7 +91,7 @@ def check_object(hand: HandConfig, obj: ObjectProfile, settings: ControllerSetti
     targets = object_targets(hand, obj, settings or ControllerSettings())
     try:
         cap, _, _ = object_capacity(hand, obj, normal_max_n=targets)
-    except ValueError as exc:  # a posture the hand cannot take (a cap out of reach, ...)
+    except ValueError as exc:  # NoGrasp (the pads cannot close on it), a cap out of reach, ...
         return CapacityVerdict(obj.name, 0.0, f"no grasp: {exc}", targets)
     if not cap.loads:
         return CapacityVerdict(obj.name, 0.0, "no grasp: the pads do not reach the object", targets)
@@ -132,10 +139,8 @@ def preflight_capacity(
         return []
     names = "; ".join(v.line() for v in short)
     if on_hand and not force:
-        raise CapacityRefused(
-            f"capacity: {names}; raise the current limits or tau_n (lift-capacity), "
-            "leave the object out, or pass --force"
-        )
+        stronger = "" if all(v.no_grasp for v in short) else "raise the current limits or tau_n (lift-capacity), "
+        raise CapacityRefused(f"capacity: {names}; {stronger}leave the object out, or pass --force")
     for v in short:
         say(f"capacity: {v.line()}; its trials will likely fail" + (" (--force)" if on_hand else ""))
     return short

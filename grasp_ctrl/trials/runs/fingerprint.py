@@ -83,11 +83,17 @@ def settings_digests(plan: dict[str, Any]) -> dict[str, str]:
     return out
 
 
-def compute(manifest: Any) -> dict[str, Any]:
-    """The fingerprint of ``manifest`` (a RunManifest) with the files as they are now."""
+def hand_entry(manifest: Any) -> dict[str, Any]:
+    """The fingerprint's entry of the run's hand file as it is now (the default hand file when
+    run.json names none, as a run started through the Python API)."""
     from grasp_ctrl.files.paths import default_hand_file
 
-    files: dict[str, dict[str, Any]] = {"hand": _entry(Path(manifest.hand_file or default_hand_file()))}
+    return _entry(Path(manifest.hand_file or default_hand_file()))
+
+
+def compute(manifest: Any) -> dict[str, Any]:
+    """The fingerprint of ``manifest`` (a RunManifest) with the files as they are now."""
+    files: dict[str, dict[str, Any]] = {"hand": hand_entry(manifest)}
     if manifest.object_file:
         files["object_file"] = _entry(Path(manifest.object_file))
     for spec in manifest.policies:
@@ -123,6 +129,18 @@ def differences(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
     if not out and old.get("sha256") != new.get("sha256"):
         out.append("run.json fingerprint.sha256 does not match its files and settings")
     return out
+
+
+def hand_changes(manifest: Any) -> list[str]:
+    """How the run's hand file differs from the one its trials ran with, in ``--resume``'s words
+    (``hand (PATH) changed``, ``... is gone``); empty when it is the same, or when run.json
+    recorded no hash of it (a run from before the hashes)."""
+    recorded = ((manifest.fingerprint or {}).get("files") or {}).get("hand")
+    if recorded is None and manifest.hand_sha256:
+        recorded = {"path": manifest.hand_file, "sha256": manifest.hand_sha256}
+    if recorded is None:
+        return []
+    return differences({"files": {"hand": recorded}}, {"files": {"hand": hand_entry(manifest)}})
 
 
 def check_resume(manifest: Any, run_file: Path, force: bool) -> bool:

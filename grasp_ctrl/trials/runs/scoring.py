@@ -9,7 +9,7 @@ from typing import Any, TextIO
 
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.files.json_limits import JsonFileError, read_json
-from grasp_ctrl.files.storage import SUMMARY_FILE
+from grasp_ctrl.files.storage import NON_FINITE_KEY, SUMMARY_FILE, finite_json
 from grasp_ctrl.trials.runs.manifest import RunManifest, read_manifest
 from grasp_ctrl.trials.runs.records import LoadedRecords, canonical_order, load_records
 from grasp_ctrl.trials.runs.summary import summarize
@@ -108,4 +108,6 @@ def report_problems(scored: Scored, stream: TextIO | None = None) -> None:
 
 
 def _comparable(summary: dict[str, Any]) -> dict[str, Any]:
-    return {k: v for k, v in summary.items() if k != "run_dir"}
+    # as summary.json holds it: non-finite numbers written as null (files/storage.py)
+    clean, _ = finite_json(summary)
+    return {k: v for k, v in clean.items() if k not in ("run_dir", NON_FINITE_KEY)}

@@ -10,10 +10,12 @@ continues it.
 from __future__ import annotations
 
 import contextlib
+import errno
 import itertools
+import os
 import shutil
 import sys
-from collections.abc import Callable, Generator, Sequence
+from collections.abc import Callable, Generator, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -110,7 +112,8 @@ def parallel_trials(
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for fut in finished:
                 i = running.pop(fut)
-                with worker_deaths_as_errors():
+                log = tasks[i][4]
+                with worker_deaths_as_errors(), naming_file(log and final_name(log), True):
                     rec = fut.result()
                 yield i, rec
                 nxt = next(todo, None)
@@ -140,6 +143,45 @@ def _stop_workers(pool: Any) -> None:
 
 def _warn(msg: str) -> None:
     print(f"warning: {msg}", file=sys.stderr, flush=True)
+
+
+DISK_FULL = frozenset({errno.ENOSPC, errno.EDQUOT})
+
+
+def resume_hint(run_dir: Path, done: int, total: int) -> str:
+    """What a stopped run kept and how to go on (Ctrl-C, a dead worker, a full disk)."""
+    return f"{done} of {total} trials are recorded in {run_dir}; continue with: grasp-ctrl run --resume {run_dir}"
+
+
+def final_name(path: Path) -> Path:
+    """The file a temporary name (``.NAME.PID.RANDOM.tmp``, storage.temp_path) is written for;
+    a temporary file of a temporary file (the tick log's) unwinds to the final name."""
+    while is_temp_file(path) and path.name.count(".") >= 4:
+        path = path.with_name(path.name[1:].rsplit(".", 3)[0])
+    return path
+
+
+@contextlib.contextmanager
+def naming_file(path: Path | None, unnamed_disk_full_only: bool = False) -> Iterator[None]:
+    """An OSError in the block names the file the user knows: a temporary name is gone by the
+    time they read it, and a failed write() names no file at all (then ``path``; with
+    ``unnamed_disk_full_only`` only for a full disk, since a trial's other errors are not
+    about its tick log)."""
+    try:
+        yield
+    except OSError as exc:
+        named = exc.filename if isinstance(exc.filename, (str, os.PathLike)) else None
+        if named is not None and is_temp_file(Path(named)):
+            where: Path | None = final_name(Path(named))
+        elif exc.filename is None and (not unnamed_disk_full_only or exc.errno in DISK_FULL):
+            where = path
+        else:
+            where = None
+        if where is None:
+            raise
+        # a full disk's own words: pyarrow's text wraps them in a paragraph
+        why = os.strerror(exc.errno) if exc.errno in DISK_FULL else (exc.strerror or str(exc))
+        raise OSError(exc.errno, why, str(where)) from exc
 
 
 def run_series(
@@ -236,7 +278,8 @@ def run_series(
                 )
             for tmp in stale_temp_files(run_dir):  # left by a writer that died; we hold the lock
                 tmp.unlink(missing_ok=True)
-            sync_manifest(run_dir, plan, existing)  # new run, or a resume that recorded --force
+            with naming_file(run_dir / RUN_FILE):
+                sync_manifest(run_dir, plan, existing)  # new run, or a resume that recorded --force
             started = True
             return _run_locked(
                 plan,
@@ -258,6 +301,14 @@ def run_series(
         if created and not started:  # a failed start leaves nothing that blocks the retry
             shutil.rmtree(run_dir, ignore_errors=True)
         raise
+
+
+def check_slot(path: Path, what: str) -> None:
+    """A trial's file cannot replace a directory of its name (a symlink or any other file it
+    replaces): refused before the first trial runs, naming the directory, rather than failing on
+    the trial's temporary file once it has run."""
+    if path.is_dir() and not path.is_symlink():
+        raise UsageError(f"{path}: a directory, not a {what}; move it out of the run and resume again")
 
 
 def stale_temp_files(run_dir: Path) -> list[Path]:
@@ -282,20 +333,19 @@ def _run_locked(
     address: str | None = None,
 ) -> dict[str, Any]:
     done: dict[tuple[str, str, int], dict[str, Any]] = {}
+    notes: list[str] = []  # said once every slot is known to be writable
     if resume:
         loaded = load_records(run_dir)
         for path, why in loaded.problems:
-            warn(f"skipping {path}: {why}; that trial will run again")
+            notes.append(f"skipping {path}: {why}; that trial will run again")
         for rec in loaded.records:
             key = (rec["policy"], rec["object"], rec["trial"])
             unplanned = why_unplanned(rec, plan)
             if unplanned is None:
                 done[key] = rec
             else:
-                warn(f"ignoring {record_path(run_dir, *key)}: not a trial of this run ({unplanned})")
+                notes.append(f"ignoring {record_path(run_dir, *key)}: not a trial of this run ({unplanned})")
 
-    reporter = progress if isinstance(progress, Progress) else Progress(plan.total, enabled=bool(progress))
-    reporter.resumed(canonical_order(list(done.values()), list(policies), plan.object_names))
     pending = []
     tick_logs: dict[tuple[str, str, int], tuple[Path, Path]] = {}  # key -> (temporary, final) tick log
     for policy in policies:
@@ -303,18 +353,26 @@ def _run_locked(
             for k in range(trials):
                 if (policy, obj.name, k) not in done:
                     record_path(run_dir, policy, obj.name, k).parent.mkdir(parents=True, exist_ok=True)
+                    check_slot(record_path(run_dir, policy, obj.name, k), "trial record")
                     log = None
                     if plan.tick_logs:
                         final = ticks_path(run_dir, policy, obj.name, k)
+                        check_slot(final, "tick log")
                         log = temp_path(final)  # renamed onto ``final`` just before the record is written
                         tick_logs[(policy, obj.name, k)] = (log, final)
                     pending.append((policy, obj, k, trial_seed(seed, obj.name, k), log))
+    for note in notes:
+        warn(note)
+    reporter = progress if isinstance(progress, Progress) else Progress(plan.total, enabled=bool(progress))
+    reporter.resumed(canonical_order(list(done.values()), list(policies), plan.object_names))
 
     def finish(rec: dict[str, Any]) -> None:
         key = (rec["policy"], rec["object"], rec["trial"])
         if key in tick_logs and tick_logs[key][0].exists():
-            commit_temp(*tick_logs[key])
-        write_json(record_path(run_dir, *key), stamp(rec, plan))
+            with naming_file(tick_logs[key][1]):
+                commit_temp(*tick_logs[key])
+        with naming_file(record_path(run_dir, *key)):
+            write_json(record_path(run_dir, *key), stamp(rec, plan))
         done[key] = rec
         reporter.trial_done(rec)
         if after_trial:
@@ -335,13 +393,12 @@ def _run_locked(
                     for _, rec in results:
                         finish(rec)
             except WorkerError as exc:
-                raise WorkerError(
-                    f"{exc}; {len(done)} of {plan.total} trials are recorded in {run_dir}; "
-                    f"continue with: grasp-ctrl run --resume {run_dir}"
-                ) from None
+                raise WorkerError(f"{exc}; {resume_hint(run_dir, len(done), plan.total)}") from None
         else:
             for args in pending:
-                finish(run_trial(*args))
+                with naming_file(args[4] and final_name(args[4]), True):
+                    rec = run_trial(*args)
+                finish(rec)
     finally:
         set_engine_log_dir(None)
         reporter.close()
@@ -349,5 +406,6 @@ def _run_locked(
             tmp.unlink(missing_ok=True)
     records = canonical_order(list(done.values()), list(policies), plan.object_names)
     summary = summarize(records, str(run_dir), plan.backend, plan.hand, plan.seed)
-    write_json(run_dir / SUMMARY_FILE, summary)
+    with naming_file(run_dir / SUMMARY_FILE):
+        write_json(run_dir / SUMMARY_FILE, summary)
     return summary

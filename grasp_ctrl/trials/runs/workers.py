@@ -13,7 +13,10 @@ took its own would make the interrupt a "worker ended abruptly" error. So the fo
 server starts with both ignored (its workers inherit that), and the command stops
 the workers, the fork server and the resource tracker itself (process_cleanup.py),
 as multiprocessing's resource tracker, which ignores both too, expects. The fork
-server and its workers die with the command if it is killed outright (Linux).
+server and its workers die with the command if it is killed outright (Linux); the
+temporary folders it leaves then (the launcher's, named ``grasp_ctrl_forkserver_PID_*``,
+and multiprocessing's ``pymp-*`` that it notes) are removed by the next command that
+starts workers, once no process PID exists.
 """
 
 from __future__ import annotations
@@ -22,9 +25,11 @@ import atexit
 import contextlib
 import multiprocessing
 import os
+import re
 import shlex
 import shutil
 import signal
+import stat
 import sys
 import tempfile
 import threading
@@ -78,21 +83,99 @@ def _start_forkserver_without_sigint() -> None:
         return
     python = spawn.get_executable()
     python = os.fsdecode(python) if python is not None else sys.executable
-    folder = tempfile.mkdtemp(prefix="grasp_ctrl_forkserver_")
-    # The shell opens the script after the exec returns: it goes when this command exits.
-    atexit.register(shutil.rmtree, folder, True)
+    folder = launcher_folder()
     launcher = os.path.join(folder, "python")
     with open(launcher, "w", encoding="utf-8") as fh:
         fh.write(f"#!{shell}\ntrap '' INT TERM\nexec {shlex.quote(python)} \"$@\"\n")
     os.chmod(launcher, 0o700)
-    if not _runs(launcher):  # a temporary folder mounted noexec, say
-        _ensure_running()
-        return
-    spawn.set_executable(launcher)
+    if _runs(launcher):  # it cannot from a temporary folder mounted noexec, say
+        spawn.set_executable(launcher)
     try:
         _ensure_running()
     finally:
         spawn.set_executable(python)
+    _note_mp_folder(folder)
+
+
+FOLDER_PREFIX = "grasp_ctrl_forkserver_"
+_FOLDER = re.compile(rf"^{FOLDER_PREFIX}(\d+)_")
+MP_NOTE = "pymp"  # in our folder: the path of multiprocessing's own folder (the server's socket)
+
+
+def launcher_folder() -> str:
+    """A new temporary folder for the launcher, named after this process
+    (``grasp_ctrl_forkserver_PID_RANDOM``) so that a later command can tell it is left over: a
+    command killed outright (SIGKILL) runs no atexit. Those left over are removed first."""
+    remove_stale_folders()
+    folder = tempfile.mkdtemp(prefix=f"{FOLDER_PREFIX}{os.getpid()}_")
+    # The shell opens the script after the exec returns: it goes when this command exits.
+    atexit.register(shutil.rmtree, folder, True)
+    return folder
+
+
+def _note_mp_folder(folder: str) -> None:
+    """Note multiprocessing's folder of this process (``pymp-*``, the fork server's socket) in
+    ours: it too stays after a SIGKILL, and its name says nothing of its owner."""
+    from multiprocessing import util
+
+    with contextlib.suppress(OSError):
+        with open(os.path.join(folder, MP_NOTE), "w", encoding="utf-8") as fh:
+            fh.write(util.get_temp_dir())
+
+
+def remove_stale_folders(root: str | None = None) -> list[str]:
+    """Remove the launcher folders (and the ``pymp-*`` folder each notes) of commands whose
+    process is gone; only this user's folders, directly in ``root`` (default: the temporary
+    folder), never through a link. Returns the folders removed."""
+    root = root or tempfile.gettempdir()
+    try:
+        entries = list(os.scandir(root))
+    except OSError:
+        return []
+    removed = []
+    for entry in entries:
+        m = _FOLDER.match(entry.name)
+        if m and _ours(entry.path) and not _alive(int(m.group(1))):
+            noted = _noted_mp_folder(root, entry.path)
+            for path in (noted, entry.path) if noted else (entry.path,):
+                shutil.rmtree(path, ignore_errors=True)
+                removed.append(path)
+    return removed
+
+
+def _ours(path: str) -> bool:
+    """A real folder (not a link) of this user."""
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return False
+    uid = getattr(os, "getuid", lambda: st.st_uid)()
+    return stat.S_ISDIR(st.st_mode) and st.st_uid == uid
+
+
+def _noted_mp_folder(root: str, folder: str) -> str | None:
+    """The ``pymp-*`` folder a stale launcher folder notes, if it is one of ours in ``root``."""
+    try:
+        with open(os.path.join(folder, MP_NOTE), encoding="utf-8") as fh:
+            noted = fh.read(4096).strip()
+    except (OSError, UnicodeDecodeError):
+        return None
+    name = os.path.basename(noted)
+    same_root = os.path.realpath(os.path.dirname(noted)) == os.path.realpath(root)
+    return noted if same_root and name.startswith("pymp-") and _ours(noted) else None
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` exists (a PID 0 or out of range names no process of ours: kept)."""
+    if not 0 < pid < 2**31:
+        return True  # os.kill(0, ...) would mean the process group: not a name we write
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # PermissionError: another user's process
+        return True
+    return True
 
 
 def _ensure_running() -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 from grasp_ctrl.errors import UsageError
@@ -17,7 +18,8 @@ def require_optuna() -> None:
 
 
 def check_storage(url: str) -> None:
-    """``sqlite:///FILE`` (the folder must exist) or another database URL Optuna takes."""
+    """``sqlite:///FILE`` (the folder must exist; an existing FILE empty or an Optuna storage) or
+    another database URL Optuna takes."""
     if "://" not in url:
         raise UsageError(f"--storage {url}: a database URL, e.g. sqlite:///study.db")
     if url.startswith("sqlite:///"):
@@ -29,3 +31,29 @@ def check_storage(url: str) -> None:
             raise UsageError(f"--storage {url}: folder {path.parent} does not exist")
         if path.exists() and not path.is_file():
             raise UsageError(f"--storage {url}: {path} is not a file")
+        if path.is_file():
+            check_sqlite_tables(url, path)
+
+
+# Every Optuna storage has these; Optuna adds its other tables to any database it opens.
+OPTUNA_MARKS = frozenset({"studies", "trials", "version_info"})
+
+
+def check_sqlite_tables(url: str, path: Path) -> None:
+    """An existing SQLite file is used only if it is empty or already an Optuna storage: Optuna
+    would otherwise add its tables to another program's database without a word."""
+    import sqlite3
+
+    try:  # read-only: the check itself writes nothing
+        with contextlib.closing(sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)) as db:
+            tables = sorted(row[0] for row in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'"))
+    except sqlite3.OperationalError:  # locked or unreadable: Optuna says why when it opens it
+        return
+    except sqlite3.DatabaseError:
+        raise UsageError(f"--storage {url}: {path} is not a SQLite database") from None
+    if tables and not OPTUNA_MARKS <= set(tables):
+        other = next((t for t in tables if t not in OPTUNA_MARKS), tables[0])
+        raise UsageError(
+            f"--storage {url}: {path} is another program's database (table {other!r}), not an Optuna "
+            "study's; name a new file"
+        )
