@@ -146,3 +146,32 @@ def test_recording_world_writes_a_video_or_says_why(tmp_path, capsys, hand, obje
         assert "no OpenGL backend" in capsys.readouterr().err
     else:
         assert written.suffix in (".gif", ".mp4") and written.stat().st_size > 0
+
+
+def test_the_main_job_figures_time_the_main_job_s_trial_and_its_mujoco_steps(monkeypatch):
+    """The main job's trial (grip_load, the default policy, bench), whole and its mj_step calls
+    alone, from the same trials: MuJoCo's steps are part of the trial, so they run faster alone."""
+    import numpy as np
+
+    from grasp_ctrl.bench import fig_main_job
+    from grasp_ctrl.trials.episode import runner
+
+    seen = []
+    real_fn = runner.sim_trial_fn
+
+    def one_object(path, names, hand):
+        return [o for o in real_select(path, names, hand=hand) if o.name == "lego"]
+
+    def recording_fn(*args, **kwargs):
+        seen.append(kwargs)
+        return real_fn(*args, **kwargs)
+
+    real_select = fig_main_job.select_objects
+    monkeypatch.setattr(fig_main_job, "select_objects", one_object)
+    monkeypatch.setattr(fig_main_job, "sim_trial_fn", recording_fn)
+    samples = fig_main_job._main_job_trials.__wrapped__(True)
+    assert len(samples) == 1
+    whole, engine = samples[0]
+    assert np.isfinite(whole) and np.isfinite(engine) and 0.0 < whole < engine
+    assert seen[0]["backend"] == "mujoco" and seen[0]["variation"].name == "bench"
+    assert "main_job_realtime_factor" in all_figures() and "main_job_mujoco_step_realtime_factor" in all_figures()

@@ -54,7 +54,7 @@ def _trial(seed: int, mujoco_module: Any = None) -> SimTrial:
     )
 
 
-class _TimedSteps:
+class TimedSteps:
     """The mujoco module, with ``mj_step``'s wall time summed (``spent``, s)."""
 
     def __init__(self, mj: Any) -> None:
@@ -76,7 +76,7 @@ def _timed_trial(sim_s: float, seed: int) -> tuple[float, float]:
     within them; the controller's own time is not counted."""
     import mujoco
 
-    timed = _TimedSteps(mujoco)
+    timed = TimedSteps(mujoco)
     return _run(_trial(seed, timed), sim_s), timed.spent
 
 

@@ -34,9 +34,10 @@ def run(args: argparse.Namespace) -> int:
     out = check_json(args.json)
     results = run_figures(only, quick=args.quick, progress=not args.quiet)
     print(f"machine: {machine_description()}")
-    print(f"{'figure':32s} {'median':>12s} {'p99':>12s}  unit")
+    width = max([32, *map(len, results)])
+    print(f"{'figure':{width}s} {'median':>12s} {'p99':>12s}  unit")
     for name, fig in results.items():
-        print(f"{name:32s} {fig.median:12.4g} {fig.p99:12.4g}  {fig.unit}")
+        print(f"{name:{width}s} {fig.median:12.4g} {fig.p99:12.4g}  {fig.unit}")
     if out is not None:
         doc = {
             "machine": machine_description(),
