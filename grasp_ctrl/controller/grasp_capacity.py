@@ -26,10 +26,10 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import CapProfile, ObjectProfile
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
+from grasp_ctrl.numeric.gravity import GRAVITY_M_S2
 
 #: Radius of the pad's contact patch for torsional friction (the MuJoCo scene's).
 TORSION_RADIUS_M = 0.003
-GRAVITY_M_S2 = 9.81
 _FACETS = 8  # sides of the friction pyramid (inscribed in the cone)
 
 

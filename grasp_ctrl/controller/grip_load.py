@@ -53,8 +53,7 @@ from grasp_ctrl.controller.machine import STATES, TRANSITIONS, GraspController
 from grasp_ctrl.controller.motion import FingertipMotion
 from grasp_ctrl.controller.ramp_settle import TrendRampSettle
 from grasp_ctrl.controller.snapshot import Snapshot
-
-GRAVITY_M_S2 = 9.81
+from grasp_ctrl.numeric.gravity import GRAVITY_M_S2
 
 LOAD_STATES = [
     *STATES[: STATES.index("reach") + 1],

@@ -20,8 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from grasp_ctrl.config.objects import GRIP_TARGET_MODES  # noqa: F401  (the modes, named with the profiles)
-
-GRAVITY_M_S2 = 9.81
+from grasp_ctrl.numeric.gravity import GRAVITY_M_S2
 
 
 def grip_targets(

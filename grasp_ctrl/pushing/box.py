@@ -6,8 +6,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from grasp_ctrl.config.toml_reader import Table, read_toml
-
-STANDARD_GRAVITY = 9.81
+from grasp_ctrl.numeric.gravity import GRAVITY_M_S2
 
 
 @dataclass(frozen=True)
@@ -16,7 +15,7 @@ class PushedBox:
     size_m: tuple[float, float]  # footprint (lx along the object x axis, ly)
     mu: float  # object-support friction coefficient
     izz_kgm2: float | None = None  # about the vertical axis through the centre of mass
-    gravity: float = STANDARD_GRAVITY
+    gravity: float = GRAVITY_M_S2
 
     @property
     def inertia(self) -> float:
@@ -40,5 +39,5 @@ def load_box(path: str | Path) -> PushedBox:
         size_m=(size[0], size[1]),
         mu=t.float("mu", lo=0.0, hi=10.0, lo_open=True),  # no friction: no force to estimate
         izz_kgm2=izz,
-        gravity=t.float("gravity", STANDARD_GRAVITY, lo=0.0, hi=100.0, lo_open=True),
+        gravity=t.float("gravity", GRAVITY_M_S2, lo=0.0, hi=100.0, lo_open=True),
     )

@@ -1,4 +1,4 @@
-"""What every simulated world shares: gravity, world events, the wrist target's check and
+"""What every simulated world shares: world events, the wrist target's check and
 the read-only views of arrays a world's step updates in place.
 
 Both worlds (sim/mock/world.py, sim/mujoco/world.py) import these; neither imports the other.
@@ -15,7 +15,6 @@ from grasp_ctrl.numeric import jit
 from grasp_ctrl.numeric.finite import all_finite
 from grasp_ctrl.numeric.jit import njit
 
-GRAVITY = 9.81  # m/s^2
 NOISE_BLOCK = 128  # sensor noise is drawn for this many steps at a time
 _FLOAT64 = np.dtype(np.float64)
 

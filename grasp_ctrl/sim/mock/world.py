@@ -43,13 +43,14 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.multilinear import MultilinearKinematics, contract
 from grasp_ctrl.numeric import jit
+from grasp_ctrl.numeric.gravity import GRAVITY_M_S2
 from grasp_ctrl.numeric.jit import njit
 from grasp_ctrl.numeric.limits import clamp
 from grasp_ctrl.sim.biotac.model import BioTacParams, BioTacSensorModel
 from grasp_ctrl.sim.mock import world_step as ws
 from grasp_ctrl.sim.mock.shapes import shape_params
 from grasp_ctrl.sim.variation import NOMINAL, Variation, draw_object, draw_record
-from grasp_ctrl.sim.world_parts import GRAVITY, NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
+from grasp_ctrl.sim.world_parts import NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
 
 NEAR_M = 0.01  # fingertips further than this from the object cannot touch it this step
 _FLOAT64 = np.dtype(np.float64)
@@ -290,7 +291,7 @@ class MockWorld:
         self.k_contact = obj.stiffness_n_per_m * (1.0 + drawn.stiffness_frac)
         #: The trial's actual draws (the record's ``variation_draw``); no yaw, no joint offsets here.
         self.draw = draw_record(drawn, 0.0, np.zeros(len(hand.joints)))
-        self._weight = self.mass * GRAVITY
+        self._weight = self.mass * GRAVITY_M_S2
         self._obj = np.array([xy[0], xy[1], 0.0, self._weight, 0.0, 0.0])
         # The highest object height, the height before the last step, and the levels past
         # which a step's grip or table force may be an event (_record; read by step_packed).

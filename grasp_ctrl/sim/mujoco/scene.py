@@ -40,6 +40,7 @@ from grasp_ctrl.config.hand import CollisionBox, FingerConfig, HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M
 from grasp_ctrl.kinematics.transforms import rpy_matrix
+from grasp_ctrl.numeric.gravity import GRAVITY_M_S2
 
 
 @dataclass(frozen=True)
@@ -215,7 +216,7 @@ def option_xml(p: SceneParams) -> str:
     """MuJoCo's solver options of the scene (also the friction test's, tests/test_mujoco_friction.py)."""
     return (
         f'<option timestep="{p.timestep_s}" integrator="implicitfast" cone="elliptic" '
-        f'impratio="{p.impratio:g}" noslip_iterations="{p.noslip_iterations}" gravity="0 0 -9.81"/>'
+        f'impratio="{p.impratio:g}" noslip_iterations="{p.noslip_iterations}" gravity="0 0 -{GRAVITY_M_S2:g}"/>'
     )
 
 

@@ -30,6 +30,7 @@ import numpy as np
 from grasp_ctrl.config.actuation import torque_limits_nm
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.numeric.gravity import GRAVITY_M_S2
 from grasp_ctrl.sim.biotac.model import (
     GEOM_OBJECT,
     NEW_CONTACT,
@@ -45,7 +46,7 @@ from grasp_ctrl.sim.biotac.model import (
 )
 from grasp_ctrl.sim.mujoco.scene import PlacedObject, SceneParams, build_scene, with_servo_facts
 from grasp_ctrl.sim.variation import NOMINAL, Variation, draw_extra, draw_object, draw_record, max_rotated_half_extents
-from grasp_ctrl.sim.world_parts import GRAVITY, NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
+from grasp_ctrl.sim.world_parts import NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
 
 FALL_SPEED_M_S = 0.1  # landing on the table faster than this is a drop (placing is slower)
 AIRBORNE_M = 0.002  # above this the object has left the table
@@ -112,7 +113,7 @@ class MuJoCoWorld:
         self.mass = obj.mass_kg * (1.0 + drawn.mass_frac)
         self.mu = obj.mu * (1.0 + drawn.friction_frac)
         self.k_contact = obj.stiffness_n_per_m * (1.0 + drawn.stiffness_frac)
-        self._weight = self.mass * GRAVITY
+        self._weight = self.mass * GRAVITY_M_S2
         self.yaw_rad, self.joint_offset_rad = draw_extra(seed, v, len(hand.joints))
         #: The trial's actual draws (the record's ``variation_draw``); the controller never sees them.
         self.draw = draw_record(drawn, self.yaw_rad, self.joint_offset_rad)
