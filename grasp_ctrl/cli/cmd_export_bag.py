@@ -26,6 +26,8 @@ ORDER = 6
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    from grasp_ctrl.cli._common_options import add_hand_file
+
     p.add_argument(
         "source",
         metavar="TRIAL",
@@ -37,9 +39,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="OUT.mcap",
         help="the bag (an .mcap file, or - for standard output); for a run directory, a folder",
     )
-    p.add_argument(
-        "--hand",
-        metavar="FILE",
+    add_hand_file(
+        p,
+        resolved=False,
         help="the trials' hand file (default: the one in the run's run.json, when its SHA-256 is still the "
         "one run.json recorded)",
     )

@@ -18,17 +18,13 @@ ORDER = 78
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from grasp_ctrl.files.paths import default_hand_file, default_objects_file
+    from grasp_ctrl.cli._common_options import add_hand_file, add_object_file, add_object_list
     from grasp_ctrl.sim.biotac.grasp_contacts import DEFAULT_EVERY, DEFAULT_SEED
 
     p.add_argument("--out", required=True, metavar="FILE.csv", help="contacts CSV to write")
-    p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE", help="hand config TOML")
-    p.add_argument("--objects-file", default=str(default_objects_file()), metavar="FILE", help="object profiles TOML")
-    p.add_argument(
-        "--objects",
-        metavar="a,b|all",
-        help="objects to grasp, comma-separated, or all (default: the file's default_set)",
-    )
+    add_hand_file(p)
+    add_object_file(p)
+    add_object_list(p, help="objects to grasp, separated by commas, or all (default: the object file's default_set)")
     p.add_argument("--trials", type=int, default=5, help="oracle trials per object (default 5)")
     p.add_argument("--seed", type=int, default=DEFAULT_SEED, help=f"base seed of the trials (default {DEFAULT_SEED})")
     p.add_argument(
@@ -54,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
     assert out is not None
     check_new_file(out, "--out", args.force)
     hand = load_hand(args.hand)
-    objects = select_objects(args.objects_file, args.objects, hand=hand.name)
+    objects = select_objects(args.object_file, args.objects, hand=hand.name)
     gc = record_grasp_contacts(
         hand,
         objects,

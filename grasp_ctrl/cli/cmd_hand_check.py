@@ -21,9 +21,9 @@ ORDER = 40
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from grasp_ctrl.files.paths import default_hand_file
+    from grasp_ctrl.cli._common_options import add_hand_file
 
-    p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE", help="hand config TOML")
+    add_hand_file(p)
     p.add_argument(
         "--port", default=None, metavar="PORT", help="serial port (default: [dynamixel] port of the hand file)"
     )

@@ -33,11 +33,13 @@ ORDER = 45
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from grasp_ctrl.files.paths import default_hand_file, default_objects_file
+    from grasp_ctrl.cli._common_options import add_hand_file, add_object_file, add_object_list
 
-    p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE", help="hand config TOML")
-    p.add_argument("--objects-file", default=str(default_objects_file()), metavar="FILE", help="object profiles TOML")
-    p.add_argument("--objects", nargs="+", metavar="NAME", help="objects to check (default: the file's default_set)")
+    add_hand_file(p)
+    add_object_file(p)
+    add_object_list(
+        p, words=True, help="objects to check, separated by commas, or all (default: the object file's default_set)"
+    )
     p.add_argument(
         "--min-margin",
         type=float,
@@ -64,20 +66,16 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.config.actuation import describe
     from grasp_ctrl.config.checks import lift_above_arm
     from grasp_ctrl.config.hand import load_hand
-    from grasp_ctrl.config.objects import default_set, load_objects
     from grasp_ctrl.controller.grasp_capacity import GRAVITY_M_S2, object_capacity
     from grasp_ctrl.errors import UsageError
     from grasp_ctrl.sim.variation import DEFAULT_VARIATION, NOMINAL, variation
+    from grasp_ctrl.trials.runs.selection import select_objects
 
     v = variation(args.variation or DEFAULT_VARIATION)
     if not args.min_margin > 0.0:
         raise UsageError(f"--min-margin: expected a positive number, got {args.min_margin}")
     hand = load_hand(args.hand)
-    profiles = load_objects(args.objects_file, hand.name)
-    names = args.objects or default_set(args.objects_file)
-    unknown = [n for n in names if n not in profiles]
-    if unknown:
-        raise UsageError(f"--objects: unknown object(s) {', '.join(unknown)} (known: {', '.join(profiles)})")
+    selected = select_objects(args.object_file, args.objects, hand=hand.name)
     print(f"lift-capacity: {hand.name}, {describe(hand)}")
     if v == NOMINAL:
         print(f"  variation {v.name}: each object at the object file's mass and friction")
@@ -91,13 +89,14 @@ def run(args: argparse.Namespace) -> int:
     )
     short: list[str] = []
     unable: list[str] = []
-    for name in names:
-        obj = worst_corner(profiles[name], v)
+    for profile in selected:
+        name = profile.name
+        obj = worst_corner(profile, v)
         weight = obj.mass_kg * GRAVITY_M_S2
         above = lift_above_arm(obj, hand)
         if above is not None:  # the trials could not lift it whatever the statics say
             print(
-                f"  {name:16s} {weight:8.2f} {'-':>10s} {'-':>6s}  no lift: {args.objects_file}: objects.{name}.lift_height_m: {above}"
+                f"  {name:16s} {weight:8.2f} {'-':>10s} {'-':>6s}  no lift: {args.object_file}: objects.{name}.lift_height_m: {above}"
             )
             unable.append(name)
             continue

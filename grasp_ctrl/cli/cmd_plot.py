@@ -24,6 +24,8 @@ ORDER = 4
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    from grasp_ctrl.cli._common_options import add_hand_file
+
     p.add_argument("trial", metavar="TRIAL", help="trial_NNN.json or trial_NNN_ticks.parquet")
     p.add_argument(
         "--out",
@@ -60,12 +62,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "estimated and true force arrows, controller states, grips/tau/release series; "
         "the PNG is then written only with --out",
     )
-    p.add_argument(
-        "--hand",
-        default=None,
-        metavar="FILE",
-        help="replay: the trial's hand file (default: the one in the run's run.json)",
-    )
+    add_hand_file(p, resolved=False, help="replay: the trial's hand file (default: the one in the run's run.json)")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -16,18 +16,22 @@ ORDER = 60
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    from grasp_ctrl.cli._common_options import hidden_alias
+
     p.add_argument(
         "--trajectory",
         required=True,
         metavar="PUSH.csv",
         help="columns t, x, y, theta, contact_x, contact_y, in_contact (SI units)",
     )
-    p.add_argument(
-        "--object",
-        required=True,
-        metavar="OBJECT.toml",
-        help="mass_kg, size_m = [lx, ly], mu; optional izz_kgm2, gravity",
+    boxes = p.add_mutually_exclusive_group(required=True)  # --box-file, or its older name --object
+    boxes.add_argument(
+        "--box-file",
+        metavar="BOX.toml",
+        help="the pushed box: mass_kg, size_m = [lx, ly], mu; optional izz_kgm2, gravity",
     )
+    # --object names an object of the object file in tune and view; here it was this file
+    hidden_alias(boxes, "box_file", "--object", metavar="BOX.toml")
     p.add_argument(
         "--out", required=True, metavar="FORCES.csv", help="output: t, fx_world, fy_world, fx_object, fy_object, moving"
     )
@@ -61,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--k: a positive number (got {args.k})")
     if not args.window_s > 0 or not args.speed_threshold >= 0:
         raise UsageError("--window-s must be > 0 and --speed-threshold >= 0")
-    box = load_box(args.object)
+    box = load_box(args.box_file)
     check_output(args.out, "--out", formats=("csv",))
     cols = read_push_csv(args.trajectory, skip_bad_rows=args.skip_bad_rows)
     try:

@@ -59,28 +59,36 @@ PLAN_FLAGS = (
 )
 
 
+class _ForceBoth(argparse.Action):
+    """``--force``, run's flag before --force-resume and --force-capacity: both."""
+
+    def __call__(self, parser: Any, namespace: Any, values: Any, option_string: str | None = None) -> None:
+        namespace.force_resume = namespace.force_capacity = True
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    from grasp_ctrl.cli._common_options import (
+        add_controller,
+        add_hand_file,
+        add_jobs_options,
+        add_object_file,
+        add_object_list,
+        hidden_alias,
+    )
     from grasp_ctrl.estimators.registry import DEFAULT_POLICY
     from grasp_ctrl.trials.runs.presets import PRESETS
 
     presets = "; ".join(f"{k}: {v.description} ({', '.join(v.policies)})" for k, v in PRESETS.items())
-    p.add_argument(
-        "--hand",
-        default=None,
-        metavar="FILE",
+    add_hand_file(
+        p,
+        resolved=False,
         help="hand config TOML (default: hand_configs/leap_hand.toml; the paper preset: hand_configs/allegro_hand.toml)",
     )
-    p.add_argument(
-        "--object-file", default=None, metavar="FILE", help="object profiles TOML (default: hand_configs/objects.toml)"
-    )
-    from grasp_ctrl.controller.settings import CONTROLLER_NAMES, DEFAULT_CONTROLLER
-
-    p.add_argument(
-        "--controller",
-        default=None,
-        metavar="NAME",
-        help=f"the lift-and-place controller, one of {', '.join(CONTROLLER_NAMES)} (default: {DEFAULT_CONTROLLER}; "
-        "the paper preset: paper). paper: the paper's fixed grasp, ramp and lift; grip_load: a load phase "
+    add_object_file(p, resolved=False)
+    add_controller(
+        p,
+        default_note="the paper preset: paper",
+        more="paper: the paper's fixed grasp, ramp and lift; grip_load: a load phase "
         "and a slip response from the force vectors (docs/controller.md)",
     )
     p.add_argument(
@@ -118,9 +126,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="answer the pre-flight confirmation (arm at its start pose) with yes, for scripted runs",
     )
-    p.add_argument(
-        "--objects", default=None, metavar="a,b|all", help="objects to run (default: the object file's default_set)"
-    )
+    add_object_list(p, help="objects to run, separated by commas, or all (default: the object file's default_set)")
     p.add_argument(
         "--policy",
         nargs="+",
@@ -132,7 +138,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--trials", type=int, default=None, metavar="N", help="trials per object and policy (default 5)")
     p.add_argument("--seed", type=int, default=None, metavar="S", help="base random seed (default 0)")
     p.add_argument(
-        "--preset", default=None, metavar="NAME", help=f"a named protocol; flags given beside it override it. {presets}"
+        "--preset",
+        default=None,
+        choices=tuple(PRESETS),
+        help=f"a named protocol; flags given beside it override it. {presets}",
     )
     p.add_argument(
         "--out", default=None, metavar="DIR", help="run directory for logs (default: runs/<date>-<time>-seed<S>)"
@@ -145,37 +154,30 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--json", default=None, metavar="FILE", help="also write the run summary JSON here")
     p.add_argument(
-        "--force",
+        "--force-resume",
         action="store_true",
         help="with --resume: continue although a policy, hand or object file or run.json's settings "
-        "changed since the run started (recorded in run.json); on a Dynamixel hand (real or "
-        "--emulate): run objects the grasp cannot carry at the configured currents and tau "
-        "(the capacity preflight refuses them otherwise)",
+        "changed since the run started (recorded in run.json)",
     )
+    p.add_argument(
+        "--force-capacity",
+        action="store_true",
+        help="on a Dynamixel hand (real or --emulate): run objects the grasp cannot carry at the "
+        "configured currents and tau (the capacity preflight refuses them otherwise)",
+    )
+    # the older --force: both at once, as before the split
+    hidden_alias(p, "force_resume", "--force", nargs=0, action=_ForceBoth)
     p.add_argument(
         "--threads", type=int, default=1, metavar="N", help="inference threads per policy, 1 to 1024 (default 1)"
     )
-    p.add_argument(
-        "--jobs",
-        type=int,
-        default=None,
-        metavar="N",
-        help="simulated trials (mujoco, mock) run in N processes at once (default: one per CPU core, at most "
+    add_jobs_options(
+        p,
+        jobs_default=None,
+        jobs_help="simulated trials (mujoco, mock) run in N processes at once (default: one per CPU core, at most "
         f"{MAX_AUTO_JOBS}, for runs of {MIN_TRIALS_PER_JOB * 2}+ trials; else 1); "
         "results do not depend on it",
-    )
-    p.add_argument(
-        "--executor",
-        choices=("local", "ray"),
-        default="local",
-        help="local: trials in this machine's processes (default); ray: as tasks on Ray (the ray "
+        executor_help="local: trials in this machine's processes (default); ray: as tasks on Ray (the ray "
         "extra), a local instance of --jobs CPUs or the cluster at --address",
-    )
-    p.add_argument(
-        "--address",
-        default=None,
-        metavar="ADDR",
-        help="with --executor ray: a running Ray cluster (e.g. 10.0.0.5:6379 or 'auto')",
     )
     p.add_argument(
         "--record-video",
@@ -315,7 +317,7 @@ def _resumed(args: argparse.Namespace, run_dir: Path) -> tuple[Any, Any]:
             f"--resume: {hand_file} describes hand {hand.name!r}, the run used {manifest.hand!r} "
             f"({run_dir}/run.json: hand)"
         )
-    check_resume(manifest, run_dir / "run.json", args.force)  # no mixed experiments (trials/runs/fingerprint.py)
+    check_resume(manifest, run_dir / "run.json", args.force_resume)  # no mixed experiments (trials/runs/fingerprint.py)
     return hand, manifest
 
 
@@ -439,7 +441,7 @@ def run(args: argparse.Namespace) -> int:
         list(manifest.objects),
         manifest.settings,
         on_hand=entry.on_hand,
-        force=args.force,
+        force=args.force_capacity,
         say=lambda text: print(text, file=sys.stderr, flush=True),
         source=str(run_dir / "run.json") if args.resume else str(manifest.object_file),
     )

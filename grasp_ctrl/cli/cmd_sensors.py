@@ -24,7 +24,9 @@ ORDER = 40
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--hand", metavar="FILE", help="hand config TOML (default: hand_configs/leap_hand.toml)")
+    from grasp_ctrl.cli._common_options import add_hand_file
+
+    add_hand_file(p, resolved=False)
     p.add_argument("--port", metavar="PORT", help="read every fingertip from this one port (overrides the hand file)")
     p.add_argument("--mode", choices=("binary", "text"), help="protocol mode (default: the hand file's)")
     p.add_argument("--baud", type=int, metavar="N", help="baud rate (default: the hand file's)")

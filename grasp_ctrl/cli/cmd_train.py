@@ -24,6 +24,8 @@ ARCH_CHOICES = ("voxel", "novoxel", "su", "voxel-dropout", "analytic")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    from grasp_ctrl.cli._common_options import add_jobs_options
+
     add_data_arguments(p)
     p.add_argument("--sources", default="mixed", help="mixed, or a comma list of rigid-ft, ball-ft, planar-pushing")
     p.add_argument("--arch", choices=ARCH_CHOICES, default="voxel")
@@ -48,19 +50,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "ablations without alpha and without voxels)",
     )
     p.add_argument("--out-dir", metavar="DIR", default="runs/fig3", help="experiment output folder")
-    p.add_argument(
-        "--executor",
-        choices=("local", "ray"),
-        default="local",
-        help="with --experiment: ray trains the models as Ray tasks (the ray extra; --threads CPUs each)",
-    )
-    p.add_argument("--address", default=None, metavar="ADDR", help="with --executor ray: a running Ray cluster")
-    p.add_argument(
-        "--jobs",
-        type=int,
-        default=None,
-        metavar="N",
-        help="with --executor ray and no --address: CPUs of the local Ray instance (default: all)",
+    add_jobs_options(
+        p,
+        jobs_default=None,
+        jobs_help="with --executor ray and no --address: CPUs of the local Ray instance (default: all)",
+        executor_help="with --experiment: ray trains the models as Ray tasks (the ray extra; --threads CPUs each)",
     )
     p.add_argument(
         "--quiet",

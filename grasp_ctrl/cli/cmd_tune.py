@@ -31,17 +31,23 @@ ORDER = 5
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    from grasp_ctrl.cli._common_options import (
+        add_controller,
+        add_hand_file,
+        add_jobs_options,
+        add_object_file,
+        add_object_list,
+    )
     from grasp_ctrl.config.objects import TUNABLE
     from grasp_ctrl.estimators.registry import DEFAULT_POLICY
-    from grasp_ctrl.files.paths import default_hand_file, default_objects_file
     from grasp_ctrl.trials.tuning.study_defaults import DEFAULT_BUDGET
 
     which = p.add_mutually_exclusive_group(required=True)
     which.add_argument("--object", metavar="NAME", help="the object to tune")
-    which.add_argument(
-        "--objects",
-        metavar="a,b|all",
-        help="tune each of these objects (its own study); --write puts every best setting into the one object file",
+    add_object_list(
+        which,
+        help="tune each of these objects, separated by commas, or all (its own study each); --write puts "
+        "every best setting into the one object file",
     )
     p.add_argument(
         "--param",
@@ -72,14 +78,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--policy", default=DEFAULT_POLICY, metavar="NAME|PATH", help=f"force estimator (default {DEFAULT_POLICY})"
     )
-    from grasp_ctrl.controller.settings import CONTROLLER_NAMES, DEFAULT_CONTROLLER
-
-    p.add_argument(
-        "--controller",
-        default=None,
-        metavar="NAME",
-        help=f"the lift-and-place controller, one of {', '.join(CONTROLLER_NAMES)} (default: {DEFAULT_CONTROLLER})",
-    )
+    add_controller(p)
     from grasp_ctrl.trials.tuning.tune import RANKS
 
     p.add_argument(
@@ -92,8 +91,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--seed", type=int, default=0, metavar="S", help="base random seed of the trials and sampler (default 0)"
     )
-    p.add_argument("--hand", default=str(default_hand_file()), metavar="FILE", help="hand config TOML")
-    p.add_argument("--object-file", default=str(default_objects_file()), metavar="FILE", help="object profiles TOML")
+    add_hand_file(p)
+    add_object_file(p)
     p.add_argument(
         "--backend",
         choices=BACKEND_FLAGS,
@@ -132,20 +131,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help="write the study's history and parameter importances as PNG (the plot extra)",
     )
-    p.add_argument(
-        "--jobs",
-        type=int,
-        default=1,
-        metavar="N",
-        help="settings run in N processes at once (default 1; with --executor ray: the local instance's CPUs)",
+    add_jobs_options(
+        p,
+        jobs_default=1,
+        jobs_help="settings run in N processes at once (with --executor ray: the local instance's CPUs). "
+        "Default 1, not one per core as in run: with TPE the settings a study tries depend on N and the "
+        "order results arrive, so a core-count default would search differently on another machine "
+        "(N > 1 is safe: only this process writes the study and --storage; a grid's results do not "
+        "depend on N)",
+        executor_help="local: settings in this machine's processes (default); ray: the trials as Ray "
+        "tasks (the ray extra), on a local instance or --address",
     )
-    p.add_argument(
-        "--executor",
-        choices=("local", "ray"),
-        default="local",
-        help="ray: the trials as Ray tasks (the ray extra), on a local instance or --address",
-    )
-    p.add_argument("--address", default=None, metavar="ADDR", help="with --executor ray: a running Ray cluster")
     p.add_argument("--quiet", action="store_true", help="no progress line (shown only on a terminal anyway)")
 
 

@@ -20,18 +20,15 @@ ORDER = 40
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    from grasp_ctrl.cli._common_options import add_hand_file, add_object_file
     from grasp_ctrl.rigs.registry import REFERENCE_WORLD
 
     p.add_argument(
         "--backend", choices=(REFERENCE_WORLD,), default=REFERENCE_WORLD, help="the world to show (only mujoco)"
     )
     p.add_argument("--object", required=True, metavar="NAME", help="an object of the object file")
-    p.add_argument(
-        "--hand", default=None, metavar="FILE", help="hand config TOML (default: hand_configs/leap_hand.toml)"
-    )
-    p.add_argument(
-        "--object-file", default=None, metavar="FILE", help="object profiles TOML (default: hand_configs/objects.toml)"
-    )
+    add_hand_file(p, resolved=False)
+    add_object_file(p, resolved=False)
     p.add_argument("--seed", type=int, default=0, metavar="S", help="draws the placement jitter (default 0)")
     p.add_argument("--save-xml", default=None, metavar="FILE", help="write the scene's MJCF here (no display needed)")
 

@@ -122,13 +122,15 @@ def variation_from_json(doc: Any, where: str) -> Variation:
 
 
 def add_variation_argument(p: Any) -> None:
-    """``--variation NAME`` on a command's parser (checked by ``variation``, one line when unknown)."""
+    """``--variation NAME`` on a command's parser, one of the profiles (argparse refuses another name
+    in its one-line error; ``variation`` checks names from elsewhere, run.json say)."""
     text = (
         f"how much the simulated world varies per trial, one of {', '.join(sorted(VARIATIONS))} "
         f"(default {DEFAULT_VARIATION}). bench: {BENCH.ranges()}; nominal: {NOMINAL.ranges()} "
         "(docs/mujoco.md, 'Variation profiles')"
     )
-    p.add_argument("--variation", default=None, metavar="NAME", help=text.replace("%", "%%"))  # argparse's % format
+    help_text = text.replace("%", "%%")  # argparse's % format
+    p.add_argument("--variation", default=None, choices=sorted(VARIATIONS), help=help_text)
 
 
 # ----- the draws ---------------------------------------------------------------

@@ -5,7 +5,7 @@ every joint within its current limit x the servo model's torque per amp), with e
 most its grip target (the object's ``tau_n`` through the controller's grip-target rule): the
 largest weight that grasp carries, over the object's weight. Below 1 the object cannot be
 lifted whatever the estimator; ``run`` names such objects (ratio and what binds), refuses them
-on a Dynamixel hand (real or emulated) unless ``--force``, and flags them in a simulated run's
+on a Dynamixel hand (real or emulated) unless ``--force-capacity``, and flags them in a simulated run's
 summary.
 """
 
@@ -116,7 +116,7 @@ def check_objects(
 
 
 class CapacityRefused(GraspCtrlError):
-    """A Dynamixel hand was asked to lift an object its grasp cannot carry (without --force)."""
+    """A Dynamixel hand was asked to lift an object its grasp cannot carry (without --force-capacity)."""
 
     exit_status = 2
 
@@ -140,7 +140,7 @@ def preflight_capacity(
     names = "; ".join(v.line() for v in short)
     if on_hand and not force:
         stronger = "" if all(v.no_grasp for v in short) else "raise the current limits or tau_n (lift-capacity), "
-        raise CapacityRefused(f"capacity: {names}; {stronger}leave the object out, or pass --force")
+        raise CapacityRefused(f"capacity: {names}; {stronger}leave the object out, or pass --force-capacity")
     for v in short:
-        say(f"capacity: {v.line()}; its trials will likely fail" + (" (--force)" if on_hand else ""))
+        say(f"capacity: {v.line()}; its trials will likely fail" + (" (--force-capacity)" if on_hand else ""))
     return short

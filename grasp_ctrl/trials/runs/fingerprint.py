@@ -11,7 +11,7 @@
 
 Every trial record carries the ``sha256`` it ran with. ``run --resume`` computes
 the fingerprint again from the files on disk and ``run.json``'s plan and refuses
-to mix experiments when anything differs, naming what (``--force`` accepts it and
+to mix experiments when anything differs, naming what (``--force-resume`` accepts it and
 is recorded in ``run.json`` under ``forced``).
 """
 
@@ -147,7 +147,7 @@ def check_resume(manifest: Any, run_file: Path, force: bool) -> bool:
     """Refuse to resume a run whose trials would differ from its first ones.
 
     Returns True when ``manifest`` was changed (a fingerprint added to a run that had
-    none, or ``--force`` recorded) and run.json must be written again."""
+    none, or ``--force-resume`` recorded) and run.json must be written again."""
     now = compute(manifest)
     old = manifest.fingerprint
     if old is None:  # a run from before fingerprints (or one whose was deleted): its records tell
@@ -156,7 +156,7 @@ def check_resume(manifest: Any, run_file: Path, force: bool) -> bool:
             raise UsageError(
                 f"--resume: {run_file} has no fingerprint and {len(others)} fingerprint(s) of its "
                 "records differ from its files now (a policy, hand or object file or a setting "
-                "changed); start a new run, or add --force to continue anyway (recorded in run.json)"
+                "changed); start a new run, or add --force-resume to continue anyway (recorded in run.json)"
             )
         if others:
             manifest.forced.append(
@@ -175,7 +175,7 @@ def check_resume(manifest: Any, run_file: Path, force: bool) -> bool:
     if not force:
         raise UsageError(
             f"--resume: {'; '.join(changed)} since the run started ({run_file}); the rest of the run "
-            "would mix two experiments. Start a new run, or add --force to continue anyway "
+            "would mix two experiments. Start a new run, or add --force-resume to continue anyway "
             "(recorded in run.json)"
         )
     manifest.forced.append(
@@ -202,7 +202,7 @@ def stamp(record: dict[str, Any], manifest: Any) -> dict[str, Any]:
 
 def sync_manifest(run_dir: Path, plan: Any, existing: Any) -> None:
     """Write run.json for a new run (with its fingerprint), or again when a resume changed it
-    (``--force`` recorded, or a fingerprint added to an older run). A resume through the
+    (``--force-resume`` recorded, or a fingerprint added to an older run). A resume through the
     Python API without a manifest takes the run's own fingerprint."""
     if existing is None:
         _write_with_fingerprint(run_dir, plan)
