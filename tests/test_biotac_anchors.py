@@ -29,15 +29,23 @@ from grasp_ctrl.evaluation.biotac_anchors import (
     PAD_SCAN_X_M,
     anchor_report,
     pad_press_ratios,
+    real_anchors,
 )
 from grasp_ctrl.evaluation.tilt_profile import TILT_BINS_DEG
 
 
 @pytest.fixture(scope="module")
-def report():
+def real():
+    """The real-data side (trials A and B read by the network), the same for both reports below:
+    computed once (about 8 s)."""
     if not SHARED_DATA.is_dir():
         pytest.skip("../shared/data is not present beside the checkout")
-    return anchor_report(REAL_CSV, n_per_source=20000, seed=7)
+    return real_anchors(REAL_CSV)
+
+
+@pytest.fixture(scope="module")
+def report(real):
+    return anchor_report(REAL_CSV, n_per_source=20000, seed=7, real=real)
 
 
 def test_real_reference_figures(report):
@@ -192,14 +200,12 @@ def test_official_net_on_steady_pad_presses(pad_scan):
 
 
 @pytest.fixture(scope="module")
-def rise_fit_report():
+def rise_fit_report(real):
     """The fitted per-electrode rise weights (docs/mock_world.md, anchor (b); decision record 0003);
     not the default model: adopting it means retraining every policy."""
-    if not SHARED_DATA.is_dir():
-        pytest.skip("../shared/data is not present beside the checkout")
     from grasp_ctrl.sim.biotac.params_file import load_biotac_params
 
-    return anchor_report(REAL_CSV, n_per_source=20000, seed=7, params=load_biotac_params(RISE_FIT))
+    return anchor_report(REAL_CSV, n_per_source=20000, seed=7, params=load_biotac_params(RISE_FIT), real=real)
 
 
 def test_fitted_rise_weights_reach_the_match_residual_target_and_keep_the_network_reading(rise_fit_report):

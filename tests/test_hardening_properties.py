@@ -25,6 +25,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from grasp_ctrl.cli import main
+from grasp_ctrl.cli.cmd_run import MAX_AUTO_JOBS, MIN_TRIALS_PER_JOB, auto_jobs
 from grasp_ctrl.config.hand import HandConfig, load_hand
 from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.errors import GraspCtrlError, PolicyError
@@ -240,10 +241,24 @@ def test_run_with_hostile_files_runs_or_fails_cleanly_inside_the_run_dir(
 
 @pytest.fixture(scope="module")
 def monkeypatch_session() -> Iterator[None]:
+    from grasp_ctrl.cli import cmd_run
+
     mp = pytest.MonkeyPatch()
     _stub_trials(mp)
+    # The stub reaches only this process: a run of 8+ trials without --jobs (the default objects)
+    # got one worker per core, which ran the real trials (about 15 s an example on 2 cores).
+    # Keep the automatic --jobs at 1 so every example runs the stub, as this module means (worker
+    # processes: test_trials_runs.py, test_run_jobs_cleanup.py; auto_jobs: the test below).
+    mp.setattr(cmd_run, "auto_jobs", lambda backend, trials, cpus=None: 1)
     yield
     mp.undo()
+
+
+def test_the_automatic_jobs_this_module_holds_at_one() -> None:
+    # cmd_run's own function (imported at the top: the fixture above replaces the attribute)
+    assert auto_jobs("mock", 2 * MIN_TRIALS_PER_JOB, cpus=2) == 2  # the default objects' runs above
+    assert auto_jobs("mock", MIN_TRIALS_PER_JOB, cpus=2) == 1
+    assert auto_jobs("mock", 1000, cpus=64) == MAX_AUTO_JOBS
 
 
 # ------------------------------------------------------------------------ run.json on resume

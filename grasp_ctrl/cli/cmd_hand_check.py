@@ -177,11 +177,14 @@ def _drive(dxl, target, k: int, timeout_s: float = 1.5) -> float:
     import numpy as np
 
     end = time.monotonic() + timeout_s
+    # The goal the hand can hold: a posture read back a count outside a joint limit is clamped
+    # to it, and waiting for the unclamped target would always run out the timeout.
+    reachable = np.clip(target, dxl.lower, dxl.upper)
     q = dxl.read().q
     while time.monotonic() < end:
         dxl.write_goals(target)
         time.sleep(dxl.hand.dt)
         q = dxl.read().q
-        if np.allclose(dxl.last_goal, target) and abs(q[k] - target[k]) < 0.01:
+        if np.allclose(dxl.last_goal, reachable) and abs(q[k] - reachable[k]) < 0.01:
             break
     return float(q[k])

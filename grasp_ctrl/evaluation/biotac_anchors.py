@@ -36,6 +36,7 @@ from grasp_ctrl.evaluation.tilt_profile import (
 from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PDC
 
 if TYPE_CHECKING:
+    from grasp_ctrl.estimators.base import ForceEstimator
     from grasp_ctrl.sim.biotac.model import BioTacParams
 
 #: The two long trials of the real recordings (A: 7,106 rows, B: 6,469 rows).
@@ -229,25 +230,67 @@ def rest_noise_sd(params: BioTacParams | None = None, frames: int = 200, seed: i
     return float(raw[:, :, ELECTRODES].std(axis=0).mean())
 
 
+@dataclass(frozen=True)
+class RealAnchors:
+    """What ``anchor_report`` reads off the real recordings alone, the same for every simulated
+    model: compute it once (``real_anchors``) to report on several ``params``."""
+
+    policy: str
+    trials: list[Trial]
+    real_a: np.ndarray  # tared pressed electrodes of trial A (k, 19)
+    real_b: np.ndarray
+    pressure: dict[str, PressureResponse]  # "real A", "real B"
+    real_b_figures: PatternFigures  # real B against A
+    tilt_real: TiltProfile
+
+
+def real_anchors(
+    real_path: str | Path, policy: str = "icra19_official", net: ForceEstimator | None = None
+) -> RealAnchors:
+    """The real-data side of the anchor figures (trials A and B of ``real_path``, read by
+    ``policy``; ``net``: that policy already loaded)."""
+    from grasp_ctrl.estimators.registry import load_policy
+
+    trials = anchor_trials(real_path, (TRIAL_A, TRIAL_B))
+    (real_a, pdc_a, _), (real_b, pdc_b, rest_b) = real_pressed(trials)
+    net = net or load_policy(policy)
+    pressure = {
+        name: pressure_response(net.estimate(tared_frames(e, pdc), ["real"] * len(e)).f_sensor, pdc)
+        for name, e, pdc in (("real A", real_a, pdc_a), ("real B", real_b, pdc_b))
+    }
+    return RealAnchors(
+        policy=policy,
+        trials=trials,
+        real_a=real_a,
+        real_b=real_b,
+        pressure=pressure,
+        # real B against A (matched among A's frames: among its own it would be 0)
+        real_b_figures=pattern_figures(real_b, pdc_b, rest_b, real_a, real_b, library=real_a),
+        tilt_real=real_tilt_profile(trials, net),
+    )
+
+
 def anchor_report(
     real_path: str | Path,
     n_per_source: int = 20000,
     seed: int = 7,
     params: BioTacParams | None = None,
     policy: str = "icra19_official",
+    real: RealAnchors | None = None,
 ) -> AnchorReport:
     """All anchor figures of the simulated BioTac (``params``, default: the model's defaults)
-    on ``n_per_source`` synthetic force samples of rigid-ft and ball-ft."""
+    on ``n_per_source`` synthetic force samples of rigid-ft and ball-ft; ``real``: the real-data
+    side already computed (``real_anchors`` of ``real_path`` and ``policy``)."""
     from grasp_ctrl.estimators.registry import load_policy
     from grasp_ctrl.learning.synthetic import generate_source, mock_biotac_forward
 
-    trials = anchor_trials(real_path, (TRIAL_A, TRIAL_B))
-    (real_a, pdc_a, _), (real_b, pdc_b, rest_b) = real_pressed(trials)
     net = load_policy(policy)
-    pressure = {
-        name: pressure_response(net.estimate(tared_frames(e, pdc), ["real"] * len(e)).f_sensor, pdc)
-        for name, e, pdc in (("real A", real_a, pdc_a), ("real B", real_b, pdc_b))
-    }
+    if real is None:
+        real = real_anchors(real_path, policy, net)
+    elif real.policy != policy:
+        raise ValueError(f"anchor_report: real anchors read by {real.policy!r}, not {policy!r}")
+    real_a, real_b = real.real_a, real.real_b
+    pressure = dict(real.pressure)
     forward = mock_biotac_forward(params)
     rng = np.random.default_rng(seed)
     per_source: dict[str, NetFigures] = {}
@@ -267,11 +310,10 @@ def anchor_report(
         per_source=per_source,
         pooled=net_figures(np.vstack(est_all), np.vstack(label_all)),
         simulated=simulated,
-        # real B against A (matched among A's frames: among its own it would be 0)
-        real_b=pattern_figures(real_b, pdc_b, rest_b, real_a, real_b, library=real_a),
+        real_b=real.real_b_figures,
         pressure=pressure,
         location_share=location_shares(real_a, params),
-        tilt_real=real_tilt_profile(trials, net),
+        tilt_real=real.tilt_real,
         tilt_simulated=simulated_tilt_profile(np.vstack(est_all), np.vstack(label_all)),
     )
 
