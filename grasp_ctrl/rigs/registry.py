@@ -16,15 +16,17 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.sim.variation import Variation
-from grasp_ctrl.sim.world_api import World
 
-WorldFactory = Callable[[HandConfig, ObjectProfile, int, Any], World]
+if TYPE_CHECKING:  # the world's interface pulls in the compiled kernels: not for --help
+    from grasp_ctrl.sim.world_api import World
+
+WorldFactory = Callable[[HandConfig, ObjectProfile, int, Any], "World"]
 BackendFactory = Callable[[Any, HandConfig], tuple[Any, Any]]
 ArmFactory = Callable[[Any, HandConfig], Any]
 Kind = Literal["simulated", "test_double", "real", "emulated"]
