@@ -530,3 +530,24 @@ def test_a_tuning_study_on_anallegro_hand_is_another_study():
     allegro = StudyPlan(lego, params, 2, 0, "oracle", "mujoco", 4, hand="allegro_hand")
     assert "hand" not in leap.identity()  # a study stored before hands were named keeps its identity
     assert allegro.identity()["hand"] == "allegro_hand" and allegro.identity() != leap.identity()
+
+
+def test_a_hand_table_named_almost_like_the_hand_is_named_in_a_note(tmp_path, capsys):
+    """A typo in a hand table's name (leap_hnad) would leave the hand's tuned thresholds unused
+    without a word: selecting the object names it; another hand's table (allegro_hand) does not."""
+    from grasp_ctrl.files.paths import default_objects_file
+    from grasp_ctrl.trials.runs.selection import select_objects
+
+    text = (
+        default_objects_file()
+        .read_text()
+        .replace("[objects.cleanser.hands.leap_hand]", "[objects.cleanser.hands.leap_hnad]")
+    )
+    typo = tmp_path / "objects.toml"
+    typo.write_text(text)
+    [cleanser] = select_objects(typo, "cleanser", hand="leap_hand")
+    err = capsys.readouterr().err
+    assert "objects.cleanser.hands.leap_hnad" in err and "typo" in err and cleanser.tuned_for is None
+    select_objects(default_objects_file(), "cleanser,mustard_bottle", hand="allegro_hand")
+    select_objects(default_objects_file(), "cleanser", hand="leap_hand")
+    assert capsys.readouterr().err == ""

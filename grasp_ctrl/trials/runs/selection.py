@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import difflib
+import sys
 from pathlib import Path
+from typing import Any
 
 from grasp_ctrl.config.objects import ObjectProfile, default_set, load_objects
+from grasp_ctrl.config.toml_reader import read_toml
 from grasp_ctrl.errors import UsageError
 
 
@@ -26,4 +30,25 @@ def select_objects(
         unknown = [n for n in names if n not in profiles]
         if unknown:
             raise UsageError(f"{flag}: unknown object {unknown[0]!r} (known: {', '.join(profiles)})")
-    return [profiles[n] for n in names]
+    selected = [profiles[n] for n in names]
+    for note in near_miss_hand_tables(objects_file, [o.name for o in selected], hand):
+        print(f"note: {note}", file=sys.stderr)
+    return selected
+
+
+def near_miss_hand_tables(objects_file: str | Path, names: list[str], hand: str) -> list[str]:
+    """One line per object whose ``[objects.NAME.hands.X]`` table is not ``hand``'s but is named
+    almost like it (a typo would otherwise leave the hand's tuned thresholds silently unused)."""
+    objects: Any = read_toml(objects_file).get("objects", {})
+    notes = []
+    for name in names:
+        tables = objects.get(name, {}).get("hands", {}) if isinstance(objects.get(name), dict) else {}
+        if not isinstance(tables, dict) or hand in tables:
+            continue
+        close = difflib.get_close_matches(hand, list(tables), n=1, cutoff=0.8)
+        if close:
+            notes.append(
+                f"{objects_file}: objects.{name}.hands.{close[0]} is not hand {hand!r}'s table (a typo?): "
+                f"{name} runs on {hand!r} with the object's own values"
+            )
+    return notes
