@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from grasp_ctrl.errors import reraise_interrupt
 from grasp_ctrl.learning.dataset import Dataset
 from grasp_ctrl.learning.features import _ELECTRODE_CELLS, GRID_SHAPE, _cell_index, contact_point_and_normal
 from grasp_ctrl.learning.losses import sample_losses
@@ -171,6 +172,9 @@ def train(
         perm = torch.randperm(tr.n, generator=gen)
         total = 0.0
         for start in range(0, tr.n, cfg.batch_size):
+            # An interrupt whose exception torch swallowed (raised inside one of its own calls) is
+            # still noted by the command's handler: stop at the next batch, not after every epoch.
+            reraise_interrupt()
             idx = perm[start : start + cfg.batch_size]
             lr = learning_rate(cfg, epoch, iteration, warmup_iterations)
             for group in opt.param_groups:
