@@ -54,3 +54,21 @@ def copy_policy(tmp_path: Path, edit, name: str = "icra19_official") -> Path:
     path = tmp_path / f"{name}.json"
     path.write_text(json.dumps(meta))
     return path
+
+
+def modules_after(code: str, modules: set[str]) -> set[str]:
+    """Which of ``modules`` a fresh interpreter has imported after running ``code`` from the
+    repository root: import-cost checks need a process that no other test has loaded modules into."""
+    import json
+    import subprocess
+    import sys
+
+    probe = f"{code}\nimport json, sys; print(json.dumps(sorted(set({sorted(modules)!r}) & set(sys.modules))))"
+    out = subprocess.run(
+        [sys.executable, "-c", probe],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=Path(__file__).resolve().parents[1],
+    )
+    return set(json.loads(out.stdout))

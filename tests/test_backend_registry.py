@@ -107,16 +107,6 @@ def test_no_backend_name_is_written_outside_the_registry():
 def test_the_command_line_is_built_without_the_compiled_kernels() -> None:
     """`--help` and argument parsing stay fast: building the parser (every command's options, the
     backend registry's names included) imports neither numba nor MuJoCo; a trial loads them."""
-    import subprocess
-    import sys
-    from pathlib import Path
+    from conftest import modules_after
 
-    code = "import sys; from grasp_ctrl.cli import build_parser; build_parser(); print(sorted({'numba', 'mujoco'} & set(sys.modules)))"
-    out = subprocess.run(
-        [sys.executable, "-c", code],
-        capture_output=True,
-        text=True,
-        check=True,
-        cwd=Path(__file__).resolve().parents[1],
-    )
-    assert out.stdout.strip() == "[]"
+    assert modules_after("from grasp_ctrl.cli import build_parser; build_parser()", {"numba", "mujoco"}) == set()
