@@ -42,7 +42,7 @@ def test_an_allegro_trial_lifts_and_places(allegro, controller: str, object_name
         trial_seed(0, obj.name, 0),
         "oracle",
         0,
-        settings_for(controller),
+        settings_for(controller, allegro),  # with the hand file's own choices ([controllers.paper])
         backend="mujoco",
         on_tick=watch,
     )

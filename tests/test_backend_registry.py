@@ -47,11 +47,23 @@ def test_each_entry_says_what_it_is_and_offers():
         "mock": "test_double",
         "dynamixel": "real",
         "dynamixel-emulated": "emulated",
+        "allegro_can": "real",
+        "allegro_can-emulated": "emulated",
     }
     assert DEFAULT_BACKEND == BACKEND_NAMES[0] == "mujoco"
-    assert BACKEND_FLAGS == ("mujoco", "mock", "dynamixel")
-    assert [n for n in BACKEND_NAMES if backend(n).on_hand] == ["dynamixel", "dynamixel-emulated"]
-    assert [n for n in BACKEND_NAMES if backend(n).truth] == ["mujoco", "mock", "dynamixel-emulated"]
+    assert BACKEND_FLAGS == ("mujoco", "mock", "dynamixel", "allegro_can")
+    assert [n for n in BACKEND_NAMES if backend(n).on_hand] == [
+        "dynamixel",
+        "dynamixel-emulated",
+        "allegro_can",
+        "allegro_can-emulated",
+    ]
+    assert [n for n in BACKEND_NAMES if backend(n).truth] == [
+        "mujoco",
+        "mock",
+        "dynamixel-emulated",
+        "allegro_can-emulated",
+    ]
     assert [n for n in BACKEND_NAMES if backend(n).video] == ["mujoco"]
     assert [n for n in BACKEND_NAMES if backend(n).parallel] == ["mujoco", "mock"]
     assert is_test_double("mock") and not is_test_double("mujoco") and not is_test_double(None)
@@ -66,9 +78,12 @@ def test_the_real_hand_has_no_world_and_bad_names_are_one_line():
         real.make_world()
     with pytest.raises(UsageError, match="not a simulated backend"):
         simulated_backend("dynamixel")
-    with pytest.raises(UsageError, match=r"unknown \(one of mujoco, mock, dynamixel, dynamixel-emulated\)"):
+    with pytest.raises(
+        UsageError,
+        match=r"unknown \(one of mujoco, mock, dynamixel, dynamixel-emulated, allegro_can, allegro_can-emulated\)",
+    ):
         backend("gazebo")
-    with pytest.raises(UsageError, match="--emulate: only with --backend dynamixel"):
+    with pytest.raises(UsageError, match="--emulate: only with --backend dynamixel or allegro_can"):
         from_flags("mujoco", emulate=True)
 
 

@@ -4,10 +4,14 @@ from __future__ import annotations
 
 import argparse
 import time
+from typing import Any
 
 NAME = "hand-check"
 HOT_MARGIN_C = 5  # flag a servo this close to its Temperature Limit (it shuts down there)
-HELP = "ping every servo of a Dynamixel hand, print its state, optionally move each joint a little"
+HELP = (
+    "ping every servo of a Dynamixel hand (or ask an Allegro on CAN), print its state, optionally "
+    "move each joint a little"
+)
 DESCRIPTION = (
     "Pings every configured servo (reports missing ids and model mismatches by joint name), reads "
     "Hardware Error Status (bits by name), temperature, input voltage and the present "
@@ -15,7 +19,9 @@ DESCRIPTION = (
     f"{HOT_MARGIN_C} degC of their temperature limit and input voltages outside their voltage limits. "
     "Read-only unless --move (configure, torque on, move each joint by --step within its "
     "limits and back, then torque off) or --recover (reboot servos that report a hardware error). "
-    "Exits 0 when everything is fine, 1 otherwise."
+    "Exits 0 when everything is fine, 1 otherwise. A torque-controlled hand on CAN (actuator = "
+    '"torque_pd", the Allegro): asks for its information, serial number, temperatures and joint '
+    "positions (--port names the CAN channel; python-can: pip install -e '.[can]')."
 )
 ORDER = 40
 
@@ -47,6 +53,8 @@ def run(args: argparse.Namespace) -> int:
     if not 0.0 < args.step <= 0.5:
         raise UsageError(f"--step: expected 0 < RAD <= 0.5, got {args.step}")
     hand = load_hand(args.hand)
+    if hand.torque_pd is not None:  # a torque-controlled hand on CAN (the Allegro)
+        return _can_hand_check(hand, args)
     require_dynamixel(hand, "hand-check")
     if args.baud:
         hand = dataclasses.replace(hand, dynamixel=dataclasses.replace(hand.dynamixel, baud=args.baud))
@@ -154,7 +162,8 @@ def _move_test(hand, port: str | None, step: float) -> list[str]:
 
     problems: list[str] = []
     print(f"move test: each joint by {step:.3f} rad and back (torque on)")
-    with DynamixelHand(hand, port) as dxl:
+    opened: Any = DynamixelHand(hand, port) if hand.servo_driven else _can_hand(hand, port)
+    with opened as dxl:
         home = dxl.read().q.copy()
         for k, j in enumerate(dxl.joints):
             direction = 1.0 if home[k] + step <= j.upper_rad else -1.0
@@ -168,7 +177,10 @@ def _move_test(hand, port: str | None, step: float) -> list[str]:
             print(f"  {j.name:14s} goal {target[k]:+.3f}  reached {reached:+.3f}  back {back:+.3f}  {verdict}")
             if not ok:
                 problems.append(f"{j.name} (id {j.servo_id}): moved to {reached:.3f} rad, goal {target[k]:.3f}")
-            dxl.check_health(force=True)
+            if hand.servo_driven:
+                dxl.check_health(force=True)
+            else:
+                dxl.check_health()
         dxl.safe_stop("torque_off")
     return problems
 
@@ -188,3 +200,103 @@ def _drive(dxl, target, k: int, timeout_s: float = 1.5) -> float:
         if np.allclose(dxl.last_goal, reachable) and abs(q[k] - reachable[k]) < 0.01:
             break
     return float(q[k])
+
+
+def _can_hand(hand: Any, channel: str | None) -> Any:
+    from grasp_ctrl.hardware.allegro import AllegroCANHand
+
+    return AllegroCANHand(hand, channel)
+
+
+def _can_hand_check(hand: Any, args: argparse.Namespace) -> int:
+    """The Allegro on CAN, read-only: hand information (versions, side, temperature, status bits),
+    serial number, the four temperatures and every joint's position, each asked for once (remote
+    frames); nothing is written unless --move."""
+    import numpy as np
+
+    from grasp_ctrl.errors import HardwareError, UsageError
+    from grasp_ctrl.hardware.allegro import protocol as pr
+    from grasp_ctrl.hardware.allegro.bus import open_link
+    from grasp_ctrl.hardware.allegro.protocol import JointMap, ProtocolError
+
+    if args.recover:
+        raise UsageError("--recover: the Allegro has no reboot command on CAN; power-cycle the hand")
+    if args.baud:
+        raise UsageError("--baud: a CAN hand's bit rate is [torque_pd] bitrate (socketcan: set with `ip link`)")
+    tp = hand.torque_pd
+    jm = JointMap.from_hand(hand)
+    link = open_link(tp, args.port)
+    dev = jm.device_id
+    replies: dict[Any, Any] = {}
+    problems: list[str] = []
+    try:
+        print(f"hand-check: {hand.name} ({len(hand.joints)} joints) on CAN {link.name}, device id {dev}")
+        requests = [pr.request(pr.RTR_HAND_INFO, dev), pr.request(pr.RTR_SERIAL, dev)]
+        requests += [pr.request_temperature(i, dev) for i in range(pr.N_TEMPERATURE_SENSORS)]
+        requests += [pr.request_finger_pose(f, dev) for f in range(pr.N_FINGERS)]
+        for req in requests:
+            link.send(req)
+        end = time.monotonic() + 0.3
+        while time.monotonic() < end:
+            frame = link.recv(0.02)
+            if frame is None or frame.device_id != dev:
+                continue
+            if frame.is_error:
+                problems.append("CAN error frame (bus errors or bus-off: wiring, termination, bit rate)")
+                continue
+            try:
+                reply = pr.decode_reply(frame)
+            except ProtocolError:
+                continue
+            key = type(reply).__name__ + str(getattr(reply, "finger", getattr(reply, "sensor", "")))
+            replies[key] = reply
+    finally:
+        link.close()
+    info = replies.get("HandInfo")
+    if info is None:
+        problems.append("no hand information (powered? on this bus at 1 Mbit/s? terminated?)")
+    else:
+        side = "right" if info.right_hand else "left"
+        print(
+            f"  hardware version {info.hardware_version}, firmware 0x{info.firmware_version:04x}, {side} hand, "
+            f"{info.temperature_c} degC, status 0x{info.status:02x} (servo {'on' if info.servo_on else 'off'})"
+        )
+        problems += [f"the hand reports {f}" for f in info.faults()]
+        if info.hardware_version != 4 and tp.pwm_per_nm == 1200.0:
+            problems.append(
+                f"hardware version {info.hardware_version}: the v4's 1200 PWM per N m does not apply "
+                "(a v3 takes 800: set [torque_pd] pwm_per_nm and pwm_limit)"
+            )
+    serial = replies.get("str")
+    print(f"  serial number: {serial if serial is not None else '- (no reply)'}")
+    temps = [replies.get(f"Temperature{i}") for i in range(pr.N_TEMPERATURE_SENSORS)]
+    print("  temperatures: " + ", ".join(f"{t.celsius} degC" if t else "-" for t in temps))
+    for t in temps:
+        if t is not None and t.celsius > tp.max_temperature_c:
+            problems.append(f"temperature sensor {t.sensor}: {t.celsius} degC (limit {tp.max_temperature_c:g})")
+    counts = np.zeros((pr.N_FINGERS, pr.JOINTS_PER_FINGER), dtype=np.int64)
+    answered = set()
+    for f in range(pr.N_FINGERS):
+        pose = replies.get(f"FingerPose{f}")
+        if pose is not None:
+            counts[f] = pose.counts
+            answered.add(f)
+    q = jm.joints_rad(counts)
+    print(f"  {'joint':14s} {'finger':>6s} {'slot':>4s} {'counts':>7s} {'q_rad':>8s}  status")
+    for k, j in enumerate(hand.joints):
+        finger, slot = int(jm.finger[k]), int(jm.slot[k])
+        if finger not in answered:
+            problems.append(f"{j.name} (finger {finger}): no position reply")
+            print(f"  {j.name:14s} {finger:6d} {slot:4d} {'':>7s} {'':>8s}  MISSING")
+            continue
+        status = "ok"
+        if not j.lower_rad - 1e-3 <= q[k] <= j.upper_rad + 1e-3:
+            status = f"OUTSIDE LIMITS [{j.lower_rad}, {j.upper_rad}] (check offset_rad/sign)"
+            problems.append(f"{j.name}: {status}")
+        print(f"  {j.name:14s} {finger:6d} {slot:4d} {int(counts[finger, slot]):7d} {q[k]:8.3f}  {status}")
+    if args.move and not problems:
+        problems += _move_test(hand, args.port, args.step)
+    if problems:
+        raise HardwareError(f"hand-check found {len(problems)} problem(s): " + "; ".join(problems))
+    print("hand-check: OK")
+    return 0

@@ -252,10 +252,8 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
 
     entry = from_flags(args.backend or DEFAULT_BACKEND, bool(args.emulate))
     backend = entry.name
-    if entry.on_hand:  # the real hand's backends, or their emulation
-        from grasp_ctrl.config.actuation import require_dynamixel
-
-        require_dynamixel(hand, f"--backend {entry.flag}" + (" --emulate" if args.emulate else ""))
+    if entry.on_hand:  # the real hand's backends, or their emulation: the hand's kind, the extra they need
+        entry.check_hand(hand)
     if args.realtime and not args.emulate:
         raise UsageError(
             "--realtime: only with --backend dynamixel --emulate (a wall-clock dry run of the emulated hand)"
@@ -274,7 +272,7 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
     drawn = variation(args.variation or preset_variation or DEFAULT_VARIATION) if entry.truth else None
     manifest = RunManifest(
         variation=drawn,
-        settings=settings_for(controller),
+        settings=settings_for(controller, hand),
         backend=backend,
         hand=hand.name,
         seed=args.seed if args.seed is not None else 0,
@@ -347,7 +345,9 @@ def _preflight(hand: Any, manifest: Any, args: argparse.Namespace) -> None:
     if backend_entry(manifest.backend).kind == "emulated":
         obj = manifest.objects[0]
         seed = trial_seed(manifest.seed, obj.name, 0)
-        report = preflight_emulated(hand, obj, seed, manifest.variation, manifest.realtime, manifest.hand_file)
+        report = preflight_emulated(
+            hand, obj, seed, manifest.variation, manifest.realtime, manifest.hand_file, manifest.backend
+        )
     else:
         report = preflight_hardware(hand, args.port, args.sensor_port, manifest.hand_file)
     say = lambda text: print(text, file=sys.stderr, flush=True)  # noqa: E731

@@ -202,11 +202,12 @@ def _variation(args: argparse.Namespace) -> Any:
     return variation(args.variation or DEFAULT_VARIATION)
 
 
-def _settings(args: argparse.Namespace) -> Any:
-    """The controller settings every setting starts from: ``--controller``'s (default the registry's)."""
+def _settings(args: argparse.Namespace, hand: Any = None) -> Any:
+    """The controller settings every setting starts from: ``--controller``'s (default the
+    registry's), with the hand file's own choices (``[controllers.NAME]``) where ``hand`` is given."""
     from grasp_ctrl.controller.settings import DEFAULT_CONTROLLER, settings_for
 
-    return settings_for(args.controller or DEFAULT_CONTROLLER)
+    return settings_for(args.controller or DEFAULT_CONTROLLER, hand)
 
 
 def _executor(args: argparse.Namespace, hand: Any, trial_fn: Any) -> Any:
@@ -216,7 +217,7 @@ def _executor(args: argparse.Namespace, hand: Any, trial_fn: Any) -> Any:
         SerialExecutor,
     )
 
-    settings = _settings(args)
+    settings = _settings(args, hand)
     if _on_real_hand(args):
         # No ground truth on the real hand: the operator labels every trial.
         from grasp_ctrl.trials.episode.hardware import hardware_trial_fn
@@ -282,7 +283,7 @@ def run(args: argparse.Namespace) -> int:
         check_identifier_arg(hand.name, f"--write: {args.hand}: the hand's name")
     finger_joints = check_params_for_hand(params, hand)
     check_settings_values(params)
-    settings = _settings(args)
+    settings = _settings(args, hand)
     if args.object is not None:
         objects = select_objects(args.object_file, args.object, flag="--object", hand=hand.name)
     else:

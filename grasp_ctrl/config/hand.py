@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from grasp_ctrl.config.identifiers import check_identifier
 from grasp_ctrl.config.servos import MODELS as SERVO_MODELS
@@ -23,6 +24,8 @@ ACTUATOR_KINDS = ("dynamixel", "torque_pd")
 TORQUE_PD_KEYS = ("kp_nm_per_rad", "kd_nm_s_per_rad", "torque_limit_nm")  # each joint's, actuator = "torque_pd"
 DYNAMIXEL_JOINT_KEYS = ("current_limit_a", "gain_scale")  # each joint's, actuator = "dynamixel"
 CAN_INTERFACES = ("socketcan", "pcan", "virtual")
+# [torque_pd]'s optional keys of the CAN link (hardware/allegro/)
+CAN_KEYS = ("bitrate", "can_device_id", "pwm_per_nm", "pwm_limit", "position_stale_s", "max_temperature_c")
 ARM_KINDS = ("mock", "dynamixel", "external")
 SERIAL_MODES = ("binary", "text")
 DXL_MAX_BAUD = 4_500_000  # the fastest rate of the Dynamixel X series' bus
@@ -96,6 +99,14 @@ class TorquePDConfig:
     damping_nm_s_per_rad: float = 0.0  # each joint's passive damping (gears, motor), besides the PD's
     armature_kg_m2: float | None = None  # reflected rotor inertia; None: the simulated worlds' default
     source: str = ""  # where the gains and limits come from (required in the file)
+    # The CAN link of a hand on the bus (hardware/allegro/, docs/hardware.md); optional keys, their
+    # defaults the Allegro v4's (SimLab allegro_hand_ros_v4: AllegroHandDrv.cpp, pcan.cpp)
+    bitrate: int = 1_000_000  # bit/s; the driver opens the bus at CAN_BAUD_1M
+    can_device_id: int = 0  # the two low bits of every frame's id (the driver's CAN_ID, 0)
+    pwm_per_nm: float = 1200.0  # torque -> the hand's PWM units (_tau_cov_const: v4 1200, v3 800)
+    pwm_limit: float = 1200.0  # the PWM ceiling (PWM_LIMIT_GLOBAL_12V); torque_limit_nm x pwm_per_nm within it
+    position_stale_s: float = 0.02  # no full set of joint positions for this long: a fault, zero torque
+    max_temperature_c: float = 70.0  # a temperature report above this: a fault (assumed; not published)
 
 
 @dataclass(frozen=True)
@@ -204,6 +215,13 @@ class HandConfig:
     # [inertia]: the simulated worlds' palm and per-link masses; None: the world's defaults
     palm_mass_kg: float | None = None
     link_mass_kg: float | None = None
+    # [controllers.NAME]: this hand's own choices among controller NAME's settings (checked
+    # against the settings by controller/settings.py: the config layer does not know them)
+    controller_choices: tuple[tuple[str, tuple[tuple[str, Any], ...]], ...] = ()
+
+    def choices_of(self, controller: str) -> dict[str, Any]:
+        """The hand file's ``[controllers.NAME]`` choices for ``controller`` (empty without one)."""
+        return dict(dict(self.controller_choices).get(controller, ()))
 
     @property
     def servo_driven(self) -> bool:
@@ -548,15 +566,49 @@ def _actuation(root: Table, actuator: str, fingers: tuple[FingerConfig, ...]) ->
                     'a value (every joint of a hand with actuator = "torque_pd" has its PD gains and torque limit)',
                 )
     t = root.table("torque_pd")
-    t.unknown_keys({"rate_hz", "interface", "channel", "damping_nm_s_per_rad", "armature_kg_m2", "source"})
-    return TorquePDConfig(
-        rate_hz=t.float("rate_hz", TorquePDConfig.rate_hz, lo=1.0, hi=10000.0),
-        interface=t.str("interface", TorquePDConfig.interface, choices=CAN_INTERFACES),
-        channel=t.str("channel", TorquePDConfig.channel),
+    t.unknown_keys({"rate_hz", "interface", "channel", "damping_nm_s_per_rad", "armature_kg_m2", "source", *CAN_KEYS})
+    d = TorquePDConfig
+    cfg = TorquePDConfig(
+        rate_hz=t.float("rate_hz", d.rate_hz, lo=1.0, hi=10000.0),
+        interface=t.str("interface", d.interface, choices=CAN_INTERFACES),
+        channel=t.str("channel", d.channel),
         damping_nm_s_per_rad=t.float("damping_nm_s_per_rad", 0.0, lo=0.0, hi=100.0),
         armature_kg_m2=t.float("armature_kg_m2", lo=0.0, hi=1.0) if t.has("armature_kg_m2") else None,
         source=t.str("source"),
+        bitrate=t.int("bitrate", d.bitrate, lo=10_000, hi=1_000_000),
+        can_device_id=t.int("can_device_id", d.can_device_id, lo=0, hi=3),
+        pwm_per_nm=t.float("pwm_per_nm", d.pwm_per_nm, lo=0.0, hi=100_000.0, lo_open=True),
+        pwm_limit=t.float("pwm_limit", d.pwm_limit, lo=0.0, hi=32_767.0, lo_open=True),
+        position_stale_s=t.float("position_stale_s", d.position_stale_s, lo=0.001, hi=1.0),
+        max_temperature_c=t.float("max_temperature_c", d.max_temperature_c, lo=0.0, hi=150.0),
     )
+    # Every torque a joint may get must fit in the hand's PWM range (the backend also clamps).
+    for i, f in enumerate(fingers):
+        for n, j in enumerate(f.joints):
+            if j.torque_limit_nm is not None and j.torque_limit_nm * cfg.pwm_per_nm > cfg.pwm_limit + 1e-9:
+                raise root.fail(
+                    f"fingers[{i}].joints[{n}].torque_limit_nm",
+                    f"at most {cfg.pwm_limit / cfg.pwm_per_nm:.6g} N m ([torque_pd] pwm_limit {cfg.pwm_limit:g} / "
+                    f"pwm_per_nm {cfg.pwm_per_nm:g}; got {j.torque_limit_nm:g})",
+                )
+    return cfg
+
+
+def _controller_choices(root: Table) -> tuple[tuple[str, tuple[tuple[str, Any], ...]], ...]:
+    """``[controllers.NAME]`` tables of plain values (numbers, booleans, strings), kept as
+    hashable pairs in file order."""
+    if not root.has("controllers"):
+        return ()
+    controllers = root.table("controllers")
+    out = []
+    for name, values in controllers.data.items():
+        if not isinstance(values, dict):
+            raise controllers.fail(name, "a table of controller settings ([controllers.NAME])")
+        for key, value in values.items():
+            if isinstance(value, (dict, list)):
+                raise controllers.fail(f"{name}.{key}", "a number, true/false or a string")
+        out.append((str(name), tuple((str(k), v) for k, v in values.items())))
+    return tuple(out)
 
 
 def load_hand(path: str | Path) -> HandConfig:
@@ -577,6 +629,7 @@ def load_hand(path: str | Path) -> HandConfig:
             "servo_models",
             "collision",
             "inertia",
+            "controllers",
         }
     )
     fingers = tuple(_finger(f) for f in root.tables("fingers", min_len=1))
@@ -769,4 +822,5 @@ def load_hand(path: str | Path) -> HandConfig:
         link_boxes=link_boxes,
         palm_mass_kg=palm_mass,
         link_mass_kg=link_mass,
+        controller_choices=_controller_choices(root),
     )

@@ -53,6 +53,7 @@ from grasp_ctrl.controller.machine import STATES, TRANSITIONS, GraspController
 from grasp_ctrl.controller.motion import FingertipMotion
 from grasp_ctrl.controller.ramp_settle import TrendRampSettle
 from grasp_ctrl.controller.snapshot import Snapshot
+from grasp_ctrl.errors import ConfigError
 from grasp_ctrl.numeric.gravity import GRAVITY_M_S2
 
 LOAD_STATES = [
@@ -100,6 +101,8 @@ class GripLoadController(GraspController):
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
+        if self.push_then_hold:  # its load phase and slip response regulate the grips throughout
+            raise ConfigError("controller settings", "ramp_mode", "regulate for grip_load (push_then_hold: paper only)")
         self._compiled = False  # targets change every tick: the Python tick (the reference)
         self.ramp_settle = TrendRampSettle(self.s, self.dt)  # holds under quantised goals and noise
         limit = self.hand.safety.max_fingertip_force_n * self.s.grip_cap_fraction

@@ -23,7 +23,7 @@ from grasp_ctrl.controller import tick_kernels as tk
 from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES, grip_targets
 from grasp_ctrl.controller.motion import FingertipMotion
 from grasp_ctrl.controller.ramp_settle import RampSettle
-from grasp_ctrl.controller.settings import ControllerSettings, settings_for
+from grasp_ctrl.controller.settings import RAMP_MODES, ControllerSettings, settings_for
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import ConfigError
 from grasp_ctrl.kinematics.chain import HandKinematics
@@ -184,9 +184,19 @@ class GraspController:
             self.motion.task_vectors, self.grasp_mask, obj.tau_n, mode, obj.mass_kg, obj.mu, self.s.grip_weight_margin
         )
         self._targets = self.grip_targets.tolist()
-        # The compiled kernels take one target for every fingertip: unequal targets run the
-        # Python tick (the reference the kernels are checked against).
-        self._compiled = self.motion.ik.compiled and all(t == obj.tau_n for t in self._targets)
+        if self.s.ramp_mode not in RAMP_MODES:
+            raise ConfigError(
+                "controller settings", "ramp_mode", f"one of {', '.join(RAMP_MODES)} (got {self.s.ramp_mode!r})"
+            )
+        # The ramp pushes each pad forward until every pad has reached its target, then the
+        # fingers hold their goals (settings.RAMP_MODES); else every pad is regulated throughout.
+        self.push_then_hold = self.s.ramp_mode == "push_then_hold"
+        self._reached_ticks = 0  # push_then_hold: ramp ticks every pad has been at its target
+        # The compiled kernels take one target for every fingertip and regulate it: unequal
+        # targets and push_then_hold run the Python tick (the reference the kernels are checked against).
+        self._compiled = (
+            self.motion.ik.compiled and all(t == obj.tau_n for t in self._targets) and not self.push_then_hold
+        )
         self._force_shape = (len(self.names), 3)
         self._tip_shape = (len(self.names),)
         self._no_palm = np.zeros(3)  # squeeze's palm arguments when the palm stays
@@ -295,6 +305,7 @@ class GraspController:
         self.ticks_in_state = 0
         self.settle_count = 0
         self.ramp_settle.reset()
+        self._reached_ticks = 0
         self.release_count = 0
         self.lost_count = [0] * len(self.names)
 
@@ -333,6 +344,8 @@ class GraspController:
         return self._elapsed() > self.s.close_timeout_s
 
     def ramp_settled(self) -> bool:
+        if self.push_then_hold:
+            return self._reached_ticks * self.dt >= self.s.ramp_settle_s
         return self.ramp_settle.settled(self.dt)
 
     def ramp_timed_out(self) -> bool:
@@ -394,7 +407,17 @@ class GraspController:
 
     # The Python tick's rules a controller may refine (controller/grip_load.py does).
     def _ramp_tick(self, snap: Snapshot) -> None:
-        """The ramp's settle counters, on the errors from the grip targets."""
+        """The ramp's settle counters, on the errors from the grip targets (push_then_hold: the
+        ticks every grasping pad has been at its target, within the tolerance, or above)."""
+        if self.push_then_hold:
+            tolerance = self.s.ramp_tolerance_n
+            reached = all(
+                g >= t - tolerance
+                for g, t, grasping in zip(snap.grip_n.tolist(), self._targets, self._grasping)
+                if grasping
+            )
+            self._reached_ticks = self._reached_ticks + 1 if reached else 0
+            return
         self.ramp_settle.update(self.grip_targets[self.grasp_mask] - snap.grip_n[self.grasp_mask])
 
     def _lost_floor(self) -> list[float]:
@@ -734,7 +757,8 @@ class GraspController:
 
     def _squeeze_python(self, snap: Snapshot, gain: float, max_speed: float) -> None:
         grip = snap.grip_n
-        speed = [min(max(gain * (t - g), -max_speed), max_speed) for g, t in zip(grip.tolist(), self._targets)]
+        slowest = 0.0 if self.push_then_hold else -max_speed  # push_then_hold: the ramp never backs a pad off
+        speed = [min(max(gain * (t - g), slowest), max_speed) for g, t in zip(grip.tolist(), self._targets)]
         if self.s.low_confidence_slowdown and snap.variance is not None:
             speed = (np.array(speed) / (1.0 + np.max(snap.variance, axis=1) / self.s.variance_scale_n2)).tolist()
         dt = self.dt
@@ -765,20 +789,22 @@ class GraspController:
         elif state == "ramp":
             self._squeeze(snap, s.ramp_gain_m_s_per_n, s.ramp_max_speed_m_s)
         elif state == "hold":
-            self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s)
+            if not self.push_then_hold:  # (push_then_hold: the fingers hold their goals)
+                self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s)
         elif state == "lift":
-            self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s, self.lift_top, s.lift_speed_m_s)
+            if self.push_then_hold:
+                self._move_palm_toward(self.lift_top, s.lift_speed_m_s)
+            else:
+                self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s, self.lift_top, s.lift_speed_m_s)
         elif state == "lower":
             # The object was picked up at the reach pose: near that height the table is
             # close, so slow down and let the release debounce cost little extra push.
             near = snap.p_palm_world[2] - self.reach_pose[2] < s.lower_slow_zone_m
-            self._squeeze(
-                snap,
-                s.hold_gain_m_s_per_n,
-                s.hold_max_speed_m_s,
-                self.lower_bottom,
-                s.lower_slow_speed_m_s if near else s.lower_speed_m_s,
-            )
+            speed = s.lower_slow_speed_m_s if near else s.lower_speed_m_s
+            if self.push_then_hold:
+                self._move_palm_toward(self.lower_bottom, speed)
+            else:
+                self._squeeze(snap, s.hold_gain_m_s_per_n, s.hold_max_speed_m_s, self.lower_bottom, speed)
         elif state == "release":
             # Back the pads off along their closing vectors: swinging straight to the open
             # posture can sweep a fingertip (the LEAP thumb) into the table beside the object.

@@ -5,9 +5,14 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from grasp_ctrl.errors import UsageError
+from grasp_ctrl.config.objects import GRIP_TARGET_MODES
+from grasp_ctrl.config.toml_reader import finite_number
+from grasp_ctrl.errors import ConfigError, UsageError
+
+if TYPE_CHECKING:
+    from grasp_ctrl.config.hand import HandConfig
 
 CONTROLLER_NAMES: tuple[str, ...] = ("paper", "grip_load")
 DEFAULT_CONTROLLER = "grip_load"  # it measures better under both variation profiles (docs/results.md)
@@ -25,6 +30,14 @@ CONTROLLER_CHOICES: dict[str, dict[str, Any]] = {
     },
     "grip_load": {},
 }
+
+
+#: How the paper's controller reads "increase the force on all the fingertips to tau ... then
+#: raise the arm" (docs/controller.md, decision record 0017):
+#: regulate: every pad is regulated toward its target in ramp, hold, lift and lower;
+#: push_then_hold: the ramp only pushes each pad forward, ends once every pad has reached its
+#: target, and the fingers then hold their goals while the arm lifts and lowers.
+RAMP_MODES: tuple[str, ...] = ("regulate", "push_then_hold")
 
 
 def unknown_controller(name: str) -> UsageError:
@@ -121,13 +134,78 @@ class ControllerSettings:
     #   the joint when the contact gives; 0: no bound
     servo_limited_s: float = 0.5  # grip_load: a finger held at that bound with its grip short of its target
     #   this long scales every ramp target down to the share it gives (0: never)
+    ramp_mode: str = "regulate"  # the paper's controller: one of RAMP_MODES (above)
     low_confidence_slowdown: bool = False  # slow the ramp when the policy's variance is high
     variance_scale_n2: float = 0.05  # variance at which the ramp runs at half speed
 
 
-def settings_for(name: str, **overrides: Any) -> ControllerSettings:
+#: The text settings and their values.
+SETTING_CHOICES: dict[str, tuple[str, ...]] = {
+    "grip_targets": GRIP_TARGET_MODES,
+    "controller": CONTROLLER_NAMES,
+    "ramp_mode": RAMP_MODES,
+}
+MAX_SETTING = 1e6  # no controller setting (seconds, metres, newtons, ratios) comes near it
+# settings that may be zero (no slow zone, no overshoot, no retreat; grip_load's wind-up bound,
+# servo-limited targets and cycle settle rule off)
+ZERO_ALLOWED = (
+    "lower_overshoot_m",
+    "lower_slow_zone_m",
+    "retreat_m",
+    "grip_weight_margin",
+    "windup_lag_factor",
+    "servo_limited_s",
+    "ramp_cycle_s",
+)
+
+
+def checked_settings(values: dict[str, Any], where: str, table: str | None = None) -> dict[str, Any]:
+    """``values`` checked as controller settings: known keys, each of its default's type, a text
+    setting one of ``SETTING_CHOICES``, numbers finite and positive (those of ``ZERO_ALLOWED``
+    may be zero). Raises a UsageError naming ``where`` and ``settings.KEY``, or with ``table``
+    (a file's table, ``where`` the file) a ConfigError naming the file and ``table.KEY``."""
+
+    def fail(key: str, need: str) -> Exception:
+        if table is not None:
+            return ConfigError(where, f"{table}.{key}", need)
+        return UsageError(f"{where}: settings.{key}: {need}")
+
+    fields = {f.name for f in dataclasses.fields(ControllerSettings)}
+    defaults = ControllerSettings()
+    out: dict[str, Any] = {}
+    for key, v in values.items():
+        if key not in fields:
+            raise fail(key, f"a known setting (one of {', '.join(sorted(fields))})")
+        default = getattr(defaults, key)
+        if isinstance(default, bool):
+            if not isinstance(v, bool):
+                raise fail(key, f"true or false (got {v!r})")
+        elif isinstance(default, str):
+            choices = SETTING_CHOICES.get(key, ())
+            if v not in choices:
+                raise fail(key, f"one of {', '.join(choices)} (got {v!r})")
+        elif not finite_number(v) or v < 0 or v > MAX_SETTING or (v == 0 and key not in ZERO_ALLOWED):
+            need = f"a finite number {'>=' if key in ZERO_ALLOWED else '>'} 0 and <= {MAX_SETTING:g}"
+            shown = repr(v) if len(repr(v)) <= 40 else f"{repr(v)[:20]}..."
+            raise fail(key, f"{need} (got {shown})")
+        out[key] = v
+    return out
+
+
+def settings_for(name: str, hand: HandConfig | None = None, **overrides: Any) -> ControllerSettings:
     """The settings a run of controller ``name`` starts from: ``ControllerSettings``' defaults
-    with the controller's own choices (``CONTROLLER_CHOICES``), then ``overrides``."""
+    with the controller's own choices (``CONTROLLER_CHOICES``), the hand file's
+    ``[controllers.NAME]`` choices, then ``overrides``."""
     if name not in CONTROLLER_NAMES:
         raise unknown_controller(name)
-    return dataclasses.replace(ControllerSettings(controller=name), **{**CONTROLLER_CHOICES[name], **overrides})
+    own: dict[str, Any] = {}
+    if hand is not None:
+        for table, _ in hand.controller_choices:  # a misspelt table would be ignored without a word
+            if table not in CONTROLLER_NAMES:
+                raise ConfigError(
+                    hand.path, f"controllers.{table}", f"a controller's name, one of {', '.join(CONTROLLER_NAMES)}"
+                )
+        own = checked_settings(hand.choices_of(name), hand.path, f"controllers.{name}")
+        if "controller" in own:
+            raise ConfigError(hand.path, f"controllers.{name}.controller", "not a setting here (the table's name is)")
+    return dataclasses.replace(ControllerSettings(controller=name), **{**CONTROLLER_CHOICES[name], **own, **overrides})

@@ -1,4 +1,4 @@
-"""Open the real backends named by a hand file: Dynamixel hand, arm, serial sensors."""
+"""Open the real backends named by a hand file: Dynamixel (or CAN) hand, arm, serial sensors."""
 
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ def open_rig(
 ) -> HardwareRig:
     """Connect the hand, the arm and the fingertip sensors of ``hand``.
 
-    ``port`` overrides ``[dynamixel] port``; ``sensor_port`` overrides the tactile
+    ``port`` overrides ``[dynamixel] port`` (a CAN hand's ``[torque_pd] channel``); ``sensor_port`` overrides the tactile
     port(s); ``ask`` answers the external arm's prompts (default: the terminal).
     """
     from grasp_ctrl.hardware.dynamixel import DynamixelHand
@@ -43,7 +43,12 @@ def open_rig(
     clock = MonotonicClock()
     opened: list[HandBackend | ArmBackend | SensorBackend] = []
     try:
-        hand_backend = DynamixelHand(hand, port, clock=clock)
+        if hand.servo_driven:
+            hand_backend: HandBackend = DynamixelHand(hand, port, clock=clock)
+        else:  # a torque-controlled hand on CAN (the Allegro); ``port`` names its CAN channel
+            from grasp_ctrl.hardware.allegro import AllegroCANHand
+
+            hand_backend = AllegroCANHand(hand, port, clock=clock)
         hand_backend.connect()
         opened.append(hand_backend)
         if hand.arm.kind == "dynamixel":

@@ -6,6 +6,10 @@
 - ``dynamixel``: the real hand (Dynamixel servos, serial fingertip sensors, the hand file's arm).
 - ``dynamixel-emulated``: the real hand's backends over pseudo-terminals (an emulated servo chain
   and sensor bridges) on a MuJoCo world: ``run --backend dynamixel --emulate``.
+- ``allegro_can``: a real torque-controlled hand on CAN (the Allegro v4; python-can, the ``can``
+  extra), serial fingertip sensors, the hand file's arm.
+- ``allegro_can-emulated``: its backends on python-can's virtual bus (the Allegro emulator) and
+  the sensor bridges on a MuJoCo world: ``run --backend allegro_can --emulate``.
 
 Each entry says what it is and what it offers, and builds a trial's world and hand and sensor
 backends; the rest of the package asks it instead of comparing backend names. MuJoCo, the
@@ -38,6 +42,9 @@ DEFAULT_BACKEND = REFERENCE_WORLD
 TEST_WORLD = "mock"
 #: The real hand's backends on emulated links (``run --backend dynamixel --emulate``).
 EMULATED_HAND = "dynamixel-emulated"
+#: The Allegro on CAN, and its backends on the virtual bus (``run --backend allegro_can --emulate``).
+ALLEGRO_CAN = "allegro_can"
+EMULATED_ALLEGRO_CAN = "allegro_can-emulated"
 
 
 @dataclass(frozen=True)
@@ -53,6 +60,25 @@ class Backend:
     _backends: Callable[[bool], BackendFactory] | None = None  # realtime -> (world, hand) -> (hand, sensors)
     _params: Callable[[Variation], Any] | None = None
     _arm: Callable[[], ArmFactory] | None = None  # a simulated world's arm (its wrist target)
+    actuator: str | None = None  # the hand file's ``actuator`` the entry's hand backends drive (on a hand)
+    extra: str | None = None  # the optional extra its backends need (pyproject.toml), if any
+
+    def check_hand(self, hand: HandConfig) -> None:
+        """A one-line error where the hand file's joints are not what this entry drives, or the
+        extra its backends need is not installed."""
+        if self.actuator is None or hand.actuator == self.actuator:
+            if self.extra == "can":
+                from grasp_ctrl.hardware.allegro.bus import require_python_can
+
+                require_python_can()
+            return
+        what = f"--backend {self.flag}" + (" --emulate" if self.kind == "emulated" else "")
+        others = [b.flag for b in _ENTRIES.values() if b.actuator == hand.actuator and b.kind == self.kind]
+        fix = f"--backend {others[0]}" if others else "simulate it: run --backend mujoco or mock"
+        raise UsageError(
+            f"{what} drives actuator = {self.actuator!r} hands; hand {hand.name!r} ({hand.path}) has "
+            f"actuator = {hand.actuator!r} ({fix})"
+        )
 
     @property
     def on_hand(self) -> bool:
@@ -147,6 +173,14 @@ def _emulated_backends(realtime: bool) -> BackendFactory:
     return realtime_backends if realtime else emulated_backends
 
 
+def _allegro_emulated_backends(realtime: bool) -> BackendFactory:
+    if realtime:
+        raise UsageError("--realtime: not offered for --backend allegro_can --emulate yet (drop --realtime)")
+    from grasp_ctrl.emulators.allegro_can_world import allegro_emulated_backends
+
+    return allegro_emulated_backends
+
+
 _ENTRIES: dict[str, Backend] = {
     b.name: b
     for b in (
@@ -175,7 +209,14 @@ _ENTRIES: dict[str, Backend] = {
             _params=_mock_params,
             _arm=_mock_arm,
         ),
-        Backend("dynamixel", "dynamixel", "real", "the real hand: Dynamixel servos, serial fingertip sensors", None),
+        Backend(
+            "dynamixel",
+            "dynamixel",
+            "real",
+            "the real hand: Dynamixel servos, serial fingertip sensors",
+            None,
+            actuator="dynamixel",
+        ),
         Backend(
             EMULATED_HAND,
             "dynamixel",
@@ -186,6 +227,29 @@ _ENTRIES: dict[str, Backend] = {
             _backends=_emulated_backends,
             _params=_mujoco_params,
             _arm=_world_arm,
+            actuator="dynamixel",
+        ),
+        Backend(
+            ALLEGRO_CAN,
+            ALLEGRO_CAN,
+            "real",
+            "the real Allegro hand on CAN (python-can; the host runs the joint PD loop), serial fingertip sensors",
+            None,
+            actuator="torque_pd",
+            extra="can",
+        ),
+        Backend(
+            EMULATED_ALLEGRO_CAN,
+            ALLEGRO_CAN,
+            "emulated",
+            "the Allegro's CAN backend on python-can's virtual bus (an emulated hand) over a MuJoCo world",
+            "mujoco",
+            _world=_mujoco_world,
+            _backends=_allegro_emulated_backends,
+            _params=_mujoco_params,
+            _arm=_world_arm,
+            actuator="torque_pd",
+            extra="can",
         ),
     )
 }
@@ -220,7 +284,8 @@ def from_flags(flag: str, emulate: bool = False) -> Backend:
         if entry.flag == flag and (entry.kind == "emulated") == emulate:
             return entry
     if emulate:
-        raise UsageError("--emulate: only with --backend dynamixel (it emulates the real hand's links)")
+        hands = " or ".join(b.flag for b in _ENTRIES.values() if b.kind == "emulated")
+        raise UsageError(f"--emulate: only with --backend {hands} (it emulates the real hand's links)")
     raise UsageError(f"--backend {flag!r}: unknown (one of {', '.join(BACKEND_FLAGS)})")
 
 

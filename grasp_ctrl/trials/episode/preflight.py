@@ -175,6 +175,15 @@ def preflight_hardware(
     from grasp_ctrl.hardware.dynamixel import DynamixelHand
     from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 
+    if not hand.servo_driven:  # a torque-controlled hand on CAN: its own check, then the fingertips
+        servos = _check_can_hand(hand, port)
+        sensors = SerialSensors.from_hand(hand, port=sensor_port)
+        sensors.start()
+        try:
+            tips = check_fingertips(sensors, hand, lambda: time.sleep(hand.dt))
+        finally:
+            sensors.close()
+        return PreflightReport(servos, tips)
     dxl = DynamixelHand(hand, port, handle_signals=False)
     dxl.bus.open()
     dxl.connected = True
@@ -193,6 +202,25 @@ def preflight_hardware(
     return PreflightReport(servos, tips, (warning,) if warning else ())
 
 
+def _check_can_hand(hand: HandConfig, channel: str | None) -> list[str]:
+    """The Allegro on CAN: it reports every joint and no fault, then goes limp again (zero torque,
+    system off)."""
+    from grasp_ctrl.hardware.allegro import AllegroCANHand
+
+    can = AllegroCANHand(hand, channel, handle_signals=False, threaded=False)
+    can.connect()
+    try:
+        can.request_health()
+        time.sleep(0.05)
+        if can.loop is not None:
+            can.loop.poll(0.0)
+        can.check_health()
+    finally:
+        can.safe_stop("torque_off")
+        can.close()
+    return [f"{j.name} (CAN joint {j.servo_id})" for j in hand.joints]
+
+
 def preflight_emulated(
     hand: HandConfig,
     obj: Any,
@@ -200,20 +228,24 @@ def preflight_emulated(
     variation: Any = None,
     realtime: bool = False,
     hand_file: str | None = None,
+    backend_name: str | None = None,
 ) -> PreflightReport:
     """The emulated rig of ``run --emulate``, on a world of the first object (before any trial),
     drawn under ``variation`` (sim/variation.py; None: nominal) as its first trial is;
     ``realtime``: on the bus's and the bridge's real time, the world stepped every tick of
-    wall time. The bus budget is the hand file's (``hand_file``: named in a warning)."""
+    wall time. The bus budget is the hand file's (``hand_file``: named in a warning).
+    ``backend_name``: the emulated entry (default: the Dynamixel hand's); a hand backend with a
+    ``preflight`` method checks its own joints (the Allegro on CAN)."""
     from grasp_ctrl.rigs.registry import EMULATED_HAND, backend
 
-    emulated = backend(EMULATED_HAND)
+    emulated = backend(backend_name or EMULATED_HAND)
     world = emulated.make_world()(hand, obj, seed, emulated.world_params(variation))
     hand_backend, sensors = emulated.make_backends(realtime)(world, hand)
     try:
         hand_backend.connect()
         sensors.start()
-        servos = check_servos(hand_backend.dxl)
+        own = getattr(hand_backend, "preflight", None)
+        servos = own() if own is not None else check_servos(hand_backend.dxl)
 
         def next_sample() -> None:
             if not realtime:
@@ -233,7 +265,7 @@ def preflight_emulated(
             sensors.close()
         finally:
             hand_backend.close()
-    warning = bus_budget_warning(hand, hand_file)
+    warning = bus_budget_warning(hand, hand_file) if hand.servo_driven else None
     return PreflightReport(servos, tips, (warning,) if warning else ())
 
 

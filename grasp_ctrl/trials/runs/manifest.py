@@ -14,9 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from grasp_ctrl.config.objects import ObjectProfile, profile_from_json, profile_json
-from grasp_ctrl.config.toml_reader import finite_number
-from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES
-from grasp_ctrl.controller.settings import CONTROLLER_NAMES, ControllerSettings
+from grasp_ctrl.controller.settings import ControllerSettings, checked_settings
 from grasp_ctrl.errors import ConfigError, UsageError
 from grasp_ctrl.files.json_limits import JsonFileError, read_json
 from grasp_ctrl.files.storage import (
@@ -30,22 +28,6 @@ from grasp_ctrl.sim.variation import NOMINAL, Variation, variation_from_json
 
 FORMAT = 1
 MAX_TRIALS = 100_000
-SETTING_CHOICES = {
-    "grip_targets": GRIP_TARGET_MODES,
-    "controller": CONTROLLER_NAMES,
-}  # the text settings and their values
-MAX_SETTING = 1e6  # no controller setting (seconds, metres, newtons, ratios) comes near it
-# settings that may be zero (no slow zone, no overshoot, no retreat; grip_load's wind-up bound,
-# servo-limited targets and cycle settle rule off)
-ZERO_ALLOWED = (
-    "lower_overshoot_m",
-    "lower_slow_zone_m",
-    "retreat_m",
-    "grip_weight_margin",
-    "windup_lag_factor",
-    "servo_limited_s",
-    "ramp_cycle_s",
-)
 
 
 @dataclass
@@ -210,30 +192,11 @@ def _is_int(v: Any) -> bool:
 
 
 def settings_from_json(d: Any, where: str) -> ControllerSettings:
-    """Controller settings from run.json: known keys, each of its default's type,
-    numbers finite and positive (those of ``ZERO_ALLOWED`` may be zero)."""
+    """Controller settings from run.json (``checked_settings``); a run written before the
+    controllers had names ran the paper's, and resumes with it."""
     if not isinstance(d, dict):
         raise UsageError(f"{where}: settings: a table of controller settings")
-    fields = {f.name: f for f in dataclasses.fields(ControllerSettings)}
-    defaults = ControllerSettings()
-    values: dict[str, Any] = {}
-    for key, v in d.items():
-        if key not in fields:
-            raise UsageError(f"{where}: settings.{key}: a known setting (one of {', '.join(fields)})")
-        default = getattr(defaults, key)
-        if isinstance(default, bool):
-            if not isinstance(v, bool):
-                raise UsageError(f"{where}: settings.{key}: true or false (got {v!r})")
-        elif isinstance(default, str):
-            choices = SETTING_CHOICES.get(key, ())
-            if v not in choices:
-                raise UsageError(f"{where}: settings.{key}: one of {', '.join(choices)} (got {v!r})")
-        elif not finite_number(v) or v < 0 or v > MAX_SETTING or (v == 0 and key not in ZERO_ALLOWED):
-            need = f"a finite number {'>=' if key in ZERO_ALLOWED else '>'} 0 and <= {MAX_SETTING:g}"
-            shown = repr(v) if len(repr(v)) <= 40 else f"{repr(v)[:20]}..."
-            raise UsageError(f"{where}: settings.{key}: {need} (got {shown})")
-        values[key] = v
-    # a run written before the controllers had names ran the paper's: it resumes with it
+    values = checked_settings(d, where)
     values.setdefault("controller", "paper")
     return ControllerSettings(**values)
 
