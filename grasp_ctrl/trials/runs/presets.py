@@ -35,8 +35,9 @@ PRESETS: dict[str, Preset] = {
     "paper": Preset(
         "paper",
         "the paper's lift-and-place protocol (Fig. 6) on the paper's hand (hand_configs/allegro_hand.toml) with "
-        "the paper's controller under the nominal variation: 6 objects x 5 trials x Su et al., the voxel network "
-        "and the authors' network fine-tuned on the simulated sensor",
+        "the paper's controller (as the hand file reads it: the Allegro pushes each pad to tau, then holds) under "
+        "the nominal variation: 6 objects x 5 trials x Su et al., the voxel network and the authors' network "
+        "fine-tuned on the simulated sensor",
         PAPER_OBJECTS,
         5,
         PAPER_POLICIES,
