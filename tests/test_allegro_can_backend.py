@@ -40,8 +40,10 @@ def test_the_registry_names_the_can_backends(allegro):
         emulated.check_hand(leap)
     with pytest.raises(UsageError, match=r"--backend dynamixel drives .*\(--backend allegro_can\)"):
         backend("dynamixel").check_hand(allegro)
-    with pytest.raises(UsageError, match="--realtime: not offered"):
-        emulated.make_backends(realtime=True)
+    from grasp_ctrl.emulators.allegro_can_world import allegro_emulated_backends, allegro_realtime_backends
+
+    assert emulated.make_backends() is allegro_emulated_backends
+    assert emulated.make_backends(realtime=True) is allegro_realtime_backends
 
 
 def test_without_python_can_the_backend_is_one_line_naming_the_extra(allegro, monkeypatch):

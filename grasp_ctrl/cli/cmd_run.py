@@ -118,7 +118,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="with --emulate: a wall-clock dry run: the loop ticks every 10 ms of wall time on a deadline "
         "schedule against emulators that take the bus's real time (baud rate, return delay, the hand "
         "file's USB latency_timer_ms) and the bridge's 10 ms frames; each trial record keeps the "
-        "loop's cycle-time percentiles and deadline misses (timings.loop). One trial at a time; "
+        "loop's cycle-time percentiles and deadline misses (timings.loop; with --backend allegro_can, "
+        "also its host PD loop's 333 Hz periods). One trial at a time; "
         "kept in run.json for --resume",
     )
     p.add_argument(
@@ -256,7 +257,8 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
         entry.check_hand(hand)
     if args.realtime and not args.emulate:
         raise UsageError(
-            "--realtime: only with --backend dynamixel --emulate (a wall-clock dry run of the emulated hand)"
+            "--realtime: only with --backend dynamixel --emulate or --backend allegro_can --emulate "
+            "(a wall-clock dry run of the emulated hand)"
         )
     from grasp_ctrl.controller.registry import controller_class
     from grasp_ctrl.controller.settings import DEFAULT_CONTROLLER, settings_for

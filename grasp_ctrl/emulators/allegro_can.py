@@ -65,6 +65,7 @@ class AllegroCANEmulator:
         self.silent = False
         self.torque_frames = 0
         self.torque_log: list[tuple[int, tuple[int, int, int, int]]] = []  # (finger, pwm), in arrival order
+        self.torque_times: list[float] = []  # when each logged frame arrived (time.perf_counter)
         self.keep_log = False
         self.bad_frames = 0
         self._thread: threading.Thread | None = None
@@ -120,6 +121,7 @@ class AllegroCANEmulator:
                     self.torque_frames += 1
                     if self.keep_log:
                         self.torque_log.append((finger, pwm))
+                        self.torque_times.append(time.perf_counter())
             elif cmd == pr.CMD_SET_PERIOD:
                 self.period_ms = pr.decode_period(frame)
             elif cmd == pr.CMD_SYSTEM_ON:

@@ -26,7 +26,16 @@ the world's PD eases off as the joint moves within the step, where the host's wo
 until its next frame. System off, or zero torque on every joint (torque off, a fault), switches
 the world's actuators off: the joints go limp.
 
-``realtime`` (the wall-clock dry run) is not offered for this hand yet: refused in one line.
+``realtime=True`` (``run --backend allegro_can --emulate --realtime``): the wall-clock dry run.
+The backend's PD loop runs in its own thread at ``[torque_pd] rate_hz`` (333 Hz) on the wall clock,
+as on a real hand, and the emulator streams the joint positions every report period (3 ms) from its
+own thread. The trial runner steps the world on the wall clock and calls ``before_world_step`` (the
+torques the emulator received last drive the world's next step, as above) and ``after_world_step``
+(the emulator reports the world's new angles from then on); ``read`` and ``write_goals`` are the
+backend's alone (the latest positions, the goal handed to the loop). Joint states are stamped with
+the trial's clock (``clock``, a ``TrialClock``, shared with the fingertips). ``bus_figures`` gives
+the record the PD loop's periods from the trial's first world step on (``pd_loop``: p50, p90,
+p99, max against the 3 ms budget, and the periods missed).
 """
 
 from __future__ import annotations
@@ -35,6 +44,7 @@ import dataclasses
 import itertools
 import os
 import time
+from typing import Any
 
 import numpy as np
 
@@ -60,15 +70,14 @@ def implied_goal(q: np.ndarray, dq: np.ndarray, tau_nm: np.ndarray, kp: np.ndarr
 
 class EmulatedAllegroHand:
     def __init__(self, world: World, hand: HandConfig, realtime: bool = False, clock: TrialClock | None = None) -> None:
-        if realtime:
-            raise UsageError(
-                "--realtime: not offered for the Allegro's CAN emulation yet (run it in lockstep: drop --realtime)"
-            )
         if hand.torque_pd is None:
             raise UsageError(f"hand {hand.name!r}: the Allegro CAN emulation drives a torque_pd hand")
         self.world = world
         self.hand = hand
-        self.trial_clock = None  # lockstep: the world's clock
+        self.realtime = realtime
+        # realtime: the trial's wall clock (started by the loop); lockstep: the world's clock
+        self.trial_clock = (clock or TrialClock(world.t)) if realtime else None
+        self._stepped = False  # realtime: the world has stepped (the PD figures count from then)
         self.map = JointMap.from_hand(hand)
         self.kp = np.array([j.kp_nm_per_rad or 0.0 for j in hand.joints])
         self.kd = np.array([j.kd_nm_s_per_rad or 0.0 for j in hand.joints])
@@ -79,9 +88,10 @@ class EmulatedAllegroHand:
             virtual_link(self.channel, f"emulated Allegro on {self.channel}"),
             self.map,
             self._q(),
-            stream=False,
+            stream=realtime,
         )
         self.can: AllegroCANHand | None = None
+        self.can_bus = f"virtual {self.channel} (emulated)"  # what the pre-flight names
 
     def _q(self) -> np.ndarray:
         return np.asarray(self.world.q_measured, dtype=float)
@@ -94,10 +104,10 @@ class EmulatedAllegroHand:
         self.can = AllegroCANHand(
             virtual,
             self.channel,
-            clock=WorldClock(self.world),
+            clock=self.trial_clock if self.trial_clock is not None else WorldClock(self.world),
             link=virtual_link(self.channel, f"virtual {self.channel}"),
             handle_signals=False,
-            threaded=False,
+            threaded=self.realtime,  # realtime: the PD loop's own thread, on the wall clock
             connect_timeout_s=2.0,  # the emulator is a thread on a possibly busy host
         )
         try:
@@ -105,7 +115,8 @@ class EmulatedAllegroHand:
         except BaseException:
             self.emu.close()
             raise
-        self._run_period()
+        if not self.realtime:
+            self._run_period()
 
     # ---- the world's side ----------------------------------------------------------------------
     def _publish(self) -> None:
@@ -136,9 +147,31 @@ class EmulatedAllegroHand:
         # zero torque on every joint (torque off, or a fault) is a limp hand, not a PD about q
         w.torque_on = bool(self.emu.system_on) and bool(np.any(self.emu.pwm))
 
+    # ---- realtime: the runner steps the world on the wall clock ----------------------------------
+    def before_world_step(self) -> None:
+        """The torques the emulator received last drive the world's next step."""
+        if not self._stepped and self.can is not None and self.can.loop is not None:
+            self._stepped = True
+            self.can.loop.reset_periods()  # the record's PD figures: the trial's, not the start-up's
+        self._drive_world()
+
+    def after_world_step(self) -> None:
+        """The emulator reports the world's new angles from now on (its own 3 ms stream)."""
+        self.emu.set_positions(self._q())
+
+    def bus_figures(self) -> dict[str, Any]:
+        """The link a realtime record was measured on and its PD loop's periods (the trial
+        runner's ``timings.loop``)."""
+        out: dict[str, Any] = {"bus": "can virtual"}  # python-can's in-process bus: no wire time
+        if self.can is not None and self.can.loop is not None:
+            out["pd_loop"] = self.can.loop.period_figures()
+        return out
+
     # ---- HandBackend -----------------------------------------------------------------------------
     def read(self) -> JointState:
         assert self.can is not None and self.can.loop is not None, "connect() first"
+        if self.realtime:  # the loop's latest set of positions (its thread takes the frames)
+            return self.can.read()
         self._publish()
         self.can.loop.poll(0.0)
         return self.can.read()
@@ -146,7 +179,8 @@ class EmulatedAllegroHand:
     def write_goals(self, q_goal: np.ndarray) -> None:
         assert self.can is not None, "connect() first"
         self.can.write_goals(q_goal)
-        self._run_period()
+        if not self.realtime:  # realtime: the loop's thread drives to it from its next period
+            self._run_period()
 
     def set_torque(self, enabled: bool) -> None:
         assert self.can is not None, "connect() first"
@@ -181,8 +215,14 @@ class EmulatedAllegroHand:
 
 def allegro_emulated_backends(world: World, hand: HandConfig, realtime: bool = False) -> tuple[object, object]:
     """The hand and sensor backends of one emulated Allegro trial: the CAN path above and the
-    fingertips' serial path (emulators/world_rig.py)."""
+    fingertips' serial path (emulators/world_rig.py); ``realtime``: both on one wall clock."""
     from grasp_ctrl.emulators.world_rig import EmulatedTactileSensors
 
-    hand_backend = EmulatedAllegroHand(world, hand, realtime)
-    return hand_backend, EmulatedTactileSensors(world, hand, realtime)
+    clock = TrialClock(world.t) if realtime else None  # one clock for both
+    hand_backend = EmulatedAllegroHand(world, hand, realtime, clock)
+    return hand_backend, EmulatedTactileSensors(world, hand, realtime, clock)
+
+
+def allegro_realtime_backends(world: World, hand: HandConfig) -> tuple[object, object]:
+    """``allegro_emulated_backends`` on the wall clock (module level: picklable)."""
+    return allegro_emulated_backends(world, hand, realtime=True)

@@ -174,11 +174,9 @@ def _emulated_backends(realtime: bool) -> BackendFactory:
 
 
 def _allegro_emulated_backends(realtime: bool) -> BackendFactory:
-    if realtime:
-        raise UsageError("--realtime: not offered for --backend allegro_can --emulate yet (drop --realtime)")
-    from grasp_ctrl.emulators.allegro_can_world import allegro_emulated_backends
+    from grasp_ctrl.emulators.allegro_can_world import allegro_emulated_backends, allegro_realtime_backends
 
-    return allegro_emulated_backends
+    return allegro_realtime_backends if realtime else allegro_emulated_backends
 
 
 _ENTRIES: dict[str, Backend] = {

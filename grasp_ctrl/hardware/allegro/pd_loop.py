@@ -33,7 +33,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -43,7 +43,7 @@ from grasp_ctrl.hardware.allegro.bus import CanLink
 from grasp_ctrl.hardware.allegro.protocol import CanFrame, JointMap, ProtocolError
 
 VELOCITY_FILTER_S = 0.005  # the joint velocity's low-pass time constant
-PERIOD_SAMPLES = 4096  # the periods kept for the percentiles (the latest)
+PERIOD_SAMPLES = 1 << 15  # the periods kept for the percentiles (the latest: 98 s at 333 Hz)
 
 
 class Goal(NamedTuple):
@@ -77,6 +77,16 @@ def _read_only(a: np.ndarray) -> np.ndarray:
     a = np.array(a, dtype=float)
     a.flags.writeable = False
     return a
+
+
+def _percentiles_ms(seconds: np.ndarray) -> dict[str, float]:
+    """p50/p90/p99/max of durations in seconds, as milliseconds (none: {})."""
+    if not seconds.size:
+        return {}
+    ms = seconds * 1000.0
+    out = {f"p{q}": round(float(np.percentile(ms, q)), 3) for q in (50, 90, 99)}
+    out["max"] = round(float(ms.max()), 3)
+    return out
 
 
 class PDLoop:
@@ -117,6 +127,8 @@ class PDLoop:
         self._dq = np.zeros(n)
         self._periods = np.full(PERIOD_SAMPLES, np.nan)
         self._n_periods = 0
+        self._missed_base = 0  # missed periods before the last ``reset_periods``
+        self._reset_periods = False
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._started_t: float | None = None
@@ -303,6 +315,9 @@ class PDLoop:
                 self.poll(wait)  # take frames as they come until the release
                 continue
             start = time.perf_counter()
+            if self._reset_periods:  # (the owner asked: the figures start afresh here)
+                self._n_periods, self._missed_base = 0, self.counters.missed_periods
+                self._reset_periods = False
             if last_start is not None:
                 self._periods[self._n_periods % PERIOD_SAMPLES] = start - last_start
                 self._n_periods += 1
@@ -347,6 +362,25 @@ class PDLoop:
                 "(powered? on this bus at 1 Mbit/s? the CAN cable terminated?)"
             )
         return self._state
+
+    def reset_periods(self) -> None:
+        """Start the period figures (``period_figures``) afresh from the thread's next period
+        (the realtime dry run: from the trial's first world step, not the start-up)."""
+        self._reset_periods = True
+
+    def period_figures(self) -> dict[str, Any]:
+        """The thread's periods since the start or the last ``reset_periods``: their count, their
+        percentiles (ms: p50, p90, p99, max; the latest ``PERIOD_SAMPLES``), the missed periods
+        (started a whole period late or more, skipped) and the budget."""
+        n = min(self._n_periods, PERIOD_SAMPLES)
+        periods = self._periods[:n]
+        return {
+            "rate_hz": round(1.0 / self.period_s, 3),
+            "budget_ms": round(self.period_s * 1000.0, 3),
+            "periods": int(self._n_periods),
+            "period_ms": _percentiles_ms(periods[np.isfinite(periods)]),
+            "missed_periods": int(self.counters.missed_periods - self._missed_base),
+        }
 
     def stats(self) -> dict[str, float]:
         """The loop's figures: periods (ms: p50, p90, p99, max of the latest), missed periods, frames."""

@@ -44,13 +44,18 @@ class NotConfirmed(GraspCtrlError):
 
 @dataclass(frozen=True)
 class PreflightReport:
-    servos: list[str]  # "name (id N)"
+    servos: list[str]  # "name (id N)"; a CAN hand's joints: "name (CAN joint N)"
     fingertips: list[str]  # "name (sensor N): pdc within +-X"
     warnings: tuple[str, ...] = ()  # problems that do not stop the run (the bus budget)
+    can_bus: str | None = None  # a torque-controlled hand on CAN: its bus ("socketcan can0")
 
     def summary(self) -> str:
+        if self.can_bus is None:
+            hand = f"{len(self.servos)} servos answered, no hardware errors"
+        else:
+            hand = f"{len(self.servos)} joints reported on CAN bus {self.can_bus}, no hand faults"
         line = (
-            f"pre-flight: {len(self.servos)} servos answered, no hardware errors; "
+            f"pre-flight: {hand}; "
             f"{len(self.fingertips)} fingertips streaming and tareable ({'; '.join(self.fingertips)})"
         )
         return "\n".join([line, *(f"pre-flight: warning: {w}" for w in self.warnings)])
@@ -176,6 +181,9 @@ def preflight_hardware(
     from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 
     if not hand.servo_driven:  # a torque-controlled hand on CAN: its own check, then the fingertips
+        from grasp_ctrl.hardware.allegro.bus import describe
+
+        assert hand.torque_pd is not None
         servos = _check_can_hand(hand, port)
         sensors = SerialSensors.from_hand(hand, port=sensor_port)
         sensors.start()
@@ -183,7 +191,7 @@ def preflight_hardware(
             tips = check_fingertips(sensors, hand, lambda: time.sleep(hand.dt))
         finally:
             sensors.close()
-        return PreflightReport(servos, tips)
+        return PreflightReport(servos, tips, can_bus=describe(hand.torque_pd, port))
     dxl = DynamixelHand(hand, port, handle_signals=False)
     dxl.bus.open()
     dxl.connected = True
@@ -266,7 +274,8 @@ def preflight_emulated(
         finally:
             hand_backend.close()
     warning = bus_budget_warning(hand, hand_file) if hand.servo_driven else None
-    return PreflightReport(servos, tips, (warning,) if warning else ())
+    can_bus = getattr(hand_backend, "can_bus", None)  # the Allegro's emulation: its virtual bus
+    return PreflightReport(servos, tips, (warning,) if warning else (), can_bus=can_bus)
 
 
 def confirm_start(yes: bool, ask: Callable[[str], str] = input, say: Callable[[str], None] | None = None) -> None:

@@ -3,7 +3,9 @@
 Trials of a realtime dry run (``run --emulate --realtime``) carry their loop's figures under
 ``timings.loop``; the summary gives each object those of its trials together (``loop``:
 ticks and deadline misses summed, cycle-time p50 the median of the trials' p50, p90/p99/max
-the worst trial's) and the table prints them under the success rates.
+the worst trial's) and the table prints them under the success rates. A hand whose host runs a
+joint PD loop (the Allegro on CAN) adds that loop's periods (``pd_loop``: periods and missed
+periods summed, period p50 the median of the trials', p90/p99/max the worst trial's).
 """
 
 from __future__ import annotations
@@ -54,6 +56,47 @@ def loop_summary(trials: Iterable[Mapping[str, Any]]) -> dict[str, Any] | None:
     }
     for key in ("period_ms", "latency_timer_ms", "baud"):
         values = {lp.get(key) for lp in loops if _number(lp.get(key))}
+        if len(values) == 1:
+            out[key] = values.pop()
+    pd = pd_loop_summary(loops)
+    if pd is not None:
+        out["pd_loop"] = pd
+    return out
+
+
+def _pd_loop_of(loop: Mapping[str, Any]) -> Mapping[str, Any] | None:
+    """A trial's ``timings.loop.pd_loop`` when it is well formed."""
+    pd = loop.get("pd_loop")
+    if not isinstance(pd, Mapping):
+        return None
+    period = pd.get("period_ms")
+    ok = (
+        isinstance(pd.get("periods"), int)
+        and isinstance(pd.get("missed_periods"), int)
+        and isinstance(period, Mapping)
+        and all(_number(period.get(k)) for k in ("p50", "p90", "p99", "max"))
+    )
+    return pd if ok else None
+
+
+def pd_loop_summary(loops: Iterable[Mapping[str, Any]]) -> dict[str, Any] | None:
+    """The host PD loop's periods of one object's trials together; None when none has them."""
+    pds = [pd for pd in (_pd_loop_of(lp) for lp in loops) if pd is not None]
+    if not pds:
+        return None
+    periods = [pd["period_ms"] for pd in pds]
+    out: dict[str, Any] = {
+        "periods": sum(pd["periods"] for pd in pds),
+        "missed_periods": sum(pd["missed_periods"] for pd in pds),
+        "period_ms": {
+            "p50": round(statistics.median(p["p50"] for p in periods), 3),
+            "p90": max(p["p90"] for p in periods),
+            "p99": max(p["p99"] for p in periods),
+            "max": max(p["max"] for p in periods),
+        },
+    }
+    for key in ("rate_hz", "budget_ms"):
+        values = {pd.get(key) for pd in pds if _number(pd.get(key))}
         if len(values) == 1:
             out[key] = values.pop()
     return out
@@ -143,6 +186,14 @@ def format_loops(summary: Mapping[str, Any]) -> list[str]:
                 f"  {p} / {o}: cycle p50 {c['p50']:.1f} ms, p99 {c['p99']:.1f} ms, max {c['max']:.1f} ms; "
                 f"deadline misses {loop['deadline_misses']} of {loop['ticks']} ticks{timer}"
             )
+            pd = loop.get("pd_loop")
+            if isinstance(pd, Mapping):
+                q = pd["period_ms"]
+                budget = f" (budget {pd['budget_ms']:.1f} ms)" if _number(pd.get("budget_ms")) else ""
+                rows.append(
+                    f"  {p} / {o}: PD loop period p50 {q['p50']:.2f} ms, p99 {q['p99']:.2f} ms, "
+                    f"max {q['max']:.1f} ms{budget}; missed {pd['missed_periods']} of {pd['periods']} periods"
+                )
     if not rows:
         return []
     period = next(
