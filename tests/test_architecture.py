@@ -179,3 +179,51 @@ def test_each_world_and_the_sensor_model_stand_alone():
                     continue
                 bad = [t for t in imported if t.startswith(other_prefix)]
                 assert not bad, f"{module} imports {bad} ({imported[bad[0]][:1]})"
+
+
+DESIGN = PACKAGE.parent / "docs" / "design.md"
+
+
+def documented_layers() -> list[set[str]]:
+    """docs/design.md's layer table, in its order: the subpackages (and root modules) each row
+    names in its second column (``trials/episode/`` counts as ``trials``)."""
+    import re
+
+    lines = DESIGN.read_text().splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("| layer |"))
+    layers: list[set[str]] = []
+    for line in lines[start + 2 :]:
+        if not line.startswith("|"):
+            break
+        column = line.split("|")[2]
+        layers.append({name.split("/")[0] for name in re.findall(r"`([a-z_]+)/?[^`]*`", column)})
+    return layers
+
+
+def layer_breaks(graph: dict[str, dict[str, list[str]]], layers: list[set[str]]) -> list[str]:
+    """Each import of a subpackage from a later layer (the table lists the lowest first)."""
+    rank = {unit: i for i, layer in enumerate(layers) for unit in layer}
+    return [
+        f"{a} (layer {rank[a]}) imports {b} (layer {rank[b]}): {graph[a][b][:2]}"
+        for a in sorted(graph)
+        for b in sorted(graph[a])
+        if a in rank and b in rank and rank[b] > rank[a]
+    ]
+
+
+def test_imports_follow_the_documented_layers():
+    layers = documented_layers()
+    units = {p.name for p in PACKAGE.iterdir() if p.is_dir() and (p / "__init__.py").is_file()}
+    units |= {p.stem for p in PACKAGE.glob("*.py") if p.stem != "__init__"}
+    placed = set().union(*layers)
+    assert units <= placed, f"not in docs/design.md's layer table: {sorted(units - placed)}"
+    breaks = layer_breaks(import_graph(), layers)
+    assert not breaks, "\n".join(breaks)
+
+
+def test_the_layer_check_finds_an_upward_import():
+    layers = [{"config"}, {"tactile"}, {"cli"}]
+    assert layer_breaks({"config": {"tactile": ["grasp_ctrl/config/hand.py:1"]}}, layers) == [
+        "config (layer 0) imports tactile (layer 1): ['grasp_ctrl/config/hand.py:1']"
+    ]
+    assert layer_breaks({"cli": {"config": ["x"]}, "tactile": {"tactile": ["y"]}}, layers) == []

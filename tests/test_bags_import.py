@@ -25,10 +25,10 @@ from rosbags.typesys import get_types_from_msg
 from grasp_ctrl.bags.recording import read_recording
 from grasp_ctrl.bags.types import BIOTAC_HAND, BIOTAC_HAND_ROS1_MD5, typestore
 from grasp_ctrl.cli import main
+from grasp_ctrl.config.sensor_layout import BIOTAC
 from grasp_ctrl.estimators.linear import fit_linear
 from grasp_ctrl.hardware.base import TactileFrame
 from grasp_ctrl.learning.synthetic import generate, generate_trials
-from grasp_ctrl.tactile.layout import BIOTAC
 from grasp_ctrl.tactile_link.recorder import FrameRecorder
 
 T0_NS = 1_712_345_678_000_000_000  # an epoch time: beyond a float's integers in ns

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
+from grasp_ctrl.config.sensor_layout import ELECTRODES, PDC, TDC
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.learning.features import surface_point_and_normal
 from grasp_ctrl.sim.biotac.model import (
@@ -16,7 +17,6 @@ from grasp_ctrl.sim.biotac.model import (
     pdc_rise_of,
     static_frames,
 )
-from grasp_ctrl.tactile.layout import ELECTRODES, PDC, TDC
 
 C = pack_params(DEFAULT_PARAMS)
 UNIT_GAIN = np.ones((1, 20))

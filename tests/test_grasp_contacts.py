@@ -125,7 +125,7 @@ def test_contact_presses_keep_each_contacts_direction() -> None:
     assert 0.3 < reversed_share < 0.7
     ratio = np.linalg.norm(labels, axis=1) / np.min(np.linalg.norm(f, axis=1))
     assert ratio.min() >= 0.25 - 1e-12
-    # pressed electrodes read negative, the pdc positive (tactile/layout.py)
+    # pressed electrodes read negative, the pdc positive (config/sensor_layout.py)
     assert np.all(tared[:, 19] > 0)
 
 

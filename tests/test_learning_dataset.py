@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from grasp_ctrl.config.sensor_layout import CHANNEL_NAMES
 from grasp_ctrl.learning.dataset import (
     RAW_COLUMNS,
     Dataset,
@@ -19,7 +20,6 @@ from grasp_ctrl.learning.dataset import (
     write_csv,
 )
 from grasp_ctrl.learning.splits import split_by_trials
-from grasp_ctrl.tactile.layout import CHANNEL_NAMES
 
 
 def _dataset(n_trials: dict[str, int], rng: np.random.Generator, per_trial: tuple[int, int] = (5, 40)) -> Dataset:

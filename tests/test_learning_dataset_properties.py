@@ -10,6 +10,7 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from grasp_ctrl.config.sensor_layout import CHANNEL_NAMES
 from grasp_ctrl.learning.dataset import (
     LABEL_COLUMNS,
     RAW_COLUMNS,
@@ -19,7 +20,6 @@ from grasp_ctrl.learning.dataset import (
     DatasetError,
     read_csv,
 )
-from grasp_ctrl.tactile.layout import CHANNEL_NAMES
 
 SETTINGS = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

@@ -12,11 +12,11 @@ import pytest
 from conftest import copy_policy
 
 from grasp_ctrl.config.hand import load_hand
+from grasp_ctrl.config.sensor_layout import ELECTRODES, PDC
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.pipeline import TactilePipeline
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.files.paths import default_hand_file
-from grasp_ctrl.tactile.layout import ELECTRODES, PDC
 
 pytest.importorskip("onnxruntime")
 

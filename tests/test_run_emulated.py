@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from grasp_ctrl.cli import main
+from grasp_ctrl.config.sensor_layout import PDC
 from grasp_ctrl.emulators.dxl_chain import DynamixelChainEmulator
 from grasp_ctrl.emulators.tactile_bridge import SyntheticSource, TactileBridgeEmulator
 from grasp_ctrl.errors import HardwareError
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY
-from grasp_ctrl.tactile.layout import PDC
 from grasp_ctrl.trials.episode.preflight import preflight_hardware
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial, trial_seed
 from grasp_ctrl.trials.runs.manifest import read_manifest

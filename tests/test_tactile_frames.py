@@ -7,9 +7,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from grasp_ctrl.config.sensor_layout import CHANNEL_NAMES, FRAME_LEN
 from grasp_ctrl.errors import FrameError, GraspCtrlError
 from grasp_ctrl.tactile.frames import validate_frames
-from grasp_ctrl.tactile.layout import CHANNEL_NAMES, FRAME_LEN
 
 counts = st.integers(min_value=0, max_value=4095)
 
@@ -64,8 +64,8 @@ def test_the_frame_layout_is_the_sensor_types():
     """The hand file's sensor type names its frame layout; an unknown type is one line."""
     import pytest
 
+    from grasp_ctrl.config.sensor_layout import BIOTAC, FRAME_LEN, LAYOUTS, layout_for
     from grasp_ctrl.errors import UsageError
-    from grasp_ctrl.tactile.layout import BIOTAC, FRAME_LEN, LAYOUTS, layout_for
 
     assert layout_for("biotac") is BIOTAC and set(LAYOUTS) == {"biotac"}
     assert BIOTAC.frame_len == FRAME_LEN == 44 and BIOTAC.channel_names[BIOTAC.pdc] == "pdc"

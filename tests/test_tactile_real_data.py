@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from grasp_ctrl.config.sensor_layout import ELECTRODES, PDC
 from grasp_ctrl.evaluation.robotic_finger import Trial, read_trials
-from grasp_ctrl.tactile.layout import ELECTRODES, PDC
 
 CSV = Path(__file__).resolve().parents[2] / "shared" / "data" / "robotic_finger" / "robotic_finger_tidy.csv"
 

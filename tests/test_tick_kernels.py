@@ -17,13 +17,13 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import grasp_ctrl
+from grasp_ctrl.config.sensor_layout import FRAME_LEN, PDC
 from grasp_ctrl.estimators.pipeline import TactilePipeline
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.pad_ik import PadIK
 from grasp_ctrl.numeric import jit
 from grasp_ctrl.numeric.finite import all_finite
 from grasp_ctrl.numeric.limits import limit_goal, step_toward
-from grasp_ctrl.tactile.layout import FRAME_LEN, PDC
 from grasp_ctrl.tactile.tare import ContactGate, Tare, tare_and_gate
 
 

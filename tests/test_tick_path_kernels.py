@@ -13,6 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
+from grasp_ctrl.config.sensor_layout import FRAME_LEN, PDC
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
 from grasp_ctrl.hardware.base import JointState
@@ -24,7 +25,6 @@ from grasp_ctrl.sim.mock.backends import joint_state_kernel
 from grasp_ctrl.sim.mock.world import MockWorld, _clamped_target, _clip_into, _limited_goal
 from grasp_ctrl.sim.world_backends import WorldSensors, checked_limit_goal, clamped_arm_target
 from grasp_ctrl.sim.world_parts import _finite_copy
-from grasp_ctrl.tactile.layout import FRAME_LEN, PDC
 from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate_bits
 
 

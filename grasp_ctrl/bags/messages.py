@@ -13,7 +13,7 @@ import numpy as np
 
 from grasp_ctrl.bags import topics
 from grasp_ctrl.bags.types import BIOTAC_HAND, N_ELECTRODES, N_PAC
-from grasp_ctrl.tactile.layout import BIOTAC
+from grasp_ctrl.config.sensor_layout import BIOTAC
 
 Message = tuple[int, str, str, dict[str, Any]]
 Vector = Sequence[float] | np.ndarray  # a point, force or quaternion: a tuple or an array row

@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 
 from grasp_ctrl.bags.types import BIOTAC_HAND, N_ELECTRODES, N_PAC, WRENCH, WRENCH_STAMPED, short_name
+from grasp_ctrl.config.sensor_layout import BIOTAC, FRAME_LEN
 from grasp_ctrl.errors import UsageError
-from grasp_ctrl.tactile.layout import BIOTAC, FRAME_LEN
 
 ROS2_SUFFIXES = (".db3", ".mcap")
 

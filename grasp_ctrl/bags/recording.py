@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
+from grasp_ctrl.config.sensor_layout import BIOTAC, CHANNEL_NAMES
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.hardware.base import TactileFrame
-from grasp_ctrl.tactile.layout import BIOTAC, CHANNEL_NAMES
 from grasp_ctrl.tactile_link.recorder import HEADER
 
 LABEL_COLUMNS = ("trial_id", "fx", "fy", "fz", "nx", "ny", "nz", "in_paper_trial")

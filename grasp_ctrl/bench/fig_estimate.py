@@ -18,9 +18,9 @@ import time
 import numpy as np
 
 from grasp_ctrl.bench.figure import Figure, time_ms
+from grasp_ctrl.config.sensor_layout import ELECTRODES, FRAME_LEN, PDC
 from grasp_ctrl.estimators.pipeline import TactilePipeline
 from grasp_ctrl.estimators.registry import load_policy
-from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PDC
 
 FINGERS = ("index", "middle", "ring", "thumb")
 

@@ -158,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-MLP_CHANNELS = list(range(20))  # the 19 tared electrodes and the tared pdc (tactile/layout.py)
+MLP_CHANNELS = list(range(20))  # the 19 tared electrodes and the tared pdc (config/sensor_layout.py)
 
 
 def _fit_mlp(

@@ -12,10 +12,10 @@ from pathlib import Path
 from typing import Any
 
 from grasp_ctrl.config.identifiers import check_identifier
+from grasp_ctrl.config.sensor_layout import LAYOUTS, SensorLayout, layout_for
 from grasp_ctrl.config.servos import MODELS as SERVO_MODELS
 from grasp_ctrl.config.servos import ServoModel
 from grasp_ctrl.config.toml_reader import Table, read_toml
-from grasp_ctrl.tactile.layout import LAYOUTS, SensorLayout, layout_for
 
 Vec3 = tuple[float, float, float]
 
@@ -133,7 +133,7 @@ class DynamixelConfig:
 
 @dataclass(frozen=True)
 class TactileConfig:
-    sensor_type: str = "biotac"  # one of tactile/layout.py's LAYOUTS
+    sensor_type: str = "biotac"  # one of config/sensor_layout.py's LAYOUTS
     port: str = "/dev/ttyACM0"
     baud: int = 1_000_000
     mode: str = "binary"

@@ -30,10 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
+from grasp_ctrl.config.sensor_layout import COUNT_MAX, ELECTRODES, FRAME_LEN, PAC, PDC, TAC, TDC
 from grasp_ctrl.emulators.bus_timing import wire_time_s
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.sim.biotac.model import BioTacSensorModel
-from grasp_ctrl.tactile.layout import COUNT_MAX, ELECTRODES, FRAME_LEN, PAC, PDC, TAC, TDC
 from grasp_ctrl.tactile_link.protocol import SEQ_MODULO, encode_binary, encode_text
 
 #: (sensor_id, sample index) -> (44,) raw counts.

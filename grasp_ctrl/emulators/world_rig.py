@@ -30,12 +30,12 @@ import time
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.config.sensor_layout import COUNT_MAX
 from grasp_ctrl.emulators.tactile_bridge import TactileBridgeEmulator
 from grasp_ctrl.emulators.wall_clock import TrialClock
 from grasp_ctrl.emulators.world_hand import EmulatedDynamixelHand, WorldClock
 from grasp_ctrl.hardware.base import Clock, TactileFrame
 from grasp_ctrl.sim.world_api import World
-from grasp_ctrl.tactile.layout import COUNT_MAX
 from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 
 # How long (real time) a tick waits for the reader thread to decode the frames it sent.

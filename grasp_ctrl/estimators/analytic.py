@@ -15,9 +15,9 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
+from grasp_ctrl.config.sensor_layout import ELECTRODES
 from grasp_ctrl.estimators.base import Estimate
 from grasp_ctrl.tactile.geometry import ELECTRODE_NORMALS_SENSOR
-from grasp_ctrl.tactile.layout import ELECTRODES
 
 
 def electrode_normal_sums(tared: np.ndarray) -> np.ndarray:

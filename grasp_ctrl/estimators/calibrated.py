@@ -20,10 +20,10 @@ import numpy.typing as npt
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.identifiers import check_policy_identifier
+from grasp_ctrl.config.sensor_layout import ELECTRODES, FRAME_LEN
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.base import Estimate, ForceEstimator
 from grasp_ctrl.files.storage import file_sha256
-from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN
 
 
 class CalibratedEstimator:

@@ -16,11 +16,11 @@ from typing import Any
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.config.sensor_layout import ELECTRODES, FRAME_LEN, PDC
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.base import Estimate
 from grasp_ctrl.estimators.onnx_checks import check_graph_io, verify_model_hash
 from grasp_ctrl.tactile.features import contact_points
-from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PDC
 
 FEATURE_KINDS = {
     "electrodes_pdc": ("electrodes", "pdc"),

@@ -11,10 +11,10 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
+from grasp_ctrl.config.sensor_layout import ELECTRODES
 from grasp_ctrl.estimators.base import Estimate
 from grasp_ctrl.numeric import jit
 from grasp_ctrl.numeric.jit import njit
-from grasp_ctrl.tactile.layout import ELECTRODES
 
 _FLOAT64 = np.dtype(np.float64)
 

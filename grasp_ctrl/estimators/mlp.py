@@ -17,10 +17,10 @@ from typing import Any
 
 import numpy as np
 
+from grasp_ctrl.config.sensor_layout import FRAME_LEN
 from grasp_ctrl.estimators.base import Estimate
 from grasp_ctrl.numeric import jit
 from grasp_ctrl.numeric.jit import njit
-from grasp_ctrl.tactile.layout import FRAME_LEN
 
 _FLOAT64 = np.dtype(np.float64)
 

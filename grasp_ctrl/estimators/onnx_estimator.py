@@ -19,11 +19,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.config.sensor_layout import ELECTRODES, FRAME_LEN
 from grasp_ctrl.errors import PolicyError
 from grasp_ctrl.estimators.base import Estimate
 from grasp_ctrl.estimators.onnx_checks import check_graph_io, verify_model_hash
 from grasp_ctrl.tactile.features import contact_points
-from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN
 from grasp_ctrl.tactile.voxel import GRID_SHAPE, VARIANTS, VoxelGrid
 
 if TYPE_CHECKING:

@@ -13,10 +13,10 @@ from typing import NamedTuple
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.config.sensor_layout import FRAME_LEN
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.numeric import jit
 from grasp_ctrl.tactile.frames import validate_frames
-from grasp_ctrl.tactile.layout import FRAME_LEN
 from grasp_ctrl.tactile.tare import ContactGate, Tare, scatter_rows, tare_and_gate_bits
 
 _FLOAT64 = np.dtype(np.float64)

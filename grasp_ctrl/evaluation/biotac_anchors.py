@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.stats import spearmanr
 
+from grasp_ctrl.config.sensor_layout import ELECTRODES, FRAME_LEN, PDC
 from grasp_ctrl.evaluation.robotic_finger import Trial, read_trials
 from grasp_ctrl.evaluation.tilt_profile import (
     TiltProfile,
@@ -33,7 +34,6 @@ from grasp_ctrl.evaluation.tilt_profile import (
     real_tilt_profile,
     simulated_tilt_profile,
 )
-from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PDC
 
 if TYPE_CHECKING:
     from grasp_ctrl.estimators.base import ForceEstimator

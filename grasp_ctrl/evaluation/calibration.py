@@ -32,9 +32,9 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
+from grasp_ctrl.config.sensor_layout import ELECTRODES
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.evaluation.direction import angles_deg, fit_rotation, unit
-from grasp_ctrl.tactile.layout import ELECTRODES
 
 MODELS = ("gains", "linear", "affine", "residual")
 MIN_LABEL_N = 0.05  # labels below this are clamped in the relative weight (as in the training loss)

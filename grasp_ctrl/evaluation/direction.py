@@ -29,11 +29,11 @@ import numpy as np
 from scipy.optimize import minimize
 from scipy.spatial.transform import Rotation
 
+from grasp_ctrl.config.sensor_layout import PDC
 from grasp_ctrl.estimators.analytic import electrode_normal_sums
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.evaluation.robotic_finger import Trial
 from grasp_ctrl.tactile.features import contact_points, surface_normals
-from grasp_ctrl.tactile.layout import PDC
 from grasp_ctrl.tactile.tare import ContactGate, Tare
 
 PERCENTILES = (50, 75, 90)

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
+from grasp_ctrl.config.sensor_layout import ELECTRODES, FRAME_LEN, PDC
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.files.csv_rows import Column, read_rows
-from grasp_ctrl.tactile.layout import ELECTRODES, FRAME_LEN, PDC
 
 _ELECTRODE_COLS = [f"e{i}" for i in range(1, 20)]
 COUNT_MAX = 4095.0  # a 12-bit BioTac channel

@@ -37,9 +37,9 @@ from typing import Any
 
 import numpy as np
 
+from grasp_ctrl.config.sensor_layout import CHANNEL_NAMES, FRAME_LEN, PDC
 from grasp_ctrl.errors import GraspCtrlError
 from grasp_ctrl.learning.gate import GateRule, contact_gate
-from grasp_ctrl.tactile.layout import CHANNEL_NAMES, FRAME_LEN, PDC
 
 SOURCES = ("rigid-ft", "ball-ft", "planar-pushing")
 LABEL_COLUMNS = ("fx", "fy", "fz")

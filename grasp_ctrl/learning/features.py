@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from grasp_ctrl.config.sensor_layout import ELECTRODES, PDC
 from grasp_ctrl.tactile.features import contact_points, surface_normals
 from grasp_ctrl.tactile.geometry import SURFACE_RADIUS_M
-from grasp_ctrl.tactile.layout import ELECTRODES, PDC
 from grasp_ctrl.tactile.voxel import GRID_SHAPE, VoxelGrid
 
 VOXEL_VARIANT = "icra19"

@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from grasp_ctrl.config.sensor_layout import PDC
 from grasp_ctrl.learning.dataset import SOURCES, Dataset, RawTrial
 from grasp_ctrl.learning.features import surface_point_and_normal
 from grasp_ctrl.learning.gate import GateRule, contact_gate
@@ -40,7 +41,6 @@ from grasp_ctrl.pushing.solver import plane_force_to_sensor, pusher_forces
 from grasp_ctrl.sim.biotac.grasp_contacts import GraspContacts
 from grasp_ctrl.sim.biotac.presses import reverse_shear
 from grasp_ctrl.tactile.geometry import SURFACE_RADIUS_M
-from grasp_ctrl.tactile.layout import PDC
 
 if TYPE_CHECKING:
     from grasp_ctrl.sim.biotac.model import BioTacParams

@@ -13,12 +13,12 @@ from typing import Any
 import numpy as np
 import torch
 
+from grasp_ctrl.config.sensor_layout import ELECTRODES, PDC
 from grasp_ctrl.errors import reraise_interrupt
 from grasp_ctrl.learning.dataset import Dataset
 from grasp_ctrl.learning.features import _ELECTRODE_CELLS, GRID_SHAPE, _cell_index, contact_point_and_normal
 from grasp_ctrl.learning.losses import sample_losses
 from grasp_ctrl.learning.models import ForceModel, ForceNet, MultiHeadDropoutNet, build_model
-from grasp_ctrl.tactile.layout import ELECTRODES, PDC
 
 CHECKPOINT_FORMAT = "grasp_ctrl-force-checkpoint-1"
 

@@ -12,10 +12,10 @@ import math
 
 import numpy as np
 
+from grasp_ctrl.config.sensor_layout import FRAME_LEN, PDC
 from grasp_ctrl.kinematics.pad_ik import sensor_forces_kernel
 from grasp_ctrl.numeric.jit import njit
 from grasp_ctrl.numeric.limits import _maximum
-from grasp_ctrl.tactile.layout import FRAME_LEN, PDC
 from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate_bits
 
 

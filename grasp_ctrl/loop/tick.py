@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from grasp_ctrl.config.sensor_layout import PAC
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import FrameError, HardwareError
 from grasp_ctrl.hardware.base import ArmBackend, HandBackend, SensorBackend
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.numeric.finite import both_finite
-from grasp_ctrl.tactile.layout import PAC
 
 
 def control_tick(

@@ -26,13 +26,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from grasp_ctrl.config.sensor_layout import CHANNEL_NAMES, ELECTRODES, FRAME_LEN, PAC, PDC, TDC
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.files.storage import atomic_writer
 from grasp_ctrl.hardware.base import JointState
 from grasp_ctrl.loop.loop_kernels import log_row
 from grasp_ctrl.numeric import jit
-from grasp_ctrl.tactile.layout import CHANNEL_NAMES, ELECTRODES, FRAME_LEN, PAC, PDC, TDC
 
 if TYPE_CHECKING:
     import pyarrow as pa

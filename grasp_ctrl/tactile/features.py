@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from grasp_ctrl.config.sensor_layout import ELECTRODES, N_ELECTRODES
 from grasp_ctrl.tactile.geometry import ELECTRODE_POSITIONS_SENSOR, SURFACE_RADIUS_M
-from grasp_ctrl.tactile.layout import ELECTRODES, N_ELECTRODES
 
 # The authors add this to the weight sum; kept so centroids match theirs.
 _WEIGHT_EPS = 1e-8

@@ -12,8 +12,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from grasp_ctrl.config.sensor_layout import CHANNEL_NAMES, COUNT_MAX, COUNT_MIN, FRAME_LEN
 from grasp_ctrl.errors import FrameError
-from grasp_ctrl.tactile.layout import CHANNEL_NAMES, COUNT_MAX, COUNT_MIN, FRAME_LEN
 
 
 def _who(row: int, fingers: Sequence[str] | None) -> str:

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from grasp_ctrl.config.sensor_layout import COUNT_MAX, COUNT_MIN, FRAME_LEN, PDC
 from grasp_ctrl.numeric.jit import njit
-from grasp_ctrl.tactile.layout import COUNT_MAX, COUNT_MIN, FRAME_LEN, PDC
 
 
 class Tare:

@@ -22,8 +22,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from grasp_ctrl.config.sensor_layout import N_ELECTRODES
 from grasp_ctrl.tactile.geometry import ELECTRODE_POSITIONS_SENSOR
-from grasp_ctrl.tactile.layout import N_ELECTRODES
 
 VARIANTS = ("icra19", "clamped")
 BINS = (15, 15, 7)

@@ -18,10 +18,10 @@ from typing import TextIO
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.config.sensor_layout import PDC
 from grasp_ctrl.errors import HardwareError, SensorStaleError
 from grasp_ctrl.estimators.base import Estimate, ForceEstimator
 from grasp_ctrl.estimators.pipeline import TactilePipeline
-from grasp_ctrl.tactile.layout import PDC
 from grasp_ctrl.tactile_link.recorder import FrameRecorder
 from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 

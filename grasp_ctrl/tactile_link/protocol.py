@@ -17,7 +17,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from grasp_ctrl.tactile.layout import COUNT_MAX, COUNT_MIN, FRAME_LEN
+from grasp_ctrl.config.sensor_layout import COUNT_MAX, COUNT_MIN, FRAME_LEN
 
 SYNC = b"\xaa\x55"
 N_VALUES = FRAME_LEN  # 44, the only length protocol v1 accepts

@@ -12,10 +12,10 @@ import io
 from collections.abc import Iterable
 from pathlib import Path
 
+from grasp_ctrl.config.sensor_layout import CHANNEL_NAMES
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.files.safe_write import open_output
 from grasp_ctrl.hardware.base import TactileFrame
-from grasp_ctrl.tactile.layout import CHANNEL_NAMES
 
 HEADER: tuple[str, ...] = ("t_recv", "finger", "seq") + CHANNEL_NAMES
 

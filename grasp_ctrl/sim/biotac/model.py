@@ -33,10 +33,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from grasp_ctrl.config.sensor_layout import COUNT_MAX, ELECTRODES, FRAME_LEN, PAC, PDC, TAC, TDC
 from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M
 from grasp_ctrl.numeric.jit import njit
 from grasp_ctrl.tactile.geometry import ELECTRODE_NORMALS_SENSOR, ELECTRODE_POSITIONS_SENSOR
-from grasp_ctrl.tactile.layout import COUNT_MAX, ELECTRODES, FRAME_LEN, PAC, PDC, TAC, TDC
 
 PAC_START = PAC.start
 

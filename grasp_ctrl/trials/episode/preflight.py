@@ -28,9 +28,9 @@ from typing import Any
 import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
+from grasp_ctrl.config.sensor_layout import PDC
 from grasp_ctrl.errors import FrameError, GraspCtrlError, HardwareError
 from grasp_ctrl.tactile.frames import validate_frames
-from grasp_ctrl.tactile.layout import PDC
 
 FRAME_TIMEOUT_S = 2.0
 # The share of a control tick the servo bus may take; the rest is sensing, estimator, controller.

@@ -43,6 +43,7 @@ def warm_kernels() -> None:
     import numpy as np
 
     from grasp_ctrl.config import load_hand, load_objects
+    from grasp_ctrl.config.sensor_layout import FRAME_LEN
     from grasp_ctrl.controller.machine import raised_reach_posture
     from grasp_ctrl.controller.motion import FingertipMotion
     from grasp_ctrl.controller.settings import settings_for
@@ -52,7 +53,6 @@ def warm_kernels() -> None:
     from grasp_ctrl.numeric.limits import limit_goal
     from grasp_ctrl.rigs.registry import TEST_WORLD
     from grasp_ctrl.rigs.trial_builder import build_trial
-    from grasp_ctrl.tactile.layout import FRAME_LEN
     from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate
 
     hand = load_hand(default_hand_file())
