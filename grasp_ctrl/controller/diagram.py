@@ -1,9 +1,11 @@
-"""The controller's state machine as a Mermaid state diagram, and as a picture.
+"""A controller's state machine as a Mermaid state diagram, and as a picture.
 
-Built from the one table of transitions in ``machine.py`` (so it cannot drift
-from the controller), with each guard's condition in words and the failure
-reason of every edge into ``fault``. The picture (SVG/PNG, the ``plot`` extra)
-draws the same graph with matplotlib: no Mermaid renderer is needed.
+Built from the controller class's own table of states and transitions (``STATES`` and
+``TRANSITIONS``: the paper's in ``machine.py``, grip_load's in ``grip_load.py``, any
+registered controller's), so it cannot drift from the controller, with each guard's
+condition in words and the failure reason of every edge into ``fault``. A guard without
+words here is described by its docstring's first line. The picture (SVG/PNG, the ``plot``
+extra) draws the same graph with matplotlib: no Mermaid renderer is needed.
 """
 
 from __future__ import annotations
@@ -12,7 +14,8 @@ import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
-from grasp_ctrl.controller.machine import ACTIVE, STATES, TERMINAL, TRANSITIONS
+from grasp_ctrl.controller.machine import TERMINAL, GraspController
+from grasp_ctrl.controller.registry import controller_class
 from grasp_ctrl.controller.settings import ControllerSettings, settings_for
 
 # Faults raised outside the guards, from any active state (GraspController.tick, the
@@ -29,30 +32,55 @@ RUNTIME_FAULTS = (
 
 
 def guard_conditions(s: ControllerSettings | None = None) -> dict[str, str]:
-    """Each guard's condition in words, with the default settings' numbers (object
-    parameters by name: they live in the object profile); the paper's controller's by default,
-    whose state machine the diagram draws."""
+    """Each guard's condition in words, with the settings' numbers (object parameters by name:
+    they live in the object profile); the paper controller's settings by default."""
     s = s or settings_for("paper")
+    if s.controller == "grip_load":
+        settled = (
+            f"every grip within {s.ramp_tolerance_n:g} N of its target for {s.ramp_settle_s:g} s, or balanced "
+            f"(each within {s.ramp_balance_band_n:g} N) with a flat trend over {s.ramp_steady_s:g} s"
+            + (f", or cycling about the targets over {s.ramp_cycle_s:g} s" if s.ramp_cycle_s > 0 else "")
+        )
+    elif s.ramp_mode == "push_then_hold":
+        settled = f"every grip at tau or above (within {s.ramp_tolerance_n:g} N) for {s.ramp_settle_s:g} s"
+    else:
+        settled = (
+            f"grips averaged over {s.ramp_filter_s:g} s: every grip within {s.ramp_tolerance_n:g} N of tau "
+            f"for {s.ramp_settle_s:g} s, or "
+            f"balanced: mean within {s.ramp_tolerance_n:g} N, each within {s.ramp_balance_band_n:g} N, "
+            f"steady for {s.ramp_steady_s:g} s"
+        )
     return {
         "tare_done": "tare frames collected",
         "at_reach_pose": f"palm within {s.reach_tolerance_m * 1000:g} mm of the reach pose",
         "reach_timed_out": f"{s.reach_timeout_s:g} s in reach",
         "all_in_contact": "every grasping tip's contact gate fired",
         "close_timed_out": f"{s.close_timeout_s:g} s in close",
-        "ramp_settled": f"grips averaged over {s.ramp_filter_s:g} s: every grip within {s.ramp_tolerance_n:g} N of tau "
-        f"for {s.ramp_settle_s:g} s, or "
-        f"balanced: mean within {s.ramp_tolerance_n:g} N, each within {s.ramp_balance_band_n:g} N, "
-        f"steady for {s.ramp_steady_s:g} s",
+        "ramp_settled": settled,
         "ramp_timed_out": f"{s.ramp_timeout_s:g} s in ramp",
         "grip_lost": f"a grasping tip without contact or grip below {s.grip_lost_fraction:g} tau "
         f"for {s.contact_lost_s:g} s",
         "at_lift_height": "palm at lift_height_m",
         "hold_done": "hold_s elapsed",
-        "release_detected": "index force on the object along +z below -release_threshold_n for release_debounce ticks",
+        "release_detected": "index force on the object along +z below -release_threshold_n for release_debounce ticks"
+        + (
+            ", or the carried load falls near the support" if s.controller == "grip_load" and s.release_relative else ""
+        ),
         "lower_exhausted": f"palm {s.lower_overshoot_m * 1000:g} mm below the grasp height",
         "fingers_open": f"{s.open_s:g} s opening",
         "retreat_done": f"palm {s.retreat_m * 1000:g} mm above the release point",
+        "preshape_done": "every grasping finger at its closing preshape or stopped at its own contact",
+        "load_carried": f"palm risen {s.load_min_rise_m * 1000:g} mm and the pads carry "
+        f"{s.load_weight_fraction:g} of the weight for {s.load_settle_s:g} s, or risen {s.load_max_rise_m * 1000:g} mm",
     }
+
+
+def _words(cls: type[GraspController], guard: str, known: dict[str, str]) -> str:
+    """``guard``'s condition: ``known``'s words, else its docstring's first line."""
+    if guard in known:
+        return known[guard]
+    doc = getattr(cls, guard).__doc__ or guard
+    return doc.strip().splitlines()[0].rstrip(".")
 
 
 @dataclass(frozen=True)
@@ -64,9 +92,16 @@ class Edge:
     reason: str | None
 
 
+def _controller(settings: ControllerSettings | None) -> tuple[ControllerSettings, type[GraspController]]:
+    s = settings or settings_for("paper")
+    return s, controller_class(s.controller)
+
+
 def edges(settings: ControllerSettings | None = None) -> list[Edge]:
-    words = guard_conditions(settings)
-    return [Edge(src, dst, guard, words[guard], reason) for src, dst, guard, reason in TRANSITIONS]
+    """The edges of ``settings.controller``'s state machine (the paper's by default)."""
+    s, cls = _controller(settings)
+    words = guard_conditions(s)
+    return [Edge(src, dst, guard, _words(cls, guard, words), reason) for src, dst, guard, reason in cls.TRANSITIONS]
 
 
 def _label(e: Edge) -> str:
@@ -76,12 +111,14 @@ def _label(e: Edge) -> str:
 
 def mermaid(settings: ControllerSettings | None = None) -> str:
     """Mermaid ``stateDiagram-v2`` text: the success path first, then the fault edges."""
-    all_edges = edges(settings)
-    lines = ["stateDiagram-v2", f"  [*] --> {STATES[0]}"]
+    s, cls = _controller(settings)
+    all_edges = edges(s)
+    active = [state for state in cls.STATES if state not in TERMINAL]
+    lines = ["stateDiagram-v2", f"  [*] --> {cls.STATES[0]}"]
     lines += [f"  {e.src} --> {e.dst}: {_label(e)}" for e in all_edges if e.dst != "fault"]
     lines += [f"  {e.src} --> {e.dst}: {_label(e)}" for e in all_edges if e.dst == "fault"]
     guarded = {e.src for e in all_edges if e.dst == "fault"}
-    for state in ACTIVE:
+    for state in active:
         if state not in guarded:
             lines.append(f"  {state} --> fault: runtime fault → {', '.join(RUNTIME_FAULTS)}")
     lines += [f"  {t} --> [*]" for t in TERMINAL]
@@ -94,21 +131,14 @@ def mermaid(settings: ControllerSettings | None = None) -> str:
     return "\n".join(lines)
 
 
-# Grid positions (column, row) of the states in the picture: the success path
-# snakes down the left, fault and done on the right.
-_LAYOUT = {
-    "tare": (0, 0),
-    "reach": (0, 1),
-    "close": (0, 2),
-    "ramp": (0, 3),
-    "lift": (0, 4),
-    "hold": (0, 5),
-    "lower": (0, 6),
-    "release": (0, 7),
-    "retreat": (0, 8),
-    "done": (0, 9.2),
-    "fault": (2.2, 4.5),
-}
+def _layout(states: list[str]) -> dict[str, tuple[float, float]]:
+    """Grid positions (column, row) of the states in the picture: the success path down the
+    left in the table's order, done below it, fault on the right halfway down."""
+    path = [state for state in states if state not in TERMINAL]
+    out: dict[str, tuple[float, float]] = {state: (0.0, float(row)) for row, state in enumerate(path)}
+    out["done"] = (0.0, len(path) + 0.2)
+    out["fault"] = (2.2, (len(path) - 1) / 2.0)
+    return out
 
 
 def draw(path: Path, settings: ControllerSettings | None = None) -> Path:
@@ -116,13 +146,16 @@ def draw(path: Path, settings: ControllerSettings | None = None) -> Path:
     from grasp_ctrl.display.plotting import pyplot
 
     plt = pyplot()
-    all_edges = edges(settings)
-    fig, ax = plt.subplots(figsize=(11.0, 11.5), dpi=110)
+    s, cls = _controller(settings)
+    all_edges = edges(s)
+    layout = _layout(cls.STATES)
+    rows = layout["done"][1]
+    fig, ax = plt.subplots(figsize=(11.0, 1.15 * (rows + 0.8)), dpi=110)
     ax.set_xlim(-0.5, 3.3)
-    ax.set_ylim(10.0, -0.8)
+    ax.set_ylim(rows + 0.8, -0.8)
     ax.axis("off")
     box = {"boxstyle": "round,pad=0.4", "fc": "#eef3fb", "ec": "#4a6fa5"}
-    for state, (x, y) in _LAYOUT.items():
+    for state, (x, y) in layout.items():
         style = (
             dict(box, fc="#f9d6d5", ec="#b03a2e")
             if state == "fault"
@@ -130,7 +163,7 @@ def draw(path: Path, settings: ControllerSettings | None = None) -> Path:
         )
         ax.text(x, y, state, ha="center", va="center", fontsize=11, bbox=style, zorder=3)
     for e in all_edges:
-        (x0, y0), (x1, y1) = _LAYOUT[e.src], _LAYOUT[e.dst]
+        (x0, y0), (x1, y1) = layout[e.src], layout[e.dst]
         fault = e.dst == "fault"
         colour = "#b03a2e" if fault else "#333333"
         ax.annotate(
@@ -166,7 +199,7 @@ def draw(path: Path, settings: ControllerSettings | None = None) -> Path:
             ax.text(
                 x0 + 0.12, (y0 + y1) / 2, f"{e.guard}\n{e.condition}", fontsize=7.5, ha="left", va="center", zorder=4
             )
-    fx, fy = _LAYOUT["fault"]
+    fx, fy = layout["fault"]
     ax.text(
         fx,
         fy + 0.55,
@@ -178,7 +211,7 @@ def draw(path: Path, settings: ControllerSettings | None = None) -> Path:
         va="top",
         color="#b03a2e",
     )
-    ax.set_title("grasp_ctrl lift-and-place controller", fontsize=12)
+    ax.set_title(f"grasp_ctrl lift-and-place controller: {s.controller}", fontsize=12)
     fig.tight_layout()
     from grasp_ctrl.files.safe_write import save_figure
 
