@@ -184,3 +184,13 @@ def test_regulate_squeezes_in_lift(allegro, chips_can) -> None:  # type: ignore[
     for _ in range(10):
         s.tick([tau * 0.6] * k)
     assert not np.array_equal(s.ctrl.motion.q_goal, held)  # the grips are regulated toward tau
+
+
+def test_the_allegros_tables_stay_the_allegros(allegro) -> None:  # type: ignore[no-untyped-def]
+    allegro_objects = load_objects(default_objects_file(), allegro.name)
+    leap_objects = load_objects(default_objects_file(), "leap_hand")
+    assert allegro_objects["cleanser"].tau_n == allegro_objects["mustard_bottle"].tau_n == 3.0
+    assert allegro_objects["cleanser"].grip_targets is None  # the LEAP's force-closure targets stay the LEAP's
+    assert (leap_objects["cleanser"].tau_n, leap_objects["mustard_bottle"].tau_n) == (2.5, 3.0)
+    for name in ("chips_can", "lego", "plastic_bottle", "paper_cup"):
+        assert allegro_objects[name].tau_n == 2.0  # the paper's tau
