@@ -17,7 +17,8 @@ from grasp_ctrl.controller.joint_stiffness import joint_stiffness, servo_kp_nm_p
 from grasp_ctrl.controller.motion import FingertipMotion, squeeze_mode
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_POINT_SENSOR
-from grasp_ctrl.kinematics.pad_ik import MAX_SQUEEZE_STRETCH, PadIK
+from grasp_ctrl.kinematics.pad_ik import PadIK
+from grasp_ctrl.kinematics.stiffness_squeeze import MAX_SQUEEZE_STRETCH
 
 
 def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:

@@ -140,6 +140,6 @@ def describe(hand: HandConfig) -> str:
 
 
 def _set(value: float | None) -> float:
-    if value is None:  # not reached: config/hand.py requires every torque_pd key
+    if value is None:  # not reached: config/hand_sections.py requires every torque_pd key
         raise UsageError("a torque_pd joint without its gains or torque limit")
     return value

@@ -7,7 +7,7 @@ checked against the ROBOTIS e-manual; the others from the same tables, unverifie
 Torque and speed facts are given only where taken from the data sheet: XC330-M288-T, stall
 torque 0.93 N m at 1.8 A and 5 V, no-load speed 103 rpm; PWM limit 885 (X330 series).
 
-Ratings (what a hand file may ask of a servo; config/hand.py refuses more): the stall current at
+Ratings (what a hand file may ask of a servo; config/hand_sections.py refuses more): the stall current at
 the recommended voltage, and the control-table ranges of Current Limit(38), Velocity Limit(44)
 (which bounds Goal Velocity(104) and Profile Velocity(112)) and Position P/I/D Gain(84/82/80), from
 the ROBOTIS e-Manual (emanual.robotis.com/docs/en/dxl/x/MODEL/: its specifications and control

@@ -3,7 +3,7 @@
 A Dynamixel in (current-based) position mode is a spring about its goal: the
 squeeze's force on an object is that spring's torque, so the controller needs
 each joint's stiffness to turn a wanted fingertip force into goal changes
-(``kinematics/pad_ik.py``, the stiffness-aware squeeze; docs/mujoco.md).
+(``kinematics/stiffness_squeeze.py``, the stiffness-aware squeeze; docs/mujoco.md).
 
 The servo's facts come from the model table (config/servos.py) by the hand file's
 ``[dynamixel] model``. For the LEAP Hand's XC330-M288-T (stall torque 0.93 N m at 1.8 A):

@@ -14,7 +14,8 @@ import math
 
 import numpy as np
 
-from grasp_ctrl.kinematics.pad_ik import advance_pads_kernel, squeeze_targets_kernel, step_pads_kernel
+from grasp_ctrl.kinematics.pad_ik_kernels import advance_pads_kernel, step_pads_kernel
+from grasp_ctrl.kinematics.stiffness_squeeze import squeeze_targets_kernel
 from grasp_ctrl.numeric.jit import njit
 from grasp_ctrl.numeric.limits import step_toward
 
@@ -111,10 +112,10 @@ def squeeze_pads(
     """``GraspController._squeeze`` without the variance slowdown: each grasping
     fingertip's speed ``min(max(gain (tau - grip), -max_speed), max_speed)`` times dt
     into ``distances``; then, with the joints' ``compliance``, the stiffness-aware pad
-    targets (``pad_ik.squeeze_targets_kernel`` from ``q_measured``, ``pad_along`` in place,
+    targets (``stiffness_squeeze.squeeze_targets_kernel`` from ``q_measured``, ``pad_along`` in place,
     the cross part capped at ``max_speed`` dt; ``directions`` and ``pads`` (F, 3) scratch)
-    and one IK step (``pad_ik.step_pads_kernel``), or, when ``compliance`` is empty (the
-    stiffness is unknown), ``pad_ik.advance_pads_kernel`` along the task vectors (``q``
+    and one IK step (``pad_ik_kernels.step_pads_kernel``), or, when ``compliance`` is empty (the
+    stiffness is unknown), ``pad_ik_kernels.advance_pads_kernel`` along the task vectors (``q``
     and ``targets`` in place either way); with ``move_palm`` also
     ``move_palm_toward(palm, palm_goal, palm_step)`` (the lift and the lowering move the
     arm while they squeeze). True when a fingertip moved."""

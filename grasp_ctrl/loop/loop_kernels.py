@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from grasp_ctrl.config.sensor_layout import FRAME_LEN, PDC
-from grasp_ctrl.kinematics.pad_ik import sensor_forces_kernel
+from grasp_ctrl.kinematics.sensor_frame_kernels import sensor_forces_kernel
 from grasp_ctrl.numeric.jit import njit
 from grasp_ctrl.numeric.limits import _maximum
 from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate_bits
@@ -59,7 +59,7 @@ def sense_forces(
     q: np.ndarray, f_sensor: np.ndarray, geometry: np.ndarray, layout: np.ndarray, f_hand: np.ndarray, grip: np.ndarray
 ) -> bool:
     """The second half: the estimated forces (F, 3) into the hand frame and their grip
-    (``pad_ik.sensor_forces_kernel``; ``geometry``, ``layout``: the hand's ``PadIK``), when
+    (``sensor_frame_kernels.sensor_forces_kernel``; ``geometry``, ``layout``: the hand's ``PadIK``), when
     every one is finite; False (nothing written) when one is not."""
     for i in range(f_sensor.shape[0]):
         for k in range(f_sensor.shape[1]):
