@@ -380,3 +380,26 @@ def test_hand_check_asks_the_hand_and_names_problems(allegro, tmp_path, capsys):
         emu.close()
     assert main(["hand-check", "--hand", str(path), "--recover"]) == 2
     assert "power-cycle" in capsys.readouterr().err
+
+
+def test_both_real_hands_limit_goals_with_the_one_rule() -> None:
+    """The Dynamixel and the CAN hand limit a goal as every simulated hand does (``limit_goal``):
+    within the step it passes unchanged, bit for bit; beyond it, ``prev`` +- the step; then the
+    joint limits."""
+    import numpy as np
+
+    from grasp_ctrl.numeric.limits import limit_goal, limited_goal
+
+    rng = np.random.default_rng(3)
+    lower, upper = np.full(16, -0.5), np.full(16, 1.5)
+    prev = rng.uniform(-0.4, 1.4, 16)
+    goal = prev + rng.uniform(-0.02, 0.02, 16) * np.array([1.0, 10.0] * 8)
+    out = np.empty(16)
+    limit_goal(goal, prev, 0.05, lower, upper, out)
+    got = limited_goal(goal, prev, 0.05, lower, upper)
+    assert np.array_equal(got, out)
+    within = np.abs(goal - prev) <= 0.05
+    assert within.any() and (~within).any()
+    assert np.array_equal(got[within], np.clip(goal, lower, upper)[within])  # unchanged, not prev + (goal - prev)
+    assert np.allclose(np.abs(got - prev)[~within], 0.05)
+    assert np.array_equal(limited_goal(np.full(16, 9.0), None, 0.05, lower, upper), upper)

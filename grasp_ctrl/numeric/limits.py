@@ -1,5 +1,6 @@
 """Joint-goal limiting as compiled loops (grasp_ctrl/numeric/jit.py): the per-tick step and
-range limits of the controller's goals and of the mock hand.
+range limits of the controller's goals and of every hand backend's (``limit_goal``, and
+``limited_goal`` for the real hands' drivers).
 
 Each computes exactly what ``np.minimum(np.maximum(x, low), high)`` computes per
 element (NaN in, NaN out; signed zeros as numpy orders them), in one pass instead of four to six
@@ -66,3 +67,18 @@ def clipped_equals(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, a: np.nd
         if not (c == a[j] and c == b[j]):
             return False
     return True
+
+
+def limited_goal(
+    goal: np.ndarray, prev: np.ndarray | None, max_step: float, lower: np.ndarray, upper: np.ndarray
+) -> np.ndarray:
+    """A new array: ``goal`` within ``max_step`` of ``prev`` per joint (no step limit without a
+    ``prev``), then within [lower, upper]: ``limit_goal``'s rule and values, the one rule every hand
+    backend applies to the goals it is sent (a goal within the step passes unchanged, bit for bit).
+    In numpy, not compiled: a real hand's driver calls it beside a thread of its own (the CAN
+    hand's PD loop), and a first compile for new argument types would hold the interpreter lock."""
+    q = np.asarray(goal, dtype=np.float64)
+    if prev is not None:
+        p = np.asarray(prev, dtype=np.float64)
+        q = np.minimum(np.maximum(q, p - max_step), p + max_step)
+    return np.minimum(np.maximum(q, lower), upper)

@@ -38,6 +38,7 @@ from grasp_ctrl.hardware.allegro.bus import CanLink, describe, open_link
 from grasp_ctrl.hardware.allegro.pd_loop import PDLoop
 from grasp_ctrl.hardware.allegro.protocol import JointMap
 from grasp_ctrl.hardware.base import Clock, JointState
+from grasp_ctrl.numeric.limits import limited_goal
 
 CONNECT_TIMEOUT_S = 1.0
 HEALTH_POLL_S = 0.1  # hand information and temperatures are asked for this often (loop clock)
@@ -156,10 +157,7 @@ class AllegroCANHand:
         q = np.asarray(q_goal, dtype=float)
         if q.shape != self.lower.shape or not np.all(np.isfinite(q)):
             raise UsageError(f"write_goals: expected {self.lower.size} finite joint angles, got shape {q.shape}")
-        if self.last_goal is not None:
-            step = self.hand.safety.max_joint_step_rad
-            q = self.last_goal + np.clip(q - self.last_goal, -step, step)
-        return np.clip(q, self.lower, self.upper)
+        return limited_goal(q, self.last_goal, self.hand.safety.max_joint_step_rad, self.lower, self.upper)
 
     def write_goals(self, q_goal: np.ndarray) -> None:
         q = self.clamp_goal(q_goal)

@@ -31,6 +31,7 @@ from grasp_ctrl.hardware.dynamixel.bus import DynamixelBus
 from grasp_ctrl.hardware.dynamixel.calibration import Calibration
 from grasp_ctrl.hardware.dynamixel.port import set_low_latency
 from grasp_ctrl.hardware.dynamixel.setup import configure_servos
+from grasp_ctrl.numeric.limits import limited_goal
 
 
 class MonotonicClock:
@@ -168,10 +169,7 @@ class DynamixelHand:
         q = np.asarray(q_goal, dtype=float)
         if q.shape != self.lower.shape or not np.all(np.isfinite(q)):
             raise UsageError(f"write_goals: expected {self.lower.size} finite joint angles, got shape {q.shape}")
-        if self.last_goal is not None:
-            step = self.hand.safety.max_joint_step_rad
-            q = self.last_goal + np.clip(q - self.last_goal, -step, step)
-        return np.clip(q, self.lower, self.upper)
+        return limited_goal(q, self.last_goal, self.hand.safety.max_joint_step_rad, self.lower, self.upper)
 
     def write_goals(self, q_goal: np.ndarray) -> None:
         q = self.clamp_goal(q_goal)
