@@ -4,6 +4,7 @@ through others, counting imports inside functions (docs/design.md, section 2).""
 from __future__ import annotations
 
 import ast
+import functools
 from collections import defaultdict
 from pathlib import Path
 
@@ -18,6 +19,7 @@ def _unit(dotted: str) -> str | None:
     return parts[1]
 
 
+@functools.cache  # the package's sources do not change during a test session
 def import_graph() -> dict[str, dict[str, list[str]]]:
     """unit -> imported unit -> the places (file:line) that import it."""
     graph: dict[str, dict[str, list[str]]] = defaultdict(lambda: defaultdict(list))
@@ -125,6 +127,7 @@ def _runtime_imports(tree: ast.AST) -> list[ast.Import | ast.ImportFrom]:
     return found
 
 
+@functools.cache
 def module_graph() -> dict[str, dict[str, list[str]]]:
     """module -> imported module -> the lines that import it (a package's __init__ is a module)."""
     graph: dict[str, dict[str, list[str]]] = defaultdict(lambda: defaultdict(list))
