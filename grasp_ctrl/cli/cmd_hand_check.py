@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
 
     from grasp_ctrl.config.actuation import require_dynamixel
     from grasp_ctrl.config.hand import load_hand
-    from grasp_ctrl.errors import HardwareError, UsageError
+    from grasp_ctrl.errors import UsageError
     from grasp_ctrl.hardware.dynamixel import DynamixelHand
     from grasp_ctrl.hardware.dynamixel import control_table as ct
 
@@ -127,6 +127,14 @@ def run(args: argparse.Namespace) -> int:
         )
     finally:
         bus.close()
+
+    return _conclude(hand, args, problems)
+
+
+def _conclude(hand: Any, args: argparse.Namespace, problems: list[str]) -> int:
+    """The move test (``--move``, only on a hand without problems), then the verdict: exit 0, or
+    one error naming every problem."""
+    from grasp_ctrl.errors import HardwareError
 
     if args.move and not problems:
         problems += _move_test(hand, args.port, args.step)
@@ -214,7 +222,7 @@ def _can_hand_check(hand: Any, args: argparse.Namespace) -> int:
     frames); nothing is written unless --move."""
     import numpy as np
 
-    from grasp_ctrl.errors import HardwareError, UsageError
+    from grasp_ctrl.errors import UsageError
     from grasp_ctrl.hardware.allegro import protocol as pr
     from grasp_ctrl.hardware.allegro.bus import open_link
     from grasp_ctrl.hardware.allegro.protocol import JointMap, ProtocolError
@@ -294,9 +302,4 @@ def _can_hand_check(hand: Any, args: argparse.Namespace) -> int:
             status = f"OUTSIDE LIMITS [{j.lower_rad}, {j.upper_rad}] (check offset_rad/sign)"
             problems.append(f"{j.name}: {status}")
         print(f"  {j.name:14s} {finger:6d} {slot:4d} {int(counts[finger, slot]):7d} {q[k]:8.3f}  {status}")
-    if args.move and not problems:
-        problems += _move_test(hand, args.port, args.step)
-    if problems:
-        raise HardwareError(f"hand-check found {len(problems)} problem(s): " + "; ".join(problems))
-    print("hand-check: OK")
-    return 0
+    return _conclude(hand, args, problems)

@@ -23,11 +23,7 @@ zero torque, system off and the reports stopped: the host is the PD loop, so no 
 
 from __future__ import annotations
 
-import atexit
-import signal
-import threading
 import time
-from typing import Any
 
 import numpy as np
 
@@ -38,6 +34,7 @@ from grasp_ctrl.hardware.allegro.bus import CanLink, describe, open_link
 from grasp_ctrl.hardware.allegro.pd_loop import PDLoop
 from grasp_ctrl.hardware.allegro.protocol import JointMap
 from grasp_ctrl.hardware.base import Clock, JointState
+from grasp_ctrl.hardware.exit_hooks import ExitHooks
 from grasp_ctrl.numeric.limits import limited_goal
 
 CONNECT_TIMEOUT_S = 1.0
@@ -98,8 +95,7 @@ class AllegroCANHand:
         self.last_goal: np.ndarray | None = None
         self.last_state: JointState | None = None
         self._last_health = -float("inf")
-        self._old_sigterm: Any = None
-        self._atexit_registered = False
+        self._exit_hooks = ExitHooks(self.close)  # the safe stop at exit and on SIGTERM
 
     # ---- lifecycle -----------------------------------------------------------------------------
     def connect(self) -> None:
@@ -292,23 +288,7 @@ class AllegroCANHand:
         self.close()
 
     def _install_safety_hooks(self) -> None:
-        if not self._atexit_registered:
-            atexit.register(self.close)
-            self._atexit_registered = True
-        # SIGTERM would end the process without unwinding: make it SystemExit, so that `with`
-        # blocks and `finally` clauses run the safe stop (SIGINT already raises KeyboardInterrupt).
-        if self.handle_signals and threading.current_thread() is threading.main_thread():
-            if signal.getsignal(signal.SIGTERM) in (signal.SIG_DFL, None):
-                self._old_sigterm = signal.signal(signal.SIGTERM, _sigterm_to_exit)
+        self._exit_hooks.install(self.handle_signals)
 
     def _remove_safety_hooks(self) -> None:
-        if self._atexit_registered:
-            atexit.unregister(self.close)
-            self._atexit_registered = False
-        if self._old_sigterm is not None and threading.current_thread() is threading.main_thread():
-            signal.signal(signal.SIGTERM, self._old_sigterm)
-            self._old_sigterm = None
-
-
-def _sigterm_to_exit(signum: int, frame: object) -> None:
-    raise SystemExit(128 + signum)
+        self._exit_hooks.remove()

@@ -15,11 +15,7 @@ posture within the step limit, then torque off) or ``torque_off``.
 
 from __future__ import annotations
 
-import atexit
-import signal
-import threading
 import time
-from typing import Any
 
 import numpy as np
 
@@ -31,6 +27,7 @@ from grasp_ctrl.hardware.dynamixel.bus import DynamixelBus
 from grasp_ctrl.hardware.dynamixel.calibration import Calibration
 from grasp_ctrl.hardware.dynamixel.port import set_low_latency
 from grasp_ctrl.hardware.dynamixel.setup import configure_servos
+from grasp_ctrl.hardware.exit_hooks import ExitHooks
 from grasp_ctrl.numeric.limits import limited_goal
 
 
@@ -82,8 +79,7 @@ class DynamixelHand:
         self.last_goal: np.ndarray | None = None
         self.last_state: JointState | None = None
         self.faults: dict[int, int] = {}  # id -> hardware error bits seen by check_health
-        self._old_sigterm: Any = None
-        self._atexit_registered = False
+        self._exit_hooks = ExitHooks(self.close)  # the safe stop at exit and on SIGTERM
 
     # ---- lifecycle -------------------------------------------------------------
     def connect(self) -> None:
@@ -309,24 +305,7 @@ class DynamixelHand:
         self.close()
 
     def _install_safety_hooks(self) -> None:
-        if not self._atexit_registered:
-            atexit.register(self.close)
-            self._atexit_registered = True
-        # SIGTERM would kill the process without unwinding; turn it into SystemExit
-        # so `with` blocks and `finally` clauses run the safe stop. SIGINT already
-        # raises KeyboardInterrupt.
-        if self.handle_signals and threading.current_thread() is threading.main_thread():
-            if signal.getsignal(signal.SIGTERM) in (signal.SIG_DFL, None):
-                self._old_sigterm = signal.signal(signal.SIGTERM, _sigterm_to_exit)
+        self._exit_hooks.install(self.handle_signals)
 
     def _remove_safety_hooks(self) -> None:
-        if self._atexit_registered:
-            atexit.unregister(self.close)
-            self._atexit_registered = False
-        if self._old_sigterm is not None and threading.current_thread() is threading.main_thread():
-            signal.signal(signal.SIGTERM, self._old_sigterm)
-            self._old_sigterm = None
-
-
-def _sigterm_to_exit(signum: int, frame: object) -> None:
-    raise SystemExit(128 + signum)
+        self._exit_hooks.remove()

@@ -178,19 +178,13 @@ def preflight_hardware(
     """The real hand: servos on the bus (torque untouched), fingertips on their ports; the bus
     budget from the hand file and the adapter's latency timer (``hand_file``: named in a warning)."""
     from grasp_ctrl.hardware.dynamixel import DynamixelHand
-    from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 
     if not hand.servo_driven:  # a torque-controlled hand on CAN: its own check, then the fingertips
         from grasp_ctrl.hardware.allegro.bus import describe
 
         assert hand.torque_pd is not None
         servos = _check_can_hand(hand, port)
-        sensors = SerialSensors.from_hand(hand, port=sensor_port)
-        sensors.start()
-        try:
-            tips = check_fingertips(sensors, hand, lambda: time.sleep(hand.dt))
-        finally:
-            sensors.close()
+        tips = _check_serial_fingertips(hand, sensor_port)
         return PreflightReport(servos, tips, can_bus=describe(hand.torque_pd, port))
     dxl = DynamixelHand(hand, port, handle_signals=False)
     dxl.bus.open()
@@ -199,15 +193,22 @@ def preflight_hardware(
         servos = check_servos(dxl)
     finally:
         dxl.close_port_only()
-    sensors = SerialSensors.from_hand(hand, port=sensor_port)
-    sensors.start()
-    try:
-        tips = check_fingertips(sensors, hand, lambda: time.sleep(hand.dt))
-    finally:
-        sensors.close()
+    tips = _check_serial_fingertips(hand, sensor_port)
     adapter = adapter_latency_ms(dxl.port_name, hand.dynamixel.latency_timer_ms)
     warning = bus_budget_warning(hand, hand_file, adapter)
     return PreflightReport(servos, tips, (warning,) if warning else ())
+
+
+def _check_serial_fingertips(hand: HandConfig, sensor_port: str | None) -> list[str]:
+    """``check_fingertips`` on the real fingertips' serial stream, on the wall clock."""
+    from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
+
+    sensors = SerialSensors.from_hand(hand, port=sensor_port)
+    sensors.start()
+    try:
+        return check_fingertips(sensors, hand, lambda: time.sleep(hand.dt))
+    finally:
+        sensors.close()
 
 
 def _check_can_hand(hand: HandConfig, channel: str | None) -> list[str]:
