@@ -16,6 +16,7 @@ import sys
 import threading
 from collections.abc import Sequence
 from types import ModuleType
+from typing import Any
 
 from grasp_ctrl.cli._ranges import apply_ranges
 from grasp_ctrl.errors import SIGNALLED, GraspCtrlError, Terminated
@@ -87,10 +88,32 @@ def main(argv: Sequence[str] | None = None) -> int:
         terminated = isinstance(exc, Terminated) or (_signalled and _signalled[-1] == signal.SIGTERM)
         return 143 if terminated else 130
     finally:
+        if _signalled:
+            _quiet_half_built_finalizers()
         _stop_processes(everything=status != 0 or bool(_signalled))
         if handlers is not None:
             signal.signal(signal.SIGTERM, handlers[0])
             signal.signal(signal.SIGINT, handlers[1])
+
+
+def _quiet_half_built_finalizers() -> None:
+    """After an interrupt: a signal that lands inside ``multiprocessing.util.Finalize``'s constructor
+    leaves a finalizer without its key, and when its object dies the finalizer raises AttributeError,
+    which Python prints as "Exception ignored in: <Finalize object, dead>" with a traceback. Only
+    that report is dropped; every other unraisable exception still reaches the default hook."""
+    default = sys.unraisablehook
+
+    def hook(unraisable: Any) -> None:
+        target = type(unraisable.object)
+        if (
+            isinstance(unraisable.exc_value, AttributeError)
+            and target.__module__ == "multiprocessing.util"
+            and target.__name__ == "Finalize"
+        ):
+            return
+        default(unraisable)
+
+    sys.unraisablehook = hook
 
 
 def _stop_processes(everything: bool) -> None:
