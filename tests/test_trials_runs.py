@@ -356,3 +356,38 @@ def test_parallel_jobs_give_the_same_records_and_summary(full_run, tmp_path, han
         a.pop("wall_duration_s"), b.pop("wall_duration_s")
         assert a == b
         assert ticks_path(par, policy, obj, 0).read_bytes() == ticks_path(run_dir, policy, obj, 0).read_bytes()
+
+
+def test_an_interrupt_just_after_run_json_keeps_the_run_resumable(hand, objects, tmp_path, monkeypatch):
+    """Ctrl-C between run.json's rename and the first trial: run.json is whole (the rename is
+    atomic), so the new directory stays and the interrupt's message can give --resume (the
+    directory used to be removed as a failed start)."""
+    import grasp_ctrl.trials.runs.series as series
+
+    real_sync = series.sync_manifest
+
+    def sync_then_interrupt(*args, **kwargs):
+        real_sync(*args, **kwargs)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(series, "sync_manifest", sync_then_interrupt)
+    run_dir = tmp_path / "run"
+    with pytest.raises(KeyboardInterrupt):
+        run_series(hand, [objects["lego"]], ["oracle"], 1, SEED, run_dir, progress=False, backend="mock")
+    assert (run_dir / "run.json").is_file()
+    monkeypatch.setattr(series, "sync_manifest", real_sync)
+    run_series(hand, [objects["lego"]], ["oracle"], 1, SEED, run_dir, progress=False, resume=True, backend="mock")
+    assert len(list(run_dir.glob("trials/*/*/trial_*.json"))) == 1
+
+
+def test_an_interrupt_before_run_json_leaves_no_directory(hand, objects, tmp_path, monkeypatch):
+    import grasp_ctrl.trials.runs.series as series
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(series, "sync_manifest", interrupted)
+    run_dir = tmp_path / "run"
+    with pytest.raises(KeyboardInterrupt):
+        run_series(hand, [objects["lego"]], ["oracle"], 1, SEED, run_dir, progress=False, backend="mock")
+    assert not run_dir.exists()

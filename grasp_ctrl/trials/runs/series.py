@@ -261,7 +261,6 @@ def run_series(
     created = not run_dir.exists()
     if run_dir.exists() and not run_dir.is_dir():
         raise UsageError(f"{run_dir}: exists and is not a directory; choose another --out")
-    started = False
     try:
         run_dir.mkdir(parents=True, exist_ok=True)
         with RunLock(run_dir, warn):
@@ -280,7 +279,6 @@ def run_series(
                 tmp.unlink(missing_ok=True)
             with naming_file(run_dir / RUN_FILE):
                 sync_manifest(run_dir, plan, existing)  # new run, or a resume that recorded --force
-            started = True
             return _run_locked(
                 plan,
                 policies,
@@ -298,7 +296,10 @@ def run_series(
                 address,
             )
     except BaseException:
-        if created and not started:  # a failed start leaves nothing that blocks the retry
+        # A failed start leaves nothing that blocks the retry. Once run.json is in place (its
+        # rename is atomic) the run has started, even if the interrupt came before the next
+        # line: the directory stays, and the interrupt's message gives the --resume command.
+        if created and not (run_dir / RUN_FILE).is_file():
             shutil.rmtree(run_dir, ignore_errors=True)
         raise
 
