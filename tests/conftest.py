@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import atexit
+import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -10,6 +14,12 @@ from grasp_ctrl.config import load_hand, load_objects
 from grasp_ctrl.files.paths import REPO_ROOT
 
 SHARED_DATA = REPO_ROOT.parent / "shared" / "data"
+
+# The pre-trial solves' results are kept in a folder of this session (the commands the tests
+# start inherit it), not in the user's cache (numeric/solve_cache.py).
+if "GRASP_CTRL_SOLVE_CACHE" not in os.environ:
+    os.environ["GRASP_CTRL_SOLVE_CACHE"] = _SOLVES = tempfile.mkdtemp(prefix="grasp_ctrl-solves-")
+    atexit.register(shutil.rmtree, _SOLVES, ignore_errors=True)
 
 
 @pytest.fixture(scope="session")

@@ -24,11 +24,13 @@ from grasp_ctrl.errors import SIGNALLED, GraspCtrlError, Terminated
 PROG = "grasp-ctrl"
 
 
-def _command_modules() -> list[ModuleType]:
-    mods = []
-    for info in pkgutil.iter_modules(__path__):
-        if info.name.startswith("cmd_"):
-            mods.append(importlib.import_module(f"{__name__}.{info.name}"))
+def _command_modules(only: str | None = None) -> list[ModuleType]:
+    """Every command's module; ``only``: just that command's (``cmd_<name>.py``, its NAME's
+    dashes as underscores) when there is one, so a command loads no other's imports."""
+    names = [info.name for info in pkgutil.iter_modules(__path__) if info.name.startswith("cmd_")]
+    if only is not None and f"cmd_{only.replace('-', '_')}" in names:
+        names = [f"cmd_{only.replace('-', '_')}"]
+    mods = [importlib.import_module(f"{__name__}.{name}") for name in names]
     return sorted(mods, key=lambda m: getattr(m, "ORDER", 100))
 
 
@@ -36,7 +38,9 @@ class _OneLineErrorParser(argparse.ArgumentParser):
     """argparse prints usage + error and exits 2; keep that, never a traceback."""
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The command line; ``command``: only that command's subparser where it names one (what
+    it parses is the same, and no other command's module is imported)."""
     parser = _OneLineErrorParser(
         prog=PROG,
         description=(
@@ -45,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for mod in _command_modules():
+    for mod in _command_modules(command):
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=getattr(mod, "DESCRIPTION", mod.HELP))
         mod.add_arguments(p)
         apply_ranges(mod.NAME, p)  # every number flag checked for type and range (cli/_ranges.py)
@@ -130,9 +134,9 @@ def _stop_processes(everything: bool) -> None:
 
 def _main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    parser = build_parser()
     if not argv:
         argv = ["run"]
+    parser = build_parser(argv[0])
     bad = next((a for a in argv if "\x00" in a), None)
     if bad is not None:  # no file or name can hold one; open() would raise deep inside
         print(f"{PROG}: error: argument {bad!r}: contains a NUL character", file=sys.stderr)

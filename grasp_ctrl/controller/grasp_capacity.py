@@ -27,6 +27,7 @@ from grasp_ctrl.config.objects import CapProfile, ObjectProfile
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.numeric.gravity import GRAVITY_M_S2
+from grasp_ctrl.numeric.solve_cache import stored
 
 #: Radius of the pad's contact patch for torsional friction (the MuJoCo scene's).
 TORSION_RADIUS_M = 0.003
@@ -147,6 +148,7 @@ class Capacity:
         return self.weight_n / (mass_kg * GRAVITY_M_S2)
 
 
+@stored(ignore=("kin",))
 def liftable_weight(
     hand: HandConfig,
     q_all: np.ndarray,

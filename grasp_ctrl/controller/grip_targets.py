@@ -21,6 +21,7 @@ import numpy as np
 
 from grasp_ctrl.config.objects import GRIP_TARGET_MODES  # noqa: F401  (the modes, named with the profiles)
 from grasp_ctrl.numeric.gravity import GRAVITY_M_S2
+from grasp_ctrl.numeric.solve_cache import stored
 
 
 def grip_targets(
@@ -40,19 +41,26 @@ def grip_targets(
     targets = np.full(len(vectors), float(tau_n))
     idx = np.flatnonzero(grasping)
     if mode == "force_closure" and len(idx) >= 2:
-        from scipy.optimize import lsq_linear
-
-        horizontal = vectors[idx, :2].T  # (2, k): columns v_i,xy
-        # the net horizontal push (minimised) and, lightly weighted, the distance from tau
-        # (picks the smallest consistent targets when the cancellation has many solutions)
-        a = np.vstack([horizontal, 1e-6 * np.eye(len(idx))])
-        b = np.concatenate([np.zeros(2), 1e-6 * np.full(len(idx), tau_n)])
-        fit = lsq_linear(a, b, bounds=(tau_n, np.inf), method="bvls")
-        t = np.asarray(fit.x, dtype=float)
-        targets[idx] = t * (tau_n / float(t.min()))
+        targets[idx] = closure_targets(vectors[idx, :2].T, float(tau_n))
     if weight_margin > 0.0 and mass_kg > 0.0 and len(idx):
         needed = weight_margin * mass_kg * GRAVITY_M_S2 / max(mu, 1e-6)
         total = float(targets[idx].sum())
         if total < needed:
             targets[idx] *= needed / total
     return targets
+
+
+@stored()
+def closure_targets(horizontal: np.ndarray, tau_n: float) -> np.ndarray:
+    """Targets t_i >= tau_n whose pushes along the columns v_i,xy of ``horizontal`` (2, k) cancel,
+    the smallest of them tau_n."""
+    from scipy.optimize import lsq_linear
+
+    k = horizontal.shape[1]
+    # the net horizontal push (minimised) and, lightly weighted, the distance from tau
+    # (picks the smallest consistent targets when the cancellation has many solutions)
+    a = np.vstack([horizontal, 1e-6 * np.eye(k)])
+    b = np.concatenate([np.zeros(2), 1e-6 * np.full(k, tau_n)])
+    fit = lsq_linear(a, b, bounds=(tau_n, np.inf), method="bvls")
+    t = np.asarray(fit.x, dtype=float)
+    return t * (tau_n / float(t.min()))

@@ -37,6 +37,7 @@ from grasp_ctrl.kinematics.pad_ik import Facing
 from grasp_ctrl.kinematics.preshape import preshape
 from grasp_ctrl.numeric import jit
 from grasp_ctrl.numeric.finite import all_finite
+from grasp_ctrl.numeric.solve_cache import stored
 from grasp_ctrl.numeric.vec3 import norm3
 
 STATES = ["tare", "reach", "close", "ramp", "lift", "hold", "lower", "release", "retreat", "done", "fault"]
@@ -111,6 +112,7 @@ def build_machine(
 
 
 @functools.lru_cache(maxsize=32)
+@stored()
 def _raised_reach_posture(hand: HandConfig, finger: str, raise_m: float) -> np.ndarray:
     motion = FingertipMotion(hand, HandKinematics(hand))
     return motion.raised_posture(motion.pregrasp_q, {finger: raise_m})

@@ -35,6 +35,7 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
+from grasp_ctrl.numeric.solve_cache import stored
 
 #: 1 rad of pad facing error weighs like this much pad position error (m).
 FACING_WEIGHT_M = 0.01
@@ -114,6 +115,7 @@ def side_gap(obj: ObjectProfile, p_hand: np.ndarray) -> tuple[float, np.ndarray]
     return gy, np.array([0.0, math.copysign(1.0, y), 0.0])
 
 
+@stored(ignore=("kin",))
 def solve_preshape(
     hand: HandConfig, obj: ObjectProfile, standoff_m: float, kin: HandKinematics | None = None
 ) -> Preshape:
