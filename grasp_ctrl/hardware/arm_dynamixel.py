@@ -23,6 +23,7 @@ from grasp_ctrl.hardware.dynamixel.hand import MonotonicClock
 from grasp_ctrl.hardware.dynamixel.setup import configure_servos
 from grasp_ctrl.kinematics.chain import FingerChain
 from grasp_ctrl.kinematics.ik import solve_position_ik
+from grasp_ctrl.numeric.limits import clamped_palm_target
 
 
 def arm_chain(hand: HandConfig) -> FingerChain:
@@ -97,7 +98,7 @@ class DynamixelArm:
 
     def command(self, p_world: np.ndarray) -> None:
         assert self.q_goal is not None and self.line_xy is not None, "connect() first"
-        z_target = float(np.clip(np.asarray(p_world, dtype=float)[2], self.cfg.z_min_m, self.cfg.z_max_m))
+        z_target = float(clamped_palm_target(p_world, self.cfg.z_min_m, self.cfg.z_max_m)[2])
         step = self.cfg.max_speed_m_s * self.hand.dt
         z_next = self.z_set + float(np.clip(z_target - self.z_set, -step, step))
         if z_next == self.z_set:

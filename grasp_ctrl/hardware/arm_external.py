@@ -18,6 +18,7 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.errors import HardwareError
+from grasp_ctrl.numeric.limits import clamped_palm_target
 
 
 class ExternalArm:
@@ -61,8 +62,7 @@ class ExternalArm:
         self.confirmed = self._parse(answer, p)
 
     def command(self, p_world: np.ndarray) -> None:
-        p = np.asarray(p_world, dtype=float).copy()
-        p[2] = float(np.clip(p[2], self.cfg.z_min_m, self.cfg.z_max_m))
+        p = clamped_palm_target(p_world, self.cfg.z_min_m, self.cfg.z_max_m)
         resting = self.last_command is not None and np.allclose(p, self.last_command, atol=1e-9)
         self.last_command = p
         far = np.linalg.norm(p - self.confirmed)

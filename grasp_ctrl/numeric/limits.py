@@ -1,6 +1,7 @@
 """Joint-goal limiting as compiled loops (grasp_ctrl/numeric/jit.py): the per-tick step and
 range limits of the controller's goals and of every hand backend's (``limit_goal``, and
-``limited_goal`` for the real hands' drivers).
+``limited_goal`` for the real hands' drivers); and the arm's palm height kept within its range
+(``clamp_palm_height``, ``clamped_palm_target``) for every arm backend.
 
 Each computes exactly what ``np.minimum(np.maximum(x, low), high)`` computes per
 element (NaN in, NaN out; signed zeros as numpy orders them), in one pass instead of four to six
@@ -38,6 +39,32 @@ def _minimum(a: float, b: float) -> float:
 def clamp(x: float, low: float, high: float) -> float:
     """``np.minimum(np.maximum(x, low), high)`` for one value."""
     return _minimum(_maximum(x, low), high)
+
+
+@njit
+def clamp_palm_height(p: np.ndarray, z_min: float, z_max: float, out: np.ndarray) -> None:
+    """``out`` = the palm target ``p`` with its height within the arm's [z_min, z_max], as
+    Python's ``min(max(z, z_min), z_max)`` (NaN stays NaN)."""
+    z = p[2]
+    if z_min > z:
+        z = z_min
+    if z_max < z:
+        z = z_max
+    out[0], out[1], out[2] = p[0], p[1], z
+
+
+_FLOAT64 = np.dtype(np.float64)
+
+
+def clamped_palm_target(p_world: np.ndarray, z_min: float, z_max: float) -> np.ndarray:
+    """A new float64 array: the palm target ``p_world`` (x, y, z) with its height within
+    [z_min, z_max], as every arm backend clamps it."""
+    p = p_world if type(p_world) is np.ndarray and p_world.dtype is _FLOAT64 else np.array(p_world, dtype=float)
+    if p.shape != (3,):
+        raise ValueError(f"a palm target is (x, y, z) (got shape {p.shape})")
+    out = np.empty(3)
+    clamp_palm_height(p, float(z_min), float(z_max), out)
+    return out
 
 
 @njit

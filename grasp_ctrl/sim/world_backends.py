@@ -21,7 +21,7 @@ from grasp_ctrl.hardware.base import JointState, TactileFrame
 from grasp_ctrl.numeric import jit
 from grasp_ctrl.numeric.finite import all_finite
 from grasp_ctrl.numeric.jit import njit
-from grasp_ctrl.numeric.limits import limit_goal
+from grasp_ctrl.numeric.limits import clamped_palm_target, limit_goal, limited_goal
 from grasp_ctrl.sim.world_api import World
 
 _FLOAT64 = np.dtype(np.float64)
@@ -38,19 +38,6 @@ def checked_limit_goal(
             return False
     limit_goal(goal, prev, max_step, lower, upper, out)
     return True
-
-
-@njit
-def clamped_arm_target(p: np.ndarray, z_min: float, z_max: float, out: np.ndarray) -> None:
-    """``out`` = ``p`` with its height clamped as ``WorldArm.command``'s Python
-    ``min(max(z, z_min), z_max)`` clamps it (NaN stays NaN)."""
-    out[0], out[1] = p[0], p[1]
-    z = p[2]
-    if z_min > z:
-        z = z_min
-    if z_max < z:
-        z = z_max
-    out[2] = z
 
 
 class WorldHand:
@@ -86,9 +73,7 @@ class WorldHand:
                 return
         if q_goal.shape != self.lower.shape or not all_finite(q_goal):
             raise HardwareError(f"bad goal vector of shape {q_goal.shape}")
-        prev = self.world.q_goal_measured
-        q = np.minimum(np.maximum(q_goal, prev - self.max_step), prev + self.max_step)  # = np.clip, cheaper
-        self.world.command_goal(np.minimum(np.maximum(q, self.lower), self.upper))
+        self.world.command_goal(limited_goal(q_goal, self.world.q_goal_measured, self.max_step, self.lower, self.upper))
 
     def set_torque(self, enabled: bool) -> None:
         self.world.torque_on = enabled
@@ -114,14 +99,7 @@ class WorldArm:
         pass
 
     def command(self, p_world: np.ndarray) -> None:
-        if jit.JIT and type(p_world) is np.ndarray and p_world.dtype is _FLOAT64 and p_world.shape == (3,):
-            p = np.empty(3)
-            clamped_arm_target(p_world, self._z_min, self._z_max, p)
-            self.world.palm_target = p
-            return
-        p = np.array(p_world, dtype=float)
-        p[2] = min(max(float(p[2]), self.z_min), self.z_max)
-        self.world.palm_target = p
+        self.world.palm_target = clamped_palm_target(p_world, self._z_min, self._z_max)
 
     def position(self) -> np.ndarray:
         return self.world.palm_world.copy()

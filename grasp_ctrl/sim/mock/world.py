@@ -45,7 +45,7 @@ from grasp_ctrl.kinematics.multilinear import MultilinearKinematics, contract
 from grasp_ctrl.numeric import jit
 from grasp_ctrl.numeric.gravity import GRAVITY_M_S2
 from grasp_ctrl.numeric.jit import njit
-from grasp_ctrl.numeric.limits import clamp
+from grasp_ctrl.numeric.limits import clamp, clamp_palm_height, limit_goal
 from grasp_ctrl.sim.biotac.model import BioTacParams, BioTacSensorModel
 from grasp_ctrl.sim.mock import world_step as ws
 from grasp_ctrl.sim.mock.shapes import shape_params
@@ -113,28 +113,18 @@ def _limited_goal(
     for j in range(goal.shape[0]):
         if not math.isfinite(goal[j]):
             return False
+    limit_goal(goal, prev, max_step, lower, upper, out)
     for j in range(goal.shape[0]):
-        out[j] = clamp(
-            clamp(clamp(goal[j], prev[j] - max_step, prev[j] + max_step), lower[j], upper[j]),
-            joint_lower[j],
-            joint_upper[j],
-        )
+        out[j] = clamp(out[j], joint_lower[j], joint_upper[j])
     return True
 
 
 @njit
 def _clamped_target(p: np.ndarray, z_min: float, z_max: float, out: np.ndarray) -> bool:
-    """``out`` = ``p`` with its height clamped as Python's ``min(max(z, z_min), z_max)``
-    clamps it, when every coordinate of the result is finite; False otherwise."""
-    z = p[2]
-    if z_min > z:
-        z = z_min
-    if z_max < z:
-        z = z_max
-    if not (math.isfinite(p[0]) and math.isfinite(p[1]) and math.isfinite(z)):
-        return False
-    out[0], out[1], out[2] = p[0], p[1], z
-    return True
+    """``out`` = ``p`` with its height clamped as every arm clamps it (``clamp_palm_height``);
+    whether every coordinate of the result is finite (else the caller drops ``out``)."""
+    clamp_palm_height(p, z_min, z_max, out)
+    return math.isfinite(out[0]) and math.isfinite(out[1]) and math.isfinite(out[2])
 
 
 #: The world's own float arrays packed into one buffer (MockWorld._pack_state), in world_step's order,
