@@ -1,5 +1,5 @@
-"""The MuJoCo world's one-call tick (sim/biotac/model.py's mj_tick_frames) against a
-straightforward reference: sim/mujoco/contacts.py's read_contacts and skin_point_and_normal,
+"""The MuJoCo world's one-call tick (sim/mujoco/tick_kernel.py's mj_tick_frames) against a
+straightforward reference: tests/mujoco_contacts_reference.py's read_contacts and skin_point_and_normal,
 a loop per fingertip on Python floats and the BioTac model's own ``frames``."""
 
 from __future__ import annotations
@@ -9,13 +9,15 @@ import math
 import mujoco
 import numpy as np
 import pytest
+from mujoco_contacts_reference import read_contacts, skin_point_and_normal
 
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_X_MIN_M, SKIN_RADIUS_M
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.tick import control_tick
-from grasp_ctrl.sim.biotac.model import (
+from grasp_ctrl.sim.mujoco.backends import mujoco_backends
+from grasp_ctrl.sim.mujoco.tick_kernel import (
     NEW_CONTACT,
     SUM_FLAGS,
     SUM_ON_TABLE,
@@ -25,8 +27,6 @@ from grasp_ctrl.sim.biotac.model import (
     mj_body_velocity,
     mj_skin_point,
 )
-from grasp_ctrl.sim.mujoco.backends import mujoco_backends
-from grasp_ctrl.sim.mujoco.contacts import read_contacts, skin_point_and_normal
 from grasp_ctrl.sim.mujoco.world import MuJoCoWorld, mocap_step
 from grasp_ctrl.sim.oracle import OracleEstimator
 from grasp_ctrl.sim.world_backends import WorldArm

@@ -67,6 +67,7 @@ KERNEL_SOURCES = (
     "sim/world_parts.py",
     "loop/loop_kernels.py",
     "sim/mock/world.py",
+    "sim/mujoco/tick_kernel.py",
     "controller/tick_kernels.py",
     "estimators/linear.py",
     "estimators/mlp.py",

@@ -31,7 +31,9 @@ from grasp_ctrl.config.actuation import torque_limits_nm
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.numeric.gravity import GRAVITY_M_S2
-from grasp_ctrl.sim.biotac.model import (
+from grasp_ctrl.sim.biotac.model import BioTacParams, BioTacSensorModel
+from grasp_ctrl.sim.mujoco.scene import PlacedObject, SceneParams, build_scene, with_servo_facts
+from grasp_ctrl.sim.mujoco.tick_kernel import (
     GEOM_OBJECT,
     NEW_CONTACT,
     SUM_FLAGS,
@@ -39,12 +41,9 @@ from grasp_ctrl.sim.biotac.model import (
     SUM_OTHER_N,
     SUM_PEAK_OTHER_N,
     SUM_TABLE_N,
-    BioTacParams,
-    BioTacSensorModel,
     mj_tick_frames,
     mj_tip_buffers,
 )
-from grasp_ctrl.sim.mujoco.scene import PlacedObject, SceneParams, build_scene, with_servo_facts
 from grasp_ctrl.sim.variation import NOMINAL, Variation, draw_extra, draw_object, draw_record, max_rotated_half_extents
 from grasp_ctrl.sim.world_parts import NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
 
@@ -161,7 +160,7 @@ class MuJoCoWorld:
         self._body_rootid = m.body_rootid
         self._obj_xpos = d.xpos[self._obj_body]
         self._obj_xmat = d.xmat[self._obj_body]
-        # mj_tick_frames's geom kinds and ids (sim/biotac/model.py)
+        # mj_tick_frames's geom kinds and ids (sim/mujoco/tick_kernel.py)
         self._geom_kind = np.where(self._object_geom, GEOM_OBJECT, self._tip_geom_of)
         self._ids = np.array([self._table, self._obj_body, *self._sites, *self._tip_bodies], dtype=np.int64)
         hand_free = m.joint("hand_free")
@@ -413,7 +412,7 @@ class MuJoCoWorld:
 
     def _sense(self) -> np.ndarray:
         """This step's contacts -> the sensors' inputs (sensor frame) -> their raw frames."""
-        # One kernel (sim/biotac/model.py) for what sim/mujoco/contacts.py's read_contacts and
+        # One kernel (sim/mujoco/tick_kernel.py) for what the reference reading's read_contacts and
         # skin_point_and_normal define and the BioTac model's frames: calls cost most here.
         d = self.data
         con = d.contact

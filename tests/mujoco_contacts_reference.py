@@ -1,4 +1,5 @@
-"""Fingertip and table contacts read from MuJoCo's solver, for the BioTac model and the judge.
+"""The reference reading of MuJoCo's contacts at the fingertips: what the MuJoCo world's compiled
+tick (grasp_ctrl/sim/mujoco/tick_kernel.py, ``mj_tick_frames``) computes, written plainly.
 
 With elliptic friction cones MuJoCo's contact force of contact ``i`` is
 ``efc_force[efc_address[i] : +3]`` in the contact frame (normal, two tangents;
@@ -6,8 +7,7 @@ what ``mj_contactForce`` returns); the frame's first row is the normal from
 geom1 to geom2 and the force acts on geom2 along it (on geom1 opposite).
 
 These functions define the reading; the world's tick computes the same in one compiled
-call (sim/biotac/model.py's mj_tick_frames), checked bit for bit against them by
-tests/test_mujoco_lean.py.
+call, checked bit for bit against them by tests/test_mujoco_lean.py.
 """
 
 from __future__ import annotations
