@@ -344,3 +344,13 @@ def test_placed_forces_equal_the_scatter_then_rotation(hand, seed):
     rows[0, 1] = np.nan
     assert not place_forces(rows, bits, q, ik.geometry, ik.layout, got, got_hand, got_grip)
     assert np.isnan(got).sum() == 1
+
+
+@settings(max_examples=200, deadline=None)
+@given(hnp.arrays(np.int64, (4, FRAME_LEN), elements=st.integers(0, 4095)), st.sampled_from([np.int64, np.float64]))
+def test_pac_spread_is_numpys_std_to_the_bit(raw, dtype):
+    from grasp_ctrl.config.sensor_layout import PAC
+    from grasp_ctrl.loop.tick import pac_spread
+
+    raw = raw.astype(dtype)
+    assert same_bits(pac_spread(raw), np.asarray(raw, dtype=float)[:, PAC].std(axis=1))

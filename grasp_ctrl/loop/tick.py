@@ -50,8 +50,17 @@ def control_tick(
 
 
 def pac_spread(raw: np.ndarray) -> np.ndarray:
-    """(n_tips, 44) raw frames -> (n_tips,) standard deviation of each frame's 22 PAC samples (counts)."""
-    return np.asarray(raw, dtype=float)[:, PAC].std(axis=1)
+    """(n_tips, 44) raw frames -> (n_tips,) standard deviation of each frame's 22 PAC samples (counts):
+    ``std(axis=1)``'s own ufunc calls, in its order (the same bits), without its per-call checks."""
+    pac = np.asarray(raw, dtype=float)[:, PAC]
+    n = pac.shape[1]
+    mean = np.add.reduce(pac, axis=1, keepdims=True)
+    np.true_divide(mean, n, out=mean)
+    deviation = np.subtract(pac, mean)
+    np.square(deviation, out=deviation)
+    spread = np.add.reduce(deviation, axis=1)
+    np.true_divide(spread, n, out=spread)
+    return np.sqrt(spread, out=spread)
 
 
 def send_command(hand: HandBackend, arm: ArmBackend, ctrl: GraspController, snap: Snapshot, cmd: Command) -> Command:

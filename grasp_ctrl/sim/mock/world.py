@@ -68,7 +68,7 @@ class WorldParams:
     variation: Variation = NOMINAL
     start_clearance_m: float = 0.05  # palm starts this far above the reach pose
     # Contact on the skin point facing the object (cap or pad), as on a real fingertip
-    # and in MuJoCo; False puts it at the pad centre whatever the tilt (the old model,
+    # and in MuJoCo; False puts it at the pad centre whatever the tilt (a simpler model
     # whose force can leave the friction cone of the skin there: docs/mock_world.md).
     skin_contact: bool = True
     biotac: BioTacParams = field(default_factory=BioTacParams)
