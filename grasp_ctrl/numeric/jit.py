@@ -67,7 +67,6 @@ KERNEL_SOURCES = (
     "sim/world_parts.py",
     "loop/loop_kernels.py",
     "sim/mock/world.py",
-    "controller/tick_kernels.py",
     "estimators/linear.py",
     "estimators/mlp.py",
 )
