@@ -149,7 +149,7 @@ def test_the_summary_gathers_the_pd_loops_figures() -> None:
 def test_the_emulated_hand_runs_a_trial_as_mujoco_does(allegro, allegro_objects) -> None:
     """Lockstep: one lego trial (oracle, grip_load controller, nominal world) through the CAN path
     and on MuJoCo's own backends: the same outcome and states, the lift within a few mm."""
-    from grasp_ctrl.controller.settings import settings_for
+    from grasp_ctrl.controller.registry import settings_for
     from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial, trial_seed
 
     obj = allegro_objects["lego"]

@@ -11,7 +11,7 @@ import pytest
 
 from grasp_ctrl.config.hand import load_hand
 from grasp_ctrl.config.objects import load_objects
-from grasp_ctrl.controller.settings import settings_for
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.files.paths import default_objects_file, hand_configs_dir
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial, trial_seed
 

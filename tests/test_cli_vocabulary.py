@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from grasp_ctrl.cli import build_parser, main
-from grasp_ctrl.controller.settings import CONTROLLER_NAMES
+from grasp_ctrl.controller.registry import controller_names
 from grasp_ctrl.files.paths import default_objects_file
 
 OBJECTS = str(default_objects_file())
@@ -133,7 +133,7 @@ def test_every_shared_option_has_one_form(commands):
             assert flags["--object-file"].dest == flags["--objects-file"].dest == "object_file", name
             assert flags["--object-file"].metavar == "FILE", name
         if "--controller" in flags:
-            assert tuple(flags["--controller"].choices) == CONTROLLER_NAMES, name
+            assert tuple(flags["--controller"].choices) == controller_names(), name
         if "--variation" in flags:
             assert sorted(flags["--variation"].choices) == ["bench", "nominal"], name
         if "--executor" in flags:
@@ -182,7 +182,7 @@ def test_an_unknown_controller_is_argparses_one_line_error(argv, capsys, tmp_pat
     errors = [ln for ln in err.splitlines() if "error:" in ln]
     assert out == "" and len(errors) == 1 and err.startswith("usage: ")
     assert errors[0].startswith(f"grasp-ctrl {argv[0]}: error: argument --controller: invalid choice: 'nope'")
-    assert all(name in errors[0] for name in CONTROLLER_NAMES)
+    assert all(name in errors[0] for name in controller_names())
     assert list(Path(tmp_path).iterdir()) == []  # refused before anything ran
 
 

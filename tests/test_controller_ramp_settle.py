@@ -7,7 +7,7 @@ import pytest
 
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.ramp_settle import RampSettle
-from grasp_ctrl.controller.settings import ControllerSettings, settings_for
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.controller.snapshot import Snapshot
 
 DT = 0.01
@@ -111,7 +111,7 @@ def test_an_estimate_flipping_between_two_readings_around_tau_settles():
     and 1.81 N on every third; its average over ramp_filter_s is on tau, so the ramp
     settles, where the raw errors (0.28 N off on the flips) never would."""
     flips = [np.array([-0.09 if i % 3 else 0.19, 0.0, 0.02]) for i in range(ticks(1.0))]
-    raw = RampSettle(ControllerSettings(ramp_filter_s=0.0))
+    raw = RampSettle(S.replace(ramp_filter_s=0.0))
     for err in flips:
         raw.update(err)
     assert not raw.settled(DT)

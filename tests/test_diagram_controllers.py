@@ -9,7 +9,7 @@ from grasp_ctrl.cli import main
 from grasp_ctrl.controller import diagram
 from grasp_ctrl.controller.grip_load import LOAD_TRANSITIONS
 from grasp_ctrl.controller.machine import STATES, TRANSITIONS, GraspController
-from grasp_ctrl.controller.settings import settings_for
+from grasp_ctrl.controller.registry import settings_for
 
 
 def test_grip_load_is_drawn_with_its_load_phase(capsys: pytest.CaptureFixture[str]) -> None:

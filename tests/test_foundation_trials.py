@@ -7,7 +7,7 @@ import json
 import pytest
 
 from grasp_ctrl.cli import main
-from grasp_ctrl.controller.settings import settings_for
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial
 
 PAPER = settings_for("paper")  # these trials check the paper's controller's behaviour

@@ -15,7 +15,8 @@ from grasp_ctrl.cli import main
 from grasp_ctrl.config.checks import check_objects_for_hand
 from grasp_ctrl.config.objects import load_objects, profile_from_json, profile_json
 from grasp_ctrl.controller.machine import GraspController
-from grasp_ctrl.controller.settings import ControllerSettings, settings_for
+from grasp_ctrl.controller.paper_settings import PaperSettings
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.errors import ConfigError, UsageError
 from grasp_ctrl.files.paths import REPO_ROOT
 from grasp_ctrl.trials.tuning.toml_edit import CHOSEN_BY, set_object_value
@@ -93,8 +94,8 @@ def test_the_objects_standoff_replaces_the_controllers(hand, objects):
     pose = np.array([0.0, 0.0, 0.15])
     shipped = GraspController(hand, lego, pose)
     own = GraspController(hand, lego.with_params(standoff_m=0.025), pose)
-    same = GraspController(hand, lego, pose, ControllerSettings(preshape_standoff_m=0.025))
-    assert shipped._preshape_standoff_m() == ControllerSettings().preshape_standoff_m
+    same = GraspController(hand, lego, pose, PaperSettings(preshape_standoff_m=0.025))
+    assert shipped._preshape_standoff_m() == PaperSettings().preshape_standoff_m
     assert own._preshape_standoff_m() == 0.025
     assert not np.allclose(shipped.reach_q, own.reach_q)
     np.testing.assert_array_equal(own.reach_q, same.reach_q)
@@ -171,7 +172,7 @@ def test_setting_and_posture_params_parse_and_apply(hand, objects):
     setting = {"posture.thumb.2": 0.05, "setting.grip_margin": 1.4, "approach_offset_m": -0.003}
     tuned = apply_setting(objects["cleanser"], setting, joints)
     assert tuned.posture_offsets() == {"thumb": (0.0, 0.0, 0.05, 0.0)} and tuned.approach_offset_m == -0.003
-    assert controller_settings(settings_for("grip_load"), setting).grip_margin == 1.4
+    assert controller_settings(settings_for("grip_load"), setting).coordination.grip_margin == 1.4
     for spec, said in [
         ("posture.pinky.0=0:0.1", "not a finger"),
         ("posture.index.4=0:0.1", "joints 0 to 3"),

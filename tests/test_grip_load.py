@@ -4,16 +4,14 @@ and the ramp's steady rule under quantised jitter. MuJoCo checks are in test_gri
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 
 from grasp_ctrl.controller.grip_load import LOAD_STATES, GripLoadController
+from grasp_ctrl.controller.grip_load_settings import GripLoadSettings
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.ramp_settle import RampSettle, TrendRampSettle
-from grasp_ctrl.controller.registry import controller_class, make_controller
-from grasp_ctrl.controller.settings import CONTROLLER_NAMES, ControllerSettings, settings_for
+from grasp_ctrl.controller.registry import controller_class, controller_names, make_controller, settings_for
 from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.errors import UsageError
 
@@ -83,7 +81,7 @@ def _to_load(tr: Trace) -> None:
 
 
 def test_registry_names_both_controllers_and_refuses_others(hand, mustard):
-    assert CONTROLLER_NAMES == ("paper", "grip_load")
+    assert controller_names() == ("paper", "grip_load")
     assert controller_class("paper") is GraspController
     assert isinstance(make_controller(hand, mustard, REACH, GRIP_LOAD), GripLoadController)
     assert isinstance(make_controller(hand, mustard, REACH), GripLoadController)  # the default
@@ -105,10 +103,10 @@ def test_the_load_state_sits_between_ramp_and_lift(hand, mustard):
         tr.tick(grips=tr.at_target(), loads=np.zeros(tr.n))
     rise = tr.palm[2] - z0
     assert tr.ctrl.state == "load"
-    assert rise == pytest.approx(50 * tr.hand.dt * tr.ctrl.s.load_speed_m_s, rel=0.05)
+    assert rise == pytest.approx(50 * tr.hand.dt * tr.ctrl.s.load.load_speed_m_s, rel=0.05)
     # once the weight hangs in the grasp and the palm has risen the minimum, the lift starts
     tr.run_until("lift", grips=tr.at_target(), loads=share)
-    assert tr.palm[2] - z0 >= tr.ctrl.s.load_min_rise_m - 1e-9
+    assert tr.palm[2] - z0 >= tr.ctrl.s.load.load_min_rise_m - 1e-9
 
 
 def test_load_ends_at_the_maximum_rise_when_the_weight_never_shows(hand, mustard):
@@ -116,7 +114,7 @@ def test_load_ends_at_the_maximum_rise_when_the_weight_never_shows(hand, mustard
     _to_load(tr)
     z0 = tr.palm[2]
     tr.run_until("lift", grips=tr.at_target(), loads=np.zeros(tr.n))
-    assert tr.palm[2] - z0 == pytest.approx(tr.ctrl.s.load_max_rise_m, abs=1e-3)
+    assert tr.palm[2] - z0 == pytest.approx(tr.ctrl.s.load.load_max_rise_m, abs=1e-3)
 
 
 def test_grip_follows_the_load_within_the_friction_cone(hand, mustard):
@@ -127,10 +125,10 @@ def test_grip_follows_the_load_within_the_friction_cone(hand, mustard):
     # a load on the index that needs more grip than tau: margin x load / mu > base
     loads = np.zeros(tr.n)
     i = ctrl.names.index("index")
-    loads[i] = 1.05 * ctrl.mu_hat * base[i] / ctrl.s.grip_margin  # (the thumb's cap: 1.07)
+    loads[i] = 1.05 * ctrl.mu_hat * base[i] / ctrl.s.coordination.grip_margin  # (the thumb's cap: 1.07)
     for k in range(1, 41):  # the load rises at 2.5 N/s: no slip
         tr.tick(grips=tr.at_target(), loads=loads * min(1.0, k / 30))
-    expected = ctrl.s.grip_margin * loads[i] / (ctrl.mu_hat * base[i])
+    expected = ctrl.s.coordination.grip_margin * loads[i] / (ctrl.mu_hat * base[i])
     assert ctrl.slip_events == 0
     assert ctrl.scale == pytest.approx(expected, rel=1e-6)
     assert np.allclose(ctrl.grip_targets, base * expected)  # every target keeps its proportion
@@ -140,7 +138,7 @@ def test_grip_follows_the_load_within_the_friction_cone(hand, mustard):
         tr.tick(grips=tr.at_target(), loads=loads * max(0.0, 1.0 - k / 30))
         scales.append(ctrl.scale)
     steps = np.diff([expected, *scales])
-    assert np.all(steps <= 1e-12) and np.all(steps >= -ctrl.s.grip_relax_per_s * tr.hand.dt - 1e-12)
+    assert np.all(steps <= 1e-12) and np.all(steps >= -ctrl.s.coordination.grip_relax_per_s * tr.hand.dt - 1e-12)
     assert scales[-1] < expected
 
 
@@ -158,13 +156,13 @@ def test_a_falling_grip_is_a_slip_that_raises_the_grip_and_stops_the_arm(hand, o
         g = grips.copy()
         g[thumb] -= 0.5 * k
         tr.tick(grips=g)
-    relaxed = 5 * ctrl.s.grip_relax_per_s * tr.hand.dt  # the boost relaxes like the load's need
-    assert ctrl.slip_events == 1 and ctrl.scale >= before + ctrl.s.slip_boost - relaxed - 1e-9
+    relaxed = 5 * ctrl.s.coordination.grip_relax_per_s * tr.hand.dt  # the boost relaxes like the load's need
+    assert ctrl.slip_events == 1 and ctrl.scale >= before + ctrl.s.coordination.slip_boost - relaxed - 1e-9
     assert tr.palm[2] == pytest.approx(z, abs=1e-9)  # the arm waits while the fingertip slips
 
 
 def test_the_load_near_the_cone_is_a_slip(hand, mustard):
-    tr = Trace(hand, mustard, dataclasses.replace(GRIP_LOAD, grip_margin=1.0))
+    tr = Trace(hand, mustard, GRIP_LOAD.replace(grip_margin=1.0))
     _to_load(tr)
     ctrl = tr.ctrl
     loads = np.zeros(tr.n)
@@ -182,7 +180,7 @@ def test_the_safety_limit_caps_the_grip_with_the_tangential_force(hand, mustard)
     loads = np.where(tr.grasp, 50.0, 0.0)  # asks for far more than the fingertips may give
     tr.tick(grips=tr.at_target(), loads=loads)
     cap = ctrl.grip_cap_n
-    assert cap == pytest.approx(hand.safety.max_fingertip_force_n * ctrl.s.grip_cap_fraction)
+    assert cap == pytest.approx(hand.safety.max_fingertip_force_n * ctrl.s.limits.grip_cap_fraction)
     assert max(ctrl.grip_targets) <= cap + 1e-9
 
 
@@ -191,7 +189,7 @@ def test_a_deformable_object_is_never_gripped_near_its_crush_force(hand, objects
     tr = Trace(hand, cup)
     _to_load(tr)
     tr.tick(grips=tr.at_target(), loads=np.where(tr.grasp, 10.0, 0.0))
-    assert max(tr.ctrl.grip_targets) <= cup.crush_force_n * tr.ctrl.s.grip_cap_fraction + 1e-9
+    assert max(tr.ctrl.grip_targets) <= cup.crush_force_n * tr.ctrl.s.limits.grip_cap_fraction + 1e-9
 
 
 def test_the_ramp_scales_down_below_the_safety_limit(hand, mustard):
@@ -205,7 +203,7 @@ def test_the_ramp_scales_down_below_the_safety_limit(hand, mustard):
     snap_loads[thumb] = 6.0  # the thumb on a rim: as much shear as normal force, |f| > the cap
     tr.tick(grips=grips, loads=snap_loads)
     f = np.hypot(grips[thumb], 6.0)
-    assert ctrl.scale == pytest.approx(max(ctrl.s.min_grip_scale, ctrl.grip_cap_n / f))
+    assert ctrl.scale == pytest.approx(max(ctrl.s.limits.min_grip_scale, ctrl.grip_cap_n / f))
 
 
 @pytest.mark.parametrize("state", ["ramp", "load"])
@@ -244,7 +242,7 @@ def test_a_stalled_joints_goal_stays_within_its_saturation_deflection(hand, must
     (factor 0) the same ticks wind the goals much further."""
     far = {}
     for factor in (1.5, 0.0):
-        tr = Trace(hand, mustard, dataclasses.replace(GRIP_LOAD, windup_lag_factor=factor))
+        tr = Trace(hand, mustard, GRIP_LOAD.replace(windup_lag_factor=factor))
         tr.run_until("close", contact=False)
         tr.tick(grips=np.full(tr.n, 0.5))
         assert tr.ctrl.state == "ramp"
@@ -282,7 +280,7 @@ def test_release_near_the_support_reads_the_carried_sum_not_one_fingertip(hand, 
 
 
 def test_the_paper_release_rule_still_fires(hand, mustard):
-    tr = Trace(hand, mustard, dataclasses.replace(GRIP_LOAD, release_relative=False))
+    tr = Trace(hand, mustard, GRIP_LOAD.replace(release_relative=False))
     _to_load(tr)
     tr.run_until("lower", grips=tr.at_target(), loads=np.where(tr.grasp, 1.5, 0.0))
     loads = np.where(tr.grasp, 1.5, 0.0)
@@ -317,7 +315,7 @@ def _jitter(n_ticks: int, spread: float, drift: float, seed: int = 0) -> np.ndar
 
 @pytest.mark.parametrize("seed", range(5))
 def test_the_trend_rule_settles_a_jittering_steady_grasp_where_the_window_rule_cannot(seed):
-    settings = ControllerSettings()
+    settings = GripLoadSettings()
     window, trend = RampSettle(settings), TrendRampSettle(settings)
     window_settled = trend_settled = False
     for err in _jitter(300, 0.2, 0.0, seed):  # the guard is read every tick
@@ -329,7 +327,7 @@ def test_the_trend_rule_settles_a_jittering_steady_grasp_where_the_window_rule_c
 
 
 def test_the_trend_rule_does_not_settle_a_drifting_grasp():
-    trend = TrendRampSettle(ControllerSettings())
+    trend = TrendRampSettle(GripLoadSettings())
     for err in _jitter(300, 0.2, -0.3, 1)[:100]:  # the grips still rise 0.3 N/s
         trend.update(err)
         assert not trend.settled(0.01)
@@ -348,7 +346,7 @@ def _rocking(n_ticks: int, amplitude: float, drift: float = 0.0) -> np.ndarray:
 def test_the_cycle_rule_settles_a_grasp_rocking_about_its_targets(cycle_s):
     """The lego's limit cycle: no tick-to-tick rule holds (the thumb swings +-1 N), the cycle rule
     ends the ramp after ``ramp_cycle_s``; without it (0) the ramp never settles."""
-    trend = TrendRampSettle(ControllerSettings(ramp_cycle_s=cycle_s))
+    trend = TrendRampSettle(GripLoadSettings().replace(ramp_cycle_s=cycle_s))
     ticks = None
     for k, err in enumerate(_rocking(600, 1.0)):
         trend.update(err)
@@ -364,7 +362,7 @@ def test_the_cycle_rule_settles_a_grasp_rocking_about_its_targets(cycle_s):
 @pytest.mark.parametrize(("amplitude", "drift"), [(1.5, 0.0), (1.0, -0.3)])
 def test_the_cycle_rule_does_not_settle_a_wide_swing_or_a_drift(amplitude, drift):
     """A swing wider than ``ramp_cycle_swing_n`` (+-1.5 N: 3 N) or a cycle whose mean still moves."""
-    trend = TrendRampSettle(ControllerSettings())
+    trend = TrendRampSettle(GripLoadSettings())
     for err in _rocking(600, amplitude, drift):
         trend.update(err)
         assert not trend.settled(0.01)
@@ -375,7 +373,7 @@ def test_a_finger_at_its_servos_limit_scales_the_ramp_targets_to_what_it_gives(h
     """The scripted hand never moves, so every goal soon sits at its wind-up bound, as a finger's
     does when its servos give all they can: a thumb whose grip stays at 70 % of its target for
     ``servo_limited_s`` scales every target to 70 %; fingers at their targets do not; 0: never."""
-    tr = Trace(hand, mustard, dataclasses.replace(GRIP_LOAD, servo_limited_s=limited_s))
+    tr = Trace(hand, mustard, GRIP_LOAD.replace(servo_limited_s=limited_s))
     tr.run_until("close", contact=False)
     tr.tick(grips=np.full(tr.n, 0.5))
     ctrl = tr.ctrl
@@ -402,7 +400,7 @@ def test_the_off_values_of_the_servo_limit_rules_read_back_from_run_json():
 
     off = {"windup_lag_factor": 0.0, "servo_limited_s": 0.0, "ramp_cycle_s": 0.0}
     s = settings_from_json({"controller": "grip_load", **off}, "run.json")
-    assert (s.windup_lag_factor, s.servo_limited_s, s.ramp_cycle_s) == (0.0, 0.0, 0.0)
+    assert (s.limits.windup_lag_factor, s.limits.servo_limited_s, s.cycle.ramp_cycle_s) == (0.0, 0.0, 0.0)
     with pytest.raises(UsageError, match="settings.ramp_cycle_s"):
         settings_from_json({"ramp_cycle_s": -1.0}, "run.json")
     with pytest.raises(UsageError, match="settings.ramp_cycle_swing_n"):

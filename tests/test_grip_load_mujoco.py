@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grasp_ctrl.controller.settings import settings_for
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial, trial_seed
 
 pytest.importorskip("mujoco")

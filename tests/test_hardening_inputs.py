@@ -286,28 +286,25 @@ def test_a_finite_but_huge_estimate_is_overforce(hand, objects, value):
     from grasp_ctrl.controller.machine import GraspController
     from grasp_ctrl.controller.snapshot import Snapshot
 
-    for compiled in (True, False):
-        ctrl = GraspController(hand, objects["lego"], np.array([0.0, 0.0, 0.2]))
-        if not compiled:
-            ctrl._compiled = False
-        n = len(hand.fingers)
-        q = np.array([j.open_rad for j in hand.joints])
-        f = np.zeros((n, 3))
-        f[1] = value
-        snap = Snapshot(
-            t=0.0,
-            q=q,
-            p_palm_world=np.zeros(3),
-            tare_ready=True,
-            in_contact=np.ones(n, bool),
-            f_sensor=f,
-            f_hand=f,
-            f_world=f,
-            grip_n=np.zeros(n),
-        )
-        cmd = ctrl.tick(snap)
-        assert ctrl.state == "fault" and ctrl.failure_reason == "overforce", ctrl.failure_detail
-        assert "inf" not in ctrl.failure_detail and np.all(np.isfinite(cmd.q_goal))
+    ctrl = GraspController(hand, objects["lego"], np.array([0.0, 0.0, 0.2]))
+    n = len(hand.fingers)
+    q = np.array([j.open_rad for j in hand.joints])
+    f = np.zeros((n, 3))
+    f[1] = value
+    snap = Snapshot(
+        t=0.0,
+        q=q,
+        p_palm_world=np.zeros(3),
+        tare_ready=True,
+        in_contact=np.ones(n, bool),
+        f_sensor=f,
+        f_hand=f,
+        f_world=f,
+        grip_n=np.zeros(n),
+    )
+    cmd = ctrl.tick(snap)
+    assert ctrl.state == "fault" and ctrl.failure_reason == "overforce", ctrl.failure_detail
+    assert "inf" not in ctrl.failure_detail and np.all(np.isfinite(cmd.q_goal))
 
 
 def test_a_fit_that_collapses_an_axis_or_makes_the_error_worse_is_named():

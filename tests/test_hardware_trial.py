@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.emulators.dxl_chain import DynamixelChainEmulator
 from grasp_ctrl.emulators.tactile_bridge import TactileBridgeEmulator
 from grasp_ctrl.hardware.arm_external import ExternalArm
@@ -19,7 +19,7 @@ from grasp_ctrl.trials.episode.hardware import hardware_trial_fn, reach_pose_wor
 
 pytestmark = pytest.mark.skipif(not hasattr(__import__("os"), "openpty"), reason="needs POSIX pseudo-terminals")
 
-FAST = ControllerSettings(close_timeout_s=0.3, ramp_timeout_s=0.3, reach_timeout_s=2.0)
+FAST = settings_for("grip_load", close_timeout_s=0.3, ramp_timeout_s=0.3, reach_timeout_s=2.0)
 
 
 @pytest.fixture

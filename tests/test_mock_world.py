@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from grasp_ctrl.config.sensor_layout import ELECTRODES, PDC
-from grasp_ctrl.controller.settings import settings_for
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.sim.biotac.model import BioTacSensorModel
 from grasp_ctrl.sim.mock.grip import solve_object_height, tangential_forces

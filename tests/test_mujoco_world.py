@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grasp_ctrl.controller.settings import settings_for
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.sim.mujoco.world import MuJoCoWorld  # noqa: E402
 from grasp_ctrl.trials.episode.runner import estimator_factory, run_sim_trial  # noqa: E402
 

@@ -5,7 +5,6 @@ regulate (the LEAP Hand's) keeps regulating every pad. A choice names its file a
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +14,8 @@ from grasp_ctrl.config.hand import load_hand
 from grasp_ctrl.config.objects import load_objects
 from grasp_ctrl.controller.grip_load import GripLoadController
 from grasp_ctrl.controller.machine import GraspController
-from grasp_ctrl.controller.settings import ControllerSettings, checked_settings, settings_for
+from grasp_ctrl.controller.paper_settings import PaperSettings
+from grasp_ctrl.controller.registry import flat_settings, settings_for
 from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.errors import ConfigError, UsageError
 from grasp_ctrl.files.paths import default_objects_file, hand_configs_dir
@@ -75,10 +75,10 @@ def test_a_nested_value_is_refused_on_load(tmp_path: Path) -> None:
 
 def test_run_json_keeps_the_reading() -> None:
     s = settings_for("paper", ramp_mode="push_then_hold")
-    assert settings_from_json(dataclasses.asdict(s), "run.json") == s
+    assert settings_from_json(flat_settings(s), "run.json") == s
     with pytest.raises(UsageError, match=r"settings\.ramp_mode: one of regulate, push_then_hold"):
         settings_from_json({"ramp_mode": "hold"}, "run.json")
-    assert checked_settings({"ramp_mode": "regulate"}, "x") == {"ramp_mode": "regulate"}
+    assert PaperSettings.check({"ramp_mode": "regulate"}, "x") == {"ramp_mode": "regulate"}
 
 
 def test_grip_load_refuses_push_then_hold(allegro) -> None:  # type: ignore[no-untyped-def]
@@ -90,7 +90,7 @@ def test_grip_load_refuses_push_then_hold(allegro) -> None:  # type: ignore[no-u
 class Script:
     """Scripted snapshots for one controller; the palm arrives wherever it was sent."""
 
-    def __init__(self, hand, obj, settings: ControllerSettings) -> None:  # type: ignore[no-untyped-def]
+    def __init__(self, hand, obj, settings: PaperSettings) -> None:  # type: ignore[no-untyped-def]
         self.hand = hand
         self.ctrl = GraspController(hand, obj, REACH, settings)
         self.n = len(hand.fingers)

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.pad_ik import Facing, PadIK
@@ -114,7 +114,7 @@ def _shear_over_normal_at_ramp_end(hand, obj, preshape: bool) -> float:
         estimator_factory("oracle", hand),
         3,
         "oracle",
-        settings=ControllerSettings(preshape=preshape),
+        settings=settings_for("grip_load", preshape=preshape),
         on_tick=on_tick,
         world_params=WorldParams(skin_contact=False),
         backend="mock",

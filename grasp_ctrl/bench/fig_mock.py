@@ -7,7 +7,7 @@ from collections.abc import Callable
 
 from grasp_ctrl.bench.figure import Figure, time_ms
 from grasp_ctrl.config import load_hand, load_objects
-from grasp_ctrl.controller.settings import settings_for
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.estimators.registry import DEFAULT_POLICY, load_policy
 from grasp_ctrl.files.paths import default_hand_file, default_objects_file
 from grasp_ctrl.rigs.registry import TEST_WORLD
@@ -70,7 +70,7 @@ def measure_control_tick_cpu(quick: bool) -> Figure:
 
 
 def measure_control_tick_grip_load(quick: bool) -> Figure:
-    """``control_tick_grip_load_ms``: the same with the grip_load controller (its Python tick:
+    """``control_tick_grip_load_ms``: the same with the grip_load controller (its tick adds
     grip-load coordination, slip signals, the PAC spread), in the lift."""
     return _control_tick(DEFAULT_POLICY, quick, controller="grip_load")
 

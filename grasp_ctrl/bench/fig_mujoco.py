@@ -17,7 +17,7 @@ import numpy as np
 
 from grasp_ctrl.bench.figure import Figure
 from grasp_ctrl.config import load_hand, load_objects
-from grasp_ctrl.controller.settings import settings_for
+from grasp_ctrl.controller.registry import settings_for
 from grasp_ctrl.files.paths import default_hand_file, default_objects_file
 from grasp_ctrl.rigs.registry import REFERENCE_WORLD
 from grasp_ctrl.rigs.trial_builder import SimTrial, build_trial

@@ -9,7 +9,7 @@ shown by ``--help``, so existing scripts keep working.
 | ``--hand FILE`` | a hand file (TOML) | ``add_hand_file`` |
 | ``--object-file FILE`` (alias ``--objects-file``) | an object file (TOML) | ``add_object_file`` |
 | ``--objects a,b|all`` | names separated by commas, or all | ``add_object_list`` |
-| ``--controller NAME`` | one of CONTROLLER_NAMES | ``add_controller`` |
+| ``--controller NAME`` | one of the registry's controllers | ``add_controller`` |
 | ``--jobs N``, ``--executor local|ray``, ``--address ADDR`` | where trials run | ``add_jobs_options`` |
 """
 
@@ -91,14 +91,14 @@ def add_object_list(p: Any, *, words: bool = False, help: str | None = None) -> 
 def add_controller(p: Any, *, default_note: str = "", more: str = "") -> None:
     """``--controller NAME``, one of the registry's controllers (argparse refuses any other name in
     its one-line error). ``default_note``: added to the default's note; ``more``: a sentence after."""
-    from grasp_ctrl.controller.settings import CONTROLLER_NAMES, DEFAULT_CONTROLLER
+    from grasp_ctrl.controller.registry import DEFAULT_CONTROLLER, controller_names
 
     note = f"; {default_note}" if default_note else ""
     p.add_argument(
         "--controller",
         default=None,
-        choices=CONTROLLER_NAMES,
-        help=f"the lift-and-place controller, one of {', '.join(CONTROLLER_NAMES)} (default: {DEFAULT_CONTROLLER}{note})"
+        choices=controller_names(),
+        help=f"the lift-and-place controller, one of {', '.join(controller_names())} (default: {DEFAULT_CONTROLLER}{note})"
         + (f". {more}" if more else ""),
     )
 

@@ -19,12 +19,12 @@ PICTURE_SUFFIXES = (".svg", ".png")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from grasp_ctrl.controller.settings import CONTROLLER_NAMES
+    from grasp_ctrl.controller.registry import controller_names
 
     p.add_argument("--out", metavar="FILE", help="write to FILE instead of standard output (.svg/.png: a picture)")
     p.add_argument(
         "--controller",
-        choices=CONTROLLER_NAMES,
+        choices=controller_names(),
         default="paper",
         help="the controller whose state machine to draw (default: paper, the paper's; grip_load adds "
         "the preshape and load states)",
@@ -38,7 +38,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.controller.diagram import draw, mermaid
-    from grasp_ctrl.controller.settings import settings_for
+    from grasp_ctrl.controller.registry import settings_for
 
     hand = None
     if args.hand:

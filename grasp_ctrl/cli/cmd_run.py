@@ -260,8 +260,7 @@ def _plan(args: argparse.Namespace) -> tuple[Any, Any]:
             "--realtime: only with --backend dynamixel --emulate or --backend allegro_can --emulate "
             "(a wall-clock dry run of the emulated hand)"
         )
-    from grasp_ctrl.controller.registry import controller_class
-    from grasp_ctrl.controller.settings import DEFAULT_CONTROLLER, settings_for
+    from grasp_ctrl.controller.registry import DEFAULT_CONTROLLER, controller_class, settings_for
 
     controller = args.controller or (preset.controller if preset else DEFAULT_CONTROLLER)
     controller_class(controller)  # an unknown name: one line listing the controllers

@@ -205,7 +205,7 @@ def _variation(args: argparse.Namespace) -> Any:
 def _settings(args: argparse.Namespace, hand: Any = None) -> Any:
     """The controller settings every setting starts from: ``--controller``'s (default the
     registry's), with the hand file's own choices (``[controllers.NAME]``) where ``hand`` is given."""
-    from grasp_ctrl.controller.settings import DEFAULT_CONTROLLER, settings_for
+    from grasp_ctrl.controller.registry import DEFAULT_CONTROLLER, settings_for
 
     return settings_for(args.controller or DEFAULT_CONTROLLER, hand)
 
@@ -282,8 +282,8 @@ def run(args: argparse.Namespace) -> int:
 
         check_identifier_arg(hand.name, f"--write: {args.hand}: the hand's name")
     finger_joints = check_params_for_hand(params, hand)
-    check_settings_values(params)
     settings = _settings(args, hand)
+    check_settings_values(params, settings)
     if args.object is not None:
         objects = select_objects(args.object_file, args.object, flag="--object", hand=hand.name)
     else:

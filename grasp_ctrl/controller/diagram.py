@@ -3,8 +3,8 @@
 Built from the controller class's own table of states and transitions (``STATES`` and
 ``TRANSITIONS``: the paper's in ``machine.py``, grip_load's in ``grip_load.py``, any
 registered controller's), so it cannot drift from the controller, with each guard's
-condition in words and the failure reason of every edge into ``fault``. A guard without
-words here is described by its docstring's first line. The picture (SVG/PNG, the ``plot``
+condition in words (the controller's ``guard_words``) and the failure reason of every edge
+into ``fault``. A guard without words there is described by its docstring's first line. The picture (SVG/PNG, the ``plot``
 extra) draws the same graph with matplotlib: no Mermaid renderer is needed.
 """
 
@@ -15,8 +15,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from grasp_ctrl.controller.machine import TERMINAL, GraspController
-from grasp_ctrl.controller.registry import controller_class
-from grasp_ctrl.controller.settings import ControllerSettings, settings_for
+from grasp_ctrl.controller.paper_settings import PaperSettings
+from grasp_ctrl.controller.registry import controller_class, settings_for
 
 # Faults raised outside the guards, from any active state (GraspController.tick, the
 # sensing pipeline, control_tick, the runner; docs/safety.md).
@@ -29,50 +29,6 @@ RUNTIME_FAULTS = (
     "overforce",
     "aborted",
 )
-
-
-def guard_conditions(s: ControllerSettings | None = None) -> dict[str, str]:
-    """Each guard's condition in words, with the settings' numbers (object parameters by name:
-    they live in the object profile); the paper controller's settings by default."""
-    s = s or settings_for("paper")
-    if s.controller == "grip_load":
-        settled = (
-            f"every grip within {s.ramp_tolerance_n:g} N of its target for {s.ramp_settle_s:g} s, or balanced "
-            f"(each within {s.ramp_balance_band_n:g} N) with a flat trend over {s.ramp_steady_s:g} s"
-            + (f", or cycling about the targets over {s.ramp_cycle_s:g} s" if s.ramp_cycle_s > 0 else "")
-        )
-    elif s.ramp_mode == "push_then_hold":
-        settled = f"every grip at tau or above (within {s.ramp_tolerance_n:g} N) for {s.ramp_settle_s:g} s"
-    else:
-        settled = (
-            f"grips averaged over {s.ramp_filter_s:g} s: every grip within {s.ramp_tolerance_n:g} N of tau "
-            f"for {s.ramp_settle_s:g} s, or "
-            f"balanced: mean within {s.ramp_tolerance_n:g} N, each within {s.ramp_balance_band_n:g} N, "
-            f"steady for {s.ramp_steady_s:g} s"
-        )
-    return {
-        "tare_done": "tare frames collected",
-        "at_reach_pose": f"palm within {s.reach_tolerance_m * 1000:g} mm of the reach pose",
-        "reach_timed_out": f"{s.reach_timeout_s:g} s in reach",
-        "all_in_contact": "every grasping tip's contact gate fired",
-        "close_timed_out": f"{s.close_timeout_s:g} s in close",
-        "ramp_settled": settled,
-        "ramp_timed_out": f"{s.ramp_timeout_s:g} s in ramp",
-        "grip_lost": f"a grasping tip without contact or grip below {s.grip_lost_fraction:g} tau "
-        f"for {s.contact_lost_s:g} s",
-        "at_lift_height": "palm at lift_height_m",
-        "hold_done": "hold_s elapsed",
-        "release_detected": "index force on the object along +z below -release_threshold_n for release_debounce ticks"
-        + (
-            ", or the carried load falls near the support" if s.controller == "grip_load" and s.release_relative else ""
-        ),
-        "lower_exhausted": f"palm {s.lower_overshoot_m * 1000:g} mm below the grasp height",
-        "fingers_open": f"{s.open_s:g} s opening",
-        "retreat_done": f"palm {s.retreat_m * 1000:g} mm above the release point",
-        "preshape_done": "every grasping finger at its closing preshape or stopped at its own contact",
-        "load_carried": f"palm risen {s.load_min_rise_m * 1000:g} mm and the pads carry "
-        f"{s.load_weight_fraction:g} of the weight for {s.load_settle_s:g} s, or risen {s.load_max_rise_m * 1000:g} mm",
-    }
 
 
 def _words(cls: type[GraspController], guard: str, known: dict[str, str]) -> str:
@@ -92,15 +48,15 @@ class Edge:
     reason: str | None
 
 
-def _controller(settings: ControllerSettings | None) -> tuple[ControllerSettings, type[GraspController]]:
+def _controller(settings: PaperSettings | None) -> tuple[PaperSettings, type[GraspController]]:
     s = settings or settings_for("paper")
     return s, controller_class(s.controller)
 
 
-def edges(settings: ControllerSettings | None = None) -> list[Edge]:
+def edges(settings: PaperSettings | None = None) -> list[Edge]:
     """The edges of ``settings.controller``'s state machine (the paper's by default)."""
     s, cls = _controller(settings)
-    words = guard_conditions(s)
+    words = cls.guard_words(s)
     return [Edge(src, dst, guard, _words(cls, guard, words), reason) for src, dst, guard, reason in cls.TRANSITIONS]
 
 
@@ -109,7 +65,7 @@ def _label(e: Edge) -> str:
     return f"{text} → {e.reason}" if e.reason else text
 
 
-def mermaid(settings: ControllerSettings | None = None) -> str:
+def mermaid(settings: PaperSettings | None = None) -> str:
     """Mermaid ``stateDiagram-v2`` text: the success path first, then the fault edges."""
     s, cls = _controller(settings)
     all_edges = edges(s)
@@ -141,7 +97,7 @@ def _layout(states: list[str]) -> dict[str, tuple[float, float]]:
     return out
 
 
-def draw(path: Path, settings: ControllerSettings | None = None) -> Path:
+def draw(path: Path, settings: PaperSettings | None = None) -> Path:
     """The state machine as SVG or PNG (by the file's suffix); needs matplotlib."""
     from grasp_ctrl.display.plotting import pyplot
 

@@ -7,8 +7,8 @@ within a tick, the grip drops by a third to a half and the object slips. This co
 the force *vectors* the estimators give, as a human grasp does (Johansson and Westling 1984;
 Romano et al. 2011, "Load"):
 
-- **squeeze and targets** (its settings' defaults; the paper's controller runs without them,
-  ``settings.settings_for``): the squeeze moves each goal so the joints' springs push along the
+- **squeeze and targets** (its settings' defaults, controller/grip_load_settings.py; the paper's
+  controller runs without them): the squeeze moves each goal so the joints' springs push along the
   closing vector (``stiffness_aware_squeeze``: a goal moved along it slides the LEAP thumb's pad
   down a box's face, pressing the box into the table), to force-closure targets (the thumb pushes
   back what the index and middle push); a deformable object's targets stay under its crush cap.
@@ -36,21 +36,22 @@ Romano et al. 2011, "Load"):
   (``ramp_cycle_s``, controller/ramp_settle.py).
 
 It reads only what a real hand gives (the estimated forces, contact flags, PAC, joint angles, the
-palm's position) and the object profile, never the world's truth. Its ticks run the Python path
-(the compiled kernels take one fixed target per fingertip). docs/controller.md.
+palm's position) and the object profile, never the world's truth. docs/controller.md.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from grasp_ctrl.config.actuation import hand_servo, torque_limits_nm
+from grasp_ctrl.controller.grip_load_settings import GripLoadSettings
 from grasp_ctrl.controller.joint_stiffness import joint_stiffness
 from grasp_ctrl.controller.machine import STATES, TRANSITIONS, GraspController
 from grasp_ctrl.controller.motion import FingertipMotion
+from grasp_ctrl.controller.paper_settings import PaperSettings
 from grasp_ctrl.controller.ramp_settle import TrendRampSettle
 from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.errors import ConfigError
@@ -97,17 +98,17 @@ class GripLoadController(GraspController):
     STATES = LOAD_STATES
     TRANSITIONS = LOAD_TRANSITIONS
     reads_vibration = True
-    NAME = "grip_load"
+    SETTINGS: ClassVar[type[PaperSettings]] = GripLoadSettings
+    s: GripLoadSettings
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         if self.push_then_hold:  # its load phase and slip response regulate the grips throughout
             raise ConfigError("controller settings", "ramp_mode", "regulate for grip_load (push_then_hold: paper only)")
-        self._compiled = False  # targets change every tick: the Python tick (the reference)
         self.ramp_settle = TrendRampSettle(self.s, self.dt)  # holds under quantised goals and noise
-        limit = self.hand.safety.max_fingertip_force_n * self.s.grip_cap_fraction
+        limit = self.hand.safety.max_fingertip_force_n * self.s.limits.grip_cap_fraction
         if self.obj.deformable and self.obj.crush_force_n is not None:
-            limit = min(limit, self.obj.crush_force_n * self.s.grip_cap_fraction)
+            limit = min(limit, self.obj.crush_force_n * self.s.limits.grip_cap_fraction)
         self.grip_cap_n = limit
         # the targets keep their proportions under the cap (force closure asks the thumb for what
         # the index and middle push together: 4 N on the paper cup, whose crush force is 3.2 N)
@@ -148,7 +149,7 @@ class GripLoadController(GraspController):
         reaches its torque limit (config/actuation.py: a servo's current limit x its torque per amp,
         or a torque-controlled joint's limit; over its stiffness); None without a bound (factor 0,
         or the stiffness or torque constant unknown)."""
-        if self.s.windup_lag_factor <= 0.0:
+        if self.s.limits.windup_lag_factor <= 0.0:
             return None
         kp = joint_stiffness(self.hand).kp_nm_per_rad
         if kp is None:
@@ -156,7 +157,7 @@ class GripLoadController(GraspController):
         if self.hand.servo_driven and not hand_servo(self.hand).known_torque:
             return None
         limit_nm = torque_limits_nm(self.hand)
-        return self.s.windup_lag_factor * limit_nm / kp
+        return self.s.limits.windup_lag_factor * limit_nm / kp
 
     def _bound_windup(self, snap: Snapshot) -> None:
         """Keep each grasping joint's goal within ``lag_bound_rad`` of its measured angle. On the
@@ -180,13 +181,13 @@ class GripLoadController(GraspController):
         """Guarded closing: the pads wait ``guarded_standoff_m`` off the nominal surface (an object
         set down by hand sits up to a centimetre and ten degrees off), and each finger closes
         until its own contact (the close state), so the placement does not decide the grasp."""
-        return self.obj.standoff_m if self.obj.standoff_m is not None else self.s.guarded_standoff_m
+        return self.obj.standoff_m if self.obj.standoff_m is not None else self.s.reach.guarded_standoff_m
 
     def _wide_posture(self) -> np.ndarray:
         """The reach posture with every grasping pad backed off along its closing vector by
         ``reach_standoff_m`` less the closing standoff (the same IK as closing, so the preshape
         state's way back is the line the pad closes along); the cap finger keeps its posture."""
-        back = self.s.reach_standoff_m - self._preshape_standoff_m()
+        back = self.s.reach.reach_standoff_m - self._preshape_standoff_m()
         if back <= 0.0:
             return self.reach_q.copy()
         scratch = FingertipMotion(self.hand, self.kin, self.s.stiffness_aware_squeeze)
@@ -201,6 +202,25 @@ class GripLoadController(GraspController):
         return np.clip(scratch.q_goal, self.motion.lower, self.motion.upper)
 
     # ----- guards --------------------------------------------------------------
+    @classmethod
+    def guard_words(cls, s: PaperSettings) -> dict[str, str]:
+        assert isinstance(s, GripLoadSettings)
+        cycle = s.cycle.ramp_cycle_s
+        load = s.load
+        release = super().guard_words(s)["release_detected"]
+        return {
+            **super().guard_words(s),
+            "ramp_settled": f"every grip within {s.ramp_tolerance_n:g} N of its target for {s.ramp_settle_s:g} s, "
+            f"or balanced (each within {s.ramp_balance_band_n:g} N) with a flat trend over {s.ramp_steady_s:g} s"
+            + (f", or cycling about the targets over {cycle:g} s" if cycle > 0 else ""),
+            "release_detected": release
+            + (", or the carried load falls near the support" if s.coordination.release_relative else ""),
+            "preshape_done": "every grasping finger at its closing preshape or stopped at its own contact",
+            "load_carried": f"palm risen {load.load_min_rise_m * 1000:g} mm and the pads carry "
+            f"{load.load_weight_fraction:g} of the weight for {load.load_settle_s:g} s, "
+            f"or risen {load.load_max_rise_m * 1000:g} mm",
+        }
+
     def preshape_done(self) -> bool:
         """Every grasping finger at its closing preshape, or stopped at its own contact."""
         assert self.snap is not None
@@ -213,9 +233,9 @@ class GripLoadController(GraspController):
         if start is None:
             return False
         rise = self.snap.p_palm_world[2] - start
-        if rise >= self.s.load_max_rise_m:
+        if rise >= self.s.load.load_max_rise_m:
             return True
-        return rise >= self.s.load_min_rise_m and self.carried_ticks * self.dt >= self.s.load_settle_s
+        return rise >= self.s.load.load_min_rise_m and self.carried_ticks * self.dt >= self.s.load.load_settle_s
 
     # ----- per-tick estimates ------------------------------------------------------
     def _update_counters(self, snap: Snapshot) -> None:
@@ -240,7 +260,7 @@ class GripLoadController(GraspController):
         the weakest finger cannot reach keeps the ramp from settling (on the mustard bottle the
         LEAP thumb's MCP and distal joints sit at 1.2 and 0.55 A with its grip at 3.1 N of 5.5)."""
         bound = self.lag_bound_rad
-        if bound is None or self.s.servo_limited_s <= 0.0:
+        if bound is None or self.s.limits.servo_limited_s <= 0.0:
             return
         q = np.asarray(snap.q, dtype=float)
         pinned = self._grasp_joints & (np.abs(self.motion.q_goal - q) >= SATURATED_SHARE * bound)
@@ -250,10 +270,10 @@ class GripLoadController(GraspController):
             held = self._grasping[i] and grip[i] < self._targets[i] - self.s.ramp_tolerance_n
             held = held and bool(pinned[self.kin.slices[name]].any())
             self._servo_limited[i] = self._servo_limited[i] + 1 if held else 0
-            if self._servo_limited[i] * self.dt >= self.s.servo_limited_s:
+            if self._servo_limited[i] * self.dt >= self.s.limits.servo_limited_s:
                 short.append(max(grip[i], 0.0) / max(self._targets[i], 1e-9))
         if short:
-            scale = max(self.s.min_grip_scale, self.scale * min(short))
+            scale = max(self.s.limits.min_grip_scale, self.scale * min(short))
             self._servo_limited = [0] * len(self.names)
             if scale < self.scale:
                 self.scale = scale
@@ -267,7 +287,7 @@ class GripLoadController(GraspController):
         stalls 0.12 rad short of its goal, at its 0.55 A limit) keeps that servo at its limit
         while the ramp retreats the pad at its rate limit, and the pad's force rises into the
         over-force fault; from the measured angles the retreat acts at once."""
-        fraction = self.s.unwind_fraction
+        fraction = self.s.limits.unwind_fraction
         if fraction >= 1.0:
             return
         f = np.asarray(snap.f_sensor, dtype=float)
@@ -304,7 +324,7 @@ class GripLoadController(GraspController):
         pressed = min(self._hold_index_sum / self._hold_n, 0.0) if self._hold_n else 0.0
         if index_n - pressed < -self.obj.release_threshold_n:
             return True
-        if self.state != "lower" or not self.s.release_relative or not self._hold_n:
+        if self.state != "lower" or not self.s.coordination.release_relative or not self._hold_n:
             return False
         near = snap.p_palm_world[2] - self.reach_pose[2] < self.s.lower_slow_zone_m
         held = self._hold_sum / self._hold_n
@@ -321,11 +341,11 @@ class GripLoadController(GraspController):
             return np.zeros(len(self.names), dtype=bool)
         spread = np.asarray(spread, dtype=float)
         usual = np.where(np.isfinite(self._pac_usual), self._pac_usual, spread)
-        loud = touching & (spread > usual + self.s.slip_pac_counts)
-        k = min(1.0, self.dt / max(self.s.slip_pac_window_s, self.dt))
+        loud = touching & (spread > usual + self.s.coordination.slip_pac_counts)
+        k = min(1.0, self.dt / max(self.s.coordination.slip_pac_window_s, self.dt))
         self._pac_usual = np.where(touching, np.where(loud, usual, usual + k * (spread - usual)), np.inf)
         self._pac_ticks = np.where(loud, self._pac_ticks + 1, 0)
-        return self._pac_ticks >= self.s.slip_pac_ticks
+        return self._pac_ticks >= self.s.coordination.slip_pac_ticks
 
     def _carried(self, snap: Snapshot) -> float:
         """The load the touching grasping fingertips carry together: the object's weight pulls them
@@ -341,19 +361,20 @@ class GripLoadController(GraspController):
         f = np.asarray(snap.f_sensor, dtype=float)[self.grasp_mask]
         peak = float(np.sqrt(np.max(np.sum(f * f, axis=1), initial=0.0)))
         if peak > self.grip_cap_n:
-            self.scale = max(self.s.min_grip_scale, self.scale * self.grip_cap_n / peak)
+            self.scale = max(self.s.limits.min_grip_scale, self.scale * self.grip_cap_n / peak)
             self._targets = [b * self.scale for b in self._base]
             self.grip_targets = np.asarray(self._targets)
 
     def _coordinate(self, snap: Snapshot) -> None:
         s, dt = self.s, self.dt
+        c = s.coordination
         f = np.asarray(snap.f_sensor, dtype=float)
         f_t = np.hypot(f[:, 0], f[:, 1])
         grip = np.asarray(snap.grip_n, dtype=float)
         touching = np.asarray(snap.in_contact, dtype=bool) & self.grasp_mask
         self.carried_n = self._carried(snap)
         if self.state == "load":
-            enough = self.carried_n >= s.load_weight_fraction * self.weight_n
+            enough = self.carried_n >= s.load.load_weight_fraction * self.weight_n
             self.carried_ticks = self.carried_ticks + 1 if enough else 0
         # the scale each fingertip's cone asks for. The pads grip the object's sides, so the
         # normal force is the grip (horizontal) and the load is the vertical force on the object:
@@ -363,12 +384,12 @@ class GripLoadController(GraspController):
         mu = max(self.mu_hat, 1e-3)
         load = -np.asarray(snap.f_world, dtype=float)[:, 2]
         need = [
-            s.grip_margin * max(float(load[i]), 0.0) / (mu * max(self._base[i], 1e-3)) for i in np.flatnonzero(touching)
+            c.grip_margin * max(float(load[i]), 0.0) / (mu * max(self._base[i], 1e-3)) for i in np.flatnonzero(touching)
         ]
         wanted = max(need, default=1.0)
         # slip signals: the ratio near the cone, the grip falling, the tangential force jumping
         # (rates from first-order filtered forces: a learned estimate's tick-to-tick noise is no slip)
-        k = min(1.0, dt / max(s.slip_filter_s, dt))
+        k = min(1.0, dt / max(c.slip_filter_s, dt))
         if self._prev_ft is None:
             self._prev_ft, self._prev_grip = f_t.copy(), grip.copy()
         ft_filtered = self._prev_ft + k * (f_t - self._prev_ft)
@@ -380,23 +401,23 @@ class GripLoadController(GraspController):
         # cleanser; without it 5 of 20 bench trials on the tuning seeds held, with it 13)
         vibrating = self._vibrating(snap, touching)
         slipping = touching & (
-            (np.abs(load) > s.slip_cone_fraction * mu * np.maximum(grip, 0.0))
-            | (grip_rate < -s.slip_grip_rate_n_s)
-            | (np.abs(ft_rate) > s.slip_rate_n_s)
+            (np.abs(load) > c.slip_cone_fraction * mu * np.maximum(grip, 0.0))
+            | (grip_rate < -c.slip_grip_rate_n_s)
+            | (np.abs(ft_rate) > c.slip_rate_n_s)
             | vibrating
         )
         if slipping.any() and not self.slipping.any():
             self.slip_events += 1
-            self.scale += s.slip_boost
+            self.scale += c.slip_boost
         total_grip = float(np.sum(np.where(touching, grip, 0.0)))
-        if vibrating.any() and self.state in ("lift", "hold") and s.slip_adapts_mu:
+        if vibrating.any() and self.state in ("lift", "hold") and c.slip_adapts_mu:
             # The object slides in the grasp (the skin vibrates) while it hangs in it: the friction
             # is at most the load the grasp held over the grip it held it with (the sum: a single
             # pad's ratio on a domed cap is no friction). The cone rule then asks for the grip
             # that friction needs. (Not while loading: pads that slide over an object the table
             # still carries say nothing of the friction.)
             if total_grip > 0.1 and self._held_ratio > 0.0:
-                self.mu_hat = max(s.min_mu_hat, min(self.mu_hat, self._held_ratio))
+                self.mu_hat = max(c.min_mu_hat, min(self.mu_hat, self._held_ratio))
         self.slipping = slipping
         self._held_ratio = max(self.carried_n, 0.0) / total_grip if total_grip > 0.1 else 0.0
         # the cap: the safety limit on |f| (with the tangential force) and a deformable's crush force
@@ -411,8 +432,8 @@ class GripLoadController(GraspController):
         if wanted > self.scale:
             self.scale = wanted
         else:  # relax slowly toward what the load asks for
-            self.scale = max(wanted, self.scale - s.grip_relax_per_s * dt)
-        self.scale = min(max(self.scale, s.min_grip_scale), cap)
+            self.scale = max(wanted, self.scale - c.grip_relax_per_s * dt)
+        self.scale = min(max(self.scale, s.limits.min_grip_scale), cap)
         self._targets = [b * self.scale for b in self._base]
         self.grip_targets = np.asarray(self._targets)
 
@@ -427,17 +448,17 @@ class GripLoadController(GraspController):
             self._load_top = np.asarray(
                 self.palm_target if self.palm_target is not None else self.snap.p_palm_world, dtype=float
             ).copy()
-            self._load_top[2] += self.s.load_max_rise_m + 0.01  # a goal past the phase's end: it ends on the way
+            self._load_top[2] += self.s.load.load_max_rise_m + 0.01  # a goal past the phase's end: it ends on the way
 
     def _paused(self) -> bool:
         """The arm waits while a fingertip slips or a grip is short of its raised target (at
         most ``slip_max_pause_s`` per state: a grip the servos cannot give must not stall it)."""
-        if self.pause_ticks * self.dt >= self.s.slip_max_pause_s:
+        if self.pause_ticks * self.dt >= self.s.coordination.slip_max_pause_s:
             return False
         assert self.snap is not None
         grip = self.snap.grip_n.tolist()
         tol = self.s.ramp_tolerance_n
-        short = self.s.pause_when_short and any(
+        short = self.s.coordination.pause_when_short and any(
             g < t - 3.0 * tol for g, t, grasping in zip(grip, self._targets, self._grasping) if grasping
         )
         if self.slipping.any() or short:
@@ -447,13 +468,14 @@ class GripLoadController(GraspController):
 
     def _act(self, snap: Snapshot) -> None:
         state, s = self.state, self.s
+        load = s.load
         if state == "reach":
             self.motion.set_posture(self.wide_q)  # pads clear of an object set down off its mark
             self._move_palm_toward(self.reach_pose, self.hand.arm.max_speed_m_s)
         elif state == "preshape":
             # each finger moves in joint space from the wide to the closing preshape, its pad at
             # about the closing speed, and stops at its own contact
-            span = max(s.reach_standoff_m - self._preshape_standoff_m(), 1e-6)
+            span = max(s.reach.reach_standoff_m - self._preshape_standoff_m(), 1e-6)
             step = s.close_speed_m_s * self.dt / span
             touching = snap.in_contact.tolist()
             q = self.wide_q.copy()
@@ -465,13 +487,13 @@ class GripLoadController(GraspController):
             self.motion.set_posture(q)
         elif state == "load":
             assert self._load_top is not None  # set on entering load
-            speed = 0.0 if self._paused() else s.load_speed_m_s
-            self._squeeze(snap, s.load_gain_m_s_per_n, s.load_max_speed_m_s, self._load_top, speed)
+            speed = 0.0 if self._paused() else load.load_speed_m_s
+            self._squeeze(snap, load.load_gain_m_s_per_n, load.load_max_speed_m_s, self._load_top, speed)
         elif state == "lift":
             speed = 0.0 if self._paused() else s.lift_speed_m_s
-            self._squeeze(snap, s.load_gain_m_s_per_n, s.load_max_speed_m_s, self.lift_top, speed)
+            self._squeeze(snap, load.load_gain_m_s_per_n, load.load_max_speed_m_s, self.lift_top, speed)
         elif state == "hold":
-            self._squeeze(snap, s.load_gain_m_s_per_n, s.load_max_speed_m_s)
+            self._squeeze(snap, load.load_gain_m_s_per_n, load.load_max_speed_m_s)
         elif state == "lower":
             near = snap.p_palm_world[2] - self.reach_pose[2] < s.lower_slow_zone_m
             speed = s.lower_slow_speed_m_s if near else s.lower_speed_m_s

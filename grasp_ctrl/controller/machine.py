@@ -6,36 +6,29 @@ ticks, no timer threads), so tests can drive it tick by tick.
 
     tare -> reach -> close -> ramp -> lift -> hold -> lower -> release -> retreat -> done
     any state -> fault (reason), then the configured safe action
-
-The compiled tick (the checks and the squeeze states' whole tick in one compiled call)
-lives in controller/compiled_tick.py; ``GraspController`` binds its functions as methods.
 """
 
 from __future__ import annotations
 
 import functools
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 from transitions import Machine
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
-from grasp_ctrl.controller import compiled_tick
-from grasp_ctrl.controller import tick_kernels as tk
-from grasp_ctrl.controller.compiled_tick import _SQUEEZE_STATES
 from grasp_ctrl.controller.grip_targets import GRIP_TARGET_MODES, grip_targets
 from grasp_ctrl.controller.motion import FingertipMotion
+from grasp_ctrl.controller.paper_settings import RAMP_MODES, PaperSettings
 from grasp_ctrl.controller.ramp_settle import RampSettle
-from grasp_ctrl.controller.settings import RAMP_MODES, ControllerSettings, settings_for
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import ConfigError
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR
 from grasp_ctrl.kinematics.pad_ik import Facing
 from grasp_ctrl.kinematics.preshape import preshape
-from grasp_ctrl.numeric import jit
 from grasp_ctrl.numeric.finite import all_finite
 from grasp_ctrl.numeric.solve_cache import stored
 from grasp_ctrl.numeric.vec3 import norm3
@@ -43,7 +36,9 @@ from grasp_ctrl.numeric.vec3 import norm3
 STATES = ["tare", "reach", "close", "ramp", "lift", "hold", "lower", "release", "retreat", "done", "fault"]
 ACTIVE = STATES[:-2]
 TERMINAL = ("done", "fault")
-_FLOAT64 = np.dtype(np.float64)
+#: ``_force_checks``' result bits.
+FORCE_NOT_FINITE = 4  # an estimated |f_sensor|^2 is not finite
+OVERFORCE = 8  # the largest |f_sensor| is above the limit (all finite)
 
 # (source, dest, guard, reason-if-fault); checked in order on every tick.
 TRANSITIONS: list[tuple[str, str, str, str | None]] = [
@@ -64,19 +59,6 @@ TRANSITIONS: list[tuple[str, str, str, str | None]] = [
     ("release", "retreat", "fingers_open", None),
     ("retreat", "done", "retreat_done", None),
 ]
-
-
-def _distance(a: np.ndarray, b: np.ndarray) -> float:
-    if (
-        jit.JIT
-        and type(a) is np.ndarray
-        and type(b) is np.ndarray
-        and a.dtype is _FLOAT64
-        and b.dtype is _FLOAT64
-        and a.shape == b.shape == (3,)
-    ):
-        return tk.distance3(a, b)  # the same, compiled
-    return norm3(a - b)  # fixed-order sum: the kernel's bits on any CPU (grasp_ctrl/numeric/vec3.py)
 
 
 def build_machine(
@@ -135,7 +117,9 @@ class GraspController:
     TRANSITIONS: list[tuple[str, str, str, str | None]] = TRANSITIONS
     #: Whether the tick gives it each fingertip's PAC spread (``Snapshot.pac_spread``).
     reads_vibration = False
-    NAME = "paper"  # its name in controller/settings.py (the settings it starts from without any)
+    #: Its settings class (controller/registry.py: the settings of a run of it).
+    SETTINGS: ClassVar[type[PaperSettings]] = PaperSettings
+    s: PaperSettings
 
     if TYPE_CHECKING:
         # The triggers ``build_machine`` adds to the model; defined here they would stop
@@ -149,12 +133,14 @@ class GraspController:
         hand: HandConfig,
         obj: ObjectProfile,
         reach_pose_world: np.ndarray,
-        settings: ControllerSettings | None = None,
+        settings: PaperSettings | None = None,
         kin: HandKinematics | None = None,
     ) -> None:
         self.hand = hand
         self.obj = obj
-        self.s = settings or settings_for(self.NAME)
+        self.s = settings or self.SETTINGS()
+        if not isinstance(self.s, self.SETTINGS):
+            raise TypeError(f"{type(self).__name__} takes {self.SETTINGS.__name__}, not {type(self.s).__name__}")
         self.dt = hand.dt
         self.kin = kin or HandKinematics(hand)
         self.motion = FingertipMotion(hand, self.kin, self.s.stiffness_aware_squeeze)
@@ -163,8 +149,6 @@ class GraspController:
         # Per-finger arithmetic on a handful of fingers runs on Python lists: a numpy
         # call costs more than the whole loop at this size.
         self._grasping = [bool(g) for g in self.grasp_mask]
-        # With numba, the per-tick counters, force checks and squeeze run compiled
-        # (controller/tick_kernels.py); the Python code below stays the reference.
         # Each fingertip's grip target (controller/grip_targets.py); all tau by default.
         # An object's profile may choose its own mode (a heavy box: force_closure, objects.toml).
         if self.s.grip_targets not in GRIP_TARGET_MODES:
@@ -183,17 +167,9 @@ class GraspController:
                 "controller settings", "ramp_mode", f"one of {', '.join(RAMP_MODES)} (got {self.s.ramp_mode!r})"
             )
         # The ramp pushes each pad forward until every pad has reached its target, then the
-        # fingers hold their goals (settings.RAMP_MODES); else every pad is regulated throughout.
+        # fingers hold their goals (paper_settings.RAMP_MODES); else every pad is regulated throughout.
         self.push_then_hold = self.s.ramp_mode == "push_then_hold"
         self._reached_ticks = 0  # push_then_hold: ramp ticks every pad has been at its target
-        # The compiled kernels take one target for every fingertip and regulate it: unequal
-        # targets and push_then_hold run the Python tick (the reference the kernels are checked against).
-        self._compiled = (
-            self.motion.ik.compiled and all(t == obj.tau_n for t in self._targets) and not self.push_then_hold
-        )
-        self._force_shape = (len(self.names), 3)
-        self._tip_shape = (len(self.names),)
-        self._no_palm = np.zeros(3)  # squeeze's palm arguments when the palm stays
         self.release_idx = self.names.index(hand.grasp.release_finger)
         self.reach_pose = np.asarray(reach_pose_world, dtype=float)
         self.reach_q = self._reach_posture()
@@ -208,13 +184,11 @@ class GraspController:
         self.failure_detail: str | None = None  # what failed, for the record
         self.ticks_in_state = 0
         self.release_count = 0
-        self.settle_count = 0
         self.ramp_settle = RampSettle(self.s, self.dt)
-        self._lost = np.zeros(len(self.names), dtype=np.int64)  # ticks each fingertip has seemed to slip
+        self.lost_count = [0] * len(self.names)  # ticks each fingertip has seemed to slip (finger order)
         self.snap: Snapshot | None = None
         self.history: list[tuple[float, str, str]] = []  # (t, from, to)
 
-        self._squeeze_cache: dict[int, tuple] = {}  # squeeze_plan's arguments that stay, per squeeze state
         self.machine = build_machine(self, self._reason_setter, states=self.STATES, transitions=self.TRANSITIONS)
         # The guards of each state's transitions: the machine is triggered only when one
         # holds (guards are pure, so this skips its overhead on the ticks nothing happens).
@@ -278,6 +252,39 @@ class GraspController:
         ``standoff_m``, else the controller's setting."""
         return self.obj.standoff_m if self.obj.standoff_m is not None else self.s.preshape_standoff_m
 
+    @classmethod
+    def guard_words(cls, s: PaperSettings) -> dict[str, str]:
+        """Each guard's condition in words, with the settings' numbers (object parameters by name:
+        they live in the object profile), for ``diagram``; a guard without words here is
+        described by its docstring's first line."""
+        if s.ramp_mode == "push_then_hold":
+            settled = f"every grip at tau or above (within {s.ramp_tolerance_n:g} N) for {s.ramp_settle_s:g} s"
+        else:
+            settled = (
+                f"grips averaged over {s.ramp_filter_s:g} s: every grip within {s.ramp_tolerance_n:g} N of tau "
+                f"for {s.ramp_settle_s:g} s, or "
+                f"balanced: mean within {s.ramp_tolerance_n:g} N, each within {s.ramp_balance_band_n:g} N, "
+                f"steady for {s.ramp_steady_s:g} s"
+            )
+        return {
+            "tare_done": "tare frames collected",
+            "at_reach_pose": f"palm within {s.reach_tolerance_m * 1000:g} mm of the reach pose",
+            "reach_timed_out": f"{s.reach_timeout_s:g} s in reach",
+            "all_in_contact": "every grasping tip's contact gate fired",
+            "close_timed_out": f"{s.close_timeout_s:g} s in close",
+            "ramp_settled": settled,
+            "ramp_timed_out": f"{s.ramp_timeout_s:g} s in ramp",
+            "grip_lost": f"a grasping tip without contact or grip below {s.grip_lost_fraction:g} tau "
+            f"for {s.contact_lost_s:g} s",
+            "at_lift_height": "palm at lift_height_m",
+            "hold_done": "hold_s elapsed",
+            "release_detected": "index force on the object along +z below -release_threshold_n "
+            "for release_debounce ticks",
+            "lower_exhausted": f"palm {s.lower_overshoot_m * 1000:g} mm below the grasp height",
+            "fingers_open": f"{s.open_s:g} s opening",
+            "retreat_done": f"palm {s.retreat_m * 1000:g} mm above the release point",
+        }
+
     @property
     def terminal(self) -> bool:
         return self.state in TERMINAL
@@ -297,20 +304,10 @@ class GraspController:
         t = self.snap.t if self.snap is not None else 0.0
         self.history.append((t, prev, self.state))
         self.ticks_in_state = 0
-        self.settle_count = 0
         self.ramp_settle.reset()
         self._reached_ticks = 0
         self.release_count = 0
         self.lost_count = [0] * len(self.names)
-
-    @property
-    def lost_count(self) -> list[int]:
-        """Ticks each fingertip has seemed to slip (finger order)."""
-        return self._lost.tolist()
-
-    @lost_count.setter
-    def lost_count(self, counts: list[int]) -> None:
-        self._lost[:] = counts
 
     def _elapsed(self) -> float:
         return self.ticks_in_state * self.dt
@@ -325,7 +322,7 @@ class GraspController:
 
     def at_reach_pose(self) -> bool:
         assert self.snap is not None
-        return _distance(self.snap.p_palm_world, self.reach_pose) < self.s.reach_tolerance_m
+        return norm3(self.snap.p_palm_world - self.reach_pose) < self.s.reach_tolerance_m
 
     def reach_timed_out(self) -> bool:
         return self._elapsed() > self.s.reach_timeout_s
@@ -373,7 +370,7 @@ class GraspController:
         assert self.snap is not None
         if self._retreat_goal is None:
             return False
-        return _distance(self.snap.p_palm_world, self._retreat_goal) < self.s.reach_tolerance_m
+        return norm3(self.snap.p_palm_world - self._retreat_goal) < self.s.reach_tolerance_m
 
     # ----- the tick ----------------------------------------------------------
     def release_force_n(self, snap: Snapshot) -> float:
@@ -382,14 +379,7 @@ class GraspController:
         return float(-snap.f_world[self.release_idx, 2])
 
     def _update_counters(self, snap: Snapshot) -> None:
-        targets, tolerance = self._targets, self.s.ramp_tolerance_n
         grip = snap.grip_n.tolist()
-        within = True
-        for g, t, grasping in zip(grip, targets, self._grasping):
-            if grasping and not abs(t - g) <= tolerance:
-                within = False
-                break
-        self.settle_count = self.settle_count + 1 if within else 0
         if self.state == "ramp":
             self._ramp_tick(snap)
         fraction = self.s.grip_lost_fraction
@@ -399,7 +389,7 @@ class GraspController:
         ]
         self.release_count = self.release_count + 1 if self._release_signal(snap) else 0
 
-    # The Python tick's rules a controller may refine (controller/grip_load.py does).
+    # The tick's rules a controller may refine (controller/grip_load.py does).
     def _ramp_tick(self, snap: Snapshot) -> None:
         """The ramp's settle counters, on the errors from the grip targets (push_then_hold: the
         ticks every grasping pad has been at its target, within the tolerance, or above)."""
@@ -430,19 +420,11 @@ class GraspController:
         return [((0.0 + x * x) + z * z) + y * y for x, y, z in snap.f_sensor.tolist()]
 
     def _force_checks(self, snap: Snapshot, limit: float) -> int:
-        """``tk.FORCE_NOT_FINITE`` or ``tk.OVERFORCE`` (the largest |f_sensor| above ``limit``), or 0."""
+        """``FORCE_NOT_FINITE`` or ``OVERFORCE`` (the largest |f_sensor| above ``limit``), or 0."""
         force_sq = self._force_sq(snap)
         if not all(map(math.isfinite, force_sq)) and not all_finite(np.asarray(snap.f_sensor, dtype=float)):
-            return tk.FORCE_NOT_FINITE  # (finite components whose square overflows are overforce)
-        return tk.OVERFORCE if max(force_sq, default=0.0) > limit * limit else 0
-
-    # ----- the compiled tick (controller/compiled_tick.py) ---------------------
-    _compiled_checks = compiled_tick._compiled_checks
-    squeeze_plan = compiled_tick.squeeze_plan
-    _state_palm_goal = compiled_tick._state_palm_goal
-    _squeeze_statics = compiled_tick._squeeze_statics
-    squeeze_done = compiled_tick.squeeze_done
-    _squeeze_state_tick = compiled_tick._squeeze_state_tick
+            return FORCE_NOT_FINITE  # (finite components whose square overflows are overforce)
+        return OVERFORCE if max(force_sq, default=0.0) > limit * limit else 0
 
     def tick(self, snap: Snapshot) -> Command:
         self.snap = snap
@@ -450,29 +432,22 @@ class GraspController:
             self.palm_target = snap.p_palm_world.copy()
             self.motion.sync(snap.q)
         if not self.terminal:
-            if self.state in _SQUEEZE_STATES:
-                cmd = self._squeeze_state_tick(snap)  # the usual tick of these states, compiled
-                if cmd is not None:
-                    return cmd
             self.ticks_in_state += 1
             limit = self.hand.safety.max_fingertip_force_n
-            checks = self._compiled_checks(snap, limit)
-            if checks < 0:  # the Python way
-                self._update_counters(snap)
-                checks = self._force_checks(snap, limit)
-            self._decide(snap, checks, limit)
+            self._update_counters(snap)
+            self._decide(snap, self._force_checks(snap, limit), limit)
         self._act(snap)
         return Command(self.motion.next_goal(), self.palm_target.copy(), self.torque_on)  # (positional: cheaper)
 
     def _decide(self, snap: Snapshot, checks: int, limit: float) -> None:
-        """A fault of the snapshot or of the force checks (``checks``: ``_compiled_checks``' bits),
+        """A fault of the snapshot or of the force checks (``checks``: ``_force_checks``' bits),
         else the first transition whose guard holds."""
         if snap.fault:
             self.fail(reason=snap.fault, detail=snap.fault_detail)
-        elif checks & tk.FORCE_NOT_FINITE:
+        elif checks & FORCE_NOT_FINITE:
             # never let NaN slip past the over-force comparison (NaN > x is False)
             self.fail(reason="estimate_invalid", detail="non-finite estimated force in the snapshot")
-        elif checks & tk.OVERFORCE:  # all finite here
+        elif checks & OVERFORCE:  # all finite here
             force_sq = self._force_sq(snap)
             i = force_sq.index(max(force_sq))
             magnitude = math.hypot(*np.asarray(snap.f_sensor, dtype=float)[i])  # no overflow for huge components
@@ -505,19 +480,8 @@ class GraspController:
     # ----- actions per state --------------------------------------------------
     def _move_palm_toward(self, target: np.ndarray, speed: float) -> None:
         assert self.palm_target is not None
-        p = self.palm_target
-        if (
-            self._compiled
-            and type(p) is np.ndarray
-            and type(target) is np.ndarray
-            and p.dtype is _FLOAT64
-            and target.dtype is _FLOAT64
-            and p.shape == target.shape == (3,)
-        ):
-            tk.move_palm_toward(p, target, speed * self.dt)  # the same, compiled, in place (p is our own)
-            return
         delta = target - self.palm_target
-        dist = norm3(delta)  # fixed-order sum, as the kernel (grasp_ctrl/numeric/vec3.py)
+        dist = norm3(delta)  # fixed-order sum: the same bits on any CPU (grasp_ctrl/numeric/vec3.py)
         step = speed * self.dt
         self.palm_target = target.copy() if dist <= step else self.palm_target + delta * (step / dist)
 
@@ -529,48 +493,8 @@ class GraspController:
         palm_goal: np.ndarray | None = None,
         palm_speed: float = 0.0,
     ) -> None:
-        """Per-finger force control along the closing vectors toward tau; with ``palm_goal``,
-        the palm moves toward it at ``palm_speed`` too (``_move_palm_toward``)."""
-        tau = self.tau
-        grip = snap.grip_n
-        q = snap.q
-        p = self.palm_target
-        if (
-            self._compiled
-            and not (self.s.low_confidence_slowdown and snap.variance is not None)
-            and type(grip) is np.ndarray
-            and grip.dtype is _FLOAT64
-            and grip.shape == self._tip_shape
-            and type(q) is np.ndarray
-            and q.dtype is _FLOAT64
-            and q.shape == self.motion.q_goal.shape
-            and (
-                palm_goal is None
-                or (
-                    type(p) is np.ndarray
-                    and type(palm_goal) is np.ndarray
-                    and p.dtype is _FLOAT64
-                    and palm_goal.dtype is _FLOAT64
-                    and p.shape == palm_goal.shape == (3,)
-                )
-            )
-        ):
-            # the same, compiled: one call (the palm in place: palm_target is our own array)
-            if palm_goal is None:
-                self.motion.squeeze(
-                    grip, self.grasp_mask, tau, gain, max_speed, self.dt, False, self._no_palm, self._no_palm, 0.0, q
-                )
-            else:
-                assert p is not None  # an ndarray, checked with palm_goal above
-                self.motion.squeeze(
-                    grip, self.grasp_mask, tau, gain, max_speed, self.dt, True, p, palm_goal, palm_speed * self.dt, q
-                )
-            return
-        self._squeeze_python(snap, gain, max_speed)
-        if palm_goal is not None:
-            self._move_palm_toward(palm_goal, palm_speed)
-
-    def _squeeze_python(self, snap: Snapshot, gain: float, max_speed: float) -> None:
+        """Per-finger force control along the closing vectors toward the grip targets; with
+        ``palm_goal``, the palm moves toward it at ``palm_speed`` too (``_move_palm_toward``)."""
         grip = snap.grip_n
         slowest = 0.0 if self.push_then_hold else -max_speed  # push_then_hold: the ramp never backs a pad off
         speed = [min(max(gain * (t - g), slowest), max_speed) for g, t in zip(grip.tolist(), self._targets)]
@@ -582,6 +506,8 @@ class GraspController:
             np.asarray(snap.q, dtype=float),
             max_speed * dt,
         )
+        if palm_goal is not None:
+            self._move_palm_toward(palm_goal, palm_speed)
 
     def _act(self, snap: Snapshot) -> None:
         state = self.state
@@ -627,8 +553,6 @@ class GraspController:
             # joints' springs are deflected, and not along the closing vectors, so backing off
             # from the deflected goals swings the pads as they unload (the LEAP thumb's tip rose
             # 11 mm on the mustard bottle) and drags a heavy object off the table by friction.
-            # (The first release tick always runs here, also when the state's other ticks are
-            # compiled: the kernel then backs off from these goals.)
             if self.ticks_in_state == 0:
                 self.motion.set_posture(np.asarray(snap.q, dtype=float))
             self.motion.advance_all(np.where(self.grasp_mask, -s.release_back_off_m_s * self.dt, 0.0))

@@ -21,7 +21,6 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.controller.joint_stiffness import joint_stiffness
-from grasp_ctrl.controller.tick_kernels import squeeze_pads
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.kinematics.fingertip import PAD_NORMAL_SENSOR, PAD_POINT_SENSOR
 from grasp_ctrl.kinematics.pad_ik import Facing, shared_pad_ik
@@ -37,7 +36,7 @@ IK_DAMPING = 0.002
 def squeeze_mode(hand: HandConfig, stiffness_aware: bool) -> str:
     """How the squeeze moves the pads' goals for this hand, and why (kept in each trial record)."""
     if not stiffness_aware:
-        return "closing vector (ControllerSettings.stiffness_aware_squeeze = false)"
+        return "closing vector (ControllerSettings.stiffness_aware_squeeze = false)"  # (the records' words)
     stiffness = joint_stiffness(hand)
     if stiffness.kp_nm_per_rad is None:
         return f"closing vector: the joint stiffness is unknown ({stiffness.reason})"
@@ -61,8 +60,6 @@ class FingertipMotion:
         # The squeeze's joint compliance (rad per N m; empty: squeeze along the closing vectors).
         self.compliance = joint_stiffness(hand).compliance_rad_per_nm if stiffness_aware else np.zeros(0)
         self.squeeze_mode = squeeze_mode(hand, stiffness_aware)
-        self._directions = np.zeros((len(self.names), 3))  # squeeze's scratch
-        self._pads = np.zeros((len(self.names), 3))  # squeeze's scratch
         # Each pad's measured position along its closing vector at the last squeeze tick
         # (NaN: none since the goals were last set otherwise).
         self._pad_along = np.full(len(self.names), np.nan)
@@ -70,7 +67,6 @@ class FingertipMotion:
         self.q_sent = self.open_q.copy()  # the goal last sent (next_goal steps it toward q_goal)
         self._posture: np.ndarray | None = None  # the posture the targets were last reset to
         self.targets = np.zeros((len(self.names), 3))  # pad targets, hand frame, finger order
-        self._distances = np.zeros(len(self.names))  # squeeze's scratch
         self._reset_targets()
 
     def _reset_targets(self) -> None:
@@ -204,79 +200,6 @@ class FingertipMotion:
         ):
             self.ik.step(self.q_goal, self.targets, distances != 0.0, IK_DAMPING, self.facing)
             self._posture = None
-
-    def squeeze(
-        self,
-        grip: np.ndarray,
-        grasping: np.ndarray,
-        tau: float,
-        gain: float,
-        max_speed: float,
-        dt: float,
-        move_palm: bool,
-        palm: np.ndarray,
-        palm_goal: np.ndarray,
-        palm_step: float,
-        q_measured: np.ndarray,
-    ) -> None:
-        """``squeeze_all`` by each grasping fingertip's force-control step toward ``tau``:
-        ``min(max(gain (tau - grip), -max_speed), max_speed) * dt`` (GraspController._squeeze),
-        in one compiled call (``grip``: float64, one per finger); with ``move_palm``
-        the same call moves ``palm`` (in place) toward ``palm_goal`` by at most that much
-        (GraspController._move_palm_toward; float64 (3,) arrays); ``q_measured``: the
-        measured joint angles (float64, every joint)."""
-        facing = self.facing or self.ik._no_facing
-        ik = self.ik
-        if squeeze_pads(
-            grip,
-            grasping,
-            tau,
-            gain,
-            max_speed,
-            dt,
-            self.q_goal,
-            self.targets,
-            self.task_vectors,
-            ik.geometry,
-            ik.layout,
-            IK_DAMPING,
-            facing.normals_hand,
-            facing.fingers,
-            facing.damping,
-            self._distances,
-            move_palm,
-            palm,
-            palm_goal,
-            palm_step,
-            self.compliance,
-            q_measured,
-            self._pad_along,
-            self._directions,
-            self._pads,
-        ):
-            self._posture = None
-
-    def squeeze_statics(self) -> tuple[tuple, tuple, tuple]:
-        """The motion's parts of ``tick_kernels.squeeze_state_tick``'s arguments that stay
-        while ``facing`` and ``ik`` do (the joint goals ``q_goal``, the pad ``targets`` and
-        the goal last sent ``q_sent`` change): ``(constants: IK damping, facing damping and
-        joint step limit; arrays before the palm goal: task vectors to the squeeze's
-        distances; arrays after it: compliance to the joint limits)``."""
-        facing = self.facing or self.ik._no_facing
-        ik = self.ik
-        return (
-            (IK_DAMPING, facing.damping, self.max_step),
-            (self.task_vectors, ik.geometry, ik.layout, facing.normals_hand, facing.fingers, self._distances),
-            (self.compliance, self._pad_along, self._directions, self._pads, self.lower, self.upper),
-        )
-
-    def squeezed(self) -> None:
-        """A squeeze outside ``squeeze`` moved a fingertip (``squeeze_state_tick``'s PADS_MOVED)."""
-        self._posture = None
-
-    def sent_goal(self) -> np.ndarray:
-        """A copy of the goal last sent (``next_goal``'s result, after ``squeeze_tick`` stepped it)."""
-        return self.q_sent.copy()
 
     def next_goal(self) -> np.ndarray:
         """The goal to send this tick: toward q_goal, at most max_step per joint."""

@@ -28,7 +28,8 @@ from collections import deque
 
 import numpy as np
 
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.grip_load_settings import GripLoadSettings
+from grasp_ctrl.controller.paper_settings import PaperSettings
 
 
 class RampSettle:
@@ -36,7 +37,7 @@ class RampSettle:
     grasping fingertips' force errors tau - grip (N); ``settled(dt)`` is the guard.
     ``dt`` is the control period (s), for the averaging window."""
 
-    def __init__(self, settings: ControllerSettings, dt: float = 0.01) -> None:
+    def __init__(self, settings: PaperSettings, dt: float = 0.01) -> None:
         self.s = settings
         self.window = max(1, int(round(settings.ramp_filter_s / dt)))
         self.within_ticks = 0
@@ -93,11 +94,12 @@ class TrendRampSettle(RampSettle):
     (their mean within ``ramp_tolerance_n``), the means over the window's halves differ by at
     most ``ramp_tolerance_n`` and no filtered error swung by more than ``ramp_cycle_swing_n``."""
 
-    def __init__(self, settings: ControllerSettings, dt: float = 0.01) -> None:
+    def __init__(self, settings: GripLoadSettings, dt: float = 0.01) -> None:
         super().__init__(settings, dt)
+        self._swing_n = settings.cycle.ramp_cycle_swing_n
         self._span = max(2, int(round(settings.ramp_steady_s / dt)))
         self._history: deque[np.ndarray] = deque(maxlen=self._span)
-        self._cycle_span = int(round(settings.ramp_cycle_s / dt))
+        self._cycle_span = int(round(settings.cycle.ramp_cycle_s / dt))
         self._cycle: deque[np.ndarray] = deque(maxlen=max(1, self._cycle_span))
         self.cycle_ticks = 0
 
@@ -124,7 +126,7 @@ class TrendRampSettle(RampSettle):
             abs(float(mean.mean())) <= s.ramp_tolerance_n
             and bool((np.abs(mean) <= s.ramp_balance_band_n).all())
             and bool((np.abs(window[half:].mean(axis=0) - window[:half].mean(axis=0)) <= s.ramp_tolerance_n).all())
-            and bool((np.ptp(window, axis=0) <= s.ramp_cycle_swing_n).all())
+            and bool((np.ptp(window, axis=0) <= self._swing_n).all())
         )
         self.cycle_ticks = self._cycle_span if steady else 0
 

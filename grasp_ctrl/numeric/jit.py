@@ -68,7 +68,6 @@ KERNEL_SOURCES = (
     "loop/loop_kernels.py",
     "sim/mock/world.py",
     "sim/mujoco/tick_kernel.py",
-    "controller/tick_kernels.py",
     "estimators/linear.py",
     "estimators/mlp.py",
 )

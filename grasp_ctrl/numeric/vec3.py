@@ -3,9 +3,9 @@
 ``a.dot(b)`` and ``a @ b`` hand a 3-vector to BLAS, and which kernel BLAS picks
 (and so the order and width in which it sums) depends on the CPU: the last bit of
 a distance can differ between an AVX2 and an AVX-512 machine. The control loop's
-numpy path and its compiled kernels (controller/tick_kernels.py, the MuJoCo wrist
-step) all sum ``0 + x0*y0 + x1*y1 + x2*y2`` left to right instead, so the two paths
-agree bit for bit on any machine and a trial's records do not depend on the BLAS.
+distances (the controller's palm moves, the MuJoCo wrist step) sum
+``0 + x0*y0 + x1*y1 + x2*y2`` left to right instead, so a trial's records do not
+depend on the BLAS.
 """
 
 from __future__ import annotations

@@ -18,8 +18,8 @@ import numpy as np
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.machine import GraspController
+from grasp_ctrl.controller.paper_settings import PaperSettings
 from grasp_ctrl.controller.registry import make_controller
-from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.kinematics.chain import HandKinematics
@@ -122,7 +122,7 @@ def build_trial(
     *,
     backend: str = DEFAULT_BACKEND,
     world_params: Any = None,
-    settings: ControllerSettings | None = None,
+    settings: PaperSettings | None = None,
     kin: HandKinematics | None = None,
     make_world: WorldFactory | None = None,
     make_backends: BackendFactory | None = None,

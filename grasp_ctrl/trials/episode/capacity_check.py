@@ -23,7 +23,8 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.grasp_capacity import GRAVITY_M_S2, object_capacity
 from grasp_ctrl.controller.grip_targets import grip_targets
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.paper_settings import PaperSettings
+from grasp_ctrl.controller.registry import default_settings
 from grasp_ctrl.errors import GraspCtrlError
 
 #: A joint at this share of its torque limit, or a pad at this share of its target, binds.
@@ -62,7 +63,7 @@ class CapacityVerdict:
         }
 
 
-def object_targets(hand: HandConfig, obj: ObjectProfile, settings: ControllerSettings) -> dict[str, float]:
+def object_targets(hand: HandConfig, obj: ObjectProfile, settings: PaperSettings) -> dict[str, float]:
     """Each grasping finger's grip target (N), as the controller computes it for ``obj``."""
     vectors = np.array([f.task_vector_hand for f in hand.fingers], dtype=float)
     mask = np.array([f.grasp for f in hand.fingers])
@@ -87,8 +88,8 @@ def joint_limit_labels(hand: HandConfig) -> dict[str, str]:
     return {j.name: f"{tau:.3g} N m" for j, tau in zip(hand.joints, torque_limits_nm(hand))}
 
 
-def check_object(hand: HandConfig, obj: ObjectProfile, settings: ControllerSettings | None = None) -> CapacityVerdict:
-    targets = object_targets(hand, obj, settings or ControllerSettings())
+def check_object(hand: HandConfig, obj: ObjectProfile, settings: PaperSettings | None = None) -> CapacityVerdict:
+    targets = object_targets(hand, obj, settings or default_settings())
     try:
         cap, _, _ = object_capacity(hand, obj, normal_max_n=targets)
     except ValueError as exc:  # NoGrasp (the pads cannot close on it), a cap out of reach, ...
@@ -110,7 +111,7 @@ def check_object(hand: HandConfig, obj: ObjectProfile, settings: ControllerSetti
 
 
 def check_objects(
-    hand: HandConfig, objects: list[ObjectProfile], settings: ControllerSettings | None = None
+    hand: HandConfig, objects: list[ObjectProfile], settings: PaperSettings | None = None
 ) -> list[CapacityVerdict]:
     return [check_object(hand, o, settings) for o in objects]
 
@@ -124,7 +125,7 @@ class CapacityRefused(GraspCtrlError):
 def preflight_capacity(
     hand: HandConfig,
     objects: list[ObjectProfile],
-    settings: ControllerSettings | None,
+    settings: PaperSettings | None,
     on_hand: bool,
     force: bool,
     say: Callable[[str], None],

@@ -24,8 +24,8 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
+from grasp_ctrl.controller.paper_settings import PaperSettings
 from grasp_ctrl.controller.registry import make_controller
-from grasp_ctrl.controller.settings import ControllerSettings
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
@@ -52,7 +52,7 @@ def run_hardware_trial(
     obj: ObjectProfile,
     rig: HardwareRig,
     estimator: ForceEstimator,
-    settings: ControllerSettings | None = None,
+    settings: PaperSettings | None = None,
     kin: HandKinematics | None = None,
     log_path: Path | None = None,
     max_trial_s: float = MAX_TRIAL_S,
@@ -138,7 +138,7 @@ def run_hardware_trial(
 def hardware_trial_fn(
     hand: HandConfig,
     policies: Sequence[str],
-    settings: ControllerSettings | None,
+    settings: PaperSettings | None,
     threads: int,
     open_rig_fn: RigOpener | None = None,
     port: str | None = None,

@@ -19,7 +19,7 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.paper_settings import PaperSettings
 from grasp_ctrl.files.storage import safe_name
 from grasp_ctrl.rigs.registry import REFERENCE_WORLD
 from grasp_ctrl.sim.mujoco.world import MuJoCoParams, MuJoCoWorld
@@ -116,7 +116,7 @@ class RecordingWorld(MuJoCoWorld):
 def video_trial_fn(
     hand: HandConfig,
     policies: Sequence[str],
-    settings: ControllerSettings | None,
+    settings: PaperSettings | None,
     threads: int,
     video_dir: Path,
     variation: Any = None,

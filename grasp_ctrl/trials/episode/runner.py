@@ -10,7 +10,6 @@ uninterrupted one.
 
 from __future__ import annotations
 
-import dataclasses
 import sys
 import time
 import zlib
@@ -25,7 +24,8 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.motion import squeeze_mode
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.paper_settings import PaperSettings
+from grasp_ctrl.controller.registry import default_settings, flat_settings
 from grasp_ctrl.emulators.wall_clock import TimedHand, TrialClock, WallClockHand, WallClockLink, WallClockLoop
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.estimators.registry import load_policy
@@ -124,7 +124,7 @@ def controller_view(ctrl: GraspController) -> dict[str, Any]:
     }
 
 
-def trial_settings(hand: HandConfig, obj: ObjectProfile, settings: ControllerSettings | None) -> dict[str, Any]:
+def trial_settings(hand: HandConfig, obj: ObjectProfile, settings: PaperSettings | None) -> dict[str, Any]:
     return {
         "tau_n": obj.tau_n,
         "release_threshold_n": obj.release_threshold_n,
@@ -133,8 +133,8 @@ def trial_settings(hand: HandConfig, obj: ObjectProfile, settings: ControllerSet
         "hold_s": obj.hold_s,
         "on_fault": hand.safety.on_fault,
         "max_fingertip_force_n": hand.safety.max_fingertip_force_n,
-        "controller": dataclasses.asdict(settings or ControllerSettings()),
-        "squeeze": squeeze_mode(hand, (settings or ControllerSettings()).stiffness_aware_squeeze),
+        "controller": flat_settings(settings or default_settings()),
+        "squeeze": squeeze_mode(hand, (settings or default_settings()).stiffness_aware_squeeze),
     }
 
 
@@ -145,7 +145,7 @@ def run_sim_trial(
     seed: int,
     policy_name: str = "",
     trial: int = 0,
-    settings: ControllerSettings | None = None,
+    settings: PaperSettings | None = None,
     world_params: WorldParams | None = None,
     log_path: Path | None = None,
     kin: HandKinematics | None = None,
@@ -292,7 +292,7 @@ class TrialSetup:
 
     hand: HandConfig
     policies: tuple[str, ...]
-    settings: ControllerSettings | None = None
+    settings: PaperSettings | None = None
     threads: int = 1
     backend: str = DEFAULT_BACKEND
     variation: Variation | None = None
@@ -316,7 +316,7 @@ class TrialSetup:
 def sim_trial_fn(
     hand: HandConfig,
     policies: Sequence[str],
-    settings: ControllerSettings | None = None,
+    settings: PaperSettings | None = None,
     threads: int = 1,
     make_backends: BackendFactory | None = None,
     backend: str = DEFAULT_BACKEND,

@@ -8,13 +8,13 @@ with a hash so a changed file is noticed.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from grasp_ctrl.config.objects import ObjectProfile, profile_from_json, profile_json
-from grasp_ctrl.controller.settings import ControllerSettings, checked_settings
+from grasp_ctrl.controller.paper_settings import PaperSettings
+from grasp_ctrl.controller.registry import default_settings, flat_settings, settings_from_flat
 from grasp_ctrl.errors import ConfigError, UsageError
 from grasp_ctrl.files.json_limits import JsonFileError, read_json
 from grasp_ctrl.files.storage import (
@@ -46,7 +46,7 @@ class RunManifest:
     hand_sha256: str | None = None
     object_file: str | None = None
     preset: str | None = None
-    settings: ControllerSettings = field(default_factory=ControllerSettings)
+    settings: PaperSettings = field(default_factory=default_settings)
     fingerprint: dict[str, Any] | None = None  # trials/runs/fingerprint.py
     forced: list[dict[str, Any]] = field(default_factory=list)  # resumes with --force despite changes
     # The simulated world's per-trial draws (sim/variation.py); None on the real hand.
@@ -78,7 +78,7 @@ class RunManifest:
             "tick_logs": self.tick_logs,
             "raw_frames": self.raw_frames,
             "controller": self.settings.controller,
-            "settings": dataclasses.asdict(self.settings),
+            "settings": flat_settings(self.settings),
             "fingerprint": self.fingerprint,
             "forced": list(self.forced),
             "variation": self.variation.to_json() if self.variation is not None else None,
@@ -191,14 +191,9 @@ def _is_int(v: Any) -> bool:
     return isinstance(v, int) and not isinstance(v, bool)
 
 
-def settings_from_json(d: Any, where: str) -> ControllerSettings:
-    """Controller settings from run.json (``checked_settings``); a run written before the
-    controllers had names ran the paper's, and resumes with it."""
-    if not isinstance(d, dict):
-        raise UsageError(f"{where}: settings: a table of controller settings")
-    values = checked_settings(d, where)
-    values.setdefault("controller", "paper")
-    return ControllerSettings(**values)
+def settings_from_json(d: Any, where: str) -> PaperSettings:
+    """Controller settings from run.json's flat table (controller/registry.py, ``settings_from_flat``)."""
+    return settings_from_flat(d, where)
 
 
 def check_fingerprint_shape(doc: Any, where: str) -> dict[str, Any] | None:

@@ -24,8 +24,8 @@ import numpy as np
 from grasp_ctrl.config.checks import check_objects_for_hand
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
-from grasp_ctrl.controller.registry import make_controller
-from grasp_ctrl.controller.settings import ControllerSettings
+from grasp_ctrl.controller.paper_settings import PaperSettings
+from grasp_ctrl.controller.registry import default_settings, make_controller
 from grasp_ctrl.errors import ConfigError, UsageError
 from grasp_ctrl.files.storage import (
     RUN_FILE,
@@ -191,7 +191,7 @@ def run_series(
     trials: int,
     seed: int,
     run_dir: Path,
-    settings: ControllerSettings | None = None,
+    settings: PaperSettings | None = None,
     progress: bool | Progress = True,
     tick_logs: bool = True,
     threads: int = 1,
@@ -240,7 +240,7 @@ def run_series(
         objects=list(objects),
         tick_logs=tick_logs,
         raw_frames=raw_frames,
-        settings=settings or ControllerSettings(),
+        settings=settings or default_settings(),
         variation=variation or NOMINAL,
     )
     # Everything that can be checked is checked before the first file is touched.

@@ -46,7 +46,7 @@ def warm_kernels() -> None:
     from grasp_ctrl.config.sensor_layout import FRAME_LEN
     from grasp_ctrl.controller.machine import raised_reach_posture
     from grasp_ctrl.controller.motion import FingertipMotion
-    from grasp_ctrl.controller.settings import settings_for
+    from grasp_ctrl.controller.registry import settings_for
     from grasp_ctrl.files.paths import default_hand_file, default_objects_file
     from grasp_ctrl.loop.ticklog import TickLog
     from grasp_ctrl.numeric.finite import all_finite
@@ -61,7 +61,7 @@ def warm_kernels() -> None:
     for capped in objects.values():  # the reach postures of capped objects: a scipy fit each, kept per hand
         if capped.cap is not None:
             raised_reach_posture(hand, capped.cap.finger, capped.cap.contact_height_m - capped.grasp_height_m)
-    # the paper's controller: its compiled tick (grip_load's tick is Python)
+    # a trial's first ticks: the sensing pipeline's and the pad IK's kernels
     trial = build_trial(hand, obj, 0, lambda world: _NoForce(), backend=TEST_WORLD, settings=settings_for("paper"))
     pipeline, kin = trial.pipeline, trial.kin
     n = len(hand.fingers)

@@ -134,15 +134,14 @@ def check_params_for_hand(params: Sequence[Param], hand: Any) -> dict[str, int]:
     return joints
 
 
-def check_settings_values(params: Sequence[Param]) -> None:
-    """Both ends of every ``setting.NAME`` search lie where run.json's controller settings may
-    (finite, positive; trials/runs/manifest.py), in one line naming the parameter if not."""
-    from grasp_ctrl.trials.runs.manifest import settings_from_json
-
+def check_settings_values(params: Sequence[Param], settings: Any) -> None:
+    """Every ``setting.NAME`` is a setting of ``settings``' controller and both ends of its search
+    lie where its settings class allows (finite, positive: ``ControllerSettings.check``), in one
+    line naming the parameter if not."""
     for p in params:
         if p.name.startswith(SETTING_PREFIX):
             for v in p.ends():
-                settings_from_json({p.name[len(SETTING_PREFIX) :]: float(v)}, f"--param {p.spec()}")
+                type(settings).check({p.name[len(SETTING_PREFIX) :]: float(v)}, f"--param {p.spec()}")
 
 
 def corner_settings(params: Sequence[Param]) -> list[dict[str, Value]]:

@@ -25,7 +25,6 @@ a killed process) run again from their first trial, finished ones never.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import hashlib
 import json
@@ -42,7 +41,8 @@ from optuna.samplers import GridSampler, TPESampler
 from optuna.trial import FrozenTrial, TrialState
 
 from grasp_ctrl.config.objects import ObjectProfile
-from grasp_ctrl.controller.settings import ControllerSettings, settings_for
+from grasp_ctrl.controller.paper_settings import PaperSettings
+from grasp_ctrl.controller.registry import default_settings, flat_settings, settings_for
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.sim.variation import NOMINAL, Variation
 from grasp_ctrl.trials.episode.runner import trial_seed
@@ -99,14 +99,14 @@ class StudyPlan:
     prune: bool = True
     seeds: list[int] = field(default_factory=list)
     variation: Variation | None = None  # the world's per-trial draws (sim/variation.py); None: nominal
-    settings: ControllerSettings | None = None  # the controller and its settings; None: the defaults
+    settings: PaperSettings | None = None  # the controller and its settings; None: the defaults
     rank: str = "wilson"  # the objective: wilson (the success rate's lower 95 % Wilson bound) or mean
     finger_joints: dict[str, int] = field(default_factory=dict)  # joints per finger (posture.FINGER.J)
     hand: str | None = None  # the hand it tunes on when not the default hand (part of the identity)
 
     def __post_init__(self) -> None:
         self.seeds = [trial_seed(self.seed, self.obj.name, k) for k in range(self.trials)]
-        self.settings = self.settings or ControllerSettings()
+        self.settings = self.settings or default_settings()
 
     @property
     def all_grid(self) -> bool:
@@ -129,9 +129,9 @@ class StudyPlan:
         # Likewise the controller settings where they differ from the paper controller's defaults
         # (what every study ran before --controller), and the objective where it is not the success
         # rate (a study stored before --rank ranked by it: --rank mean).
-        defaults = dataclasses.asdict(settings_for("paper"))
+        defaults = flat_settings(settings_for("paper"))
         assert self.settings is not None  # __post_init__ fills in the defaults
-        changed = {k: v for k, v in dataclasses.asdict(self.settings).items() if v != defaults[k]}
+        changed = {k: v for k, v in flat_settings(self.settings).items() if v != defaults[k]}
         if changed:
             out["settings"] = changed
         if self.rank != "mean":
@@ -275,7 +275,7 @@ class _Active:
     trial: optuna.Trial
     setting: dict[str, Value]
     profile: ObjectProfile
-    settings: ControllerSettings
+    settings: PaperSettings
     records: list[dict[str, Any]] = field(default_factory=list)
 
 

@@ -33,13 +33,12 @@ TUNABLE_FORMS = (
 
 
 def float_settings() -> list[str]:
-    """The controller settings (``ControllerSettings``) ``setting.NAME`` may tune: those of float type."""
-    import dataclasses
+    """The controller settings ``setting.NAME`` may name (any registered controller's, by flat key):
+    those of float type. Whether the run's controller has it is checked with its settings
+    (``search_space.check_settings_values``)."""
+    from grasp_ctrl.controller.registry import flat_defaults
 
-    from grasp_ctrl.controller.settings import ControllerSettings
-
-    defaults = ControllerSettings()
-    return [f.name for f in dataclasses.fields(ControllerSettings) if type(getattr(defaults, f.name)) is float]
+    return [key for key, default in flat_defaults().items() if type(default) is float]
 
 
 def split_param(spec: str, forms: str = "NAME=START:STOP:STEP, NAME=A,B,C or NAME=VALUE") -> tuple[str, str]:
@@ -72,11 +71,9 @@ def posture_key(name: str) -> tuple[str, int] | None:
 
 
 def controller_settings(base: Any, setting: dict[str, float | int]) -> Any:
-    """``base`` (ControllerSettings) with the setting's ``setting.NAME`` values."""
-    import dataclasses
-
+    """``base`` (a controller's settings) with the setting's ``setting.NAME`` values."""
     own = {k[len(SETTING_PREFIX) :]: float(v) for k, v in setting.items() if k.startswith(SETTING_PREFIX)}
-    return dataclasses.replace(base, **own) if own else base
+    return base.replace(**own) if own else base
 
 
 def current_value(obj: ObjectProfile, settings: Any, name: str) -> float | int | None:
@@ -86,7 +83,7 @@ def current_value(obj: ObjectProfile, settings: Any, name: str) -> float | int |
         offsets = obj.posture_offsets().get(key[0])
         return offsets[key[1]] if offsets is not None and key[1] < len(offsets) else 0.0
     if name.startswith(SETTING_PREFIX):
-        return getattr(settings, name[len(SETTING_PREFIX) :])
+        return settings.setting(name[len(SETTING_PREFIX) :])
     return getattr(obj, name)
 
 

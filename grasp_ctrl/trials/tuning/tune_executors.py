@@ -99,10 +99,10 @@ class ProcessExecutor:
     def __init__(
         self, jobs: int, hand: Any, policy: str, backend: str, variation: Any = None, settings: Any = None
     ) -> None:
-        from grasp_ctrl.controller.settings import ControllerSettings
+        from grasp_ctrl.controller.registry import default_settings
         from grasp_ctrl.trials.runs.workers import start_pool
 
-        self.settings = settings or ControllerSettings()
+        self.settings = settings or default_settings()
         self.pool = start_pool(jobs, _init_tune_worker, (hand, policy, backend, variation, self.settings))
         self.running: dict[Any, int] = {}
         self.closed = False
