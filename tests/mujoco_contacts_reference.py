@@ -7,7 +7,7 @@ what ``mj_contactForce`` returns); the frame's first row is the normal from
 geom1 to geom2 and the force acts on geom2 along it (on geom1 opposite).
 
 These functions define the reading; the world's tick computes the same in one compiled
-call, checked bit for bit against them by tests/test_mujoco_lean.py.
+call, checked bit for bit against them by tests/sim/test_mujoco_lean.py.
 """
 
 from __future__ import annotations

@@ -57,7 +57,7 @@ class LinearEstimator:
         if type(tared) is not np.ndarray or tared.dtype is not _FLOAT64:
             tared = np.asarray(tared, dtype=float)
         # ndarray.dot: the BLAS call that ``@`` makes (gemv for one row, gemm for more; the
-        # same bits, tests/test_linear_estimator.py) at less than half of its call overhead
+        # same bits, tests/numeric/test_kernel_parity.py) at less than half of its call overhead
         f_sensor = tared[:, ELECTRODES].dot(self._W_T)
         if jit.JIT and f_sensor.ndim == 2:
             add_bias(f_sensor, self.b)

@@ -202,7 +202,7 @@ class MlpEstimator:
             tared = np.asarray(tared, dtype=float)
         if jit.JIT and tared.ndim == 2 and tared.shape[1] == FRAME_LEN:
             # one compiled call (mlp_forward): within 1e-9 N (measured: 5e-15 N) of the numpy
-            # pass below (tests/test_mlp_policy.py), in a third of the time of numpy's calls
+            # pass below (tests/estimators/test_mlp_policy.py), in a third of the time of numpy's calls
             f_sensor = np.empty((tared.shape[0], 3))
             mlp_forward(tared, self._layout, self._params, f_sensor)
             return Estimate(f_sensor)

@@ -2,7 +2,7 @@
 and the running force peaks of the record.
 
 Each replaces a dozen numpy calls on 3- to 176-element arrays, whose call overhead
-was most of their cost; the numbers are the same bit for bit (tests/test_tick_kernels.py).
+was most of their cost; the numbers are the same bit for bit (tests/loop/test_tick_kernels.py).
 Without numba the callers keep their numpy code.
 """
 

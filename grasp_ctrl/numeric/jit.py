@@ -11,7 +11,7 @@ The control tick uses a few small kernels too (tare and contact gate, pad IK,
 force rotation, goal limits, finiteness checks), each replacing several numpy
 calls on 4- or 16-element arrays whose call overhead is most of their cost.
 Those callers check ``JIT`` and use their numpy code without numba (same
-results, bit for bit, tests/test_tick_kernels.py).
+results, bit for bit, tests/loop/test_tick_kernels.py).
 
 numba's cache notices edits to a kernel's own file but not to the kernels it
 calls from other files, so the cache lives in a folder named after a hash of

@@ -338,7 +338,7 @@ def metadata(
         "preprocessing": {
             "tare": "value - baseline",
             "tare_note": "baseline = mean of a no-contact window; pressed electrodes are negative. Checked on "
-            "real BioTac recordings (docs/tactile.md, tests/test_tactile_real_data.py): with this "
+            "real BioTac recordings (docs/tactile.md, tests/tactile/test_tactile_real_data.py): with this "
             "sign the predicted direction agrees with the labelled plate normals after one fixed "
             "rotation, with the opposite sign it agrees clearly worse.",
             "electrode_scaling": "none (raw counts)",

@@ -46,7 +46,7 @@ from grasp_ctrl.numeric.gravity import GRAVITY_M_S2
 @dataclass(frozen=True)
 class SceneParams:
     timestep_s: float = 0.002
-    # Friction (tests/test_mujoco_friction.py): with elliptic cones and impratio 10 a grip holds
+    # Friction (tests/sim/test_mujoco_friction.py): with elliptic cones and impratio 10 a grip holds
     # or slips at Coulomb's limit (mu N), with a creep of about 0.6 mm/s inside the cone (MuJoCo's
     # soft friction). The noslip post-processor removes the creep but costs 40 % of mj_step and
     # does not change which objects are lifted (docs/mujoco.md).
@@ -213,7 +213,7 @@ def object_contact_attrs(mu: float, stiffness_n_per_m: float, p: SceneParams) ->
 
 
 def option_xml(p: SceneParams) -> str:
-    """MuJoCo's solver options of the scene (also the friction test's, tests/test_mujoco_friction.py)."""
+    """MuJoCo's solver options of the scene (also the friction test's, tests/sim/test_mujoco_friction.py)."""
     return (
         f'<option timestep="{p.timestep_s}" integrator="implicitfast" cone="elliptic" '
         f'impratio="{p.impratio:g}" noslip_iterations="{p.noslip_iterations}" gravity="0 0 -{GRAVITY_M_S2:g}"/>'

@@ -3,7 +3,7 @@ per tick (``mj_tick_frames``; the MuJoCo world calls it, sim/mujoco/world.py).
 
 The contact sums follow the reference reading of MuJoCo's contacts (tests/mujoco_contacts_reference.py:
 ``read_contacts`` and ``skin_point_and_normal``) term for term, checked bit for bit by
-tests/test_mujoco_lean.py; the 3x3 products are summed left to right from 0.0 (the same bits on
+tests/sim/test_mujoco_lean.py; the 3x3 products are summed left to right from 0.0 (the same bits on
 any CPU, as numeric/vec3.py).
 """
 

@@ -19,7 +19,7 @@ from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="the emulator needs POSIX pseudo-terminals")
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
 TIPS = (0, 1, 2, 3)
 NAMES = {0: "index", 1: "middle", 2: "ring", 3: "thumb"}
 

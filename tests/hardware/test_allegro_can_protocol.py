@@ -22,7 +22,7 @@ from grasp_ctrl.errors import ConfigError
 from grasp_ctrl.hardware.allegro import protocol as pr
 from grasp_ctrl.hardware.allegro.protocol import CanFrame, JointMap, ProtocolError
 
-ALLEGRO = Path(__file__).resolve().parents[1] / "hand_configs" / "allegro_hand.toml"
+ALLEGRO = Path(__file__).resolve().parents[2] / "hand_configs" / "allegro_hand.toml"
 
 
 @pytest.fixture(scope="module")

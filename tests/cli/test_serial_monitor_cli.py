@@ -18,7 +18,7 @@ from grasp_ctrl.cli import main
 from grasp_ctrl.tactile_link.recorder import HEADER
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="the emulator needs POSIX pseudo-terminals")
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def read_rows(path: Path) -> list[list[str]]:

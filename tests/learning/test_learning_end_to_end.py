@@ -144,7 +144,7 @@ def test_exported_policies_run_in_the_controllers_estimators(tmp_path: Path, mon
         np.testing.assert_allclose(est.estimate(tared, ["f"] * n).f_sensor, ref, atol=1e-4)
 
 
-OFFICIAL_NPZ = Path(__file__).resolve().parents[2] / "shared" / "data" / "official_icra19" / "icra19_weights.npz"
+OFFICIAL_NPZ = Path(__file__).resolve().parents[3] / "shared" / "data" / "official_icra19" / "icra19_weights.npz"
 
 
 def test_authors_weights_map_onto_the_voxel_model() -> None:

@@ -206,7 +206,7 @@ def test_the_index_fingertip_presses_the_mustard_bottles_cap(hand, objects):
     # The pad-centre contact: with the skin contact (the default) the LEAP index's skin
     # meets the body's wall just under its top edge instead (docs/mock_world.md).
     # Looked at as the lift starts: with friction on the dome's own normal this grasp
-    # then slips (lifting unloads the cap contact; tests/test_mock_world.py).
+    # then slips (lifting unloads the cap contact; tests/sim/test_mock_world.py).
     # at equal 2 N targets: the mock cannot balance the profile's force-closure thumb (docs/results.md)
     objects = dict(objects, mustard_bottle=objects["mustard_bottle"].with_params(tau_n=2.0, grip_targets=None))
     world = _grasped_world(hand, objects, "mustard_bottle", skin_contact=False, state="lift")

@@ -13,7 +13,7 @@ import pytest
 from grasp_ctrl.config.sensor_layout import ELECTRODES, PDC
 from grasp_ctrl.evaluation.robotic_finger import Trial, read_trials
 
-CSV = Path(__file__).resolve().parents[2] / "shared" / "data" / "robotic_finger" / "robotic_finger_tidy.csv"
+CSV = Path(__file__).resolve().parents[3] / "shared" / "data" / "robotic_finger" / "robotic_finger_tidy.csv"
 
 
 @pytest.fixture(scope="module")

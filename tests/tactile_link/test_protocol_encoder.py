@@ -20,7 +20,7 @@ from grasp_ctrl.tactile_link.protocol import (
     encode_text,
 )
 
-DOC = Path(__file__).resolve().parents[1] / "docs" / "tactile_protocol.md"
+DOC = Path(__file__).resolve().parents[2] / "docs" / "tactile_protocol.md"
 EXAMPLE_VALUES = list(range(3000, 3019)) + [2450] + [2048] * 22 + [2700, 2040]
 frames = st.tuples(st.integers(0, 255), st.integers(0, 65535), st.lists(st.integers(0, 4095), min_size=44, max_size=44))
 

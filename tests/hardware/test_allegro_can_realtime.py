@@ -23,7 +23,7 @@ pytest.importorskip("can")
 pytest.importorskip("mujoco")
 pytestmark = pytest.mark.skipif(not hasattr(__import__("os"), "openpty"), reason="needs POSIX pseudo-terminals")
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 ALLEGRO = ROOT / "hand_configs" / "allegro_hand.toml"
 
 

@@ -277,7 +277,7 @@ def test_design_docs_diagram_is_the_diagram_commands_output(capsys):
 
     assert main(["diagram"]) == 0
     printed = capsys.readouterr().out.strip()
-    design = (Path(__file__).resolve().parents[1] / "docs" / "design.md").read_text(encoding="utf-8")
+    design = (Path(__file__).resolve().parents[2] / "docs" / "design.md").read_text(encoding="utf-8")
     assert f"```mermaid\n{printed}\n```" in design
 
 

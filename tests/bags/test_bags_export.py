@@ -29,7 +29,7 @@ from grasp_ctrl.loop.ticklog import read_tick_log
 from grasp_ctrl.tactile_link.recorder import FrameRecorder
 
 FINGERS = ("index", "middle", "ring", "thumb")
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def _run(tmp: Path, trials: int = 1, extra: tuple[str, ...] = ()) -> int:

@@ -20,7 +20,7 @@ from grasp_ctrl.rigs.registry import (
 )
 from grasp_ctrl.sim.world_api import World
 
-PACKAGE = Path(__file__).resolve().parents[1] / "grasp_ctrl"
+PACKAGE = Path(__file__).resolve().parents[2] / "grasp_ctrl"
 
 
 def test_every_simulated_backend_builds_a_world_that_satisfies_the_protocol(hand, objects):

@@ -21,7 +21,7 @@ import pytest
 from conftest import sigint_as_at_a_terminal
 from proc_session import handlers_installed, session
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
 
 

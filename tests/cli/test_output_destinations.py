@@ -30,7 +30,7 @@ from grasp_ctrl.files.safe_write import (
     output_file,
     write_output,
 )
-from tests.test_hardening_resume_writes import _start, _stub_trials, files  # noqa: F401 (a fixture)
+from tests.trials.test_run_fingerprint_and_outputs import _start, _stub_trials, files  # noqa: F401 (a fixture)
 
 
 def _fd_link(tmp_path: Path, fd: int, name: str = "stdout") -> Path:

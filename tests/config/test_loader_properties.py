@@ -248,7 +248,7 @@ def monkeypatch_session() -> Iterator[None]:
     # The stub reaches only this process: a run of 8+ trials without --jobs (the default objects)
     # got one worker per core, which ran the real trials (about 15 s an example on 2 cores).
     # Keep the automatic --jobs at 1 so every example runs the stub, as this module means (worker
-    # processes: test_trials_runs.py, test_run_jobs_cleanup.py; auto_jobs: the test below).
+    # processes: test_runs.py, test_run_jobs_cleanup.py; auto_jobs: the test below).
     mp.setattr(cmd_run, "auto_jobs", lambda backend, trials, cpus=None: 1)
     yield
     mp.undo()

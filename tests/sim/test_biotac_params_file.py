@@ -12,7 +12,7 @@ import pytest
 from grasp_ctrl.sim.biotac.model import DEFAULT_PARAMS, N_GAIN, pack_params, rise_weights_of, static_frames
 from grasp_ctrl.sim.biotac.params_file import load_biotac_params
 
-RISE_FIT = Path(__file__).resolve().parents[1] / "docs" / "biotac_params_rise_fit.json"
+RISE_FIT = Path(__file__).resolve().parents[2] / "docs" / "biotac_params_rise_fit.json"
 
 
 def _write(tmp_path: Path, doc: object) -> Path:

@@ -41,7 +41,7 @@ can = pytest.importorskip("can")
 from grasp_ctrl.emulators.allegro_can import AllegroCANEmulator, virtual_link  # noqa: E402
 from grasp_ctrl.hardware.allegro import AllegroCANHand  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 ALLEGRO = ROOT / "hand_configs" / "allegro_hand.toml"
 CONTROL_PERIOD_S = 0.010
 _channels = itertools.count()

@@ -23,7 +23,7 @@ from grasp_ctrl.config.actuation import pd_gains, torque_limits_nm, torque_per_a
 from grasp_ctrl.config.hand import HandConfig, load_hand
 from grasp_ctrl.files.paths import hand_configs_dir
 from grasp_ctrl.kinematics import HandKinematics
-from tests.test_leap_urdf import worst_joint_offsets
+from tests.kinematics.test_leap_urdf import worst_joint_offsets
 
 mujoco = pytest.importorskip("mujoco")
 

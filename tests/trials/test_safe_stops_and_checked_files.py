@@ -1,7 +1,7 @@
 """Hardening: every fault ends in a safe stop and a record, every file is checked, nothing is lost.
 
 One regression test (or a few) per numbered defect of the issue; the property tests
-that throw hostile values at every loader live in ``test_hardening_properties.py``.
+that throw hostile values at every loader live in ``test_loader_properties.py``.
 """
 
 from __future__ import annotations

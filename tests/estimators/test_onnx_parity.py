@@ -13,7 +13,7 @@ from grasp_ctrl.policy_tools.convert_icra19 import random_inputs, scaled_error
 
 ort = pytest.importorskip("onnxruntime")
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "official_icra19"
+DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "official_icra19"
 CASES = [("icra19_official", "icra19_weights.npz"), ("icra19_dropout_official", "ll4ma_lab_dropout_weights.npz")]
 
 

@@ -22,7 +22,7 @@ import pytest
 from conftest import SHARED_DATA
 
 REAL_CSV = SHARED_DATA / "robotic_finger" / "robotic_finger_tidy.csv"
-RISE_FIT = Path(__file__).resolve().parents[1] / "docs" / "biotac_params_rise_fit.json"
+RISE_FIT = Path(__file__).resolve().parents[2] / "docs" / "biotac_params_rise_fit.json"
 from grasp_ctrl.evaluation.biotac_anchors import (
     LOCATION_SCAN_X_M,
     PAD_SCAN_FORCES_N,

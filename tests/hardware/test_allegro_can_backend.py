@@ -20,7 +20,7 @@ from grasp_ctrl.hardware.allegro import protocol as pr
 from grasp_ctrl.hardware.allegro.protocol import CanFrame, JointMap
 from grasp_ctrl.rigs.registry import backend, from_flags
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 ALLEGRO = ROOT / "hand_configs" / "allegro_hand.toml"
 _channels = itertools.count()
 
