@@ -99,7 +99,7 @@ class GripLoadSettings(PaperSettings):
     lower_speed_m_s: float = 0.03
     lower_slow_zone_m: float = 0.008
     # The same 20 mm release, slower, so an object that touches down tilted settles as the grip
-    # fades instead of dropping flat from a corner (the lego landed at 0.13 m/s).
+    # fades instead of dropping flat from a corner (docs/controller.md).
     open_s: float = 1.0
     release_back_off_m_s: float = 0.02
     # The squeeze moves each goal so the joints' springs push along the closing vector, to
