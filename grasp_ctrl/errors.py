@@ -6,6 +6,12 @@ trial runner can report it in the run summary (docs/design.md 5.2).
 
 from __future__ import annotations
 
+import contextlib
+import signal
+import threading
+from collections.abc import Iterator
+from typing import Any
+
 
 class GraspCtrlError(Exception):
     """Base class for errors the command line reports as one line."""
@@ -71,6 +77,11 @@ class Terminated(KeyboardInterrupt):
     exit_status = 143
 
 
+def interrupt_detail(exc: BaseException) -> str:
+    """How a trial's record names the interrupt that ended it (``fault_detail``)."""
+    return "terminated (SIGTERM)" if isinstance(exc, Terminated) else "operator abort (Ctrl-C)"
+
+
 #: The SIGINT / SIGTERM numbers the command line's handlers received during this command
 #: (cli/__init__.py). An interrupt inside an extension module's import can surface as an
 #: ImportError, which an optional import (numba, say) would take for a missing package and go on.
@@ -81,6 +92,39 @@ def reraise_interrupt() -> None:
     """Raise the interrupt a handler noted, if any (``Terminated`` for SIGTERM): called where an
     ``except ImportError`` would otherwise swallow it."""
     if SIGNALLED:
-        import signal
-
         raise Terminated() if SIGNALLED[-1] == signal.SIGTERM else KeyboardInterrupt()
+
+
+@contextlib.contextmanager
+def interrupts_held(reraise: bool = True) -> Iterator[None]:
+    """Hold SIGINT and SIGTERM until the block ends (main thread only; elsewhere a no-op), then
+    raise the first as usual (``reraise``) or only note it in ``SIGNALLED``. A signal mask
+    would not do: any thread may take the signal, and Python runs the handler in the main thread
+    wherever it is."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held: list[int] = []
+
+    def hold(signum: int, frame: object) -> None:
+        held.append(signum)
+
+    old_int = signal.signal(signal.SIGINT, hold)
+    try:
+        old_term = signal.signal(signal.SIGTERM, hold)
+    except BaseException:
+        signal.signal(signal.SIGINT, _handler(old_int))
+        raise
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, _handler(old_int))
+        signal.signal(signal.SIGTERM, _handler(old_term))
+        if held and reraise:
+            signal.raise_signal(held[0])
+        elif held:
+            SIGNALLED.extend(held)
+
+
+def _handler(old: Any) -> Any:
+    return signal.SIG_DFL if old is None else old  # None: a handler not set from Python

@@ -397,7 +397,7 @@ def run(args: argparse.Namespace) -> int:
     from grasp_ctrl.errors import Terminated, UsageError
     from grasp_ctrl.files.safe_write import check_output, check_run_tree, write_output
     from grasp_ctrl.trials.episode.labelling import OperatorQuit
-    from grasp_ctrl.trials.runs.series import run_series
+    from grasp_ctrl.trials.runs.series import kept_interrupted, run_series
     from grasp_ctrl.trials.runs.summary import format_table
 
     if args.threads < 1:
@@ -510,6 +510,9 @@ def run(args: argparse.Namespace) -> int:
     except (KeyboardInterrupt, OperatorQuit) as exc:
         why = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc)
         hint = _resume_hint(run_dir, manifest.total)
+        kept = kept_interrupted(exc)  # the record of the trial it ended
+        if hint and kept is not None:
+            hint += f" (the trial in progress: {kept})"
         print(f"{why}: {hint}" if hint else f"{why} before the run started; nothing was recorded", file=sys.stderr)
         return 143 if isinstance(exc, Terminated) else 130
     except OSError as exc:

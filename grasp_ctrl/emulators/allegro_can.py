@@ -13,7 +13,9 @@ Faults to inject from Python: ``silent`` (no frame at all: a hand that went away
 ``send_error_frame`` (what a controller reports for bus errors or bus-off).
 
 python-can's virtual bus lives inside one process: the emulator is for Python sessions, the tests
-and ``run --emulate`` (``AllegroCANEmulator.on_virtual_channel``), not for another program.
+and ``run --emulate`` (``AllegroCANEmulator.on_virtual_channel``), not for another program. Across
+processes (the PD loop in its own, ``run --emulate --realtime``) it runs in a process of its own
+on a socket pair (emulators/allegro_can_process.py).
 """
 
 from __future__ import annotations
@@ -169,9 +171,14 @@ class AllegroCANEmulator:
         self._thread = threading.Thread(target=self._run, name="allegro-can-emulator", daemon=True)
         self._thread.start()
 
+    def between_frames(self) -> None:
+        """Called before each wait for a frame (the emulated hand's process takes its owner's
+        orders here, emulators/allegro_can_process.py)."""
+
     def _run(self) -> None:
         next_report = time.perf_counter()
         while not self._stop.is_set():
+            self.between_frames()
             period_s = self.period_ms[0] / 1000.0
             streaming = self.stream and period_s > 0
             wait = max(0.0, next_report - time.perf_counter()) if streaming else 0.005

@@ -27,9 +27,11 @@ until its next frame. System off, or zero torque on every joint (torque off, a f
 the world's actuators off: the joints go limp.
 
 ``realtime=True`` (``run --backend allegro_can --emulate --realtime``): the wall-clock dry run.
-The backend's PD loop runs in its own thread at ``[torque_pd] rate_hz`` (333 Hz) on the wall clock,
-as on a real hand, and the emulator streams the joint positions every report period (3 ms) from its
-own thread. The trial runner steps the world on the wall clock and calls ``before_world_step`` (the
+The backend's PD loop runs in its own process at ``[torque_pd] rate_hz`` (333 Hz) on the wall
+clock, as on a real hand (hardware/allegro/pd_process.py), and the emulated hand in another
+(emulators/allegro_can_process.py), the two on a socket pair; the emulator streams the joint
+positions every report period (3 ms). (Where child processes cannot run, both are threads of
+this process on python-can's virtual bus.) The trial runner steps the world on the wall clock and calls ``before_world_step`` (the
 torques the emulator received last drive the world's next step, as above) and ``after_world_step``
 (the emulator reports the world's new angles from then on); ``read`` and ``write_goals`` are the
 backend's alone (the latest positions, the goal handed to the loop). Joint states are stamped with
@@ -50,10 +52,13 @@ import numpy as np
 
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.emulators.allegro_can import AllegroCANEmulator, virtual_link
+from grasp_ctrl.emulators.allegro_can_process import AllegroCANEmulatorProcess
 from grasp_ctrl.emulators.wall_clock import TrialClock
 from grasp_ctrl.emulators.world_hand import WorldClock
 from grasp_ctrl.errors import HardwareError, UsageError
+from grasp_ctrl.hardware.allegro.child import SocketLink, processes_supported, socket_pair
 from grasp_ctrl.hardware.allegro.hand import AllegroCANHand
+from grasp_ctrl.hardware.allegro.pd_loop import PDLoop
 from grasp_ctrl.hardware.allegro.protocol import JointMap
 from grasp_ctrl.hardware.base import JointState
 from grasp_ctrl.sim.world_api import World
@@ -84,48 +89,62 @@ class EmulatedAllegroHand:
         if np.any(self.kp <= 0):
             raise UsageError(f"hand {hand.name!r}: the CAN emulation needs kp_nm_per_rad > 0 on every joint")
         self.channel = f"allegro-emulated-{os.getpid()}-{next(_channels)}"
-        self.emu = AllegroCANEmulator(
-            virtual_link(self.channel, f"emulated Allegro on {self.channel}"),
-            self.map,
-            self._q(),
-            stream=realtime,
-        )
+        # realtime: the PD loop and the hand each in a process, on a socket pair
+        self.cross_process = realtime and processes_supported()
+        self.emu: AllegroCANEmulator | AllegroCANEmulatorProcess
+        self._host_end: SocketLink | None = None
+        if self.cross_process:
+            hand_end, host_end = socket_pair()
+            self.emu = AllegroCANEmulatorProcess(hand_end, self.map, self._q())
+            self._host_end = SocketLink(host_end, f"socketpair {self.channel}")
+        else:
+            self.emu = AllegroCANEmulator(
+                virtual_link(self.channel, f"emulated Allegro on {self.channel}"),
+                self.map,
+                self._q(),
+                stream=realtime,
+            )
         self.can: AllegroCANHand | None = None
-        self.can_bus = f"virtual {self.channel} (emulated)"  # what the pre-flight names
+        kind = "socketpair" if self.cross_process else "virtual"
+        self.can_bus = f"{kind} {self.channel} (emulated)"  # what the pre-flight names
 
     def _q(self) -> np.ndarray:
         return np.asarray(self.world.q_measured, dtype=float)
 
     def connect(self) -> None:
-        self.emu.start()
         tp = self.hand.torque_pd
         assert tp is not None
-        virtual = dataclasses.replace(self.hand, torque_pd=dataclasses.replace(tp, interface="virtual"))
-        self.can = AllegroCANHand(
-            virtual,
-            self.channel,
-            clock=self.trial_clock if self.trial_clock is not None else WorldClock(self.world),
-            link=virtual_link(self.channel, f"virtual {self.channel}"),
-            handle_signals=False,
-            threaded=self.realtime,  # realtime: the PD loop's own thread, on the wall clock
-            connect_timeout_s=2.0,  # the emulator is a thread on a possibly busy host
-        )
+        kind = "socketpair" if self.cross_process else "virtual"  # (the bus's name in what it reports)
+        virtual = dataclasses.replace(self.hand, torque_pd=dataclasses.replace(tp, interface=kind))
         try:
+            self.emu.start()
+            self.can = AllegroCANHand(
+                virtual,
+                self.channel,
+                clock=self.trial_clock if self.trial_clock is not None else WorldClock(self.world),
+                link=self._host_end or virtual_link(self.channel, f"virtual {self.channel}"),
+                handle_signals=False,
+                threaded=self.realtime,  # realtime: the PD loop's own process (or thread), on the wall clock
+                connect_timeout_s=2.0,  # the emulator is a thread or process on a possibly busy host
+            )
             self.can.connect()
         except BaseException:
             self.emu.close()
+            if self._host_end is not None:
+                self._host_end.close()
             raise
         if not self.realtime:
             self._run_period()
 
     # ---- the world's side ----------------------------------------------------------------------
     def _publish(self) -> None:
+        assert isinstance(self.emu, AllegroCANEmulator)  # (lockstep: in this process)
         self.emu.set_positions(self._q())
         self.emu.send_positions()
 
     def _run_period(self) -> None:
         """One PD period at the world's time; the torques it sent drive the world."""
-        assert self.can is not None and self.can.loop is not None
+        assert self.can is not None and isinstance(self.can.loop, PDLoop)
         loop = self.can.loop
         c = loop.counters
         before_sent = c.torque_frames + c.zero_torque_frames
@@ -162,7 +181,8 @@ class EmulatedAllegroHand:
     def bus_figures(self) -> dict[str, Any]:
         """The link a realtime record was measured on and its PD loop's periods (the trial
         runner's ``timings.loop``)."""
-        out: dict[str, Any] = {"bus": "can virtual"}  # python-can's in-process bus: no wire time
+        # a socket pair between processes or python-can's in-process bus: no wire time either way
+        out: dict[str, Any] = {"bus": "can socketpair" if self.cross_process else "can virtual"}
         if self.can is not None and self.can.loop is not None:
             out["pd_loop"] = self.can.loop.period_figures()
         return out
@@ -170,8 +190,9 @@ class EmulatedAllegroHand:
     # ---- HandBackend -----------------------------------------------------------------------------
     def read(self) -> JointState:
         assert self.can is not None and self.can.loop is not None, "connect() first"
-        if self.realtime:  # the loop's latest set of positions (its thread takes the frames)
+        if self.realtime:  # the loop's latest set of positions (its process or thread takes the frames)
             return self.can.read()
+        assert isinstance(self.can.loop, PDLoop)
         self._publish()
         self.can.loop.poll(0.0)
         return self.can.read()
@@ -179,7 +200,7 @@ class EmulatedAllegroHand:
     def write_goals(self, q_goal: np.ndarray) -> None:
         assert self.can is not None, "connect() first"
         self.can.write_goals(q_goal)
-        if not self.realtime:  # realtime: the loop's thread drives to it from its next period
+        if not self.realtime:  # realtime: the loop drives to it from its next period
             self._run_period()
 
     def set_torque(self, enabled: bool) -> None:

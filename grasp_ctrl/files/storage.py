@@ -52,6 +52,11 @@ def record_path(run_dir: Path, policy: str, obj: str, trial: int) -> Path:
     return trial_dir(run_dir, policy, obj) / f"trial_{trial:03d}.json"
 
 
+def interrupted_path(run_dir: Path, policy: str, obj: str, trial: int) -> Path:
+    """The record of a trial that Ctrl-C or SIGTERM ended (not a finished trial: resume runs it again)."""
+    return trial_dir(run_dir, policy, obj) / f"trial_{trial:03d}.interrupted.json"
+
+
 def ticks_path(run_dir: Path, policy: str, obj: str, trial: int) -> Path:
     return trial_dir(run_dir, policy, obj) / f"trial_{trial:03d}_ticks.parquet"
 

@@ -72,7 +72,7 @@ def test_a_realtime_trial_records_the_pd_loop_beside_the_control_loop(allegro, a
     )
     loop = r.to_json()["timings"]["loop"]
     assert r.reason == "aborted" and r.sim_duration_s >= loop_s
-    assert loop["clock"] == "wall" and loop["period_ms"] == pytest.approx(10.0) and loop["bus"] == "can virtual"
+    assert loop["clock"] == "wall" and loop["period_ms"] == pytest.approx(10.0) and loop["bus"] == "can socketpair"
     assert loop["ticks"] >= 150 and 0 <= loop["deadline_misses"] <= loop["ticks"]
     assert loop["world_steps"] >= loop["ticks"]
     pd = loop["pd_loop"]
@@ -84,6 +84,7 @@ def test_a_realtime_trial_records_the_pd_loop_beside_the_control_loop(allegro, a
     assert 0.0 < p["p50"] <= p["p90"] <= p["p99"] <= p["max"]
     assert 2.5 < p["p50"] < 4.0  # the deadline schedule's period (generous: a loaded 2-core host)
     assert isinstance(pd["missed_periods"], int) and pd["missed_periods"] >= 0
+    assert pd["scheduling"].startswith(("SCHED_FIFO", "nice"))  # what the PD process got
 
 
 def test_realtime_cli_run_on_the_allegro(tmp_path, monkeypatch, capsys) -> None:
@@ -93,7 +94,7 @@ def test_realtime_cli_run_on_the_allegro(tmp_path, monkeypatch, capsys) -> None:
     args += ["--objects", "lego", "--policy", "oracle", "--trials", "1", "--yes", "--quiet", "--out", str(run_dir)]
     assert main([*args, "--json", str(summary_file)]) == 0
     out, err = capsys.readouterr()
-    assert "pre-flight: 16 joints reported on CAN bus virtual allegro-emulated-" in err
+    assert "pre-flight: 16 joints reported on CAN bus socketpair allegro-emulated-" in err
     assert "no hand faults" in err and "servos" not in err
     rec = json.loads((run_dir / "trials" / "oracle" / "lego" / "trial_000.json").read_text())
     assert rec["backend"] == "allegro_can-emulated"

@@ -11,6 +11,12 @@ information and the serial number, set the report periods (joint positions every
 ms, rounded: 3 ms at 333 Hz), system on; then one full set of joint positions, and the present
 pose (within the limits) becomes the goal, so nothing jumps.
 
+Where the loop runs: in its own process (pd_process.py), which owns the bus, for a bus opened
+from the hand file (socketcan, pcan) or a socket end (``SocketLink``: the emulated hand on the
+wall clock); there its periods do not wait for this process's interpreter lock. In a thread of
+this process for python-can's in-process ``virtual`` bus and any other link object handed in
+(the tests), or where child processes cannot run; stepped by the owner with ``threaded=False``.
+
 Safety: use it as a context manager (or call ``close``). A fault of the link (no positions for
 ``position_stale_s``, an error frame or bus-off, a failed send, an over-temperature report or the
 hand's own fault bits) latches the loop into zero torque at once: without trusted positions no PD
@@ -29,16 +35,24 @@ import numpy as np
 
 from grasp_ctrl.config.hand import SAFE_ACTIONS, HandConfig
 from grasp_ctrl.errors import HardwareError, UsageError
-from grasp_ctrl.hardware.allegro import protocol as pr
 from grasp_ctrl.hardware.allegro.bus import CanLink, describe, open_link
-from grasp_ctrl.hardware.allegro.pd_loop import PDLoop
+from grasp_ctrl.hardware.allegro.child import SocketLink, processes_supported
+from grasp_ctrl.hardware.allegro.pd_loop import (
+    HEALTH_POLL_S,
+    PDLoop,
+    health_frames,
+    position_period_ms,
+    start_frames,
+    stop_frames,
+)
+from grasp_ctrl.hardware.allegro.pd_process import PDProcess, PDSpec
 from grasp_ctrl.hardware.allegro.protocol import JointMap
 from grasp_ctrl.hardware.base import Clock, JointState
 from grasp_ctrl.hardware.exit_hooks import ExitHooks
 from grasp_ctrl.numeric.limits import limited_goal
 
 CONNECT_TIMEOUT_S = 1.0
-HEALTH_POLL_S = 0.1  # hand information and temperatures are asked for this often (loop clock)
+__all__ = ["AllegroCANHand", "HEALTH_POLL_S", "position_period_ms"]
 
 
 class MonotonicClock:
@@ -46,16 +60,12 @@ class MonotonicClock:
         return time.monotonic()
 
 
-def position_period_ms(rate_hz: float) -> int:
-    """The hand's joint-position report period for a PD loop at ``rate_hz`` (ms, at least 1)."""
-    return max(1, int(round(1000.0 / rate_hz)))
-
-
 class AllegroCANHand:
     """HandBackend over python-can. Joint vectors follow ``hand.joints`` order.
 
     ``channel`` overrides ``[torque_pd] channel``; ``link`` replaces the bus (tests, the emulated
-    hand); ``threaded=False`` leaves the PD loop to the owner's ``loop.cycle`` calls (lockstep)."""
+    hand); ``threaded=False`` leaves the PD loop to the owner's ``loop.cycle`` calls (lockstep);
+    ``pd_process``: the loop in its own process (None: where it can, see the module's doc)."""
 
     def __init__(
         self,
@@ -67,6 +77,7 @@ class AllegroCANHand:
         handle_signals: bool = True,
         threaded: bool = True,
         connect_timeout_s: float = CONNECT_TIMEOUT_S,
+        pd_process: bool | None = None,
     ) -> None:
         if hand.torque_pd is None:
             raise UsageError(
@@ -89,7 +100,13 @@ class AllegroCANHand:
         self.threaded = threaded
         self.handle_signals = handle_signals
         self.connect_timeout_s = connect_timeout_s
-        self.loop: PDLoop | None = None
+        if pd_process is None:
+            crosses = isinstance(link, SocketLink) or (link is None and self.cfg.interface != "virtual")
+            pd_process = threaded and crosses and processes_supported()
+        if pd_process and not (threaded and (link is None or isinstance(link, SocketLink))):
+            raise UsageError("the PD loop runs in its own process only on its wall clock, on a bus it can open")
+        self.pd_process = pd_process
+        self.loop: PDLoop | PDProcess | None = None
         self.connected = False
         self.torque_enabled = False
         self.last_goal: np.ndarray | None = None
@@ -101,6 +118,9 @@ class AllegroCANHand:
     def connect(self) -> None:
         """Open the bus, start the hand (system off, info, periods, system on), wait for a full set
         of joint positions, hold the present pose."""
+        if self.pd_process:
+            self._connect_process()
+            return
         link = self._link if self._link is not None else open_link(self.cfg, self.channel)
         self._link = link
         self.connected = True
@@ -118,14 +138,7 @@ class AllegroCANHand:
                 name=self.name,
             )
             self.loop.poll(0.0)  # whatever was queued before (the driver flushes too)
-            for frame in (
-                pr.system_off(dev),
-                pr.request(pr.RTR_HAND_INFO, dev),
-                pr.request(pr.RTR_SERIAL, dev),
-                pr.set_period(position_period_ms(self.cfg.rate_hz), 0, 0, dev),
-                pr.system_on(dev),
-                *(pr.request_finger_pose(f, dev) for f in range(pr.N_FINGERS)),
-            ):
+            for frame in start_frames(dev, self.cfg.rate_hz):
                 link.send(frame)
             state = self.loop.wait_for_positions(self.connect_timeout_s, stepped=True)
             self.last_goal = np.clip(state.q, self.lower, self.upper)
@@ -133,6 +146,43 @@ class AllegroCANHand:
             self.torque_enabled = True
             if self.threaded:
                 self.loop.start()
+        except BaseException:
+            self._shutdown_link()
+            raise
+        self._install_safety_hooks()
+
+    def _connect_process(self) -> None:
+        """``connect`` with the loop in its own process: it opens the bus and starts the hand."""
+        link = self._link if isinstance(self._link, SocketLink) else None
+        spec = PDSpec(
+            joints=self.map,
+            kp=self.kp,
+            kd=self.kd,
+            rate_hz=self.cfg.rate_hz,
+            position_stale_s=self.cfg.position_stale_s,
+            max_temperature_c=self.cfg.max_temperature_c,
+            name=self.name,
+            on_fault=self.hand.safety.on_fault,
+            q_open=self.q_open,
+            lower=self.lower,
+            upper=self.upper,
+            max_step_rad=self.hand.safety.max_joint_step_rad,
+            control_dt=self.hand.dt,
+            connect_timeout_s=self.connect_timeout_s,
+            bus=None if link is not None else self.cfg,
+            channel=self.channel,
+        )
+        loop = PDProcess(spec, self.clock.now, link)
+        self.loop = loop
+        self.connected = True
+        try:
+            loop.start()
+            state = loop.state
+            if state is None:
+                raise HardwareError(f"CAN bus {self.name}: the PD process gave no joint positions")
+            self.last_goal = np.clip(state.q, self.lower, self.upper)
+            loop.set_goal(self.last_goal, True)
+            self.torque_enabled = True
         except BaseException:
             self._shutdown_link()
             raise
@@ -181,8 +231,14 @@ class AllegroCANHand:
         if loop.fault is not None:
             raise HardwareError(loop.fault, reason="hardware_error")
         if self.threaded and not loop.running and self.connected:
-            loop.trip(f"CAN bus {self.name}: the PD loop's thread stopped")
+            where = "process" if isinstance(loop, PDProcess) else "thread"
+            loop.trip(f"CAN bus {self.name}: the PD loop's {where} stopped")
             raise HardwareError(loop.fault or "", reason="hardware_error")
+        if isinstance(loop, PDProcess):  # it asks for the hand's health itself
+            lost = loop.controller_lost
+            if lost is not None:
+                raise HardwareError(lost, reason="hardware_error")
+            return
         now = self.clock.now()
         if now - self._last_health >= HEALTH_POLL_S:
             self._last_health = now
@@ -191,13 +247,10 @@ class AllegroCANHand:
     def request_health(self) -> None:
         """Ask for the hand information (status bits) and the four temperatures; the replies are
         judged by the loop as they arrive."""
-        if self._link is None:
+        if self._link is None or isinstance(self.loop, PDProcess):  # (the PD process asks itself)
             return
-        dev = self.map.device_id
-        frames = [pr.request(pr.RTR_HAND_INFO, dev)]
-        frames += [pr.request_temperature(s, dev) for s in range(pr.N_TEMPERATURE_SENSORS)]
         try:
-            for f in frames:
+            for f in health_frames(self.map.device_id):
                 self._link.send(f)
         except HardwareError as exc:
             if self.loop is not None:
@@ -263,16 +316,12 @@ class AllegroCANHand:
         if loop is not None:
             loop.stop()
         if self.connected and link is not None:
-            dev = self.map.device_id
-            for frame in (
-                *self.map.zero_torque_frames(),
-                pr.system_off(dev),
-                pr.set_period(0, 0, 0, dev),
-            ):
-                try:
-                    link.send(frame)
-                except HardwareError:
-                    pass  # a bus that is down carries nothing more
+            if not isinstance(loop, PDProcess):  # (the PD process sent them, or it did at its stop)
+                for frame in stop_frames(self.map):
+                    try:
+                        link.send(frame)
+                    except HardwareError:
+                        pass  # a bus that is down carries nothing more
             try:
                 link.close()
             except Exception:

@@ -21,9 +21,10 @@ loop sends only zero-torque frames: a PD without trusted positions, or on a hot 
 neither hold nor open the hand. The hand file's ``on_fault`` is the backend's business
 (hardware/allegro/hand.py) while the loop is healthy.
 
-The loop runs in its own thread (``start``) on the wall clock, or is stepped by its owner
-(``cycle``: the emulated hand's lockstep and the tests); its figures (periods, missed periods,
-frames) are in ``stats``.
+The loop runs in its own thread (``start``) on the wall clock, in its own process
+(pd_process.py, which runs ``_run`` as its main loop), or is stepped by its owner (``cycle``: the
+emulated hand's lockstep and the tests); its figures (periods, missed periods, frames) are in
+``stats``.
 """
 
 from __future__ import annotations
@@ -44,6 +45,38 @@ from grasp_ctrl.hardware.allegro.protocol import CanFrame, JointMap, ProtocolErr
 
 VELOCITY_FILTER_S = 0.005  # the joint velocity's low-pass time constant
 PERIOD_SAMPLES = 1 << 15  # the periods kept for the percentiles (the latest: 98 s at 333 Hz)
+HEALTH_POLL_S = 0.1  # hand information and temperatures are asked for this often
+
+
+def position_period_ms(rate_hz: float) -> int:
+    """The hand's joint-position report period for a PD loop at ``rate_hz`` (ms, at least 1)."""
+    return max(1, int(round(1000.0 / rate_hz)))
+
+
+def start_frames(device_id: int, rate_hz: float) -> list[CanFrame]:
+    """Start-up in the order of SimLab's driver (AllegroHandDrv.cpp ``init``): system off, hand
+    information and serial number asked for, the report periods set, system on; then every
+    finger's positions asked for."""
+    return [
+        pr.system_off(device_id),
+        pr.request(pr.RTR_HAND_INFO, device_id),
+        pr.request(pr.RTR_SERIAL, device_id),
+        pr.set_period(position_period_ms(rate_hz), 0, 0, device_id),
+        pr.system_on(device_id),
+        *(pr.request_finger_pose(f, device_id) for f in range(pr.N_FINGERS)),
+    ]
+
+
+def stop_frames(joints: JointMap) -> list[CanFrame]:
+    """The last frames to a hand: zero torque on every finger, system off, the reports stopped."""
+    dev = joints.device_id
+    return [*joints.zero_torque_frames(), pr.system_off(dev), pr.set_period(0, 0, 0, dev)]
+
+
+def health_frames(device_id: int) -> list[CanFrame]:
+    """The hand information (status bits) and the four temperatures asked for."""
+    frames = [pr.request(pr.RTR_HAND_INFO, device_id)]
+    return frames + [pr.request_temperature(s, device_id) for s in range(pr.N_TEMPERATURE_SENSORS)]
 
 
 class Goal(NamedTuple):
@@ -86,6 +119,32 @@ def _percentiles_ms(seconds: np.ndarray) -> dict[str, float]:
     ms = seconds * 1000.0
     out = {f"p{q}": round(float(np.percentile(ms, q)), 3) for q in (50, 90, 99)}
     out["max"] = round(float(ms.max()), 3)
+    return out
+
+
+def _latest_periods(periods: np.ndarray, n_periods: int) -> np.ndarray:
+    p = np.array(periods[: min(n_periods, PERIOD_SAMPLES)], dtype=float)
+    return p[np.isfinite(p)]
+
+
+def period_figures(periods: np.ndarray, n_periods: int, missed: int, period_s: float) -> dict[str, Any]:
+    """A loop's periods (``PDLoop.period_figures``) from its ring of periods and counts."""
+    return {
+        "rate_hz": round(1.0 / period_s, 3),
+        "budget_ms": round(period_s * 1000.0, 3),
+        "periods": int(n_periods),
+        "period_ms": _percentiles_ms(_latest_periods(periods, n_periods)),
+        "missed_periods": int(missed),
+    }
+
+
+def loop_stats(counters: LoopCounters, periods: np.ndarray, n_periods: int, period_s: float) -> dict[str, float]:
+    """A loop's figures (``PDLoop.stats``) from its counters and ring of periods."""
+    out: dict[str, float] = {k: float(v) for k, v in vars(counters).items()}
+    p = _latest_periods(periods, n_periods)
+    for name, value in _percentiles_ms(p).items():
+        out[f"period_{name}_ms"] = value
+    out["period_budget_ms"] = round(period_s * 1000.0, 3)
     return out
 
 
@@ -372,26 +431,9 @@ class PDLoop:
         """The thread's periods since the start or the last ``reset_periods``: their count, their
         percentiles (ms: p50, p90, p99, max; the latest ``PERIOD_SAMPLES``), the missed periods
         (started a whole period late or more, skipped) and the budget."""
-        n = min(self._n_periods, PERIOD_SAMPLES)
-        periods = self._periods[:n]
-        return {
-            "rate_hz": round(1.0 / self.period_s, 3),
-            "budget_ms": round(self.period_s * 1000.0, 3),
-            "periods": int(self._n_periods),
-            "period_ms": _percentiles_ms(periods[np.isfinite(periods)]),
-            "missed_periods": int(self.counters.missed_periods - self._missed_base),
-        }
+        missed = self.counters.missed_periods - self._missed_base
+        return period_figures(self._periods, self._n_periods, missed, self.period_s)
 
     def stats(self) -> dict[str, float]:
         """The loop's figures: periods (ms: p50, p90, p99, max of the latest), missed periods, frames."""
-        c = self.counters
-        out: dict[str, float] = {k: float(v) for k, v in vars(c).items()}
-        n = min(self._n_periods, PERIOD_SAMPLES)
-        if n:
-            p = np.sort(self._periods[:n][np.isfinite(self._periods[:n])]) * 1000.0
-            if p.size:
-                for name, q in (("p50", 50), ("p90", 90), ("p99", 99)):
-                    out[f"period_{name}_ms"] = round(float(np.percentile(p, q)), 3)
-                out["period_max_ms"] = round(float(p[-1]), 3)
-        out["period_budget_ms"] = round(self.period_s * 1000.0, 3)
-        return out
+        return loop_stats(self.counters, self._periods, self._n_periods, self.period_s)

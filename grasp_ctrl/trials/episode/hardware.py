@@ -8,9 +8,10 @@ the arm's frame is calibrated to); the hand reaches to ``grasp_height_m`` of its
 profile (plus its ``approach_offset_m``) plus ``grasp.palm_above_contact_m``.
 
 Safety: a hardware or sensor fault goes through the state machine to the safe
-action; Ctrl-C marks the trial ``aborted``, keeps ticking the safe action for a
-moment, closes the rig (which stops the hand as configured) and re-raises so
-the series stops and can be resumed.
+action; Ctrl-C (or SIGTERM) marks the trial ``aborted`` naming it, keeps ticking
+the safe action for a moment, closes the rig (which stops the hand as configured)
+and re-raises with the trial's record attached, so the series keeps it beside its
+records, stops, and can be resumed.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.paper_settings import PaperSettings
 from grasp_ctrl.controller.registry import make_controller
-from grasp_ctrl.errors import UsageError
+from grasp_ctrl.errors import UsageError, interrupt_detail
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
@@ -35,7 +36,15 @@ from grasp_ctrl.loop.tick import control_tick
 from grasp_ctrl.loop.ticklog import CurrentTap, TickLog
 from grasp_ctrl.rigs.hardware_rig import HardwareRig, open_rig
 from grasp_ctrl.sim.oracle import is_oracle
-from grasp_ctrl.trials.episode.runner import MAX_TRIAL_S, SETTLE_S, controller_view, state_timings, trial_settings
+from grasp_ctrl.trials.episode.runner import (
+    MAX_TRIAL_S,
+    SETTLE_S,
+    controller_view,
+    interrupted_record,
+    state_timings,
+    trial_settings,
+    with_record,
+)
 
 RigOpener = Callable[[HandConfig], HardwareRig]
 _sleep = time.sleep  # the tick pacing; tests replace it to inject an operator's Ctrl-C
@@ -109,7 +118,7 @@ def run_hardware_trial(
                     raise
                 interrupted = exc
                 if not ctrl.terminal:
-                    ctrl.fail(reason="aborted", detail="operator abort (Ctrl-C)")
+                    ctrl.fail(reason="aborted", detail=interrupt_detail(exc))
     finally:
         if log:
             log.close()
@@ -131,7 +140,7 @@ def run_hardware_trial(
         "judged_by": "controller",
     }
     if interrupted is not None:
-        raise interrupted
+        raise with_record(interrupted, record)
     return record
 
 
@@ -160,6 +169,11 @@ def hardware_trial_fn(
             record = run_hardware_trial(
                 hand, obj, rig, estimators[policy], settings, kin, log_path, raw_frames=raw_frames
             )
+        except KeyboardInterrupt as exc:
+            kept = interrupted_record(exc)
+            if kept is not None:
+                kept.update({"policy": policy, "trial": trial, "seed": seed})
+            raise
         finally:
             rig.close()
         record.update({"policy": policy, "trial": trial, "seed": seed})

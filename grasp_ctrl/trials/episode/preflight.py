@@ -215,13 +215,14 @@ def _check_can_hand(hand: HandConfig, channel: str | None) -> list[str]:
     """The Allegro on CAN: it reports every joint and no fault, then goes limp again (zero torque,
     system off)."""
     from grasp_ctrl.hardware.allegro import AllegroCANHand
+    from grasp_ctrl.hardware.allegro.pd_loop import PDLoop
 
     can = AllegroCANHand(hand, channel, handle_signals=False, threaded=False)
     can.connect()
     try:
         can.request_health()
         time.sleep(0.05)
-        if can.loop is not None:
+        if isinstance(can.loop, PDLoop):  # (stepped here: threaded=False)
             can.loop.poll(0.0)
         can.check_health()
     finally:

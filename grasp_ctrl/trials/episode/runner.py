@@ -3,6 +3,10 @@
 One trial: tare in free space, then the controller runs until done or fault,
 then the world settles for a moment under the safe action so consequences
 (a dropped object) are seen; the outcome comes from the world's ground truth.
+Ctrl-C or SIGTERM mid-trial ends it as a hand's trial ends (trials/episode/hardware.py):
+``aborted`` naming the interrupt, the safe action ticked through the settle (a second
+interrupt cuts it short), then the interrupt raised with the trial's record attached
+(``interrupted_record``), which the series keeps beside its records.
 Every trial's seed depends only on the base seed, the object and the trial index
 (``trial_seed``), so a resumed series (trials/runs/series.py) scores exactly like an
 uninterrupted one.
@@ -27,7 +31,7 @@ from grasp_ctrl.controller.motion import squeeze_mode
 from grasp_ctrl.controller.paper_settings import PaperSettings
 from grasp_ctrl.controller.registry import default_settings, flat_settings
 from grasp_ctrl.emulators.wall_clock import TimedHand, TrialClock, WallClockHand, WallClockLink, WallClockLoop
-from grasp_ctrl.errors import UsageError
+from grasp_ctrl.errors import UsageError, interrupt_detail
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.loop.ticklog import CurrentTap, TickLog
@@ -43,6 +47,19 @@ from grasp_ctrl.trials.episode.outcome import judge
 MAX_TRIAL_S = 60.0
 SETTLE_S = 0.5
 RECORD_FORMAT = 1
+_RECORD_ATTR = "trial_record"
+
+
+def with_record(exc: BaseException, record: dict[str, Any]) -> BaseException:
+    """``exc`` (an interrupt that ended a trial) carrying that trial's record."""
+    setattr(exc, _RECORD_ATTR, record)
+    return exc
+
+
+def interrupted_record(exc: BaseException) -> dict[str, Any] | None:
+    """The record an interrupt carries (``with_record``), if any."""
+    record = getattr(exc, _RECORD_ATTR, None)
+    return record if isinstance(record, dict) else None
 
 
 @dataclass
@@ -196,34 +213,46 @@ def run_sim_trial(
     peaks = np.zeros((3, len(names)))
     tip_force_sq, tip_grip, tip_true = peaks
     settle_ticks = int(round(SETTLE_S / hand.dt))
+    interrupted: KeyboardInterrupt | None = None
     if clock is not None and loop is not None:  # the trial's time runs on the wall clock from here
         clock.start()
         loop.start()
     try:
         while world.t < MAX_TRIAL_S:
-            if loop is None:
-                snap, cmd, raw = parts.step(tap)
-            else:  # sleep until the tick's release, then the world catches up with the wall clock
-                loop.wait_for_release()
-                loop.step_world(step_world)
-                snap, cmd, raw = parts.tick(loop.clock(), tap)
-            parts.record(snap, cmd, raw, peaks, log, tap.take())
-            if loop is not None:
-                loop.tick_done()
-            if on_tick:
-                on_tick(world, ctrl)
-            if ctrl.terminal:
-                settle_ticks -= 1
-                if settle_ticks <= 0:
-                    break
+            try:
+                if loop is None:
+                    snap, cmd, raw = parts.step(tap)
+                else:  # sleep until the tick's release, then the world catches up with the wall clock
+                    loop.wait_for_release()
+                    loop.step_world(step_world)
+                    snap, cmd, raw = parts.tick(loop.clock(), tap)
+                parts.record(snap, cmd, raw, peaks, log, tap.take())
+                if loop is not None:
+                    loop.tick_done()
+                if on_tick:
+                    on_tick(world, ctrl)
+                if ctrl.terminal:
+                    settle_ticks -= 1
+                    if settle_ticks <= 0:
+                        break
+            except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: the safe action, then stop
+                if interrupted is not None:
+                    raise
+                interrupted = exc
+                if not ctrl.terminal:
+                    ctrl.fail(reason="aborted", detail=interrupt_detail(exc))
+            except Exception:
+                if interrupted is None:
+                    raise
+                break  # (settling after an interrupt: the interrupt ends the trial, not this)
         else:
             if not ctrl.terminal:
                 ctrl.fail(reason="aborted", detail=f"trial longer than {MAX_TRIAL_S:g} s of simulated time")
     finally:
         if log:
             log.close()
-        # A close error must not hide the error that ended the trial.
-        parts.close(raise_error=sys.exc_info()[0] is None)
+        # A close error must not hide the error (or the interrupt) that ended the trial.
+        parts.close(raise_error=sys.exc_info()[0] is None and interrupted is None)
     # The peaks over the grasping fingers follow from the per-fingertip peaks.
     tip_force = np.sqrt(tip_force_sq)  # = np.linalg.norm(f, axis=1), at its peak
     peak_est = max(0.0, float(np.max(tip_grip[grasp], initial=0.0)))
@@ -234,7 +263,7 @@ def run_sim_trial(
     if loop is not None:
         assert isinstance(hand_backend, WallClockHand)  # (checked before the loop started)
         timings["loop"] = {**loop.figures(), **hand_backend.bus_figures()}
-    return TrialResult(
+    result = TrialResult(
         object=obj.name,
         policy=policy_name,
         trial=trial,
@@ -264,6 +293,9 @@ def run_sim_trial(
             for i, name in enumerate(names)
         },
     )
+    if interrupted is not None:
+        raise with_record(interrupted, result.to_json())
+    return result
 
 
 def _world_stepper(world: World, hand: WallClockHand, sensors: WallClockLink) -> Callable[[], None]:

@@ -32,9 +32,10 @@ import sys
 import threading
 import time
 import weakref
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, Protocol, cast
+
+from grasp_ctrl.errors import interrupts_held
 
 STOP_TIMEOUT_S = 5.0  # per step: a process that takes longer is killed
 FORKSERVER_ENV = "GRASP_CTRL_FORKSERVER"  # set for the fork server: the command's pid (0: no death signal)
@@ -69,43 +70,6 @@ def can_find_children() -> bool:
     """Whether a process's children can be listed (Linux /proc): then a worker whose start was
     cut short is still found and stopped, so a start need not hold back Ctrl-C."""
     return (_PROC / "self" / "stat").exists()
-
-
-@contextlib.contextmanager
-def interrupts_held(reraise: bool = True) -> Iterator[None]:
-    """Hold SIGINT and SIGTERM until the block ends (main thread only; elsewhere a no-op), then
-    raise the first as usual (``reraise``) or only note it in ``errors.SIGNALLED``. A signal mask
-    would not do: any thread may take the signal, and Python runs the handler in the main thread
-    wherever it is."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    from grasp_ctrl.errors import SIGNALLED
-
-    held: list[int] = []
-
-    def hold(signum: int, frame: object) -> None:
-        held.append(signum)
-
-    old_int = signal.signal(signal.SIGINT, hold)
-    try:
-        old_term = signal.signal(signal.SIGTERM, hold)
-    except BaseException:
-        signal.signal(signal.SIGINT, _handler(old_int))
-        raise
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, _handler(old_int))
-        signal.signal(signal.SIGTERM, _handler(old_term))
-        if held and reraise:
-            signal.raise_signal(held[0])
-        elif held:
-            SIGNALLED.extend(held)
-
-
-def _handler(old: Any) -> Any:
-    return signal.SIG_DFL if old is None else old  # None: a handler not set from Python
 
 
 def spawn_guard() -> contextlib.AbstractContextManager[None]:

@@ -4,7 +4,9 @@ worker processes (``jobs``) or as Ray tasks, with the run directory's lock, resu
 
 A series writes ``run.json`` first, then one fsynced record per finished trial, so an
 interrupted series loses at most the trial in progress and ``run_series(..., resume=True)``
-continues it.
+continues it. A trial in progress in this process that Ctrl-C or SIGTERM ends (a hand's, a
+realtime dry run's: ``aborted``, naming the interrupt) leaves its record as
+``trial_NNN.interrupted.json`` beside the records: no finished trial, so resume runs it again.
 """
 
 from __future__ import annotations
@@ -26,12 +28,13 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.paper_settings import PaperSettings
 from grasp_ctrl.controller.registry import default_settings, make_controller
-from grasp_ctrl.errors import ConfigError, UsageError
+from grasp_ctrl.errors import ConfigError, UsageError, interrupts_held
 from grasp_ctrl.files.storage import (
     RUN_FILE,
     SUMMARY_FILE,
     check_object_name,
     commit_temp,
+    interrupted_path,
     is_temp_file,
     record_path,
     safe_name,
@@ -43,7 +46,7 @@ from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.rigs.registry import DEFAULT_BACKEND
 from grasp_ctrl.sim.mujoco.log import set_log_dir as set_engine_log_dir
 from grasp_ctrl.sim.variation import NOMINAL, Variation
-from grasp_ctrl.trials.episode.runner import TrialFn, TrialSetup, trial_seed
+from grasp_ctrl.trials.episode.runner import TrialFn, TrialSetup, interrupted_record, trial_seed
 from grasp_ctrl.trials.runs.fingerprint import stamp, sync_manifest
 from grasp_ctrl.trials.runs.manifest import RunManifest, read_manifest
 from grasp_ctrl.trials.runs.planned import why_unplanned
@@ -139,6 +142,30 @@ def _stop_workers(pool: Any) -> None:
     from grasp_ctrl.trials.runs.process_cleanup import abort_pool
 
     abort_pool(pool)
+
+
+_KEPT_ATTR = "interrupted_path"
+
+
+def keep_interrupted(run_dir: Path, exc: KeyboardInterrupt, plan: RunManifest) -> None:
+    """The record an interrupt carries (the trial it ended), written beside the records; its
+    path noted on the interrupt (``kept_interrupted``) for the command's last line."""
+    rec = interrupted_record(exc)
+    if rec is None:
+        return
+    try:
+        path = interrupted_path(run_dir, rec["policy"], rec["object"], int(rec["trial"]))
+        with interrupts_held(reraise=False):  # a second Ctrl-C does not cut the write short
+            write_json(path, stamp(rec, plan))
+    except (OSError, KeyError, TypeError, ValueError):
+        return  # the interrupt, not a failed note of it, is what the command reports
+    setattr(exc, _KEPT_ATTR, path)
+
+
+def kept_interrupted(exc: BaseException) -> Path | None:
+    """Where ``keep_interrupted`` wrote the record of the trial ``exc`` ended, if it did."""
+    path = getattr(exc, _KEPT_ATTR, None)
+    return path if isinstance(path, Path) else None
 
 
 def _warn(msg: str) -> None:
@@ -398,7 +425,11 @@ def _run_locked(
         else:
             for args in pending:
                 with naming_file(args[4] and final_name(args[4]), True):
-                    rec = run_trial(*args)
+                    try:
+                        rec = run_trial(*args)
+                    except KeyboardInterrupt as exc:
+                        keep_interrupted(run_dir, exc, plan)
+                        raise
                 finish(rec)
     finally:
         set_engine_log_dir(None)
