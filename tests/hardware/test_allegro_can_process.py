@@ -463,7 +463,7 @@ def test_an_interrupted_realtime_run_records_the_interrupt_and_leaves_no_process
 def test_an_interrupted_hand_trial_ends_aborted_and_its_record_names_the_interrupt(allegro, monkeypatch, interrupt):
     import grasp_ctrl.trials.episode.hardware as hw
     from grasp_ctrl.config.objects import load_objects
-    from grasp_ctrl.controller.settings import ControllerSettings
+    from grasp_ctrl.controller.registry import settings_for
     from grasp_ctrl.emulators.allegro_can_process import AllegroCANEmulatorProcess
     from grasp_ctrl.emulators.tactile_bridge import TactileBridgeEmulator
     from grasp_ctrl.errors import Terminated
@@ -504,7 +504,7 @@ def test_an_interrupted_hand_trial_ends_aborted_and_its_record_names_the_interru
         real_sleep(s)
 
     monkeypatch.setattr(hw, "_sleep", sleep_then_interrupt)
-    fast = ControllerSettings(close_timeout_s=0.3, ramp_timeout_s=0.3, reach_timeout_s=2.0)
+    fast = settings_for("grip_load", close_timeout_s=0.3, ramp_timeout_s=0.3, reach_timeout_s=2.0)
     trial = hw.hardware_trial_fn(allegro, ["linear_mock"], fast, 1, open_rig_fn=open_rig)
     try:
         with pytest.raises(KeyboardInterrupt) as exc:
