@@ -56,6 +56,7 @@ from grasp_ctrl.controller.ramp_settle import TrendRampSettle
 from grasp_ctrl.controller.snapshot import Snapshot
 from grasp_ctrl.errors import ConfigError
 from grasp_ctrl.numeric.gravity import GRAVITY_M_S2
+from grasp_ctrl.numeric.reductions import np_sum
 
 LOAD_STATES = [
     *STATES[: STATES.index("reach") + 1],
@@ -115,22 +116,25 @@ class GripLoadController(GraspController):
         peak = float(np.max(self.grip_targets, initial=0.0))
         if peak > limit:
             self.grip_targets = self.grip_targets * (limit / peak)
-            self._targets = self.grip_targets.tolist()
         self.base_targets = self.grip_targets.copy()
         self._base = self.base_targets.tolist()
+        self._base_floor = [max(b, 1e-3) for b in self._base]  # (the cone's and the cap's divisor)
         self.scale = 1.0  # the common factor on the base targets
         self.ramp_scale = 1.0  # the factor the ramp settled on
         self.mu_hat = float(self.obj.mu)
         self.weight_n = float(self.obj.mass_kg) * GRAVITY_M_S2
         self.carried_n = 0.0
         self.carried_ticks = 0
-        self.slipping = np.zeros(len(self.names), dtype=bool)
+        # Per-finger state as lists (GraspController: a numpy call costs more than the loop here).
+        self.slipping = [False] * len(self.names)
         self.slip_events = 0
-        self._prev_ft: np.ndarray | None = None
-        self._prev_grip = np.zeros(len(self.names))
+        self._prev_ft: list[float] | None = None  # the filtered tangential forces and grips
+        self._prev_grip = [0.0] * len(self.names)
         self._held_ratio = 0.0  # the carried load over the summed grip, on the previous tick
-        self._pac_usual = np.full(len(self.names), np.inf)  # each fingertip's usual PAC spread (counts)
-        self._pac_ticks = np.zeros(len(self.names), dtype=np.int64)
+        self._pac_usual = [math.inf] * len(self.names)  # each fingertip's usual PAC spread (counts)
+        self._pac_ticks = [0] * len(self.names)
+        self._grasp_idx = [i for i, g in enumerate(self._grasping) if g]
+        self._carried_of: tuple[Snapshot | None, float] = (None, 0.0)  # (snapshot, _carried of it)
         self._load_start_z: float | None = None
         self._load_top: np.ndarray | None = None
         self.pause_ticks = 0
@@ -143,6 +147,8 @@ class GripLoadController(GraspController):
         for i, name in enumerate(self.names):
             self._joint_finger[self.kin.slices[name]] = i
         self._grasp_joints = self.grasp_mask[self._joint_finger]
+        self._grasp_joint_list = self._grasp_joints.tolist()
+        self._lag_bound_list = None if self.lag_bound_rad is None else self.lag_bound_rad.tolist()
 
     def _lag_bound(self) -> np.ndarray | None:
         """Per joint: ``windup_lag_factor`` times the goal-to-angle deflection at which the joint
@@ -165,7 +171,7 @@ class GripLoadController(GraspController):
         asking its pad for more: its goal ran a radian past the joint, and when the grasp shifted
         the joint swung toward it and the pad's force jumped past the safety limit."""
         bound = self.lag_bound_rad
-        if bound is None:
+        if bound is None or not self._wound_past(snap.q.tolist(), self.motion.q_goal.tolist()):
             return
         q = np.asarray(snap.q, dtype=float)
         goal = self.motion.q_goal
@@ -176,6 +182,15 @@ class GripLoadController(GraspController):
         m = self.motion
         goal[over] = np.clip(np.clip(goal[over], lo[over], hi[over]), m.lower[over], m.upper[over])  # limits last
         self.motion.rebase_fingers(sorted({int(i) for i in self._joint_finger[over]}))
+
+    def _wound_past(self, q: list[float], goal: list[float]) -> bool:
+        """Whether a grasping joint's goal lies outside ``lag_bound_rad`` of its angle (the
+        comparisons ``_bound_windup`` makes, on lists)."""
+        assert self._lag_bound_list is not None
+        for g, qj, b, grasping in zip(goal, q, self._lag_bound_list, self._grasp_joint_list):
+            if grasping and (g < qj - b or g > qj + b):
+                return True
+        return False
 
     def _preshape_standoff_m(self) -> float:
         """Guarded closing: the pads wait ``guarded_standoff_m`` off the nominal surface (an object
@@ -278,7 +293,6 @@ class GripLoadController(GraspController):
             if scale < self.scale:
                 self.scale = scale
                 self._targets = [b * self.scale for b in self._base]
-                self.grip_targets = np.asarray(self._targets)
 
     def _unwind(self, snap: Snapshot) -> None:
         """A grasping pad whose |f_sensor| passes ``unwind_fraction`` of the safety limit: its
@@ -290,12 +304,12 @@ class GripLoadController(GraspController):
         fraction = self.s.limits.unwind_fraction
         if fraction >= 1.0:
             return
-        f = np.asarray(snap.f_sensor, dtype=float)
         limit = fraction * self.hand.safety.max_fingertip_force_n
-        over = self.grasp_mask & (np.einsum("ij,ij->i", f, f) > limit * limit)
-        if over.any():
+        limit_sq = limit * limit
+        over = [i for i, sq in enumerate(self._force_sq(snap)) if self._grasping[i] and sq > limit_sq]
+        if over:
             q = np.asarray(snap.q, dtype=float)
-            self.motion.hold_at(q, [self.kin.slices[self.names[i]] for i in np.flatnonzero(over)])
+            self.motion.hold_at(q, [self.kin.slices[self.names[i]] for i in over])
 
     def _lost_floor(self) -> list[float]:
         """The tuned targets: a raised target must not turn a steady grip into a slip."""
@@ -330,7 +344,7 @@ class GripLoadController(GraspController):
         held = self._hold_sum / self._hold_n
         return near and carried < held - max(self.obj.release_threshold_n, 0.5 * held)
 
-    def _vibrating(self, snap: Snapshot, touching: np.ndarray) -> np.ndarray:
+    def _vibrating(self, snap: Snapshot, touching: list[bool]) -> list[bool]:
         """Fingertips whose PAC spread stayed ``slip_pac_counts`` above its usual level for
         ``slip_pac_ticks`` ticks: the skin vibrates as it slides (a BioTac's PAC, sampled at
         2.2 kHz, 22 samples a frame). The usual level is each fingertip's spread averaged over
@@ -338,40 +352,59 @@ class GripLoadController(GraspController):
         about a millimetre a second) raises it, and a slip that speeds up stands out."""
         spread = snap.pac_spread
         if spread is None:
-            return np.zeros(len(self.names), dtype=bool)
-        spread = np.asarray(spread, dtype=float)
-        usual = np.where(np.isfinite(self._pac_usual), self._pac_usual, spread)
-        loud = touching & (spread > usual + self.s.coordination.slip_pac_counts)
-        k = min(1.0, self.dt / max(self.s.coordination.slip_pac_window_s, self.dt))
-        self._pac_usual = np.where(touching, np.where(loud, usual, usual + k * (spread - usual)), np.inf)
-        self._pac_ticks = np.where(loud, self._pac_ticks + 1, 0)
-        return self._pac_ticks >= self.s.coordination.slip_pac_ticks
+            return [False] * len(self.names)
+        c = self.s.coordination
+        counts, ticks_needed = c.slip_pac_counts, c.slip_pac_ticks
+        k = min(1.0, self.dt / max(c.slip_pac_window_s, self.dt))
+        usual_now, ticks_now, vibrating = [], [], []
+        for usual, x, t, ticks in zip(
+            self._pac_usual, np.asarray(spread, dtype=float).tolist(), touching, self._pac_ticks
+        ):
+            if not math.isfinite(usual):
+                usual = x
+            loud = t and x > usual + counts
+            usual_now.append((usual if loud else usual + k * (x - usual)) if t else math.inf)
+            ticks = ticks + 1 if loud else 0
+            ticks_now.append(ticks)
+            vibrating.append(ticks >= ticks_needed)
+        self._pac_usual, self._pac_ticks = usual_now, ticks_now
+        return vibrating
 
     def _carried(self, snap: Snapshot) -> float:
         """The load the touching grasping fingertips carry together: the object's weight pulls them
         down (-z on the sensor), so it is minus the sum of their vertical forces."""
-        touching = np.asarray(snap.in_contact, dtype=bool) & self.grasp_mask
-        return float(-np.sum(np.asarray(snap.f_world, dtype=float)[touching, 2]))
+        seen, carried = self._carried_of
+        if seen is not snap:  # (read twice a tick: the release rule and the coordination)
+            z = [
+                row[2] for row, t, g in zip(snap.f_world.tolist(), snap.in_contact.tolist(), self._grasping) if t and g
+            ]
+            carried = -np_sum(z)
+            self._carried_of = (snap, carried)
+        return carried
 
     def _limit_to_safety(self, snap: Snapshot) -> None:
         """While ramping, a fingertip whose |f_sensor| passes ``grip_cap_fraction`` of the safety
         limit (the LEAP thumb on a box's rim carries as much shear as normal force) scales every
         target down in proportion, so the ramp settles below the over-force fault instead of
         running into it (down to ``min_grip_scale`` of the tuned targets)."""
-        f = np.asarray(snap.f_sensor, dtype=float)[self.grasp_mask]
-        peak = float(np.sqrt(np.max(np.sum(f * f, axis=1), initial=0.0)))
+        peak_sq = 0.0  # the largest |f|^2 of a grasping pad, squares summed as np.sum sums them; NaN sticks
+        for (x, y, z), grasping in zip(snap.f_sensor.tolist(), self._grasping):
+            if grasping:
+                sq = (x * x + y * y) + z * z
+                if sq > peak_sq or sq != sq:
+                    peak_sq = sq
+        peak = math.sqrt(peak_sq)
         if peak > self.grip_cap_n:
             self.scale = max(self.s.limits.min_grip_scale, self.scale * self.grip_cap_n / peak)
             self._targets = [b * self.scale for b in self._base]
-            self.grip_targets = np.asarray(self._targets)
 
     def _coordinate(self, snap: Snapshot) -> None:
         s, dt = self.s, self.dt
         c = s.coordination
-        f = np.asarray(snap.f_sensor, dtype=float)
-        f_t = np.hypot(f[:, 0], f[:, 1])
-        grip = np.asarray(snap.grip_n, dtype=float)
-        touching = np.asarray(snap.in_contact, dtype=bool) & self.grasp_mask
+        f = snap.f_sensor
+        f_t = np.hypot(f[:, 0], f[:, 1]).tolist()  # (libm's hypot: math.hypot rounds otherwise)
+        grip = snap.grip_n.tolist()
+        touching = [t and g for t, g in zip(snap.in_contact.tolist(), self._grasping)]
         self.carried_n = self._carried(snap)
         if self.state == "load":
             enough = self.carried_n >= s.load.load_weight_fraction * self.weight_n
@@ -382,35 +415,45 @@ class GripLoadController(GraspController):
         # (The sensor frame's own normal is not the contact's on the BioTac's curved skin: a
         # pad on a domed cap reads as much shear as normal force while it holds still.)
         mu = max(self.mu_hat, 1e-3)
-        load = -np.asarray(snap.f_world, dtype=float)[:, 2]
-        need = [
-            c.grip_margin * max(float(load[i]), 0.0) / (mu * max(self._base[i], 1e-3)) for i in np.flatnonzero(touching)
-        ]
-        wanted = max(need, default=1.0)
         # slip signals: the ratio near the cone, the grip falling, the tangential force jumping
         # (rates from first-order filtered forces: a learned estimate's tick-to-tick noise is no slip)
         k = min(1.0, dt / max(c.slip_filter_s, dt))
-        if self._prev_ft is None:
-            self._prev_ft, self._prev_grip = f_t.copy(), grip.copy()
-        ft_filtered = self._prev_ft + k * (f_t - self._prev_ft)
-        grip_filtered = self._prev_grip + k * (grip - self._prev_grip)
-        ft_rate = (ft_filtered - self._prev_ft) / dt
-        grip_rate = (grip_filtered - self._prev_grip) / dt
-        self._prev_ft, self._prev_grip = ft_filtered, grip_filtered
+        prev_ft, prev_grip = (f_t, grip) if self._prev_ft is None else (self._prev_ft, self._prev_grip)
         # (also while loading: a grip raised as the pads start to slide is what carried the
         # cleanser; without it 5 of 20 bench trials on the tuning seeds held, with it 13)
         vibrating = self._vibrating(snap, touching)
-        slipping = touching & (
-            (np.abs(load) > c.slip_cone_fraction * mu * np.maximum(grip, 0.0))
-            | (grip_rate < -c.slip_grip_rate_n_s)
-            | (np.abs(ft_rate) > c.slip_rate_n_s)
-            | vibrating
-        )
-        if slipping.any() and not self.slipping.any():
+        margin, cone = c.grip_margin, c.slip_cone_fraction * mu
+        falling, jumping = -c.slip_grip_rate_n_s, c.slip_rate_n_s
+        wanted: float | None = None  # max(need over the touching pads, default=1.0), as max() picks it
+        ft_filtered, grip_filtered, slipping = [], [], []
+        for t, row, floor, x, px, g, pg, v in zip(
+            touching, snap.f_world.tolist(), self._base_floor, f_t, prev_ft, grip, prev_grip, vibrating
+        ):
+            load = -row[2]
+            if t:
+                need = margin * max(load, 0.0) / (mu * floor)
+                if wanted is None or need > wanted:
+                    wanted = need
+            xf, gf = px + k * (x - px), pg + k * (g - pg)
+            ft_filtered.append(xf)
+            grip_filtered.append(gf)
+            slipping.append(
+                t
+                and (
+                    abs(load) > cone * max(g, 0.0)  # (max(NaN, 0.0) is NaN, as np.maximum's)
+                    or (gf - pg) / dt < falling
+                    or abs((xf - px) / dt) > jumping
+                    or v
+                )
+            )
+        if wanted is None:
+            wanted = 1.0
+        self._prev_ft, self._prev_grip = ft_filtered, grip_filtered
+        if any(slipping) and not any(self.slipping):
             self.slip_events += 1
             self.scale += c.slip_boost
-        total_grip = float(np.sum(np.where(touching, grip, 0.0)))
-        if vibrating.any() and self.state in ("lift", "hold") and c.slip_adapts_mu:
+        total_grip = np_sum([g if t else 0.0 for g, t in zip(grip, touching)])
+        if any(vibrating) and self.state in ("lift", "hold") and c.slip_adapts_mu:
             # The object slides in the grasp (the skin vibrates) while it hangs in it: the friction
             # is at most the load the grasp held over the grip it held it with (the sum: a single
             # pad's ratio on a domed cap is no friction). The cone rule then asks for the grip
@@ -421,11 +464,14 @@ class GripLoadController(GraspController):
         self.slipping = slipping
         self._held_ratio = max(self.carried_n, 0.0) / total_grip if total_grip > 0.1 else 0.0
         # the cap: the safety limit on |f| (with the tangential force) and a deformable's crush force
-        caps = []
-        for i in np.flatnonzero(self.grasp_mask):
-            room = self.grip_cap_n**2 - float(f_t[i]) ** 2
-            caps.append(math.sqrt(room) / max(self._base[i], 1e-3) if room > 0 else 1.0)
-        cap = min(caps, default=1.0)
+        cap: float | None = None  # min over the grasping pads, default 1.0, as min() picks it
+        for i in self._grasp_idx:
+            room = self.grip_cap_n**2 - f_t[i] ** 2
+            room_cap = math.sqrt(room) / self._base_floor[i] if room > 0 else 1.0
+            if cap is None or room_cap < cap:
+                cap = room_cap
+        if cap is None:
+            cap = 1.0
         # what the ramp settled on, unless the load asks for more; a slip's boost relaxes like the
         # load's need (kept through lift and hold, it left the heavy boxes' thumbs at the safety limit)
         wanted = max(wanted, self.ramp_scale)
@@ -435,7 +481,6 @@ class GripLoadController(GraspController):
             self.scale = max(wanted, self.scale - c.grip_relax_per_s * dt)
         self.scale = min(max(self.scale, s.limits.min_grip_scale), cap)
         self._targets = [b * self.scale for b in self._base]
-        self.grip_targets = np.asarray(self._targets)
 
     # ----- actions ----------------------------------------------------------------
     def _on_enter(self, *args: Any, **kwargs: Any) -> None:
@@ -461,7 +506,7 @@ class GripLoadController(GraspController):
         short = self.s.coordination.pause_when_short and any(
             g < t - 3.0 * tol for g, t, grasping in zip(grip, self._targets, self._grasping) if grasping
         )
-        if self.slipping.any() or short:
+        if any(self.slipping) or short:
             self.pause_ticks += 1
             return True
         return False

@@ -161,7 +161,6 @@ class GraspController:
         self.grip_targets = grip_targets(
             self.motion.task_vectors, self.grasp_mask, obj.tau_n, mode, obj.mass_kg, obj.mu, self.s.grip_weight_margin
         )
-        self._targets = self.grip_targets.tolist()
         if self.s.ramp_mode not in RAMP_MODES:
             raise ConfigError(
                 "controller settings", "ramp_mode", f"one of {', '.join(RAMP_MODES)} (got {self.s.ramp_mode!r})"
@@ -187,6 +186,7 @@ class GraspController:
         self.ramp_settle = RampSettle(self.s, self.dt)
         self.lost_count = [0] * len(self.names)  # ticks each fingertip has seemed to slip (finger order)
         self.snap: Snapshot | None = None
+        self._force_sq_of: tuple[Snapshot | None, list[float]] = (None, [])  # (snapshot, _force_sq of it)
         self.history: list[tuple[float, str, str]] = []  # (t, from, to)
 
         self.machine = build_machine(self, self._reason_setter, states=self.STATES, transitions=self.TRANSITIONS)
@@ -284,6 +284,16 @@ class GraspController:
             "fingers_open": f"{s.open_s:g} s opening",
             "retreat_done": f"palm {s.retreat_m * 1000:g} mm above the release point",
         }
+
+    @property
+    def grip_targets(self) -> np.ndarray:
+        """Each fingertip's grip target (N, finger order), as a new array; the tick reads the
+        list ``_targets``."""
+        return np.array(self._targets, dtype=float)
+
+    @grip_targets.setter
+    def grip_targets(self, targets: np.ndarray) -> None:
+        self._targets = np.asarray(targets, dtype=float).tolist()
 
     @property
     def terminal(self) -> bool:
@@ -413,11 +423,15 @@ class GraspController:
         support normal below -``release_threshold_n``."""
         return self.release_force_n(snap) < -self.obj.release_threshold_n
 
-    @staticmethod
-    def _force_sq(snap: Snapshot) -> list[float]:
-        # squared norms (no sqrt unless a limit is crossed), summed in the order
-        # np.einsum("ij,ij->i") sums them, which this code used before
-        return [((0.0 + x * x) + z * z) + y * y for x, y, z in snap.f_sensor.tolist()]
+    def _force_sq(self, snap: Snapshot) -> list[float]:
+        """Each fingertip's |f_sensor|^2 (no sqrt unless a limit is crossed), summed in the order
+        np.einsum("ij,ij->i") sums them; once per snapshot (the force checks and a controller's
+        own rules read it)."""
+        seen, force_sq = self._force_sq_of
+        if seen is not snap:
+            force_sq = [((0.0 + x * x) + z * z) + y * y for x, y, z in snap.f_sensor.tolist()]
+            self._force_sq_of = (snap, force_sq)
+        return force_sq
 
     def _force_checks(self, snap: Snapshot, limit: float) -> int:
         """``FORCE_NOT_FINITE`` or ``OVERFORCE`` (the largest |f_sensor| above ``limit``), or 0."""

@@ -188,7 +188,7 @@ class FingertipMotion:
         if not self.compliance.size:
             self.advance_all(distances)
             return
-        if self.ik.squeeze_targets(
+        if self.ik.squeeze_step(
             self.q_goal,
             q_measured,
             self.targets,
@@ -197,8 +197,9 @@ class FingertipMotion:
             self.compliance,
             self._pad_along,
             max_cross_m,
+            IK_DAMPING,
+            self.facing,
         ):
-            self.ik.step(self.q_goal, self.targets, distances != 0.0, IK_DAMPING, self.facing)
             self._posture = None
 
     def next_goal(self) -> np.ndarray:

@@ -24,12 +24,44 @@ contact cell toggles with sensor noise reads 1.8 and 2.1 N on and off at a true
 
 from __future__ import annotations
 
-from collections import deque
-
 import numpy as np
 
 from grasp_ctrl.controller.grip_load_settings import GripLoadSettings
 from grasp_ctrl.controller.paper_settings import PaperSettings
+
+
+class RecentRows:
+    """The last ``cap`` rows appended, oldest first, as one C-contiguous (n, k) view: what
+    ``np.array`` of a deque of them gives, without building it every tick. Each row is written
+    twice, at i and i + cap, so that any ``cap`` consecutive rows lie in one block."""
+
+    def __init__(self, cap: int) -> None:
+        self.cap = cap
+        self._buf: np.ndarray | None = None
+        self._next = 0  # where the next row goes (mod cap)
+        self._n = 0
+
+    def __len__(self) -> int:
+        return self._n
+
+    def clear(self) -> None:
+        self._next = self._n = 0
+
+    def append(self, row: np.ndarray) -> None:
+        buf = self._buf
+        if buf is None or buf.shape[1:] != np.shape(row):
+            buf = self._buf = np.empty((2 * self.cap, *np.shape(row)))
+            self._next = self._n = 0
+        i = self._next
+        buf[i] = buf[i + self.cap] = row
+        self._next = (i + 1) % self.cap
+        self._n = min(self._n + 1, self.cap)
+
+    def rows(self) -> np.ndarray:
+        """The rows, oldest first (a view: read it before the next ``append``)."""
+        assert self._buf is not None
+        start = (self._next - self._n) % self.cap
+        return self._buf[start : start + self._n]
 
 
 class RampSettle:
@@ -43,7 +75,7 @@ class RampSettle:
         self.within_ticks = 0
         self.steady_ticks = 0
         self._ref_err: np.ndarray | None = None  # errors when the steady window began
-        self._recent: deque[np.ndarray] = deque(maxlen=self.window)  # the last ``window`` raw errors
+        self._recent = RecentRows(self.window)  # the last ``window`` raw errors
 
     def reset(self) -> None:
         self.within_ticks = 0
@@ -55,8 +87,9 @@ class RampSettle:
         """The errors averaged over the filter window, after counting the within-tolerance rule;
         and whether they are in the balance band (mean within tolerance, each within the band)."""
         recent = self._recent
-        recent.append(np.array(err_now, dtype=float))
-        err = recent[0] if len(recent) == 1 else np.mean(recent, axis=0)
+        recent.append(np.asarray(err_now, dtype=float))
+        rows = recent.rows()
+        err = rows[0].copy() if len(rows) == 1 else np.mean(rows, axis=0)
         abs_err = np.abs(err)
         self.within_ticks = self.within_ticks + 1 if bool((abs_err <= self.s.ramp_tolerance_n).all()) else 0
         in_band = abs(float(err.mean())) <= self.s.ramp_tolerance_n and bool(
@@ -98,9 +131,9 @@ class TrendRampSettle(RampSettle):
         super().__init__(settings, dt)
         self._swing_n = settings.cycle.ramp_cycle_swing_n
         self._span = max(2, int(round(settings.ramp_steady_s / dt)))
-        self._history: deque[np.ndarray] = deque(maxlen=self._span)
+        self._history = RecentRows(self._span)
         self._cycle_span = int(round(settings.cycle.ramp_cycle_s / dt))
-        self._cycle: deque[np.ndarray] = deque(maxlen=max(1, self._cycle_span))
+        self._cycle = RecentRows(max(1, self._cycle_span))
         self.cycle_ticks = 0
 
     def reset(self) -> None:
@@ -118,7 +151,7 @@ class TrendRampSettle(RampSettle):
         self._cycle.append(err)
         if len(self._cycle) < self._cycle_span:
             return
-        window = np.array(self._cycle)
+        window = self._cycle.rows()
         half = len(window) // 2
         mean = window.mean(axis=0)
         s = self.s
@@ -141,7 +174,7 @@ class TrendRampSettle(RampSettle):
         if len(self._history) < self._span:
             self.steady_ticks = 0
             return
-        window = np.array(self._history)
+        window = self._history.rows()
         half = len(window) // 2
         drift = np.abs(window[half:].mean(axis=0) - window[:half].mean(axis=0))
         self.steady_ticks = self._span if bool((drift <= self.s.ramp_steady_n).all()) else 0

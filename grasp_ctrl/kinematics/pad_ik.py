@@ -32,6 +32,7 @@ from grasp_ctrl.kinematics.sensor_frame_kernels import sensor_forces_kernel, sen
 from grasp_ctrl.kinematics.stiffness_squeeze import (
     MAX_SQUEEZE_STRETCH,
     squeeze_directions_kernel,
+    squeeze_step_kernel,
     squeeze_targets_kernel,
 )
 from grasp_ctrl.numeric import jit
@@ -216,6 +217,48 @@ class PadIK:
         targets[moving] += (v * distances[:, None] + (u - v) * cross[:, None])[moving]
         pad_along[:] = along
         return bool(moving.any())
+
+    def squeeze_step(
+        self,
+        q_goal: np.ndarray,
+        q_measured: np.ndarray,
+        targets: np.ndarray,
+        task_vectors: np.ndarray,
+        distances: np.ndarray,
+        compliance: np.ndarray,
+        pad_along: np.ndarray,
+        max_cross: float,
+        damping: float,
+        facing: Facing | None = None,
+    ) -> bool:
+        """``squeeze_targets``, then, when a finger moved, ``step`` for the fingers with a
+        distance (``q_goal`` in place; compiled: one call); True when one moved."""
+        if not self.compiled:
+            moved = self.squeeze_targets(
+                q_goal, q_measured, targets, task_vectors, distances, compliance, pad_along, max_cross
+            )
+            if moved:
+                self.step(q_goal, targets, distances != 0.0, damping, facing)
+            return moved
+        facing = facing or self._no_facing
+        return bool(
+            squeeze_step_kernel(
+                q_goal,
+                np.ascontiguousarray(q_measured, dtype=float),
+                targets,
+                task_vectors,
+                np.ascontiguousarray(distances, dtype=float),
+                compliance,
+                pad_along,
+                float(max_cross),
+                self.geometry,
+                self.layout,
+                damping,
+                facing.normals_hand,
+                facing.fingers,
+                facing.damping,
+            )
+        )
 
     def step(
         self, q_all: np.ndarray, targets: np.ndarray, move: np.ndarray, damping: float, facing: Facing | None = None

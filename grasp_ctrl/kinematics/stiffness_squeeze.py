@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from grasp_ctrl.kinematics.chain_packing import _unpack
-from grasp_ctrl.kinematics.pad_ik_kernels import _frames_scratch, _pad_and_jacobian, _pad_points
+from grasp_ctrl.kinematics.pad_ik_kernels import _frames_scratch, _pad_and_jacobian, _pad_points, step_pads_kernel
 from grasp_ctrl.numeric.jit import njit
 
 #: A stiffness-aware squeeze direction may point at most this far off the closing vector
@@ -204,3 +204,45 @@ def squeeze_targets_kernel(
                 targets[f, r] = targets[f, r] + (v * d + (directions[f, r] - v) * cross)
         pad_along[f] = along
     return moved
+
+
+@njit
+def squeeze_step_kernel(
+    q_goal,
+    q_measured,
+    targets,
+    task_vectors,
+    distances,
+    compliance,
+    pad_along,
+    max_cross,
+    geometry,
+    layout,
+    damping,
+    normal_targets,
+    facing,
+    orient_damping,
+):
+    """``squeeze_targets_kernel``, then, when a finger moved, ``step_pads_kernel`` for the fingers
+    with a distance (``q_goal`` in place): the squeeze's two calls in one. True when one moved."""
+    F = distances.shape[0]
+    if not squeeze_targets_kernel(
+        q_goal,
+        q_measured,
+        targets,
+        task_vectors,
+        distances,
+        compliance,
+        pad_along,
+        max_cross,
+        geometry,
+        layout,
+        np.empty((F, 3)),
+        np.empty((F, 3)),
+    ):
+        return False
+    move = np.empty(F, dtype=np.bool_)
+    for f in range(F):
+        move[f] = distances[f] != 0.0
+    step_pads_kernel(q_goal, targets, move, geometry, layout, damping, normal_targets, facing, orient_damping)
+    return True

@@ -1,9 +1,10 @@
-"""Compiled per-tick bookkeeping of a trial (grasp_ctrl/numeric/jit.py): the tick log's row
-and the running force peaks of the record.
+"""Compiled per-tick bookkeeping of a trial (grasp_ctrl/numeric/jit.py): the tick log's row,
+the running force peaks of the record and the PAC spread the grip-load controller reads.
 
 Each replaces a dozen numpy calls on 3- to 176-element arrays, whose call overhead
-was most of their cost; the numbers are the same bit for bit (tests/loop/test_tick_kernels.py).
-Without numba the callers keep their numpy code.
+was most of their cost; the numbers are the same bit for bit (tests/loop/test_tick_kernels.py,
+tests/loop/test_tick_speed_parity.py). Without numba the peaks' and the log's callers keep their
+numpy code; ``row_spreads`` runs as Python.
 """
 
 from __future__ import annotations
@@ -179,3 +180,52 @@ def log_row(
     row[at] = object_z
     row[at + 1] = table_force
     return True
+
+
+#: numpy sums at most this many values with its 8 accumulators before it splits them in halves.
+PAIRWISE_BLOCK = 128
+
+
+@njit
+def _pairwise_sum(x: np.ndarray, start: int, n: int) -> float:
+    """``np.add.reduce`` of ``x[start:start + n]`` (n <= ``PAIRWISE_BLOCK``) in numpy's order:
+    fewer than 8 values one by one, else 8 accumulators over the multiples of 8, summed as
+    ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7)), then the rest one by one; from +0.0."""
+    if n < 8:
+        res = -0.0
+        for i in range(n):
+            res += x[start + i]
+        return 0.0 + res
+    r0, r1, r2, r3 = x[start], x[start + 1], x[start + 2], x[start + 3]
+    r4, r5, r6, r7 = x[start + 4], x[start + 5], x[start + 6], x[start + 7]
+    i = 8
+    while i < n - n % 8:
+        a = start + i
+        r0 += x[a]
+        r1 += x[a + 1]
+        r2 += x[a + 2]
+        r3 += x[a + 3]
+        r4 += x[a + 4]
+        r5 += x[a + 5]
+        r6 += x[a + 6]
+        r7 += x[a + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += x[start + i]
+        i += 1
+    return 0.0 + res
+
+
+@njit
+def row_spreads(raw: np.ndarray, start: int, n: int, out: np.ndarray) -> None:
+    """``out[i]`` = ``raw[i, start:start + n].std()`` as numpy computes it (n <= ``PAIRWISE_BLOCK``):
+    the mean (a pairwise sum over n), the squared deviations' pairwise sum over n, its root."""
+    dev = np.empty(n)
+    for i in range(raw.shape[0]):
+        row = raw[i]
+        mean = _pairwise_sum(row, start, n) / n
+        for k in range(n):
+            d = row[start + k] - mean
+            dev[k] = d * d
+        out[i] = math.sqrt(_pairwise_sum(dev, 0, n) / n)

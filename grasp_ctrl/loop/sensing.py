@@ -93,11 +93,12 @@ class SensingPipeline:
         collecting_tare: bool,
         fault: str | None = None,
         fault_detail: str | None = None,
+        pac_spread: np.ndarray | None = None,
     ) -> Snapshot:
         """Non-finite or malformed inputs and outputs become the snapshot's fault
         (``sensor_invalid``, ``estimate_invalid``; the first one found is kept) and are
         replaced by finite values (zero force, the last good joint angles) so the safe
-        action stays finite."""
+        action stays finite. ``pac_spread``: the snapshot's (``Snapshot.pac_spread``)."""
         n = len(self.names)
         q = np.asarray(joints.q, dtype=float)
         p_palm_world = np.asarray(p_palm_world, dtype=float)
@@ -135,7 +136,9 @@ class SensingPipeline:
                 gated = tared, in_contact, bits, touching
         if gated is None:  # the long way, which also names what is wrong
             q, p_palm_world, fault, fault_detail = self._checked_pose(q, p_palm_world, fault, fault_detail)
-        return self._snapshot(raw, q, p_palm_world, joints.t, gated, collecting_tare, fault, fault_detail)
+        return self._snapshot(
+            raw, q, p_palm_world, joints.t, gated, collecting_tare, fault, fault_detail, pac_spread=pac_spread
+        )
 
     def _snapshot(
         self,
@@ -148,6 +151,7 @@ class SensingPipeline:
         fault: str | None,
         fault_detail: str | None,
         estimated: np.ndarray | None = None,
+        pac_spread: np.ndarray | None = None,
     ) -> Snapshot:
         """``snapshot``'s second half; ``estimated``: the forces of the fingertips in contact
         (gated) already estimated and placed (``_estimate_and_turn``)."""
@@ -216,7 +220,19 @@ class SensingPipeline:
         f_world = f_hand  # the arm translates the hand: hand axes = world axes
         # positional (Snapshot's field order): a third of the keyword call's cost, every tick
         return Snapshot(
-            t, q, p_palm_world, tare_ready, in_contact, f_sensor, f_hand, f_world, grip, variance, fault, fault_detail
+            t,
+            q,
+            p_palm_world,
+            tare_ready,
+            in_contact,
+            f_sensor,
+            f_hand,
+            f_world,
+            grip,
+            variance,
+            fault,
+            fault_detail,
+            pac_spread,
         )
 
     def estimate_contacts(

@@ -14,6 +14,7 @@ from grasp_ctrl.controller.machine import GraspController
 from grasp_ctrl.controller.snapshot import Command, Snapshot
 from grasp_ctrl.errors import FrameError, HardwareError
 from grasp_ctrl.hardware.base import ArmBackend, HandBackend, SensorBackend
+from grasp_ctrl.loop.loop_kernels import PAIRWISE_BLOCK, row_spreads
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.numeric.finite import both_finite
 
@@ -42,25 +43,23 @@ def control_tick(
     except FrameError as exc:
         if fault is None:
             fault, detail = "sensor_invalid", str(exc)
-    snap = pipeline.snapshot(raw, hand.read(), arm.position(), ctrl.state == "tare", fault, detail)
-    if ctrl.reads_vibration and raw is not None:
-        snap = snap._replace(pac_spread=pac_spread(raw))
+    spread = pac_spread(raw) if ctrl.reads_vibration and raw is not None else None
+    snap = pipeline.snapshot(raw, hand.read(), arm.position(), ctrl.state == "tare", fault, detail, spread)
     cmd = send_command(hand, arm, ctrl, snap, ctrl.tick(snap))
     return snap, cmd, raw
 
 
+_PAC_START, _N_PAC = PAC.start, PAC.stop - PAC.start
+assert _N_PAC <= PAIRWISE_BLOCK  # (row_spreads sums in numpy's order up to there)
+
+
 def pac_spread(raw: np.ndarray) -> np.ndarray:
     """(n_tips, 44) raw frames -> (n_tips,) standard deviation of each frame's 22 PAC samples (counts):
-    ``std(axis=1)``'s own ufunc calls, in its order (the same bits), without its per-call checks."""
-    pac = np.asarray(raw, dtype=float)[:, PAC]
-    n = pac.shape[1]
-    mean = np.add.reduce(pac, axis=1, keepdims=True)
-    np.true_divide(mean, n, out=mean)
-    deviation = np.subtract(pac, mean)
-    np.square(deviation, out=deviation)
-    spread = np.add.reduce(deviation, axis=1)
-    np.true_divide(spread, n, out=spread)
-    return np.sqrt(spread, out=spread)
+    ``std(axis=1)``'s values, bit for bit, in one compiled pass (``row_spreads``)."""
+    frames = np.ascontiguousarray(raw, dtype=float)
+    out = np.empty(frames.shape[0])
+    row_spreads(frames, _PAC_START, _N_PAC, out)
+    return out
 
 
 def send_command(hand: HandBackend, arm: ArmBackend, ctrl: GraspController, snap: Snapshot, cmd: Command) -> Command:

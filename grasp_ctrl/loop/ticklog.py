@@ -109,6 +109,9 @@ class CurrentTap:
         self.current_a = state.current_a
         return state
 
+    def check_health(self) -> None:  # (every tick: not through __getattr__)
+        self.hand.check_health()
+
     def take(self) -> np.ndarray | None:
         """The currents read since the last ``take`` (None when the tick read none)."""
         current, self.current_a = self.current_a, None

@@ -85,6 +85,13 @@ def limit_goal(
 
 
 @njit
+def offset_clamp(q: np.ndarray, offset: np.ndarray, lower: np.ndarray, upper: np.ndarray, out: np.ndarray) -> None:
+    """``out`` = ``np.clip(q + offset, lower, upper)`` per joint (``clamp``: np.clip's values)."""
+    for j in range(q.shape[0]):
+        out[j] = clamp(q[j] + offset[j], lower[j], upper[j])
+
+
+@njit
 def clipped_equals(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:
     """Whether ``q`` clamped to [lower, upper] (``clamp``, np.clip's values) equals both ``a``
     and ``b`` element by element, as ``np.array_equal`` compares (==: NaN never equal,

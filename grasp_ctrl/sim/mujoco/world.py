@@ -31,6 +31,7 @@ from grasp_ctrl.config.actuation import torque_limits_nm
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.numeric.gravity import GRAVITY_M_S2
+from grasp_ctrl.numeric.limits import offset_clamp
 from grasp_ctrl.sim.biotac.model import BioTacParams, BioTacSensorModel
 from grasp_ctrl.sim.mujoco.scene import PlacedObject, SceneParams, build_scene, with_servo_facts
 from grasp_ctrl.sim.mujoco.tick_kernel import (
@@ -94,6 +95,13 @@ def _mujoco():
     return mujoco
 
 
+def _selector(index: np.ndarray) -> slice | np.ndarray:
+    """``index`` as a slice when its addresses run in one block (a view, not a copy, to read)."""
+    if index.size and np.array_equal(index, np.arange(index[0], index[0] + index.size)):
+        return slice(int(index[0]), int(index[0]) + index.size)
+    return index
+
+
 class MuJoCoWorld:
     def __init__(self, hand: HandConfig, obj: ObjectProfile, seed: int, params: MuJoCoParams | None = None) -> None:
         mujoco = _mujoco()
@@ -149,6 +157,10 @@ class MuJoCoWorld:
         self._no_actuation = int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
         self._actuation_off = bool(m.opt.disableflags & self._no_actuation)  # as step last set it
         self._ctrl = d.ctrl
+        self._qpos = d.qpos
+        self._actuator_force = d.actuator_force
+        # the hand's joints in those arrays (one block each in the scenes build_scene makes)
+        self._q_sel, self._v_sel, self._a_sel = _selector(self._qadr), _selector(self._vadr), _selector(self._act)
         self._mocap_pos = d.mocap_pos[self._mocap]
         self._qvel = d.qvel
         self._site_xmat = d.site_xmat
@@ -159,6 +171,7 @@ class MuJoCoWorld:
         self._subtree_com = d.subtree_com
         self._body_rootid = m.body_rootid
         self._obj_xpos = d.xpos[self._obj_body]
+        self._palm_xpos = d.xpos[self._hand_body]
         self._obj_xmat = d.xmat[self._obj_body]
         # mj_tick_frames's geom kinds and ids (sim/mujoco/tick_kernel.py)
         self._geom_kind = np.where(self._object_geom, GEOM_OBJECT, self._tip_geom_of)
@@ -284,7 +297,11 @@ class MuJoCoWorld:
         """A goal in the servos' calibrated angles (what a hand backend writes): each joint is
         driven to goal + its offset, within its limits."""
         q = np.array(q_measured_goal, dtype=float)
-        self._q_goal = np.clip(q + self.joint_offset_rad, self.lower, self.upper)
+        if q.shape != self.lower.shape:
+            raise ValueError(f"a goal per joint ({self.lower.size}), got shape {q.shape}")
+        goal = np.empty(q.shape[0])
+        offset_clamp(q, self.joint_offset_rad, self.lower, self.upper, goal)
+        self._q_goal = goal
         self._q_goal_cmd = q
 
     @property
@@ -295,21 +312,21 @@ class MuJoCoWorld:
     @property
     def q(self) -> np.ndarray:
         """The joints' true angles (ground truth; the backends read ``q_measured``)."""
-        return self.data.qpos[self._qadr].copy()
+        return self._qpos[self._q_sel].copy()
 
     @property
     def q_measured(self) -> np.ndarray:
         """What the servos report: the true angles less each joint's calibration offset."""
-        return self.data.qpos[self._qadr] - self.joint_offset_rad
+        return self._qpos[self._q_sel] - self.joint_offset_rad
 
     @property
     def dq(self) -> np.ndarray:
-        return self.data.qvel[self._vadr].copy()
+        return self._qvel[self._v_sel].copy()
 
     @property
     def joint_torque_nm(self) -> np.ndarray:
         """The actuators' torques (what the servos' current measures)."""
-        return self.data.actuator_force[self._act].copy()
+        return self._actuator_force[self._a_sel].copy()
 
     @property
     def joint_current_a(self) -> np.ndarray:
@@ -317,11 +334,11 @@ class MuJoCoWorld:
         on a hand whose joints report no current (a torque-controlled hand)."""
         if self.torque_per_amp_nm is None:
             return np.full(len(self._act), np.nan)
-        return self.joint_torque_nm / self.torque_per_amp_nm
+        return self._actuator_force[self._a_sel] / self.torque_per_amp_nm  # (a new array)
 
     @property
     def palm_world(self) -> np.ndarray:
-        return self.data.xpos[self._hand_body].copy()
+        return self._palm_xpos.copy()
 
     @property
     def palm_target(self) -> np.ndarray:
@@ -386,7 +403,7 @@ class MuJoCoWorld:
                 opt.disableflags &= ~self._no_actuation
             else:
                 opt.disableflags |= self._no_actuation
-        self._ctrl[self._act] = self._q_goal
+        self._ctrl[self._a_sel] = self._q_goal
         # The substeps, the wrist's mocap moved toward the palm target before each (mocap_step;
         # MuJoCo's step leaves the mocap where it is): the moving substeps one call each, the
         # rest, with the mocap at its target, in one call (nstep), so that little Python runs
