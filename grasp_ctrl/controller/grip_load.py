@@ -419,8 +419,8 @@ class GripLoadController(GraspController):
         # (rates from first-order filtered forces: a learned estimate's tick-to-tick noise is no slip)
         k = min(1.0, dt / max(c.slip_filter_s, dt))
         prev_ft, prev_grip = (f_t, grip) if self._prev_ft is None else (self._prev_ft, self._prev_grip)
-        # (also while loading: a grip raised as the pads start to slide is what carried the
-        # cleanser; without it 5 of 20 bench trials on the tuning seeds held, with it 13)
+        # (also while loading: a grip raised as the pads start to slide carries a heavy box whose
+        # shear builds as it leaves the table: docs/controller.md)
         vibrating = self._vibrating(snap, touching)
         margin, cone = c.grip_margin, c.slip_cone_fraction * mu
         falling, jumping = -c.slip_grip_rate_n_s, c.slip_rate_n_s
