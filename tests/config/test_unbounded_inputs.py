@@ -182,7 +182,7 @@ def test_a_json_file_over_the_size_limit_is_not_read(tmp_path):
 
 
 def test_a_nested_summary_json_does_not_stop_score(tmp_path, capsys, monkeypatch):
-    from test_hardening_resume_writes import _stub_trials
+    from tests.trials.test_run_fingerprint_and_outputs import _stub_trials
 
     _stub_trials(monkeypatch)
     run_dir = tmp_path / "run"
@@ -381,7 +381,7 @@ def test_sweep_values_are_checked_before_the_list_is_built(spec):
     ],
 )
 def test_a_400_digit_number_in_run_json_is_one_line_on_resume(tmp_path, capsys, monkeypatch, key, value):
-    from test_hardening_resume_writes import _stub_trials
+    from tests.trials.test_run_fingerprint_and_outputs import _stub_trials
 
     _stub_trials(monkeypatch)
     run_dir = tmp_path / "run"
