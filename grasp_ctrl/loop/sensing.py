@@ -101,6 +101,8 @@ class SensingPipeline:
         action stays finite. ``pac_spread``: the snapshot's (``Snapshot.pac_spread``)."""
         n = len(self.names)
         q = np.asarray(joints.q, dtype=float)
+        if not q.flags.writeable:  # a hand's shared state (the CAN hand's): the kernels take one
+            q = q.copy()  # array type whatever the backend, so none loads a second variant mid-trial
         p_palm_world = np.asarray(p_palm_world, dtype=float)
         tactile = self.tactile
         gated = None

@@ -2,7 +2,7 @@
 
 ``build_trial`` makes the world of the backend the registry names (rigs/registry.py), its hand
 and sensor backends and its arm (the wrist target: sim/world_backends.py), connects them, and
-adds the sensing pipeline and the controller. The trial runner (trials/episode/runner.py), the fork server's warm-up (trials/runs/worker_preload.py) and the
+adds the sensing pipeline and the controller. The trial runner (trials/episode/runner.py), the warm-up (trials/episode/warm_up.py) and the
 benchmark figures (bench/) all build their trials here and step them with ``SimTrial.step``:
 the world one control period on, then one control tick at the world's time.
 """

@@ -26,7 +26,7 @@ import numpy as np
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.paper_settings import PaperSettings
-from grasp_ctrl.controller.registry import make_controller
+from grasp_ctrl.controller.registry import default_settings, make_controller
 from grasp_ctrl.errors import UsageError, interrupt_detail
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
@@ -45,6 +45,7 @@ from grasp_ctrl.trials.episode.runner import (
     trial_settings,
     with_record,
 )
+from grasp_ctrl.trials.episode.warm_up import warm_kernels_once
 
 RigOpener = Callable[[HandConfig], HardwareRig]
 _sleep = time.sleep  # the tick pacing; tests replace it to inject an operator's Ctrl-C
@@ -162,6 +163,9 @@ def hardware_trial_fn(
     estimators = {p: load_policy(p, hand, threads) for p in policies}
     kin = HandKinematics(hand)
     opener = open_rig_fn or (lambda h: open_rig(h, port, sensor_port))
+    if policies:  # a kernel's first load must not stall the first trial's loop on the hand
+        first = estimators[policies[0]]
+        warm_kernels_once(hand, settings or default_settings(), lambda world: first)
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
         rig = opener(hand)

@@ -43,6 +43,7 @@ from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
 from grasp_ctrl.sim.variation import Variation
 from grasp_ctrl.sim.world_api import World
 from grasp_ctrl.trials.episode.outcome import judge
+from grasp_ctrl.trials.episode.warm_up import warm_kernels_once
 
 MAX_TRIAL_S = 60.0
 SETTLE_S = 0.5
@@ -364,6 +365,8 @@ def sim_trial_fn(
     factories = {p: estimator_factory(p, hand, threads) for p in policies}
     kin = HandKinematics(hand)
     make_world, make_backends = trial_factories(backend, make_world, make_backends, realtime)
+    if realtime:  # a kernel's first load must not stall the first trial's wall-clock loop
+        warm_kernels_once(hand, settings or default_settings(), factories[policies[0]] if policies else None)
     params = backend_entry(backend).world_params(variation)
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
