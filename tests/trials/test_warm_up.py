@@ -23,7 +23,7 @@ def test_a_wall_clock_run_warms_the_kernels_with_its_own_hand_controller_and_pol
     assert calls == []  # simulated time: nothing stalls
     runner.sim_trial_fn(hand, [DEFAULT_POLICY], None, backend="mock", realtime=True)
     (args,) = calls
-    assert args[0] is hand and args[1] == default_settings() and callable(args[2])
+    assert args == (hand, default_settings(), DEFAULT_POLICY)
 
 
 def test_the_warm_up_trial_reaches_the_lift_with_the_runs_policy():

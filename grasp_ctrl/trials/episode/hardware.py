@@ -164,8 +164,7 @@ def hardware_trial_fn(
     kin = HandKinematics(hand)
     opener = open_rig_fn or (lambda h: open_rig(h, port, sensor_port))
     if policies:  # a kernel's first load must not stall the first trial's loop on the hand
-        first = estimators[policies[0]]
-        warm_kernels_once(hand, settings or default_settings(), lambda world: first)
+        warm_kernels_once(hand, settings or default_settings(), policies[0])
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
         rig = opener(hand)

@@ -366,7 +366,7 @@ def sim_trial_fn(
     kin = HandKinematics(hand)
     make_world, make_backends = trial_factories(backend, make_world, make_backends, realtime)
     if realtime:  # a kernel's first load must not stall the first trial's wall-clock loop
-        warm_kernels_once(hand, settings or default_settings(), factories[policies[0]] if policies else None)
+        warm_kernels_once(hand, settings or default_settings(), policies[0] if policies else None)
     params = backend_entry(backend).world_params(variation)
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:

@@ -49,12 +49,12 @@ def warm_kernels(hand: HandConfig | None = None, settings: PaperSettings | None 
     are what a wall-clock trial needs loaded."""
     import numpy as np
 
-    from grasp_ctrl.config import load_hand, load_objects
+    from grasp_ctrl.config import load_objects
     from grasp_ctrl.config.sensor_layout import FRAME_LEN
     from grasp_ctrl.controller.machine import raised_reach_posture
     from grasp_ctrl.controller.motion import FingertipMotion
     from grasp_ctrl.controller.registry import settings_for
-    from grasp_ctrl.files.paths import default_hand_file, default_objects_file
+    from grasp_ctrl.files.paths import default_objects_file
     from grasp_ctrl.loop.ticklog import TickLog
     from grasp_ctrl.numeric.finite import all_finite
     from grasp_ctrl.numeric.limits import limit_goal
@@ -62,7 +62,7 @@ def warm_kernels(hand: HandConfig | None = None, settings: PaperSettings | None 
     from grasp_ctrl.rigs.trial_builder import build_trial
     from grasp_ctrl.tactile.tare import scatter_rows, tare_and_gate
 
-    hand = hand or load_hand(default_hand_file())
+    hand = hand or _default_hand()
     objects = load_objects(default_objects_file(), hand.name)
     obj = next(iter(objects.values()))
     for capped in objects.values():  # the reach postures of capped objects: a scipy fit each, kept per hand
@@ -112,14 +112,25 @@ def warm_kernels(hand: HandConfig | None = None, settings: PaperSettings | None 
 
 @functools.cache
 def warm_kernels_once(
-    hand: HandConfig | None = None,
-    settings: PaperSettings | None = None,
-    make_estimator=None,  # noqa: ANN001
+    hand: HandConfig | None = None, settings: PaperSettings | None = None, policy: str | None = None
 ) -> bool:
-    """``warm_kernels`` once per process and arguments; False (nothing raised) when it could not
-    run (a missing default object file, say): the kernels then load on their first call."""
+    """``warm_kernels`` once per process for each hand, settings and policy spec (the policy
+    loaded here for its own mock trial); False (nothing raised) when it could not run (a missing
+    default object file, say): the kernels then load on their first call."""
     try:
+        make_estimator = None
+        if policy is not None:
+            from grasp_ctrl.trials.episode.runner import estimator_factory
+
+            make_estimator = estimator_factory(policy, hand or _default_hand(), 1)
         warm_kernels(hand, settings, make_estimator)
     except Exception:
         return False
     return True
+
+
+def _default_hand() -> HandConfig:
+    from grasp_ctrl.config import load_hand
+    from grasp_ctrl.files.paths import default_hand_file
+
+    return load_hand(default_hand_file())
