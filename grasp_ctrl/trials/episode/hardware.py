@@ -27,7 +27,7 @@ from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.objects import ObjectProfile
 from grasp_ctrl.controller.paper_settings import PaperSettings
 from grasp_ctrl.controller.registry import default_settings, make_controller
-from grasp_ctrl.errors import UsageError, interrupt_detail
+from grasp_ctrl.errors import UsageError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
@@ -40,6 +40,7 @@ from grasp_ctrl.trials.episode.runner import (
     MAX_TRIAL_S,
     SETTLE_S,
     controller_view,
+    first_interrupt,
     interrupted_record,
     state_timings,
     trial_settings,
@@ -113,13 +114,8 @@ def run_hardware_trial(
                 else:
                     overruns += 1
                     next_tick = rig.clock.now()  # do not try to catch up with a burst
-            except KeyboardInterrupt as exc:
-                # Operator abort: let the state machine take the safe action, then stop.
-                if interrupted is not None:
-                    raise
-                interrupted = exc
-                if not ctrl.terminal:
-                    ctrl.fail(reason="aborted", detail=interrupt_detail(exc))
+            except KeyboardInterrupt as exc:  # operator abort: the safe action, then stop
+                interrupted = first_interrupt(ctrl, exc, interrupted)
     finally:
         if log:
             log.close()

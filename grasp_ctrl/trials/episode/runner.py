@@ -57,6 +57,19 @@ def with_record(exc: BaseException, record: dict[str, Any]) -> BaseException:
     return exc
 
 
+def first_interrupt(
+    ctrl: GraspController, exc: KeyboardInterrupt, interrupted: KeyboardInterrupt | None
+) -> KeyboardInterrupt:
+    """The interrupt (Ctrl-C or SIGTERM) that ends a trial: the first fails the controller as
+    ``aborted``, naming it, so its safe action ticks on through the settle; a second, while it
+    does, is raised at once."""
+    if interrupted is not None:
+        raise exc
+    if not ctrl.terminal:
+        ctrl.fail(reason="aborted", detail=interrupt_detail(exc))
+    return exc
+
+
 def interrupted_record(exc: BaseException) -> dict[str, Any] | None:
     """The record an interrupt carries (``with_record``), if any."""
     record = getattr(exc, _RECORD_ATTR, None)
@@ -237,11 +250,7 @@ def run_sim_trial(
                     if settle_ticks <= 0:
                         break
             except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: the safe action, then stop
-                if interrupted is not None:
-                    raise
-                interrupted = exc
-                if not ctrl.terminal:
-                    ctrl.fail(reason="aborted", detail=interrupt_detail(exc))
+                interrupted = first_interrupt(ctrl, exc, interrupted)
             except Exception:
                 if interrupted is None:
                     raise
