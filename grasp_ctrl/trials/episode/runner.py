@@ -32,16 +32,15 @@ from grasp_ctrl.controller.paper_settings import PaperSettings
 from grasp_ctrl.controller.registry import default_settings, flat_settings
 from grasp_ctrl.emulators.wall_clock import TimedHand, TrialClock, WallClockHand, WallClockLink, WallClockLoop
 from grasp_ctrl.errors import UsageError, interrupt_detail
-from grasp_ctrl.estimators.registry import load_policy
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.loop.ticklog import CurrentTap, TickLog
 from grasp_ctrl.rigs.registry import DEFAULT_BACKEND, BackendFactory, WorldFactory
 from grasp_ctrl.rigs.registry import backend as backend_entry
 from grasp_ctrl.rigs.trial_builder import EstimatorFactory, build_trial, trial_factories
 from grasp_ctrl.sim.mock.world import WorldParams
-from grasp_ctrl.sim.oracle import OracleEstimator, is_oracle, parse_oracle
 from grasp_ctrl.sim.variation import Variation
 from grasp_ctrl.sim.world_api import World
+from grasp_ctrl.trials.episode.estimators import estimator_factory
 from grasp_ctrl.trials.episode.outcome import judge
 from grasp_ctrl.trials.episode.warm_up import warm_kernels_once
 
@@ -118,15 +117,6 @@ def trial_seed(seed: int, obj_name: str, trial: int) -> int:
 # The hand and sensor backends of a trial on a world: the mock's own, or the real
 # backends on emulators (emulators/world_rig.py, ``run --backend dynamixel --emulate``).
 # The world of a trial: the mock world, or MuJoCo's (``run --backend mujoco``, sim/mujoco/world.py).
-
-
-def estimator_factory(spec: str, hand: HandConfig, threads: int = 1) -> EstimatorFactory:
-    """Oracles read each trial's world; other policies are loaded once and shared."""
-    if is_oracle(spec):
-        scale = parse_oracle(spec)
-        return lambda world: OracleEstimator(world, scale, name=spec)
-    est = load_policy(spec, hand, threads)
-    return lambda world: est
 
 
 def state_timings(transitions: Sequence[tuple[float, str, str]], end_t: float) -> dict[str, Any]:

@@ -120,7 +120,7 @@ def warm_kernels_once(
     try:
         make_estimator = None
         if policy is not None:
-            from grasp_ctrl.trials.episode.runner import estimator_factory
+            from grasp_ctrl.trials.episode.estimators import estimator_factory
 
             make_estimator = estimator_factory(policy, hand or _default_hand(), 1)
         warm_kernels(hand, settings, make_estimator)
