@@ -68,26 +68,38 @@ class Monitor:
 
     # ---------------------------------------------------------------- phases
 
-    def take_tare(self, timeout_s: float) -> None:
-        """Average ``tare_frames`` frames per fingertip (keep the fingertips free of contact)."""
+    def take_tare(self, timeout_s: float, silent_s: float = 1.0) -> None:
+        """Average ``tare_frames`` frames per fingertip (keep the fingertips free of contact).
+
+        Fails when, once the stream has begun, a fingertip sends nothing for ``silent_s`` (a
+        stale sensor) or when the window is not full after ``timeout_s`` (a slow or silent link)."""
         need = self.hand.tactile.tare_frames
         per_tip: dict[int, list[np.ndarray]] = {t.sensor_id: [] for t in self.tips}
         deadline = time.monotonic() + timeout_s
+        last_frame: dict[int, float] = {}  # empty until the first frame of any fingertip
         while any(len(v) < need for v in per_tip.values()):
             if self.stop.is_set():
                 return
+            now = time.monotonic()
             for f in self._drain():
+                if not last_frame:
+                    last_frame = {t.sensor_id: now for t in self.tips}
                 per_tip[f.sensor_id].append(np.asarray(f.values, dtype=float))
-            if time.monotonic() > deadline:
+                last_frame[f.sensor_id] = now
+            silent = [
+                t
+                for t in self.tips
+                if last_frame and len(per_tip[t.sensor_id]) < need and now - last_frame[t.sensor_id] > silent_s
+            ]
+            if silent or now > deadline:
                 short = ", ".join(
                     f"{t.name} ({len(per_tip[t.sensor_id])}/{need})"
-                    for t in self.tips
+                    for t in (silent or self.tips)
                     if len(per_tip[t.sensor_id]) < need
                 )
+                why = f"no frame for {silent_s:g} s" if silent else f"too few tactile frames within {timeout_s:g} s"
                 down = self.sensors.disconnect_message()
-                raise SensorStaleError(
-                    f"taring: too few tactile frames within {timeout_s:g} s: {short}" + (f"; {down}" if down else "")
-                )
+                raise SensorStaleError(f"taring: {why}: {short}" + (f"; {down}" if down else ""))
             self.stop.wait(0.005)
         window = np.stack([np.stack(per_tip[t.sensor_id][-need:]) for t in self.tips], axis=1)
         self.pipeline.set_baseline(window)

@@ -373,10 +373,17 @@ marks = {}
 
 def report():  # registered first: runs last, after the hand's own exit hook
     time.sleep(0.05)
-    after = [(t, p) for t, (f, p) in zip(emu.torque_times, emu.torque_log) if t >= marks["exit"]]
+    # per finger, in the order received (frames sent before the hook ran may arrive after the mark)
+    after = [(t, f, p) for t, (f, p) in zip(emu.torque_times, emu.torque_log) if t >= marks["exit"]]
+    zero_ms, late = [], 0
+    for finger in sorted({f for _, f, _ in after}):
+        mine = [(t, p) for t, f, p in after if f == finger]
+        first = next((i for i, (_, p) in enumerate(mine) if not any(p)), None)
+        zero_ms.append(None if first is None else 1e3 * (mine[first][0] - marks["exit"]))
+        late += sum(1 for _, p in mine[first or 0:] if any(p))
     print(json.dumps({"pd": marks["pd"], "system_on": emu.system_on, "period_ms": list(emu.period_ms),
-                      "first_zero_ms": next((1e3 * (t - marks["exit"]) for t, p in after if not any(p)), None),
-                      "nonzero_after": sum(1 for _, p in after if any(p))}), flush=True)
+                      "first_zero_ms": None if None in zero_ms or not zero_ms else max(zero_ms),
+                      "nonzero_after_zero": late}), flush=True)
 
 atexit.register(report)
 h = AllegroCANHand(hand, link=SocketLink(b, "host"), connect_timeout_s=5.0)
@@ -401,7 +408,7 @@ def test_exit_without_close_ends_in_zero_torque_and_reaps_the_pd_process(tmp_pat
     report = json.loads(out.stdout.strip().splitlines()[-1])
     assert not report["system_on"] and report["period_ms"] == [0, 0, 0]
     assert report["first_zero_ms"] is not None and report["first_zero_ms"] <= 1e3 * CONTROL_PERIOD_S, report
-    assert report["nonzero_after"] == 0
+    assert report["nonzero_after_zero"] == 0  # once zero torque, only zero torque
     assert _gone(report["pd"])
 
 
