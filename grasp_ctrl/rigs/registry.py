@@ -138,7 +138,7 @@ def _mock_arm() -> ArmFactory:
 
 
 def _mock_params(v: Variation) -> Any:
-    from grasp_ctrl.sim.mock.world import WorldParams
+    from grasp_ctrl.sim.world_params import WorldParams
 
     return WorldParams(variation=v)
 

@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -46,32 +45,15 @@ from grasp_ctrl.numeric import jit
 from grasp_ctrl.numeric.gravity import GRAVITY_M_S2
 from grasp_ctrl.numeric.jit import njit
 from grasp_ctrl.numeric.limits import clamp, clamp_palm_height, limit_goal
-from grasp_ctrl.sim.biotac.model import BioTacParams, BioTacSensorModel
+from grasp_ctrl.sim.biotac.model import BioTacSensorModel
 from grasp_ctrl.sim.mock import world_step as ws
 from grasp_ctrl.sim.mock.shapes import shape_params
-from grasp_ctrl.sim.variation import NOMINAL, Variation, draw_object, draw_record
+from grasp_ctrl.sim.variation import draw_object, draw_record
+from grasp_ctrl.sim.world_params import WorldParams
 from grasp_ctrl.sim.world_parts import NOISE_BLOCK, WorldEvent, checked_palm_target, in_place_view
 
 NEAR_M = 0.01  # fingertips further than this from the object cannot touch it this step
 _FLOAT64 = np.dtype(np.float64)
-
-
-@dataclass(frozen=True)
-class WorldParams:
-    servo_time_constant_s: float = 0.03
-    servo_stiffness_nm_per_rad: float = 10.0
-    servo_max_speed_rad_s: float = 6.0
-    torque_per_amp_nm: float | None = None  # None: the hand file's servo model's (0.517 for the XC330-M288-T)
-    tangential_stiffness_n_per_m: float = 400.0
-    # The placement, mass, friction and stiffness draws' half-widths (sim/variation.py); the
-    # mock world has no yaw (its objects stay axis-aligned) and no joint offsets.
-    variation: Variation = NOMINAL
-    start_clearance_m: float = 0.05  # palm starts this far above the reach pose
-    # Contact on the skin point facing the object (cap or pad), as on a real fingertip
-    # and in MuJoCo; False puts it at the pad centre whatever the tilt (a simpler model
-    # whose force can leave the friction cone of the skin there: docs/mock_world.md).
-    skin_contact: bool = True
-    biotac: BioTacParams = field(default_factory=BioTacParams)
 
 
 @functools.lru_cache(maxsize=8)

@@ -37,9 +37,9 @@ from grasp_ctrl.loop.ticklog import CurrentTap, TickLog
 from grasp_ctrl.rigs.registry import DEFAULT_BACKEND, BackendFactory, WorldFactory
 from grasp_ctrl.rigs.registry import backend as backend_entry
 from grasp_ctrl.rigs.trial_builder import EstimatorFactory, build_trial, trial_factories
-from grasp_ctrl.sim.mock.world import WorldParams
 from grasp_ctrl.sim.variation import Variation
 from grasp_ctrl.sim.world_api import World
+from grasp_ctrl.sim.world_params import WorldParams
 from grasp_ctrl.trials.episode.estimators import estimator_factory
 from grasp_ctrl.trials.episode.outcome import judge
 from grasp_ctrl.trials.episode.warm_up import warm_kernels_once
