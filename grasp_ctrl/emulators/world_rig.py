@@ -34,14 +34,12 @@ from grasp_ctrl.config.sensor_layout import COUNT_MAX
 from grasp_ctrl.emulators.tactile_bridge import TactileBridgeEmulator
 from grasp_ctrl.emulators.wall_clock import TrialClock
 from grasp_ctrl.emulators.world_hand import EmulatedDynamixelHand, WorldClock
-from grasp_ctrl.hardware.base import Clock, TactileFrame
+from grasp_ctrl.hardware.base import FIRST_FRAMES_TIMEOUT_S, Clock, TactileFrame
 from grasp_ctrl.sim.world_api import World
 from grasp_ctrl.tactile_link.serial_sensors import SerialSensors
 
 # How long (real time) a tick waits for the reader thread to decode the frames it sent.
 FRAME_WAIT_S = 0.5
-# Realtime: how long the start waits for the streaming bridge's first frames (a busy host).
-FIRST_FRAMES_S = 2.0
 
 
 class EmulatedTactileSensors:
@@ -91,7 +89,7 @@ class EmulatedTactileSensors:
         self.serial.start()
         if self.realtime:
             self.bridge.start()
-            self.serial.wait_for_frames(FIRST_FRAMES_S, min_frames=1)
+            self.serial.wait_for_frames(FIRST_FRAMES_TIMEOUT_S, min_frames=1)
         else:
             self.send()
 

@@ -12,6 +12,10 @@ from typing import NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
+#: How long a start-up waits for every fingertip's first frames before naming the silent ones
+#: (generous: a loaded host delays them; a sensor that is really silent is still named).
+FIRST_FRAMES_TIMEOUT_S = 5.0
+
 
 class JointState(NamedTuple):  # immutable, and cheap to make every tick
     q: np.ndarray  # rad

@@ -30,6 +30,7 @@ from grasp_ctrl.controller.registry import default_settings, make_controller
 from grasp_ctrl.errors import UsageError
 from grasp_ctrl.estimators.base import ForceEstimator
 from grasp_ctrl.estimators.registry import load_policy
+from grasp_ctrl.hardware.base import FIRST_FRAMES_TIMEOUT_S
 from grasp_ctrl.kinematics.chain import HandKinematics
 from grasp_ctrl.loop.sensing import SensingPipeline
 from grasp_ctrl.loop.tick import control_tick
@@ -50,7 +51,6 @@ from grasp_ctrl.trials.episode.warm_up import warm_kernels_once
 
 RigOpener = Callable[[HandConfig], HardwareRig]
 _sleep = time.sleep  # the tick pacing; tests replace it to inject an operator's Ctrl-C
-SENSOR_WAIT_S = 2.0
 
 
 def reach_pose_world(hand: HandConfig, obj: ObjectProfile) -> np.ndarray:
@@ -80,7 +80,7 @@ def run_hardware_trial(
     hand_io = CurrentTap(rig.hand)  # keeps the currents of the tick's one read, for the log
     wait = getattr(rig.sensors, "wait_for_frames", None)
     if wait is not None:
-        wait(SENSOR_WAIT_S, min_frames=1)
+        wait(FIRST_FRAMES_TIMEOUT_S, min_frames=1)
     dt = hand.dt
     t0 = rig.clock.now()
     next_tick = t0

@@ -30,9 +30,9 @@ import numpy as np
 from grasp_ctrl.config.hand import HandConfig
 from grasp_ctrl.config.sensor_layout import PDC
 from grasp_ctrl.errors import FrameError, GraspCtrlError, HardwareError
+from grasp_ctrl.hardware.base import FIRST_FRAMES_TIMEOUT_S
 from grasp_ctrl.tactile.frames import validate_frames
 
-FRAME_TIMEOUT_S = 2.0
 # The share of a control tick the servo bus may take; the rest is sensing, estimator, controller.
 BUS_SHARE = 0.5
 SYSFS_USB_SERIAL = "/sys/bus/usb-serial/devices"
@@ -141,7 +141,7 @@ def check_servos(dxl: Any) -> list[str]:
 
 
 def check_fingertips(
-    sensors: Any, hand: HandConfig, next_sample: Callable[[], None], timeout_s: float = FRAME_TIMEOUT_S
+    sensors: Any, hand: HandConfig, next_sample: Callable[[], None], timeout_s: float = FIRST_FRAMES_TIMEOUT_S
 ) -> list[str]:
     """Frames from every fingertip (``wait_for_frames`` names a silent one), then one tare
     window of ``tactile.tare_frames`` samples (``next_sample`` waits for the next)."""
