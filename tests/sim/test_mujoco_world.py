@@ -116,3 +116,41 @@ def test_release_relaxes_in_place_and_does_not_drag_the_mustard_bottle_up(hand, 
     assert r.success, r.reason
     assert max(tip_z) - tip_z[0] < 0.005  # (before: 11 mm)
     assert max(obj_z) < obj_z[0] + 0.0005  # the bottle never rises (before: 2.3 mm, off the table)
+
+
+def test_the_contacts_kernel_sees_one_array_layout_whatever_the_contact_count(hand, objects, monkeypatch):
+    """MuJoCo's view of two or more contacts is strided, of fewer it is contiguous; numba compiles a
+    kernel per layout, which stalled a wall-clock dry run's release by 4 s on a cold cache. The world
+    hands the kernel contiguous arrays."""
+    from grasp_ctrl.sim.mujoco import world as mujoco_world
+
+    kernel = mujoco_world.mj_tick_frames
+    seen = []
+
+    def spy(geom, efc_address, frame, pos, *rest):
+        seen.append((len(geom), all(a.flags.c_contiguous for a in (geom, efc_address, frame, pos))))
+        return kernel(geom, efc_address, frame, pos, *rest)
+
+    monkeypatch.setattr(mujoco_world, "mj_tick_frames", spy)
+    world = MuJoCoWorld(hand, objects["lego"], 0)
+    for _ in range(3):
+        world.step()
+    assert max(n for n, _ in seen) >= 2  # the object rests on the table: a strided view in MuJoCo
+    assert all(contiguous for _, contiguous in seen)
+
+
+def test_a_wall_clock_run_steps_a_throwaway_world_before_its_first_trial(hand):
+    from grasp_ctrl.trials.episode.warm_up import warm_world
+
+    stepped, closed = [], []
+
+    class World:
+        def step(self):
+            stepped.append(1)
+
+        def close(self):
+            closed.append(1)
+
+    assert warm_world(lambda *args: World(), hand)
+    assert len(stepped) == 3 and closed == [1]
+    assert not warm_world(lambda *args: 1 / 0, hand)  # a world that cannot be built: False, nothing raised

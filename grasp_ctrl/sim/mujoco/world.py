@@ -435,11 +435,14 @@ class MuJoCoWorld:
         con = d.contact
         sensors = self.sensors
         noisy_base = sensors.advance(self.dt)
+        # Contiguous: MuJoCo's view of two or more contacts is strided, of fewer it is not, and
+        # numba compiles a kernel per layout; one layout, so no trial meets a second compile.
+        asc = np.ascontiguousarray
         frames = mj_tick_frames(
-            con.geom,
-            con.efc_address,
-            con.frame,
-            con.pos,
+            asc(con.geom),
+            asc(con.efc_address),
+            asc(con.frame),
+            asc(con.pos),
             d.efc_force,
             self._geom_kind,
             self._ids,

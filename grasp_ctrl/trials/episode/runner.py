@@ -42,7 +42,7 @@ from grasp_ctrl.sim.world_api import World
 from grasp_ctrl.sim.world_params import WorldParams
 from grasp_ctrl.trials.episode.estimators import estimator_factory
 from grasp_ctrl.trials.episode.outcome import judge
-from grasp_ctrl.trials.episode.warm_up import warm_kernels_once
+from grasp_ctrl.trials.episode.warm_up import warm_kernels_once, warm_world
 
 MAX_TRIAL_S = 60.0
 SETTLE_S = 0.5
@@ -364,9 +364,10 @@ def sim_trial_fn(
     factories = {p: estimator_factory(p, hand, threads) for p in policies}
     kin = HandKinematics(hand)
     make_world, make_backends = trial_factories(backend, make_world, make_backends, realtime)
+    params = backend_entry(backend).world_params(variation)
     if realtime:  # a kernel's first load must not stall the first trial's wall-clock loop
         warm_kernels_once(hand, settings or default_settings(), policies[0] if policies else None)
-    params = backend_entry(backend).world_params(variation)
+        warm_world(make_world, hand, params)
 
     def run(policy: str, obj: ObjectProfile, trial: int, seed: int, log_path: Path | None) -> dict[str, Any]:
         return run_sim_trial(

@@ -7,7 +7,8 @@ fork server of ``run --jobs N`` (trials/runs/worker_preload.py) and the wall-clo
 (before their first trial) touch them here: the first control ticks of a mock trial on the
 default hand, with a stand-in policy and a tick log that is never written, and the kernels those
 ticks do not reach; and the reach postures of the default objects with a cap are fitted. No
-policy is loaded, so no inference session or thread is shared by forked workers.
+policy is loaded, so no inference session or thread is shared by forked workers. A wall-clock
+dry run also steps a throwaway copy of its simulated world (``warm_world``).
 """
 
 from __future__ import annotations
@@ -108,6 +109,26 @@ def warm_kernels(hand: HandConfig | None = None, settings: PaperSettings | None 
         np.empty(n, dtype=bool),
     )
     scatter_rows(np.zeros((1, 3)), 1, np.zeros((n, 3)))  # some fingertips in contact
+
+
+def warm_world(make_world, hand: HandConfig, params: object = None, steps: int = 3) -> bool:  # noqa: ANN001
+    """A few steps of a throwaway world from ``make_world`` (the first default object), so that
+    the simulated world's own kernels (MuJoCo's contacts to BioTac frames, say) are loaded before
+    a wall-clock trial's first tick steps the real one; False (nothing raised) when it could not."""
+    try:
+        from grasp_ctrl.config import load_objects
+        from grasp_ctrl.files.paths import default_objects_file
+
+        obj = next(iter(load_objects(default_objects_file(), hand.name).values()))
+        world = make_world(hand, obj, 0, params)
+        try:
+            for _ in range(steps):
+                world.step()
+        finally:
+            world.close()
+    except Exception:
+        return False
+    return True
 
 
 @functools.cache
