@@ -145,6 +145,8 @@ def test_a_wall_clock_run_steps_a_throwaway_world_before_its_first_trial(hand):
     stepped, closed = [], []
 
     class World:
+        palm_target = np.zeros(3)
+
         def step(self):
             stepped.append(1)
 

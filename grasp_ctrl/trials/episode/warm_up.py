@@ -112,9 +112,10 @@ def warm_kernels(hand: HandConfig | None = None, settings: PaperSettings | None 
 
 
 def warm_world(make_world, hand: HandConfig, params: object = None, steps: int = 3) -> bool:  # noqa: ANN001
-    """A few steps of a throwaway world from ``make_world`` (the first default object), so that
-    the simulated world's own kernels (MuJoCo's contacts to BioTac frames, say) are loaded before
-    a wall-clock trial's first tick steps the real one; False (nothing raised) when it could not."""
+    """An arm command and a few steps of a throwaway world from ``make_world`` (the first default
+    object), so that the simulated world's own kernels (MuJoCo's contacts to BioTac frames, the
+    wrist target's check) are loaded before a wall-clock trial's first tick steps the real one;
+    False (nothing raised) when it could not."""
     try:
         from grasp_ctrl.config import load_objects
         from grasp_ctrl.files.paths import default_objects_file
@@ -122,6 +123,7 @@ def warm_world(make_world, hand: HandConfig, params: object = None, steps: int =
         obj = next(iter(load_objects(default_objects_file(), hand.name).values()))
         world = make_world(hand, obj, 0, params)
         try:
+            world.palm_target = world.palm_target.copy()  # the arm's command, as the first tick's
             for _ in range(steps):
                 world.step()
         finally:
