@@ -42,8 +42,8 @@ from grasp_ctrl.hardware.allegro.pd_loop import (
     PDLoop,
     health_frames,
     position_period_ms,
+    send_stop_frames,
     start_frames,
-    stop_frames,
 )
 from grasp_ctrl.hardware.allegro.pd_process import PDProcess, PDSpec
 from grasp_ctrl.hardware.allegro.protocol import JointMap
@@ -317,11 +317,7 @@ class AllegroCANHand:
             loop.stop()
         if self.connected and link is not None:
             if not isinstance(loop, PDProcess):  # (the PD process sent them, or it did at its stop)
-                for frame in stop_frames(self.map):
-                    try:
-                        link.send(frame)
-                    except HardwareError:
-                        pass  # a bus that is down carries nothing more
+                send_stop_frames(link, self.map)
             try:
                 link.close()
             except Exception:

@@ -73,6 +73,15 @@ def stop_frames(joints: JointMap) -> list[CanFrame]:
     return [*joints.zero_torque_frames(), pr.system_off(dev), pr.set_period(0, 0, 0, dev)]
 
 
+def send_stop_frames(link: CanLink, joints: JointMap) -> None:
+    """``stop_frames`` on ``link``, each tried: a bus that is down carries nothing more."""
+    for frame in stop_frames(joints):
+        try:
+            link.send(frame)
+        except HardwareError:
+            pass
+
+
 def health_frames(device_id: int) -> list[CanFrame]:
     """The hand information (status bits) and the four temperatures asked for."""
     frames = [pr.request(pr.RTR_HAND_INFO, device_id)]

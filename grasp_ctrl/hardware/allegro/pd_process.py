@@ -67,8 +67,8 @@ from grasp_ctrl.hardware.allegro.pd_loop import (
     health_frames,
     loop_stats,
     period_figures,
+    send_stop_frames,
     start_frames,
-    stop_frames,
 )
 from grasp_ctrl.hardware.allegro.protocol import JointMap
 
@@ -301,11 +301,7 @@ class _ChildLoop(PDLoop):
 
     def finish(self) -> None:
         """The last frames (zero torque, system off, reports stopped), each tried."""
-        for frame in stop_frames(self.joints):
-            try:
-                self.link.send(frame)
-            except HardwareError:
-                pass  # a bus that is down carries nothing more
+        send_stop_frames(self.link, self.joints)
         self.block["done"] = 1.0
 
 
@@ -460,11 +456,7 @@ class PDProcess:
                 link, opened = open_link(self.spec.bus, self.spec.channel), True
             if link is None:
                 return
-            for frame in stop_frames(self.joints):
-                try:
-                    link.send(frame)
-                except HardwareError:
-                    pass
+            send_stop_frames(link, self.joints)
         except HardwareError:
             pass
         finally:
