@@ -50,6 +50,17 @@ def sigint_as_at_a_terminal() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
+@pytest.fixture
+def sigint_raises():
+    """Ctrl-C raises KeyboardInterrupt in this test (a shell without job control may start the
+    tests with SIGINT ignored)."""
+    import signal
+
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, old)
+
+
 def copy_policy(tmp_path: Path, edit, name: str = "icra19_official") -> Path:
     """A copy of the shipped policy ``name`` in ``tmp_path`` (model and metadata), its
     metadata changed by ``edit(meta)``; returns the copy's JSON path."""

@@ -23,13 +23,13 @@ import re
 import signal
 import subprocess
 import sys
-import threading
 import time
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
+from allegro_torques import CONTROL_PERIOD_S, control_loop_until_signal, zero_torque_after
 
 from grasp_ctrl.config.hand import load_hand
 from grasp_ctrl.errors import HardwareError
@@ -43,7 +43,6 @@ from grasp_ctrl.hardware.allegro import AllegroCANHand  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 ALLEGRO = ROOT / "hand_configs" / "allegro_hand.toml"
-CONTROL_PERIOD_S = 0.010
 _channels = itertools.count()
 
 
@@ -76,26 +75,6 @@ class SendLog:
                 finger, pwm = pr.decode_torque(f)
                 out.append((t, finger, pwm))
         return out
-
-
-def zero_torque_after(link: SendLog, t_fault: float) -> float:
-    """When (perf_counter) every finger had been sent zero torque after ``t_fault``; asserts that
-    no non-zero torque frame was sent from then on."""
-    torques = [x for x in link.torques() if x[0] >= t_fault]
-    zeroed: set[int] = set()
-    t_safe = None
-    for t, finger, pwm in torques:
-        if t_safe is None:
-            if pwm == (0, 0, 0, 0):
-                zeroed.add(finger)
-                if len(zeroed) == pr.N_FINGERS:
-                    t_safe = t
-            else:
-                zeroed.discard(finger)
-        else:
-            assert pwm == (0, 0, 0, 0), f"finger {finger} sent {pwm} {1e3 * (t - t_safe):.1f} ms after the safe state"
-    assert t_safe is not None, "no zero torque on every finger after the fault"
-    return t_safe
 
 
 def _rig(hand, **kw):
@@ -158,7 +137,7 @@ def test_a_link_fault_reaches_zero_torque_within_one_control_period(allegro, fau
             time.sleep(0.002)
         assert trips, "no fault latched"
         time.sleep(0.02)  # (the loop's next periods)
-        t_safe = zero_torque_after(link, trips[0])
+        t_safe = zero_torque_after(link.torques(), trips[0])
         assert t_safe - trips[0] <= CONTROL_PERIOD_S, f"zero torque {1e3 * (t_safe - trips[0]):.1f} ms after the fault"
         with pytest.raises(HardwareError, match=match) as exc:
             h.check_health()
@@ -166,52 +145,20 @@ def test_a_link_fault_reaches_zero_torque_within_one_control_period(allegro, fau
         time.sleep(0.02)  # goals written after the fault still give zero torque only
         h.write_goals(q0 + 0.05)
         time.sleep(0.01)
-        zero_torque_after(link, trips[0])
+        zero_torque_after(link.torques(), trips[0])
     finally:
         h.close()
     assert _wait(lambda: not emu.system_on and not emu.pwm.any())
-    zero_torque_after(link, trips[0])
+    zero_torque_after(link.torques(), trips[0])
     emu.close()
 
 
 # ---- Ctrl-C and SIGTERM in the control loop's thread --------------------------------------------------
-def _control_loop_until_signal(h, q0, sig: signal.Signals) -> float:
-    """A 100 Hz control loop in ``with h``; another thread sends ``sig`` to this process. Returns
-    when it was sent (perf_counter); the loop's exception goes to the caller."""
-    sent: list[float] = []
-
-    def send() -> None:
-        time.sleep(0.15)
-        sent.append(time.perf_counter())
-        os.kill(os.getpid(), sig)
-
-    expected = KeyboardInterrupt if sig == signal.SIGINT else SystemExit
-    with pytest.raises(expected):
-        with h:
-            threading.Thread(target=send, daemon=True).start()
-            while True:
-                h.read()
-                h.check_health()
-                h.write_goals(q0 + 0.04)
-                time.sleep(CONTROL_PERIOD_S)
-    assert sent
-    return sent[0]
-
-
-@pytest.fixture
-def sigint_raises():
-    """Ctrl-C raises KeyboardInterrupt here (a shell without job control may start the tests with
-    SIGINT ignored)."""
-    old = signal.signal(signal.SIGINT, signal.default_int_handler)
-    yield
-    signal.signal(signal.SIGINT, old)
-
-
 def test_ctrl_c_reaches_zero_torque_within_one_control_period(allegro, sigint_raises):
     hand = replace(allegro, safety=replace(allegro.safety, on_fault="torque_off"))
     h, emu, link, q0 = _rig(hand)
-    t_sig = _control_loop_until_signal(h, q0, signal.SIGINT)
-    t_safe = zero_torque_after(link, t_sig)
+    t_sig = control_loop_until_signal(h, q0, signal.SIGINT)
+    t_safe = zero_torque_after(link.torques(), t_sig)
     assert t_safe - t_sig <= CONTROL_PERIOD_S, f"zero torque {1e3 * (t_safe - t_sig):.1f} ms after Ctrl-C"
     assert _wait(lambda: not emu.system_on and not emu.pwm.any() and emu.period_ms == (0, 0, 0))
     assert link.sent[-2][1].command == pr.CMD_SYSTEM_OFF  # then the reports stopped
@@ -237,7 +184,7 @@ def test_sigterm_opens_the_hand_then_ends_in_zero_torque(allegro):
         h.loop.set_goal = noted
 
     h.connect = connect
-    t_sig = _control_loop_until_signal(h, q0, signal.SIGTERM)
+    t_sig = control_loop_until_signal(h, q0, signal.SIGTERM)
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # the hook is gone with the hand
     # the open ramp's first goal within one control period of the signal, each a step toward open
     regular = np.clip(q0 + 0.04, h.lower, h.upper)  # (the loop's own goal, until the signal lands)
@@ -250,7 +197,7 @@ def test_sigterm_opens_the_hand_then_ends_in_zero_torque(allegro):
     assert all(b <= a + 1e-12 for a, b in zip(dist, dist[1:]))
     assert not after[-1][2]  # then torque off
     t_off = after[-1][0]
-    zero_torque_after(link, t_off)
+    zero_torque_after(link.torques(), t_off)
     assert _wait(lambda: not emu.system_on and not emu.pwm.any())
     emu.close()
 

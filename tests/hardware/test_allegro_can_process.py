@@ -19,13 +19,13 @@ import os
 import signal
 import subprocess
 import sys
-import threading
 import time
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
+from allegro_torques import CONTROL_PERIOD_S, control_loop_until_signal, zero_torque_after
 
 from grasp_ctrl.config.hand import load_hand
 from grasp_ctrl.errors import HardwareError
@@ -40,7 +40,6 @@ from grasp_ctrl.hardware.allegro.pd_process import HEARTBEAT_S, HEARTBEAT_STALE_
 
 ROOT = Path(__file__).resolve().parents[2]
 ALLEGRO = ROOT / "hand_configs" / "allegro_hand.toml"
-CONTROL_PERIOD_S = 0.010
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="child processes, /proc (Linux)")
 
 
@@ -88,25 +87,6 @@ class Hand:
 
     def close(self) -> None:
         self.emu.close()
-
-
-def zero_torque_after(torques, t_fault: float) -> float:
-    """When every finger had received zero torque after ``t_fault``; asserts that no other
-    torque arrived from then on."""
-    zeroed: set[int] = set()
-    t_safe = None
-    for t, finger, pwm in (x for x in torques if x[0] >= t_fault):
-        if t_safe is None:
-            if pwm == (0, 0, 0, 0):
-                zeroed.add(finger)
-                if len(zeroed) == 4:
-                    t_safe = t
-            else:
-                zeroed.discard(finger)
-        else:
-            assert pwm == (0, 0, 0, 0), f"finger {finger} got {pwm} {1e3 * (t - t_safe):.1f} ms after the safe state"
-    assert t_safe is not None, "no zero torque on every finger after the fault"
-    return t_safe
 
 
 def _wait(cond, timeout_s=2.0) -> bool:
@@ -214,34 +194,10 @@ def test_the_pd_process_killed_is_a_fault_and_the_last_frames_come_from_here(all
 
 
 # ---- Ctrl-C and SIGTERM in the control loop ---------------------------------------------------------
-@pytest.fixture
-def sigint_raises():
-    old = signal.signal(signal.SIGINT, signal.default_int_handler)
-    yield
-    signal.signal(signal.SIGINT, old)
-
-
 def _control_loop_until_signal(h, q0, sig) -> float:
-    """A 100 Hz control loop in ``with h``; another thread sends ``sig`` to this process and to
-    the PD process (as a terminal does to the whole group; the PD process ignores it)."""
-    sent: list[float] = []
-
-    def send() -> None:
-        time.sleep(0.15)
-        sent.append(time.monotonic())
-        os.kill(h.loop.child.proc.pid, sig)
-        os.kill(os.getpid(), sig)
-
-    expected = KeyboardInterrupt if sig == signal.SIGINT else SystemExit
-    with pytest.raises(expected):
-        with h:
-            threading.Thread(target=send, daemon=True).start()
-            while True:
-                h.read()
-                h.check_health()
-                h.write_goals(q0 + 0.04)
-                time.sleep(CONTROL_PERIOD_S)
-    return sent[0]
+    """``control_loop_until_signal``, the signal also to the PD process (as a terminal sends it to
+    the whole group; the PD process ignores it); when it was sent on ``time.monotonic``."""
+    return control_loop_until_signal(h, q0, sig, time.monotonic, lambda: os.kill(h.loop.child.proc.pid, sig))
 
 
 def test_ctrl_c_reaches_zero_torque_within_one_control_period(allegro, sigint_raises):
