@@ -3,9 +3,33 @@ command started in a new session, and every process of that session."""
 
 from __future__ import annotations
 
+import os
 import signal
+import subprocess
+import sys
 from dataclasses import dataclass
 from pathlib import Path
+
+from conftest import sigint_as_at_a_terminal
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def start_command(args: list[str], folder: Path, cwd: Path = ROOT) -> subprocess.Popen:
+    """``python launch.py ARGS`` in a new session (its own process group, SIGINT as at a terminal,
+    no stdin), its output in ``folder``/stdout.txt and stderr.txt."""
+    folder.mkdir(parents=True, exist_ok=True)
+    with open(folder / "stdout.txt", "w") as stdout, open(folder / "stderr.txt", "w") as stderr:
+        return subprocess.Popen(
+            [sys.executable, str(ROOT / "launch.py"), *args],
+            cwd=cwd,
+            env=dict(os.environ, PYTHONPATH=str(ROOT)),
+            start_new_session=True,
+            preexec_fn=sigint_as_at_a_terminal,
+            stdin=subprocess.DEVNULL,
+            stdout=stdout,
+            stderr=stderr,
+        )
 
 
 @dataclass

@@ -13,18 +13,14 @@ from __future__ import annotations
 import importlib.util
 import os
 import signal
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
-from conftest import sigint_as_at_a_terminal
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from proc_session import Proc, handlers_installed, session
+from proc_session import Proc, handlers_installed, session, start_command
 
-ROOT = Path(__file__).resolve().parents[2]
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
 
 GRACE_S = 0.2  # after the command's exit: nothing of it may be alive past this
@@ -54,19 +50,8 @@ class Command:
     """``python launch.py ARGS`` in a new session, its output in files under ``folder``."""
 
     def __init__(self, args: list[str], folder: Path) -> None:
-        folder.mkdir(parents=True, exist_ok=True)
         self.out, self.err = folder / "stdout.txt", folder / "stderr.txt"
-        with open(self.out, "w") as out, open(self.err, "w") as err:
-            self.proc = subprocess.Popen(
-                [sys.executable, str(ROOT / "launch.py"), *args],
-                cwd=folder,
-                env=dict(os.environ, PYTHONPATH=str(ROOT)),
-                start_new_session=True,
-                preexec_fn=sigint_as_at_a_terminal,
-                stdin=subprocess.DEVNULL,
-                stdout=out,
-                stderr=err,
-            )
+        self.proc = start_command(args, folder, cwd=folder)
         self.pid = self.proc.pid
 
     def wait_until(self, ready, what: str, timeout: float = START_TIMEOUT_S) -> None:  # noqa: ANN001

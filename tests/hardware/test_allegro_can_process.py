@@ -372,25 +372,13 @@ def test_exit_without_close_ends_in_zero_torque_and_reaps_the_pd_process(tmp_pat
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_an_interrupted_realtime_run_records_the_interrupt_and_leaves_no_process(tmp_path, sig):
     pytest.importorskip("mujoco")
-    from conftest import sigint_as_at_a_terminal
-    from proc_session import handlers_installed, session
+    from proc_session import handlers_installed, session, start_command
 
     out = tmp_path / "run"
-    args = [sys.executable, str(ROOT / "launch.py"), "run", "--hand", str(ALLEGRO), "--backend", "allegro_can"]
+    args = ["run", "--hand", str(ALLEGRO), "--backend", "allegro_can"]
     args += ["--emulate", "--realtime", "--objects", "lego", "--trials", "1"]
     args += ["--policy", "oracle", "--yes", "--quiet", "--out", str(out)]
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    with open(tmp_path / "stdout.txt", "w") as stdout, open(tmp_path / "stderr.txt", "w") as stderr:
-        proc = subprocess.Popen(
-            args,
-            cwd=ROOT,
-            env=env,
-            start_new_session=True,
-            preexec_fn=sigint_as_at_a_terminal,
-            stdin=subprocess.DEVNULL,
-            stdout=stdout,
-            stderr=stderr,
-        )
+    proc = start_command(args, tmp_path)
     try:
         t0 = time.monotonic()
         # the trial runs once the pre-flight has said its line

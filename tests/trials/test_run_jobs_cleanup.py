@@ -13,34 +13,19 @@ import contextlib
 import os
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
-from conftest import sigint_as_at_a_terminal
-from proc_session import handlers_installed, session
+from proc_session import handlers_installed, session, start_command
 
-ROOT = Path(__file__).resolve().parents[2]
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
 
 
 def _start(out: Path, trials: int = 4) -> subprocess.Popen:
     """The command, its output in files beside ``out``."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    out.parent.mkdir(parents=True, exist_ok=True)
     args = ["run", "--backend", "mock", "--objects", "chips_can,lego,cleanser", "--trials", str(trials)]
-    with open(out.parent / "stdout.txt", "w") as stdout, open(out.parent / "stderr.txt", "w") as stderr:
-        return subprocess.Popen(
-            [sys.executable, str(ROOT / "launch.py"), *args, "--jobs", "2", "--out", str(out), "--quiet"],
-            cwd=ROOT,
-            env=env,
-            start_new_session=True,
-            preexec_fn=sigint_as_at_a_terminal,
-            stdin=subprocess.DEVNULL,
-            stdout=stdout,
-            stderr=stderr,
-        )
+    return start_command([*args, "--jobs", "2", "--out", str(out), "--quiet"], out.parent)
 
 
 def _stderr(out: Path) -> str:
