@@ -141,10 +141,7 @@ class AllegroCANEmulatorProcess:
         b.release_fd()
         self._sock.close()
         try:
-            end = time.monotonic() + STARTUP_S
-            while not b["ready"] and self.child.alive and time.monotonic() < end:
-                time.sleep(0.002)
-            if not b["ready"]:
+            if not self.child.wait_ready(b, STARTUP_S):
                 raise HardwareError("the emulated Allegro's process did not start")
         except BaseException:
             self.close()

@@ -148,6 +148,14 @@ class Child:
     def returncode(self) -> int | None:
         return self.proc.poll()
 
+    def wait_ready(self, block: SharedBlock, timeout_s: float) -> float:
+        """Wait while ``block["ready"]`` is 0, the child lives and ``timeout_s`` has not passed;
+        the flag's value then (the child sets it: 1 ready, -1 failed)."""
+        end = time.monotonic() + timeout_s
+        while block["ready"] == 0.0 and self.alive and time.monotonic() < end:
+            time.sleep(0.002)
+        return block["ready"]
+
     def stop(self, timeout_s: float) -> int:
         """Wait up to ``timeout_s`` for it to end (it was asked to), then kill it; reaped either
         way, a second interrupt meanwhile held until then."""

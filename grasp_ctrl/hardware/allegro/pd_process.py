@@ -405,10 +405,7 @@ class PDProcess:
                 f"{__name__}:child_main", payload, fds, name=f"CAN bus {self.name}: the PD process"
             )
             block.release_fd()  # the child has its own; the mapping stays
-            end = time.monotonic() + STARTUP_S + self.spec.connect_timeout_s
-            while block["ready"] == 0.0 and self.child.alive and time.monotonic() < end:
-                time.sleep(0.002)
-            if block["ready"] != 1.0:
+            if self.child.wait_ready(block, STARTUP_S + self.spec.connect_timeout_s) != 1.0:
                 text = block.text("error_text")
                 if not text:
                     code = self.child.returncode
