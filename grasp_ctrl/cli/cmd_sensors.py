@@ -121,15 +121,13 @@ def run(args: argparse.Namespace) -> int:
         # frames received meanwhile wait in the sensors' history, which the monitor drains)
         recorder = FrameRecorder(args.record) if args.record else None
         monitor = Monitor(hand, sensors, estimator, recorder, refresh_s=args.refresh, redraw=sys.stdout.isatty())
-        # generous: a loaded machine slows the stream; a silent fingertip fails after 1 s anyway
-        tare_timeout = 2.0 + 10.0 * hand.tactile.tare_frames / hand.rate_hz
         print(
             f"taring {len(hand.fingers)} fingertips on {', '.join(sensors.port_status())} "
             f"({hand.tactile.tare_frames} frames, keep them free of contact) ...",
             flush=True,
         )
         with _ctrl_c_sets(monitor.stop):
-            monitor.take_tare(tare_timeout)
+            monitor.take_tare()
             monitor.run(args.seconds)
         if monitor.stop.is_set():
             print("stopped (Ctrl-C)", flush=True)

@@ -68,12 +68,15 @@ class Monitor:
 
     # ---------------------------------------------------------------- phases
 
-    def take_tare(self, timeout_s: float, silent_s: float = 1.0) -> None:
+    def take_tare(self, timeout_s: float | None = None, silent_s: float = 1.0) -> None:
         """Average ``tare_frames`` frames per fingertip (keep the fingertips free of contact).
 
         Fails when, once the stream has begun, a fingertip sends nothing for ``silent_s`` (a
-        stale sensor) or when the window is not full after ``timeout_s`` (a slow or silent link)."""
+        stale sensor) or when the window is not full after ``timeout_s`` (a slow or silent link;
+        default: 2 s and ten times the window at the hand's rate, as a loaded machine slows it)."""
         need = self.hand.tactile.tare_frames
+        if timeout_s is None:
+            timeout_s = 2.0 + 10.0 * need / self.hand.rate_hz
         per_tip: dict[int, list[np.ndarray]] = {t.sensor_id: [] for t in self.tips}
         deadline = time.monotonic() + timeout_s
         last_frame: dict[int, float] = {}  # empty until the first frame of any fingertip
